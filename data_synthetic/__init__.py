@@ -1,0 +1,11 @@
+"""Shipped synthetic data: the synthetic Francis chart (``francis/``) and the example plant.
+
+Regenerate the chart with ``hillsim synth data_synthetic/francis``.
+"""
+
+from pathlib import Path
+
+#: Folder of the shipped synthetic chart.
+FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
+#: The shipped example plant.
+PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"

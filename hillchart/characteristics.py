@@ -1,0 +1,125 @@
+"""The seam between the hill chart and the simulator.
+
+The simulator needs from a turbine only four vectorized methods, all taking unit speed ``n11`` (r/min) and
+guide-vane opening ``opening`` (in the chart's opening unit) as broadcastable arrays:
+
+``q11(n11, opening)``       unit flow Q11, m^3/s
+``m11(n11, opening)``       unit torque M11, N*m
+``q11_grad(n11, opening)``  (dQ11/dN11, dQ11/da)
+``m11_grad(n11, opening)``  (dM11/dN11, dM11/da)
+
+Unit quantities follow the usual model-law definitions (D1 runner diameter in m, H head in m, n speed in r/min)::
+
+    N11 = n D1 / sqrt(H),   Q11 = Q / (D1^2 sqrt(H)),   M11 = M / (D1^3 H)
+
+Anything with those four methods (the trained nets, :class:`IdealTurbine`, the synthetic turbine, a user's own
+model) can drive the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
+
+
+@runtime_checkable
+class Characteristics(Protocol):
+    """Turbine characteristics Q11(N11, a), M11(N11, a) with their partial derivatives."""
+
+    def q11(self, n11, opening) -> np.ndarray: ...
+
+    def m11(self, n11, opening) -> np.ndarray: ...
+
+    def q11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def m11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+def unit_torque_from_efficiency(q11, n11, efficiency):
+    """Unit torque M11 (N*m) from unit flow, unit speed and hydraulic efficiency.
+
+    Power balance on the unit turbine (D1 = 1 m, H = 1 m): ``M11 * omega11 = rho g Q11 eta`` with
+    ``omega11 = 2 pi N11 / 60``, hence ``M11 = rho g Q11 eta 60 / (2 pi N11)`` = 93 679 Q11 eta / N11 N*m.
+
+    The BP hill-chart paper writes this as eq. (5), ``M11 = 0.93706 Q11 eta / N11`` "in kN*m": its constant is
+    rho g 60 / (2 pi) = 93.68 kN*m scaled by 1/100 (and a slightly different g or rho), i.e. the paper's M11 is in
+    units of 100 kN*m. hillsim keeps SI: M11 in N*m, Q11 in m^3/s, N11 in r/min.
+
+    Parameters
+    ----------
+    q11 : array_like, m^3/s
+    n11 : array_like, r/min, > 0
+    efficiency : array_like, fraction
+
+    Returns
+    -------
+    ndarray, N*m
+
+    Examples
+    --------
+    >>> round(float(unit_torque_from_efficiency(0.5, 70.0, 0.9)), 2)
+    602.22
+    """
+    q11 = np.asarray(q11, dtype=float)
+    n11 = np.asarray(n11, dtype=float)
+    return RHO_WATER_KG_M3 * G_M_S2 * q11 * np.asarray(efficiency, dtype=float) / (n11 * RPM_TO_RAD_S)
+
+
+@dataclass(frozen=True)
+class IdealTurbine:
+    """The classical ideal turbine (IEEE working group 1992) written as unit characteristics.
+
+    ``Q11 = q11_max_m3_s * a / opening_max`` (independent of N11) and constant efficiency, so
+    ``M11 = rho g Q11 eta 60 / (2 pi N11)``: in plant terms ``Q = Q_r y sqrt(H/H_r)`` and
+    ``P = P_r y (H/H_r)^1.5``. Its six coefficients are exactly ``(ex, ey, eh, eqx, eqy, eqh) = (-1, 1, 1.5, 0, 1, 0.5)``.
+    M11 is singular at N11 = 0; use it away from standstill.
+
+    Parameters
+    ----------
+    q11_max_m3_s : float
+        Unit flow at full opening, m^3/s.
+    opening_max : float
+        Opening at full stroke, chart units.
+    efficiency : float
+        Constant hydraulic efficiency, fraction in (0, 1].
+
+    Examples
+    --------
+    >>> t = IdealTurbine(q11_max_m3_s=0.6, opening_max=30.0, efficiency=0.9)
+    >>> float(t.q11(70.0, 15.0))
+    0.3
+    >>> [float(g) for g in t.q11_grad(70.0, 15.0)]
+    [0.0, 0.02]
+    """
+
+    q11_max_m3_s: float
+    opening_max: float
+    efficiency: float = 1.0
+
+    def __post_init__(self):
+        for name in ("q11_max_m3_s", "opening_max"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"IdealTurbine.{name} must be finite and > 0, got {value!r}")
+        if not (0 < self.efficiency <= 1):
+            raise ValueError(f"IdealTurbine.efficiency must be in (0, 1], got {self.efficiency!r}")
+
+    def q11(self, n11, opening):
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        return self.q11_max_m3_s * opening / self.opening_max
+
+    def m11(self, n11, opening):
+        return unit_torque_from_efficiency(self.q11(n11, opening), n11, self.efficiency)
+
+    def q11_grad(self, n11, opening):
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        return np.zeros_like(n11), np.full_like(n11, self.q11_max_m3_s / self.opening_max)
+
+    def m11_grad(self, n11, opening):
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        m = self.m11(n11, opening)
+        return -m / n11, unit_torque_from_efficiency(self.q11_max_m3_s / self.opening_max, n11, self.efficiency)
