@@ -14,6 +14,12 @@ Unit quantities follow the usual model-law definitions (D1 runner diameter in m,
 
 Anything with those four methods (the trained nets, :class:`IdealTurbine`, the synthetic turbine, a user's own
 model) can drive the simulator.
+
+Fast path. An object may also offer ``numba_kernel() -> (kernel, params)``: ``kernel`` is a numba-jitted function
+``kernel(params, n11, a) -> (q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` on scalars, ``params`` a tuple of
+floats/arrays. The simulator's time loop is one numba function that takes ``(kernel, params)``; for an object without
+a kernel, :func:`scalar_kernel` wraps the four methods and the same loop runs as plain Python (``loop.py_func``), so
+there is never a second implementation of the physics.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+import numba
 import numpy as np
 
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
@@ -67,6 +74,15 @@ def unit_torque_from_efficiency(q11, n11, efficiency):
     q11 = np.asarray(q11, dtype=float)
     n11 = np.asarray(n11, dtype=float)
     return RHO_WATER_KG_M3 * G_M_S2 * q11 * np.asarray(efficiency, dtype=float) / (n11 * RPM_TO_RAD_S)
+
+
+@numba.njit(cache=True)
+def _ideal_kernel(params, n11, opening):
+    q11_max, opening_max, torque_const = params  # torque_const = rho g eta 60 / (2 pi), N*m*min/m^3
+    dq_da = q11_max / opening_max
+    q = dq_da * opening
+    m = torque_const * q / n11
+    return q, 0.0, dq_da, m, -m / n11, torque_const * dq_da / n11
 
 
 @dataclass(frozen=True)
@@ -123,3 +139,39 @@ class IdealTurbine:
         n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
         m = self.m11(n11, opening)
         return -m / n11, unit_torque_from_efficiency(self.q11_max_m3_s / self.opening_max, n11, self.efficiency)
+
+    def numba_kernel(self):
+        """``(kernel, params)`` for the simulator's compiled time loop (see module docstring)."""
+        torque_const = float(unit_torque_from_efficiency(1.0, 1.0, self.efficiency))
+        return _ideal_kernel, (float(self.q11_max_m3_s), float(self.opening_max), torque_const)
+
+
+def scalar_kernel(characteristics):
+    """``(kernel, params)`` for any :class:`Characteristics`: its own numba kernel if it has one, else a plain
+    Python function with the same signature built from the four methods (for ``loop.py_func``).
+
+    Returns
+    -------
+    kernel : callable ``(params, n11, a) -> (q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``
+    params : tuple
+    jitted : bool
+        True when ``kernel`` is numba-compiled (the loop can be jitted too).
+
+    Examples
+    --------
+    >>> kernel, params, jitted = scalar_kernel(IdealTurbine(q11_max_m3_s=0.6, opening_max=30.0, efficiency=0.9))
+    >>> jitted, [round(float(v), 4) for v in kernel(params, 70.0, 15.0)][:3]
+    (True, [0.3, 0.0, 0.02])
+    """
+    if hasattr(characteristics, "numba_kernel"):
+        kernel, params = characteristics.numba_kernel()
+        return kernel, params, True
+
+    def kernel(params, n11, opening):
+        q = float(characteristics.q11(n11, opening))
+        dq_dn, dq_da = characteristics.q11_grad(n11, opening)
+        m = float(characteristics.m11(n11, opening))
+        dm_dn, dm_da = characteristics.m11_grad(n11, opening)
+        return q, float(dq_dn), float(dq_da), m, float(dm_dn), float(dm_da)
+
+    return kernel, (), False
