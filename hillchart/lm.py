@@ -24,6 +24,7 @@ Parameter vector layout (``theta``, length ``4 H + 1``)::
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -213,10 +214,13 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
             break
         # damped Gauss-Newton step; raise mu until the training error decreases
         while mu <= mu_max:
-            step = torch.linalg.solve(jtj + mu * eye, -jte)
-            trial = theta + step
-            perf2 = float(torch.mean((forward(trial, xt, hidden) - yt) ** 2))
-            if perf2 < perf:
+            step, info = torch.linalg.solve_ex(jtj + mu * eye, -jte)
+            if int(info) == 0:  # a singular system (saturated neurons, tiny mu) counts as a failed step
+                trial = theta + step
+                perf2 = float(torch.mean((forward(trial, xt, hidden) - yt) ** 2))
+            else:
+                perf2 = math.inf
+            if perf2 < perf:  # NaN compares False: also a failed step
                 theta = trial
                 mu = max(mu * mu_dec, 1e-20)
                 break

@@ -340,7 +340,7 @@ class HillNet:
     ----------
     hidden : int, default 5
         Hidden log-sigmoid neurons.
-    restarts : int, default 4
+    restarts : int, default 10
         Independent initialisations; the best validation MSE wins.
     seed : int, default 0
         Seeds the split and every initialisation (``numpy.random.default_rng``).
@@ -379,7 +379,7 @@ class HillNet:
     True
     """
 
-    def __init__(self, *, hidden: int = 5, restarts: int = 4, seed: int = 0, goal: float = 1e-5,
+    def __init__(self, *, hidden: int = 5, restarts: int = 10, seed: int = 0, goal: float = 1e-5,
                  max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
                  mu_inc: float = 10.0, mu_max: float = 1e10, validation_fraction: float = 0.2,
                  n_threads: int = 1):
@@ -713,7 +713,7 @@ def _column(table, name):
     raise InputError(f"extended samples: column {name!r} is missing (need target, origin, n11, opening, value)")
 
 
-def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, restarts: int = 4, seed: int = 0,
+def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, restarts: int = 10, seed: int = 0,
                record_time: bool = False, **net_params) -> HillNets:
     """Train the flow and torque nets on the extended samples (paper 004, eq. (12) and section 2.6 steps (5)-(6)).
 
