@@ -14,7 +14,7 @@ Every extended point carries its origin (``measured``, ``runaway``, ``zero-openi
 can be switched off.
 
 Efficiency surface: a total-degree polynomial in standardized (N11, Q11), least squares, degree chosen by 5-fold
-cross-validation among 2..6 (seeded folds). The paper names polynomial surfaces for eq. (4); a low-degree polynomial
+cross-validation among 2..6 (seeded folds; the lowest degree within 5 % of the best error). The paper names polynomial surfaces for eq. (4); a low-degree polynomial
 is smooth, averages the digitization noise of the contour points and extrapolates gently to the ends of the opening
 lines that lie just outside the lowest contour. On the synthetic chart it picks degree 3, with torque errors below
 0.5 % of the M11 range (``benchmarks/bench_extension.py``); a thin-plate RBF was tried and was about 40 % worse.
@@ -121,7 +121,9 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
             if (d + 1) * (d + 2) // 2 >= 0.8 * len(y):  # more coefficients than a training fold can determine
                 break
             scores[d] = -cross_val_score(make(d), x, y, cv=folds, scoring="neg_root_mean_squared_error").mean()
-        degree = min(scores, key=scores.get)
+        best = min(scores.values())
+        # parsimony: the lowest degree within 5 % of the best cross-validated error (exact data ties at ~1e-16)
+        degree = min(d for d, rmse in scores.items() if rmse <= 1.05 * best + 1e-12)
         cv_rmse = scores[degree]
     else:
         cv_rmse = -cross_val_score(make(degree), x, y, cv=folds, scoring="neg_root_mean_squared_error").mean()
