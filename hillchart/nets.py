@@ -620,7 +620,16 @@ class HillNets:
 
     def to_json(self) -> str:
         """``nets.json`` text (floats in shortest round-trip form, so loading is bit-exact)."""
-        return json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n"
+        doc = self.to_dict()
+        lines = []
+        for key, value in doc.items():
+            if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
+                inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
+                lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
+            else:
+                text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
+                lines.append(f" {json.dumps(key)}: {text}")
+        return "{\n" + ",\n".join(lines) + "\n}\n"
 
     def save(self, path) -> Path:
         """Write ``nets.json`` to ``path``; returns the path."""
@@ -689,7 +698,11 @@ def load_nets(path) -> HillNets:
     Examples
     --------
     >>> from importlib.resources import files
-    >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # doctest: +SKIP
+    >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # the shipped synthetic-Francis nets
+    >>> nets.opening_unit, nets.flow.hidden
+    ('mm', 5)
+    >>> round(float(nets.efficiency(65.0, 18.0)), 2)  # best efficiency of the synthetic turbine: 0.935
+    0.93
     """
     path = Path(path)
     text = path.read_text(encoding="utf-8")
@@ -792,3 +805,79 @@ def _training_record(est: HillNet, X, y, groups, record_time: bool) -> dict:
     if record_time:
         rec["time_s"] = round(est.fit_time_s_, 3)
     return rec
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# accuracy against an exact reference (the synthetic turbine's truth.csv)
+# ----------------------------------------------------------------------------------------------------------------
+def read_truth_csv(path) -> dict[str, np.ndarray]:
+    """Read ``truth.csv`` (columns ``n11,opening,q11,m11,efficiency``; r/min, chart units, m^3/s, N*m, fraction).
+
+    Raises
+    ------
+    InputError
+        Missing column or non-finite value (naming the file and column).
+    """
+    path = Path(path)
+    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
+    names = data.dtype.names or ()
+    out = {}
+    for column in ("n11", "opening", "q11", "m11"):
+        if column not in names:
+            raise InputError(f"{path}: column {column!r} is missing (have {', '.join(names)})")
+        values = np.atleast_1d(np.asarray(data[column], dtype=float))
+        if not np.all(np.isfinite(values)):
+            raise InputError(f"{path}: column {column!r} has non-numeric or non-finite values")
+        out[column] = values
+    return out
+
+
+def measured_region_mask(measured_n11, measured_opening, n11, opening) -> np.ndarray:
+    """True where (N11, a) lies inside the convex hull of the measured (digitized) flow samples.
+
+    This is the "measured region" of issue 3 section 4: where the chart itself has data.
+
+    Examples
+    --------
+    >>> measured_region_mask([0, 1, 0, 1], [0, 0, 1, 1], [0.5, 2.0], [0.5, 0.5]).tolist()
+    [True, False]
+    """
+    from scipy.spatial import Delaunay
+
+    hull = Delaunay(np.column_stack([np.asarray(measured_n11, float), np.asarray(measured_opening, float)]))
+    points = np.column_stack([np.ravel(n11), np.ravel(opening)]).astype(float)
+    return (hull.find_simplex(points) >= 0).reshape(np.shape(n11))
+
+
+def truth_errors(characteristics, truth: dict, inside: np.ndarray) -> dict:
+    """Errors of ``characteristics`` against exact values, inside and outside the measured region.
+
+    Parameters
+    ----------
+    characteristics : object with ``q11(n11, a)`` and ``m11(n11, a)``
+    truth : dict of ndarray
+        ``n11``, ``opening``, ``q11``, ``m11`` (see :func:`read_truth_csv`).
+    inside : ndarray of bool
+        Measured-region mask of the truth points (see :func:`measured_region_mask`).
+
+    Returns
+    -------
+    dict
+        For ``q11`` and ``m11``: ``range_measured`` (truth max - min inside, the scale of the issue's
+        percentages), ``rms_measured``, ``max_measured``, ``rms_extended``, ``max_extended`` (physical units) and
+        the same as percentages of ``range_measured`` (``*_pct``).
+    """
+    out = {}
+    for name in ("q11", "m11"):
+        pred = getattr(characteristics, name)(truth["n11"], truth["opening"])
+        err = np.asarray(pred, dtype=float) - truth[name]
+        scale = float(np.ptp(truth[name][inside]))
+        rec = {"range_measured": scale,
+               "rms_measured": float(np.sqrt(np.mean(err[inside] ** 2))),
+               "max_measured": float(np.max(np.abs(err[inside]))),
+               "rms_extended": float(np.sqrt(np.mean(err[~inside] ** 2))),
+               "max_extended": float(np.max(np.abs(err[~inside])))}
+        for key in ("rms_measured", "max_measured", "rms_extended", "max_extended"):
+            rec[key + "_pct"] = 100.0 * rec[key] / scale
+        out[name] = rec
+    return out
