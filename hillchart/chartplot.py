@@ -75,6 +75,63 @@ def _view_from_samples(samples, domain):
     return n11_range
 
 
+def hill_chart_grid(nets, *, samples=None, n11_range=None, opening_range=None, grid: int = 241):
+    """The (N11, a) evaluation grid behind :func:`plot_hill_chart`.
+
+    Returns
+    -------
+    N, A, Q, M, eta : ndarray (grid, grid)
+        Rows: opening, columns: N11. ``eta`` is NaN where Q11 is below 3 % of its maximum (efficiency is 0/0
+        there) or not positive.
+    """
+    domain = _domain(nets)
+    if n11_range is None:
+        if samples is not None:
+            n11_range = _view_from_samples(samples, domain)
+        elif domain is not None:
+            n11_range = (max(domain[0][0], 0.05 * domain[0][1]), domain[0][1])
+        else:
+            raise ValueError("n11_range is required for characteristics without input ranges")
+    if opening_range is None:
+        if domain is None:
+            raise ValueError("opening_range is required for characteristics without input ranges")
+        opening_range = domain[1]
+    N, A = np.meshgrid(np.linspace(*n11_range, grid), np.linspace(*opening_range, grid))
+    Q = np.asarray(nets.q11(N, A), dtype=float)
+    M = np.asarray(nets.m11(N, A), dtype=float)
+    eta = efficiency_from_characteristics(nets, N, A)
+    eta = np.where(Q > 0.03 * float(np.nanmax(Q)), eta, np.nan)
+    return N, A, Q, M, eta
+
+
+def efficiency_islands(nets, levels, *, samples=None, n11_range=None, opening_range=None, grid: int = 241):
+    """Iso-efficiency lines of the nets in the (N11, Q11) plane and whether each is a closed loop.
+
+    A hill chart is plausible when its high-efficiency contours are closed islands around one best point.
+
+    Parameters
+    ----------
+    nets : HillNets or Characteristics
+    levels : sequence of float
+        Efficiency levels (fractions).
+
+    Returns
+    -------
+    dict
+        level -> list of ``(closed: bool, points: ndarray (k, 2) of (N11, Q11))``, one per contour line.
+    """
+    import contourpy
+
+    N, A, Q, M, eta = hill_chart_grid(nets, samples=samples, n11_range=n11_range, opening_range=opening_range,
+                                      grid=grid)
+    gen = contourpy.contour_generator(x=N, y=Q, z=np.ma.masked_invalid(eta), line_type="Separate")
+    out = {}
+    for level in levels:
+        lines = gen.lines(level)
+        out[float(level)] = [(bool(np.allclose(line[0], line[-1]) and len(line) > 3), line) for line in lines]
+    return out
+
+
 def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_range=None, openings=None,
                     efficiency_levels=None, grid: int = 241, opening_unit: str | None = None,
                     title: str | None = None):
@@ -105,29 +162,14 @@ def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_rang
     plt = _pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(8, 6.5))
-    domain = _domain(nets)
     if opening_unit is None:
         opening_unit = getattr(nets, "opening_unit", "")
-    if n11_range is None:
-        if samples is not None:
-            n11_range = _view_from_samples(samples, domain)
-        elif domain is not None:
-            n11_range = (max(domain[0][0], 0.05 * domain[0][1]), domain[0][1])
-        else:
-            raise ValueError("n11_range is required for characteristics without input ranges")
-    if opening_range is None:
-        if domain is None:
-            raise ValueError("opening_range is required for characteristics without input ranges")
-        opening_range = domain[1]
-    n11 = np.linspace(*n11_range, grid)
-    opening = np.linspace(*opening_range, grid)
-    N, A = np.meshgrid(n11, opening)  # rows: opening, columns: N11
-    Q = np.asarray(nets.q11(N, A), dtype=float)
-    M = np.asarray(nets.m11(N, A), dtype=float)
-    eta = efficiency_from_characteristics(nets, N, A)
-    # efficiency is ill-conditioned where Q11 -> 0 (0/0): leave out the lowest 3 % of the flow range
+    N, A, Q, M, eta = hill_chart_grid(nets, samples=samples, n11_range=n11_range, opening_range=opening_range,
+                                      grid=grid)
+    n11 = N[0]
+    n11_range = (float(n11[0]), float(n11[-1]))
+    opening_range = (float(A[0, 0]), float(A[-1, 0]))
     q_top = float(np.nanmax(Q))
-    eta = np.where(Q > 0.03 * q_top, eta, np.nan)
     best = float(np.nanmax(np.where(M > 0, eta, np.nan)))
     if efficiency_levels is None:
         efficiency_levels = [lv for lv in DEFAULT_EFFICIENCY_LEVELS if lv < best]
@@ -137,7 +179,7 @@ def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_rang
         ax.clabel(cs, fmt=lambda v: f"{100 * v:.0f}" if abs(100 * v - round(100 * v)) < 1e-6 else f"{100 * v:.1f}",
                   fontsize=7, inline=True)
     # runaway curve: M11 = 0
-    cr = ax.contour(N, Q, M, levels=[0.0], colors="tab:red", linestyles="--", linewidths=1.6)
+    ax.contour(N, Q, M, levels=[0.0], colors="tab:red", linestyles="--", linewidths=1.6)
     # iso-opening lines
     if openings is None:
         openings = samples.openings if samples is not None else np.linspace(opening_range[0], opening_range[1], 11)[1:]
@@ -164,7 +206,6 @@ def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_rang
     ax.set_title(title or "hill chart from the nets (iso-efficiency in %)")
     ax.legend(loc="upper left", fontsize=7)
     ax.grid(alpha=0.25)
-    del cr
     return ax
 
 
