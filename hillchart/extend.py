@@ -354,7 +354,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         n11_max = max(chart.flow_n11.max(), chart.runaway_n11.max() if chart.has_runaway else 0.0)
         for n in np.linspace(0.0, n11_max, options.zero_opening_points):
             rows.append(("q11", "zero-opening", n, 0.0, 0.0))
-            rows.append(("m11", "zero-opening", n, 0.0, -k_used * n * n))
+            rows.append(("m11", "zero-opening", n, 0.0, 0.0 - k_used * n * n))  # 0.0 - ...: no -0.0
 
     target, origin, n11, opening, value = zip(*rows)
     return ExtendedSamples(

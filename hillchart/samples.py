@@ -171,7 +171,7 @@ def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allo
     if bad.size:
         i = bad[0]
         raise InputError(
-            f"{path}: row {i + 2}, column {name!r}: {values[i]!r} is out of range; allowed {allowed}"
+            f"{path}: row {i + 2}, column {name!r}: {float(values[i])!r} is out of range; allowed {allowed}"
         )
 
 
@@ -193,7 +193,8 @@ def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo) 
     if "efficiency" in table:
         eta = table["efficiency"] * EFFICIENCY_UNITS[info.efficiency_unit]
         full = "1" if info.efficiency_unit == "fraction" else "100"
-        _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), f"(0, {full}] ({info.efficiency_unit})")
+        allowed = f"(0, {full}] ({info.efficiency_unit})"
+        _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), allowed)
     _check_duplicates(path, table)
 
 

@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "hillsim.commands.extend",
     "hillsim.commands.train",
     "hillsim.commands.chart",
+    "hillsim.commands.demo",
 )
 
 
