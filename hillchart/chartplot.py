@@ -75,14 +75,36 @@ def _view_from_samples(samples, domain):
     return n11_range
 
 
-def hill_chart_grid(nets, *, samples=None, n11_range=None, opening_range=None, grid: int = 241):
+def samples_hull_mask(samples, n11, q11, *, margin: float = 0.05) -> np.ndarray:
+    """True where (N11, Q11) lies inside the convex hull of all digitized points (opening lines, efficiency
+    contours, runaway), enlarged by ``margin`` (fraction of the hull's size) about its centroid: the part of the
+    (N11, Q11) plane the chart itself covers."""
+    from scipy.spatial import Delaunay
+
+    pts = np.column_stack([np.concatenate([samples.flow_n11, samples.eff_n11, samples.runaway_n11]),
+                           np.concatenate([samples.flow_q11, samples.eff_q11, samples.runaway_q11])])
+    scale = np.ptp(pts, axis=0)
+    centre = pts.mean(axis=0)
+    hull = Delaunay((centre + (1.0 + margin) * (pts - centre)) / scale)
+    query = np.column_stack([np.ravel(n11), np.ravel(q11)]) / scale
+    return (hull.find_simplex(query) >= 0).reshape(np.shape(n11))
+
+
+def hill_chart_grid(nets, *, samples=None, n11_range=None, opening_range=None, grid: int = 241,
+                    clip_to_samples: bool = True):
     """The (N11, a) evaluation grid behind :func:`plot_hill_chart`.
+
+    Parameters
+    ----------
+    clip_to_samples : bool
+        With ``samples``: efficiency only inside the region the digitized points cover (:func:`samples_hull_mask`);
+        outside it the nets extrapolate and a manufacturer's chart draws nothing either.
 
     Returns
     -------
     N, A, Q, M, eta : ndarray (grid, grid)
         Rows: opening, columns: N11. ``eta`` is NaN where Q11 is below 3 % of its maximum (efficiency is 0/0
-        there) or not positive.
+        there), not positive, or (clipped) outside the samples' region.
     """
     domain = _domain(nets)
     if n11_range is None:
@@ -101,10 +123,51 @@ def hill_chart_grid(nets, *, samples=None, n11_range=None, opening_range=None, g
     M = np.asarray(nets.m11(N, A), dtype=float)
     eta = efficiency_from_characteristics(nets, N, A)
     eta = np.where(Q > 0.03 * float(np.nanmax(Q)), eta, np.nan)
+    if samples is not None and clip_to_samples:
+        eta = np.where(samples_hull_mask(samples, N, Q), eta, np.nan)
     return N, A, Q, M, eta
 
 
-def efficiency_islands(nets, levels, *, samples=None, n11_range=None, opening_range=None, grid: int = 241):
+def efficiency_at_points(nets, n11, q11, *, opening_range=None, iterations: int = 60) -> np.ndarray:
+    """Efficiency of the nets at given (N11, Q11) points, e.g. the digitized iso-efficiency points.
+
+    For each point the opening with ``Q11(N11, a) = q11`` is found by bisection (Q11 rises with a), then
+    ``eta = M11 omega11 / (rho g Q11)`` (eq. (5) of paper 004, inverted). NaN where no opening in the range gives
+    that flow.
+
+    Parameters
+    ----------
+    nets : HillNets or Characteristics
+    n11 : array_like, r/min
+    q11 : array_like, m^3/s
+    opening_range : (float, float), optional
+        Default: the nets' input range of the opening.
+
+    Examples
+    --------
+    >>> from hillchart.characteristics import IdealTurbine
+    >>> t = IdealTurbine(q11_max_m3_s=0.6, opening_max=30.0, efficiency=0.9)
+    >>> [round(float(e), 9) for e in efficiency_at_points(t, [60.0, 80.0], [0.3, 0.5], opening_range=(0, 30))]
+    [0.9, 0.9]
+    """
+    n11 = np.asarray(n11, dtype=float)
+    q11 = np.asarray(q11, dtype=float)
+    if opening_range is None:
+        opening_range = _domain(nets)[1]
+    lo = np.full(n11.shape, float(opening_range[0]))
+    hi = np.full(n11.shape, float(opening_range[1]))
+    reachable = (np.asarray(nets.q11(n11, lo)) <= q11) & (np.asarray(nets.q11(n11, hi)) >= q11)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        below = np.asarray(nets.q11(n11, mid)) < q11
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    eta = efficiency_from_characteristics(nets, n11, 0.5 * (lo + hi))
+    return np.where(reachable, eta, np.nan)
+
+
+def efficiency_islands(nets, levels, *, samples=None, n11_range=None, opening_range=None, grid: int = 241,
+                       clip_to_samples: bool = True):
     """Iso-efficiency lines of the nets in the (N11, Q11) plane and whether each is a closed loop.
 
     A hill chart is plausible when its high-efficiency contours are closed islands around one best point.
@@ -123,7 +186,7 @@ def efficiency_islands(nets, levels, *, samples=None, n11_range=None, opening_ra
     import contourpy
 
     N, A, Q, M, eta = hill_chart_grid(nets, samples=samples, n11_range=n11_range, opening_range=opening_range,
-                                      grid=grid)
+                                      grid=grid, clip_to_samples=clip_to_samples)
     gen = contourpy.contour_generator(x=N, y=Q, z=np.ma.masked_invalid(eta), line_type="Separate")
     out = {}
     for level in levels:
@@ -134,7 +197,7 @@ def efficiency_islands(nets, levels, *, samples=None, n11_range=None, opening_ra
 
 def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_range=None, openings=None,
                     efficiency_levels=None, grid: int = 241, opening_unit: str | None = None,
-                    title: str | None = None):
+                    title: str | None = None, clip_to_samples: bool = True):
     """Manufacturer-style hill chart from the nets: N11 vs Q11, iso-efficiency contours, iso-opening lines,
     runaway curve, samples.
 
@@ -154,6 +217,9 @@ def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_rang
         Iso-efficiency levels (fractions). Default: :data:`DEFAULT_EFFICIENCY_LEVELS` below the best efficiency.
     grid : int
         Points per axis of the evaluation grid.
+    clip_to_samples : bool
+        With ``samples``: draw efficiency contours only where the digitized points are (see
+        :func:`hill_chart_grid`).
 
     Returns
     -------
@@ -165,7 +231,7 @@ def plot_hill_chart(nets, ax=None, *, samples=None, n11_range=None, opening_rang
     if opening_unit is None:
         opening_unit = getattr(nets, "opening_unit", "")
     N, A, Q, M, eta = hill_chart_grid(nets, samples=samples, n11_range=n11_range, opening_range=opening_range,
-                                      grid=grid)
+                                      grid=grid, clip_to_samples=clip_to_samples)
     n11 = N[0]
     n11_range = (float(n11[0]), float(n11[-1]))
     opening_range = (float(A[0, 0]), float(A[-1, 0]))
