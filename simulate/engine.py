@@ -145,10 +145,10 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     >>> result.success, round(result.summary()["max_speed_rise"], 2) > 0
     (True, True)
     """
+    dt = plant.time_step_s  # Courant check before anything heavier
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
     kernel, params, jitted = scalar_kernel(chars)
     turbine, pen, gen = plant.turbine, plant.penstock, plant.generator
-    dt = plant.time_step_s
     n_steps = int(round(plant.scenario.t_end_s / dt))
     if n_steps < 1:
         raise InputError(f"scenario.t_end_s = {plant.scenario.t_end_s!r} is shorter than one step "

@@ -42,7 +42,10 @@ def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
 
     e = x_ref - x - b_p (y - y0) (permanent droop on the servo stroke);
     u = y0 + kp e + I + D, I' = ki e, T_f D' + D = kd e' (backward Euler). The command is clipped to the stroke
-    limits and the integral is corrected by the clipped amount (back-calculation anti-windup).
+    limits. Anti-windup by conditional integration: the integral does not move further while the command is
+    saturated in the direction of the error, and stays within [stroke_min - y0, stroke_max - y0]. (Back-calculation
+    of the full clipped amount would load the derivative kick of a reference step into the integral, which then
+    drives the vanes the wrong way as the kick decays.)
 
     Examples
     --------
@@ -54,17 +57,13 @@ def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
     kp, ki, kd, tf = params[0], params[1], params[2], params[3]
     droop, y0, y_min, y_max = params[4], params[5], params[6], params[7]
     error = speed_ref - speed_dev - droop * (stroke - y0)
-    state[0] += ki * error * dt_s
     state[1] = (tf * state[1] + kd * (error - state[2])) / (tf + dt_s)
     state[2] = error
-    command = y0 + kp * error + state[0] + state[1]
-    if command > y_max:
-        state[0] -= command - y_max
-        command = y_max
-    elif command < y_min:
-        state[0] += y_min - command
-        command = y_min
-    return command
+    integral = min(max(state[0] + ki * error * dt_s, y_min - y0), y_max - y0)
+    command = y0 + kp * error + integral + state[1]
+    if not ((command > y_max and error > 0.0) or (command < y_min and error < 0.0)):
+        state[0] = integral
+    return min(max(command, y_min), y_max)
 
 
 @numba.njit(cache=True)

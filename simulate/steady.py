@@ -63,12 +63,18 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
         flow = _turbine_point(kernel, params, speed_rpm, opening, head, d1_m)[2]
         return static_head_m - friction_s2_m5 * flow * abs(flow) - head
 
-    if gap(static_head_m) == 0.0:
+    g_high = gap(static_head_m)
+    if g_high == 0.0:
         return float(static_head_m)
-    low = 1e-6 * static_head_m
+    # H1 = H_st - K Q(H_st)|Q(H_st)| brackets the root from below while Q grows with H (gap(H1) >= 0); otherwise
+    # step down geometrically (never to tiny heads, where N11 leaves any chart's range)
+    low = static_head_m + g_high
     g_low = gap(low)
+    while not g_low > 0.0 and low > 0.1 * static_head_m:
+        low *= 0.9
+        g_low = gap(low)
     if not g_low > 0.0:
-        raise NumericalError(f"steady state: no head in [{low:.3g}, {static_head_m:.6g}] m balances friction at "
+        raise NumericalError(f"steady state: no head in [{low:.6g}, {static_head_m:.6g}] m balances friction at "
                              f"opening {opening:.6g} (gap at the low end {g_low:.3g} m)")
     return float(brentq(gap, low, static_head_m, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
 
