@@ -36,9 +36,14 @@ from simulate.steady import SteadyState, steady_state
 
 #: Lowest head (fraction of rated) the pressure loop accepts; below it the column would separate.
 HEAD_FLOOR_FRACTION = 1e-4
+#: Stroke at or below which the guide vanes are shut: the boundary is a closed valve, Q = 0 and H = C_L, whatever
+#: the characteristics say. A fitted net has a small Q11 at a = 0 (the shipped nets: about -0.002 m^3/s, varying
+#: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
+#: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
+CLOSED_STROKE = 1e-6
 
 # layout of the float vector ``plant`` passed to the loop
-_D1, _N_R, _H_R, _Q_R, _M_R, _A_MAX, _TA, _H_FLOOR, _H_TOL, _H_ST, _K_F, _Q0 = range(12)
+_D1, _N_R, _H_R, _Q_R, _M_R, _A_MAX, _TA, _H_FLOOR, _H_TOL, _H_ST, _K_F, _Q0, _Y_CLOSED = range(13)
 
 
 @numba.njit(cache=False)
@@ -79,9 +84,14 @@ def _time_loop(kernel, params, solver, n_steps, dt, plant, is_moc, heads, flows,
         else:
             c_l, slope = iir_turbine_relation(iir_coef, iir_hist, plant[_H_ST], plant[_K_F], plant[_H_R],
                                               plant[_Q_R], plant[_Q0])
-        # 4. turbine boundary
-        head, flow, iters, residual, status = solver(kernel, params, c_l, slope, speed, opening, out_head[k], d1,
-                                                     floor, tol, max_iterations, relaxation)
+        # 4. turbine boundary (shut vanes: a closed valve, no iteration)
+        if y_next <= plant[_Y_CLOSED]:
+            head, flow, iters, residual, status = c_l, 0.0, 0, 0.0, 0
+            if head < floor:
+                status = 2
+        else:
+            head, flow, iters, residual, status = solver(kernel, params, c_l, slope, speed, opening, out_head[k],
+                                                         d1, floor, tol, max_iterations, relaxation)
         if status != 0:
             diag[0] = t_next
             diag[1] = speed
@@ -172,7 +182,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                 if not is_moc else np.zeros(5))
     iir_hist = np.array([0.0, 0.0, 0.0, 0.0, steady.flow_m3_s])
 
-    plant_vec = np.zeros(12)
+    plant_vec = np.zeros(13)
+    plant_vec[_Y_CLOSED] = CLOSED_STROKE
     plant_vec[[_D1, _N_R, _H_R, _Q_R, _M_R, _A_MAX, _TA]] = (
         turbine.runner_diameter_m, turbine.rated_speed_rpm, turbine.rated_head_m, turbine.rated_flow_m3_s,
         turbine.rated_torque_nm, turbine.opening_max, gen.inertia_time_s)

@@ -42,10 +42,11 @@ def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
 
     e = x_ref - x - b_p (y - y0) (permanent droop on the servo stroke);
     u = y0 + kp e + I + D, I' = ki e, T_f D' + D = kd e' (backward Euler). The command is clipped to the stroke
-    limits. Anti-windup by conditional integration: the integral does not move further while the command is
-    saturated in the direction of the error, and stays within [stroke_min - y0, stroke_max - y0]. (Back-calculation
-    of the full clipped amount would load the derivative kick of a reference step into the integral, which then
-    drives the vanes the wrong way as the kick decays.)
+    limits. Anti-windup by integrator clamping: the integral stays within [stroke_min - y0, stroke_max - y0], so
+    it can always bring the command back from either limit. (Back-calculation of the clipped amount would load the
+    derivative kick of a reference step into the integral, which then drives the vanes the wrong way as the kick
+    decays; conditional integration would freeze the integral during a long overspeed, and the proportional part
+    alone would reopen the vanes while the unit is still far above speed.)
 
     Examples
     --------
@@ -59,10 +60,8 @@ def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
     error = speed_ref - speed_dev - droop * (stroke - y0)
     state[1] = (tf * state[1] + kd * (error - state[2])) / (tf + dt_s)
     state[2] = error
-    integral = min(max(state[0] + ki * error * dt_s, y_min - y0), y_max - y0)
-    command = y0 + kp * error + integral + state[1]
-    if not ((command > y_max and error > 0.0) or (command < y_min and error < 0.0)):
-        state[0] = integral
+    state[0] = min(max(state[0] + ki * error * dt_s, y_min - y0), y_max - y0)
+    command = y0 + kp * error + state[0] + state[1]
     return min(max(command, y_min), y_max)
 
 

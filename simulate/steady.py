@@ -63,20 +63,24 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
         flow = _turbine_point(kernel, params, speed_rpm, opening, head, d1_m)[2]
         return static_head_m - friction_s2_m5 * flow * abs(flow) - head
 
-    g_high = gap(static_head_m)
-    if g_high == 0.0:
+    g_st = gap(static_head_m)
+    if g_st == 0.0:
         return float(static_head_m)
-    # H1 = H_st - K Q(H_st)|Q(H_st)| brackets the root from below while Q grows with H (gap(H1) >= 0); otherwise
-    # step down geometrically (never to tiny heads, where N11 leaves any chart's range)
-    low = static_head_m + g_high
-    g_low = gap(low)
-    while not g_low > 0.0 and low > 0.1 * static_head_m:
-        low *= 0.9
-        g_low = gap(low)
-    if not g_low > 0.0:
-        raise NumericalError(f"steady state: no head in [{low:.6g}, {static_head_m:.6g}] m balances friction at "
-                             f"opening {opening:.6g} (gap at the low end {g_low:.3g} m)")
-    return float(brentq(gap, low, static_head_m, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
+    # One fixed-point step H1 = H_st - K Q(H_st)|Q(H_st)| brackets the root while |Q| grows with H (forward flow:
+    # root below H_st; a slightly negative Q11 at a closed vane gives reverse flow and a root above H_st);
+    # otherwise widen the step geometrically, never to tiny heads where N11 leaves any chart's range.
+    step = g_st
+    other = static_head_m + step
+    g_other = gap(other)
+    while g_other * g_st > 0.0 and 0.1 * static_head_m < other < 10.0 * static_head_m:
+        step *= 2.0
+        other = static_head_m + step
+        g_other = gap(other)
+    if g_other * g_st > 0.0:
+        raise NumericalError(f"steady state: no head between {static_head_m:.6g} and {other:.6g} m balances "
+                             f"friction at opening {opening:.6g} (gaps {g_st:.3g} and {g_other:.3g} m)")
+    low, high = min(static_head_m, other), max(static_head_m, other)
+    return float(brentq(gap, low, high, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
 
 
 def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stroke_min, stroke_max,

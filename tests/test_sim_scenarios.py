@@ -102,3 +102,16 @@ def test_governor_anti_windup_does_not_reverse_after_a_reference_step():
     assert max(commands) == 0.0
     # and a reversed error leaves saturation at once (the integral did not wind up beyond the stroke range)
     assert governor_step(params, state, -0.01, 0.0, 0.0, 0.02) > 0.0
+
+
+def test_shipped_plant_with_its_nets_rejects_load_and_returns_to_rated_speed():
+    # The example as shipped (nets.json, MOC, improved loop, compiled): the vanes shut at the closing-rate limit,
+    # the shut boundary passes no flow (Q = 0 exactly, no iteration), the integral winds down during the overspeed
+    # and the governor reopens to the no-load opening near rated speed (measured final error 1e-5 at 120 s).
+    r = run_simulation(load_plant(PLANT_FILE, {"scenario.t_end_s": 120.0}))
+    assert r.meta["compiled"]
+    s = r.summary()
+    assert 0.3 < s["max_speed_rise"] < 0.6 and abs(s["final_speed_error"]) < 1e-3
+    shut = r.opening <= 1e-6
+    assert shut.sum() > 100 and np.all(r.flow_m3_s[shut] == 0.0) and np.all(r.iterations[shut] == 0)
+    assert 0.0 < r.opening[-1] < 0.1  # no-load opening of the nets
