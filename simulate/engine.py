@@ -119,7 +119,17 @@ def _time_loop(kernel, params, solver, n_steps, dt, plant, is_moc, heads, flows,
 
 
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
-    """The verified steady state a run of ``plant`` starts from (see :mod:`simulate.steady`)."""
+    """The verified steady state a run of ``plant`` starts from (see :mod:`simulate.steady`).
+
+    Examples
+    --------
+    >>> from simulate.config import load_plant
+    >>> import importlib.resources as ir
+    >>> plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml", {"turbine.characteristics": "ideal"})
+    >>> s = initial_state(plant)
+    >>> round(s.power_mw, 9), s.speed_rpm, max(abs(v) for v in s.residuals.values()) < 1e-9
+    (225.0, 200.0, True)
+    """
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
     kernel, params, _ = scalar_kernel(chars)
     return steady_state(kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m,

@@ -101,10 +101,20 @@ class SimulationResult:
         return out
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write timeseries.csv (header line with :data:`CSV_COLUMNS`, one row per step)."""
+        """Write timeseries.csv (header line with :data:`CSV_COLUMNS`, one row per step, 10 significant digits).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> t = np.array([0.0, 0.5])
+        >>> r = SimulationResult(t, t + 200, t + 100, t, t, t, t, t, np.array([0, 3]), 200.0, 200.0)
+        >>> path = r.to_csv(pathlib.Path(tempfile.mkdtemp()) / "timeseries.csv")
+        >>> path.read_text().splitlines()[:2]
+        ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations', '0,200,100,0,0,0,0,0,0']
+        """
         path = Path(path)
         data = np.column_stack([self.columns()[c] for c in CSV_COLUMNS])
-        fmt = ["%.6f"] + ["%.10g"] * (len(CSV_COLUMNS) - 2) + ["%d"]
+        fmt = ["%.10g"] * (len(CSV_COLUMNS) - 1) + ["%d"]
         np.savetxt(path, data, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt=fmt)
         return path
 

@@ -182,12 +182,13 @@ def test_small_opening_step_matches_linearized_response(characteristics):
     assert np.max(np.abs(sim_x - lin_x)) < 0.02 * peak
 
 
-@pytest.mark.parametrize("kind", ["load-rejection", "closure-law", "frequency-steps", "load-step",
-                                  "opening-steps"])
-def test_compiled_and_python_loops_are_the_same_source(kind):
+@pytest.mark.parametrize("kind,turbine", [("load-rejection", "ideal"), ("closure-law", "ideal"),
+                                          ("frequency-steps", "ideal"), ("load-step", "ideal"),
+                                          ("opening-steps", "ideal"), ("load-rejection", "francis/nets.json")])
+def test_compiled_and_python_loops_are_the_same_source(kind, turbine):
     # jit=False runs _time_loop.py_func with the Python kernel: results equal the compiled run to rounding
     extra = {"scenario.closing_time_s": 10.0} if kind == "closure-law" else {}
-    plant = example(**{"scenario.kind": kind, "scenario.t_end_s": 4.0, **extra,
+    plant = example(**{"scenario.kind": kind, "scenario.t_end_s": 4.0, **extra, "turbine.characteristics": turbine,
                        **({} if kind == "frequency-steps" else {"scenario.initial_power_mw": 200.0}),
                        **({"scenario.event_time_s": 1.0} if kind in ("load-rejection", "closure-law",
                                                                        "load-step") else {}),
