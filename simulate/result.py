@@ -59,7 +59,8 @@ class SimulationResult:
 
         ``max_speed_rise`` max(n)/n0 - 1; ``t_max_speed_s``; ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
         1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
-        ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded); plus the initial point, success,
+        ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded; steps with the vanes shut count 0,
+        there is nothing to solve); plus the initial point, success,
         message and the run settings from ``meta``.
 
         Examples
