@@ -19,6 +19,7 @@ COMMAND_MODULES = (
     "hillsim.commands.train",
     "hillsim.commands.chart",
     "hillsim.commands.demo",
+    "hillsim.commands.run",
 )
 
 
