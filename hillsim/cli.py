@@ -16,6 +16,7 @@ from hillchart.errors import HillsimError
 COMMAND_MODULES = (
     "hillsim.commands.synth",
     "hillsim.commands.extend",
+    "hillsim.commands.demo",
 )
 
 

@@ -1,0 +1,252 @@
+"""Read and validate the points a user digitized from a model hill chart (BP hill-chart paper, section 2.1 (a)-(c)).
+
+A chart folder holds::
+
+    chart.toml       name, opening_unit ("mm" | "deg" | "%"), opening_max, q11_unit ("m3/s" | "l/s"),
+                     efficiency_unit ("fraction" | "percent"), optional runner_diameter_m
+    flow.csv         opening,n11,q11          points on equal-opening lines          eq. (1)
+    efficiency.csv   efficiency,n11,q11       points on iso-efficiency contours      eq. (2)
+    runaway.csv      opening,n11,q11          points of the runaway curve (optional) eq. (3)
+
+:func:`load_chart` returns a :class:`ChartSamples` with Q11 in m^3/s, efficiency as a fraction, N11 in r/min and the
+opening in the chart's own unit. Anything wrong is an :class:`~hillchart.errors.InputError` naming the file, the row
+(line number in the file, header = line 1) and the column.
+"""
+
+from __future__ import annotations
+
+import csv
+import tomllib
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+OPENING_UNITS = ("mm", "deg", "%")
+Q11_UNITS = {"m3/s": 1.0, "l/s": 1e-3}
+EFFICIENCY_UNITS = {"fraction": 1.0, "percent": 1e-2}
+REQUIRED_KEYS = ("name", "opening_unit", "opening_max", "q11_unit", "efficiency_unit")
+OPTIONAL_KEYS = ("runner_diameter_m",)
+FILES = {
+    "flow.csv": ("opening", "n11", "q11"),
+    "efficiency.csv": ("efficiency", "n11", "q11"),
+    "runaway.csv": ("opening", "n11", "q11"),
+}
+#: Fewest points an equal-opening line needs (a quadratic through it must be determined).
+MIN_POINTS_PER_LINE = 3
+
+
+@dataclass(frozen=True)
+class ChartInfo:
+    """The contents of ``chart.toml``."""
+
+    name: str
+    opening_unit: str
+    opening_max: float
+    q11_unit: str
+    efficiency_unit: str
+    runner_diameter_m: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise InputError(f"chart.toml: name must be a non-empty string, got {self.name!r}")
+        if self.opening_unit not in OPENING_UNITS:
+            raise InputError(f"chart.toml: opening_unit must be one of {OPENING_UNITS}, got {self.opening_unit!r}")
+        if self.q11_unit not in Q11_UNITS:
+            raise InputError(f"chart.toml: q11_unit must be one of {tuple(Q11_UNITS)}, got {self.q11_unit!r}")
+        if self.efficiency_unit not in EFFICIENCY_UNITS:
+            raise InputError(
+                f"chart.toml: efficiency_unit must be one of {tuple(EFFICIENCY_UNITS)}, got {self.efficiency_unit!r}"
+            )
+        _positive_number("chart.toml: opening_max", self.opening_max)
+        if self.runner_diameter_m is not None:
+            _positive_number("chart.toml: runner_diameter_m", self.runner_diameter_m)
+
+
+def _positive_number(label: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+        raise InputError(f"{label} must be a finite number > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ChartSamples:
+    """Validated, unit-normalized hill-chart samples.
+
+    Attributes
+    ----------
+    info : ChartInfo
+    flow_opening, flow_n11, flow_q11 : ndarray (F,)
+        Equal-opening line points: opening (chart unit), N11 (r/min), Q11 (m^3/s).
+    eff_efficiency, eff_n11, eff_q11 : ndarray (E,)
+        Iso-efficiency contour points: efficiency (fraction), N11 (r/min), Q11 (m^3/s).
+    runaway_opening, runaway_n11, runaway_q11 : ndarray (R,)
+        Runaway curve points (R = 0 when the chart has no runaway file).
+    folder : Path
+    """
+
+    info: ChartInfo
+    flow_opening: np.ndarray
+    flow_n11: np.ndarray
+    flow_q11: np.ndarray
+    eff_efficiency: np.ndarray
+    eff_n11: np.ndarray
+    eff_q11: np.ndarray
+    runaway_opening: np.ndarray
+    runaway_n11: np.ndarray
+    runaway_q11: np.ndarray
+    folder: Path
+
+    @property
+    def has_runaway(self) -> bool:
+        return self.runaway_n11.size > 0
+
+    @property
+    def openings(self) -> np.ndarray:
+        """The distinct openings of the equal-opening lines, ascending."""
+        return np.unique(self.flow_opening)
+
+
+def read_chart_info(path) -> ChartInfo:
+    """Read and validate ``chart.toml``."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: missing file (a chart folder needs chart.toml)")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
+    if unknown:
+        raise InputError(
+            f"{path}: unknown key(s) {unknown}; valid keys are {list(REQUIRED_KEYS + OPTIONAL_KEYS)}"
+        )
+    missing = [key for key in REQUIRED_KEYS if key not in data]
+    if missing:
+        raise InputError(f"{path}: missing required key(s) {missing}")
+    return ChartInfo(**data)
+
+
+def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Read a numeric CSV with exactly ``columns`` (any order); errors name file, line and column."""
+    try:
+        with path.open(newline="", encoding="utf-8") as handle:
+            rows = list(csv.reader(handle))
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc})") from None
+    if not rows:
+        raise InputError(f"{path}: empty file; expected a header {','.join(columns)}")
+    header = [name.strip() for name in rows[0]]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {missing}; the header must be {','.join(columns)}")
+    unknown = [c for c in header if c not in columns]
+    if unknown:
+        raise InputError(f"{path}: unknown column(s) {unknown}; the header must be {','.join(columns)}")
+    if len(set(header)) != len(header):
+        raise InputError(f"{path}: repeated column in header {header}")
+    data = {c: [] for c in columns}
+    for line_no, row in enumerate(rows[1:], start=2):
+        if not row or all(not cell.strip() for cell in row):
+            continue  # blank line
+        if len(row) != len(header):
+            raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
+        for name, cell in zip(header, row):
+            try:
+                value = float(cell)
+            except ValueError:
+                raise InputError(f"{path}: row {line_no}, column {name!r}: not a number: {cell!r}") from None
+            if not np.isfinite(value):
+                raise InputError(f"{path}: row {line_no}, column {name!r}: value must be finite, got {cell!r}")
+            data[name].append(value)
+    if not data[columns[0]]:
+        raise InputError(f"{path}: no data rows below the header")
+    return {c: np.asarray(v, dtype=float) for c, v in data.items()}
+
+
+def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allowed: str) -> None:
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        i = bad[0]
+        raise InputError(
+            f"{path}: row {i + 2}, column {name!r}: {float(values[i])!r} is out of range; allowed {allowed}"
+        )
+
+
+def _check_duplicates(path: Path, table: dict[str, np.ndarray]) -> None:
+    stacked = np.column_stack(list(table.values()))
+    _, first, counts = np.unique(stacked, axis=0, return_index=True, return_counts=True)
+    if np.any(counts > 1):
+        row = stacked[first[counts > 1][0]]
+        where = np.flatnonzero(np.all(stacked == row, axis=1)) + 2
+        raise InputError(f"{path}: duplicate point {dict(zip(table, row.tolist()))} at rows {where.tolist()}")
+
+
+def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo) -> None:
+    _check_range(path, "n11", table["n11"], table["n11"] >= 0, "n11 >= 0 r/min")
+    _check_range(path, "q11", table["q11"], table["q11"] >= 0, f"q11 >= 0 {info.q11_unit}")
+    if "opening" in table:
+        op = table["opening"]
+        _check_range(path, "opening", op, (op >= 0) & (op <= info.opening_max), f"0 <= opening <= {info.opening_max}")
+    if "efficiency" in table:
+        eta = table["efficiency"] * EFFICIENCY_UNITS[info.efficiency_unit]
+        full = "1" if info.efficiency_unit == "fraction" else "100"
+        allowed = f"(0, {full}] ({info.efficiency_unit})"
+        _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), allowed)
+    _check_duplicates(path, table)
+
+
+def load_chart(folder) -> ChartSamples:
+    """Read a chart folder into validated, unit-normalized :class:`ChartSamples`.
+
+    ``runaway.csv`` is optional: without it a :class:`UserWarning` says that the runaway boundary will be missing.
+
+    Examples
+    --------
+    >>> from data_synthetic import FRANCIS_DIR
+    >>> chart = load_chart(FRANCIS_DIR)
+    >>> chart.info.opening_unit, chart.openings.size >= 8, chart.has_runaway
+    ('mm', True, True)
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a chart folder (no such directory)")
+    info = read_chart_info(folder / "chart.toml")
+    tables = {}
+    for name, columns in FILES.items():
+        path = folder / name
+        if not path.is_file():
+            if name == "runaway.csv":
+                warnings.warn(f"{path} is absent: the runaway boundary (M11 = 0) will not be added", UserWarning, stacklevel=2)
+                tables[name] = {c: np.empty(0) for c in columns}
+                continue
+            raise InputError(f"{path}: missing file (a chart folder needs {', '.join(n for n in FILES if n != 'runaway.csv')})")
+        table = _read_csv(path, columns)
+        _validate_points(path, table, info)
+        tables[name] = table
+    flow = tables["flow.csv"]
+    lines, counts = np.unique(flow["opening"], return_counts=True)
+    if np.any(counts < MIN_POINTS_PER_LINE):
+        short = lines[counts < MIN_POINTS_PER_LINE]
+        raise InputError(
+            f"{folder / 'flow.csv'}: the equal-opening line(s) at opening {short.tolist()} have fewer than "
+            f"{MIN_POINTS_PER_LINE} points (counts {counts[counts < MIN_POINTS_PER_LINE].tolist()})"
+        )
+    q_scale = Q11_UNITS[info.q11_unit]
+    eff = tables["efficiency.csv"]
+    run = tables["runaway.csv"]
+    return ChartSamples(
+        info=info,
+        flow_opening=flow["opening"],
+        flow_n11=flow["n11"],
+        flow_q11=flow["q11"] * q_scale,
+        eff_efficiency=eff["efficiency"] * EFFICIENCY_UNITS[info.efficiency_unit],
+        eff_n11=eff["n11"],
+        eff_q11=eff["q11"] * q_scale,
+        runaway_opening=run["opening"],
+        runaway_n11=run["n11"],
+        runaway_q11=run["q11"] * q_scale,
+        folder=folder,
+    )

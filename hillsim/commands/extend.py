@@ -1,0 +1,69 @@
+"""``hillsim extend CHART --out extended.csv [--plot ext.png]``: torque from efficiency and boundary extension."""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+
+
+def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of :class:`hillchart.extend.ExtensionOptions` (shared by ``extend`` and ``train``)."""
+    group = parser.add_argument_group("extension (BP hill-chart paper, sections 2.1 and 2.6)")
+    group.add_argument("--no-runaway", action="store_true", help="do not add the runaway boundary")
+    group.add_argument("--no-zero-opening", action="store_true", help="do not add the zero-opening boundary")
+    group.add_argument("--no-zero-speed", action="store_true", help="do not add the zero-speed boundary")
+    group.add_argument("--degree", type=int, default=2, help="degree of the boundary extrapolations (default 2)")
+    group.add_argument(
+        "--zero-opening-k", type=float, default=None,
+        help="K of M11 = -K N11^2 at zero opening, N*m/(r/min)^2 (default: fitted from the data)",
+    )
+
+
+def extension_options(args: argparse.Namespace):
+    from hillchart.extend import ExtensionOptions
+
+    return ExtensionOptions(
+        runaway=not args.no_runaway,
+        zero_opening=not args.no_zero_opening,
+        zero_speed=not args.no_zero_speed,
+        extrapolation_degree=args.degree,
+        zero_opening_k=args.zero_opening_k,
+    )
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "extend",
+        help="compute torque samples and extend them to runaway, zero opening and zero speed",
+        description="Load a chart folder, compute M11 from efficiency and add the boundary samples.",
+    )
+    parser.add_argument("chart", metavar="CHART", help="chart folder (chart.toml, flow.csv, efficiency.csv, ...)")
+    parser.add_argument("--out", required=True, help="CSV to write: target,origin,n11,opening,value")
+    parser.add_argument("--plot", default=None, help="PNG of the samples coloured by origin")
+    add_extension_arguments(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from hillchart.extend import extend_samples
+    from hillchart.samples import load_chart
+
+    options = extension_options(args)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        chart = load_chart(args.chart)
+    for w in caught:
+        print(f"warning: {w.message}")
+    extended = extend_samples(chart, options)
+    extended.to_csv(args.out)
+    print(f"wrote {args.out}: {len(extended.value)} samples")
+    for target, per_origin in extended.counts().items():
+        print(f"  {target}: " + ", ".join(f"{o} {n}" for o, n in per_origin.items()))
+    if extended.k_zero_opening is not None:
+        print(f"  zero opening: M11 = -K N11^2 with K = {extended.k_zero_opening:.6g} N*m/(r/min)^2")
+    print(f"  efficiency surface: polynomial of degree {extended.efficiency_surface.degree}, "
+          f"cross-validated RMSE {extended.efficiency_surface.cv_rmse:.4f}")
+    if args.plot:
+        extended.plot(args.plot)
+        print(f"wrote {args.plot}")
+    return 0

@@ -1,0 +1,59 @@
+"""Turn the real charts in ``../shared/external/`` into hillsim chart folders (validation only, never shipped).
+
+Tests that use these call :func:`require_external`, which skips cleanly when the folder is absent.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+EXTERNAL_DIR = Path(__file__).resolve().parents[2] / "shared" / "external"
+SAYANO_LINES = "sayano_shushenskaya_francis_opening_lines.csv"
+SAYANO_CONTOURS = "sayano_shushenskaya_francis_efficiency_contours.csv"
+
+
+def require_external(*names: str) -> Path:
+    """The external folder, or skip the calling test when it (or one of ``names``) is absent."""
+    for name in names:
+        if not (EXTERNAL_DIR / name).is_file():
+            pytest.skip(f"external data {EXTERNAL_DIR / name} is absent")
+    return EXTERNAL_DIR
+
+
+def _data_rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="", encoding="utf-8") as handle:
+        lines = [line for line in handle if not line.startswith("#")]
+    return list(csv.DictReader(lines))
+
+
+def write_sayano_chart(dest) -> Path:
+    """Sayano-Shushenskaya Francis (D1 = 6.77 m, a0 max 58 mm, Q11 in l/s) as a chart folder, no runaway file.
+
+    Rows with ``padding=1`` (artificial corner points) and the efficiency-0 boundary rows are dropped, as
+    ``SOURCES.md`` advises.
+    """
+    src = require_external(SAYANO_LINES, SAYANO_CONTOURS)
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    (dest / "chart.toml").write_text(
+        'name = "Sayano-Shushenskaya Francis (digitized by R. Yuldashev)"\n'
+        'opening_unit = "mm"\nopening_max = 58.0\nq11_unit = "l/s"\nefficiency_unit = "fraction"\n'
+        "runner_diameter_m = 6.77\n",
+        encoding="utf-8",
+    )
+    with (dest / "flow.csv").open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["opening", "n11", "q11"])
+        for row in _data_rows(src / SAYANO_LINES):
+            writer.writerow([row["a0_mm"], row["n11_rpm"], row["Q11_lps"]])
+    with (dest / "efficiency.csv").open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["efficiency", "n11", "q11"])
+        for row in _data_rows(src / SAYANO_CONTOURS):
+            if row["padding"].strip() == "1" or float(row["eta"]) == 0.0:
+                continue
+            writer.writerow([row["eta"], row["n11_rpm"], row["Q11_lps"]])
+    return dest

@@ -1,0 +1,124 @@
+"""The synthetic Francis turbine: physics sanity against the issue's HLA339 targets, exact derivatives, and the
+shipped chart regenerating byte-identically."""
+
+import filecmp
+
+import numpy as np
+import pytest
+
+from data_synthetic import FRANCIS_DIR
+from hillchart.characteristics import Characteristics
+from hillchart.errors import InputError
+from hillchart.synthetic import FrancisParameters, SyntheticFrancis, write_synthetic_chart
+
+TURBINE = SyntheticFrancis()
+# HLA339-LJ-450: 200 r/min, D1 = 4.5 m, 176 m, 142.5 m^3/s
+RATED_N11 = 200 * 4.5 / np.sqrt(176.0)
+RATED_Q11 = 142.5 / (4.5**2 * np.sqrt(176.0))
+
+
+def _best_efficiency_point():
+    n, a = np.meshgrid(np.linspace(40, 100, 241), np.linspace(2, 32, 121))
+    eta = TURBINE.efficiency(n, a)
+    i = np.unravel_index(np.argmax(eta), eta.shape)
+    return eta[i], n[i], a[i]
+
+
+def test_is_a_characteristics_object():
+    assert isinstance(TURBINE, Characteristics)
+
+
+def test_best_efficiency_in_the_issue_window():
+    eta, n11, _ = _best_efficiency_point()
+    assert 0.92 <= eta <= 0.94  # issue 2: best efficiency 0.92-0.94 ...
+    assert 60 <= n11 <= 70  # ... at N11 60-70
+
+
+@pytest.mark.parametrize("opening", [8.0, 16.0, 24.0, 32.0])
+def test_runaway_ratio(opening):
+    _, n11_best, _ = _best_efficiency_point()
+    ratio = TURBINE.runaway_n11(opening) / n11_best
+    assert 1.6 <= ratio <= 2.2  # issue 2: runaway N11 1.6-2.2 times the best-efficiency N11
+    assert abs(float(TURBINE.m11(TURBINE.runaway_n11(opening), opening))) < 1e-9
+
+
+def test_zero_opening_is_closed_and_brakes():
+    n11 = np.linspace(0, 140, 15)
+    assert np.all(TURBINE.q11(n11, 0.0) == 0.0)  # exact: sin(alpha1) = 0
+    np.testing.assert_allclose(TURBINE.m11(n11, 0.0), -TURBINE.params.k_disc_friction * n11**2, rtol=1e-12, atol=1e-12)
+
+
+def test_rated_point_inside_chart():
+    from hillchart.samples import load_chart
+
+    chart = load_chart(FRANCIS_DIR)
+    assert chart.flow_n11.min() < RATED_N11 < chart.flow_n11.max()
+    assert chart.flow_q11.min() < RATED_Q11 < chart.flow_q11.max()
+    # an opening in the chart gives the rated flow at the rated speed
+    q_low, q_high = TURBINE.q11(RATED_N11, chart.openings[0]), TURBINE.q11(RATED_N11, chart.openings[-1])
+    assert q_low < RATED_Q11 < q_high
+
+
+def test_small_openings_lose_flow_with_speed():
+    # centrifugal effect of a medium-head Francis: Q11 falls with N11 at small openings
+    assert TURBINE.q11(100.0, 8.0) < TURBINE.q11(60.0, 8.0) < TURBINE.q11(20.0, 8.0)
+
+
+def test_complex_step_derivatives_match_central_differences():
+    rng = np.random.default_rng(1)
+    n11, a = rng.uniform(5, 130, 50), rng.uniform(1, 31, 50)
+    h = 1e-4
+    for f, grad in ((TURBINE.q11, TURBINE.q11_grad), (TURBINE.m11, TURBINE.m11_grad)):
+        d_n, d_a = grad(n11, a)
+        fd_n = (f(n11 + h, a) - f(n11 - h, a)) / (2 * h)
+        fd_a = (f(n11, a + h) - f(n11, a - h)) / (2 * h)
+        scale_n = np.abs(fd_n).max()
+        scale_a = np.abs(fd_a).max()
+        # central differences with h = 1e-4 carry O(h^2) ~ 1e-8 relative truncation plus rounding
+        np.testing.assert_allclose(d_n, fd_n, rtol=1e-6, atol=1e-7 * scale_n)
+        np.testing.assert_allclose(d_a, fd_a, rtol=1e-6, atol=1e-7 * scale_a)
+
+
+def test_truth_csv_tabulates_the_model():
+    truth = np.loadtxt(FRANCIS_DIR / "truth.csv", delimiter=",", skiprows=1)
+    n11, a, q11, m11, eta = truth.T
+    assert n11.min() == 0 and a.min() == 0 and a.max() == TURBINE.opening_max
+    assert n11.max() > 1.1 * TURBINE.runaway_n11(TURBINE.opening_max)  # beyond runaway speed
+    # written with 10 significant digits
+    np.testing.assert_allclose(q11, TURBINE.q11(n11, a), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(m11, TURBINE.m11(n11, a), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(eta, TURBINE.efficiency(n11, a), rtol=1e-9, atol=1e-12)
+
+
+def test_shipped_chart_regenerates_byte_identically(tmp_path):
+    write_synthetic_chart(tmp_path, seed=0)
+    for name in ("chart.toml", "flow.csv", "efficiency.csv", "runaway.csv", "truth.csv"):
+        assert filecmp.cmp(tmp_path / name, FRANCIS_DIR / name, shallow=False), name
+
+
+def test_other_seed_changes_only_the_noise(tmp_path):
+    write_synthetic_chart(tmp_path, seed=7)
+    assert (tmp_path / "flow.csv").read_text() != (FRANCIS_DIR / "flow.csv").read_text()
+    assert (tmp_path / "truth.csv").read_text() == (FRANCIS_DIR / "truth.csv").read_text()
+
+
+def test_chart_sizes_meet_the_issue():
+    from hillchart.samples import load_chart
+
+    chart = load_chart(FRANCIS_DIR)
+    assert chart.openings.size >= 8
+    assert np.unique(chart.eff_efficiency).size >= 8 and chart.eff_efficiency.min() <= 0.80 + 1e-12
+    assert chart.runaway_n11.size >= 8
+
+
+@pytest.mark.parametrize("field,value", [("d2", -1.0), ("k_incidence", float("nan")), ("opening_max", 80.0)])
+def test_bad_parameters_are_rejected(field, value):
+    with pytest.raises(InputError, match=field):
+        FrancisParameters(**{field: value})
+
+
+def test_out_of_domain_inputs_are_rejected():
+    with pytest.raises(InputError, match="opening"):
+        TURBINE.q11(60.0, 40.0)
+    with pytest.raises(InputError, match="pumping"):
+        TURBINE.q11(400.0, 20.0)
