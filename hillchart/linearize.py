@@ -219,7 +219,8 @@ def coefficient_maps(characteristics, n11, opening) -> dict[str, np.ndarray]:
     Returns
     -------
     dict
-        ``"n11"`` (n,), ``"opening"`` (m,) and one array of shape (m, n) per coefficient name (rows = openings,
+        ``"n11"`` (n,), ``"opening"`` (m,), ``"q11"``, ``"m11"`` and one array of shape (m, n) per coefficient
+        name (rows = openings,
         columns = unit speeds). Torque coefficients are NaN where M11 is zero or not finite, flow coefficients
         where Q11 is.
 
@@ -241,7 +242,7 @@ def coefficient_maps(characteristics, n11, opening) -> dict[str, np.ndarray]:
     q_safe = np.where(bad_q, 1.0, q11)
     m_safe = np.where(bad_m, 1.0, m11)
     coeffs = _relative(n_grid, a_grid, q_safe, m_safe, dq_dn, dq_da, dm_dn, dm_da)
-    out = {"n11": n11, "opening": opening}
+    out = {"n11": n11, "opening": opening, "q11": q11, "m11": m11}
     for name, values in zip(COEFFICIENT_NAMES, coeffs):
         bad = bad_q if name.startswith("eq") else bad_m
         out[name] = np.where(bad | ~np.isfinite(values), np.nan, values)
@@ -276,16 +277,26 @@ def plot_coefficient_maps(maps: dict, path=None, *, operating_point: tuple[float
     if missing:
         raise InputError(f"maps is missing keys {missing}; pass the output of coefficient_maps")
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5), sharex=True, sharey=True)
+    m11 = np.asarray(maps["m11"], dtype=float) if "m11" in maps else None
+    q11 = np.asarray(maps["q11"], dtype=float) if "q11" in maps else None
     for ax, name in zip(axes.ravel(), COEFFICIENT_NAMES):
         values = np.asarray(maps[name], dtype=float)
+        # relative coefficients only mean something in turbine operation (M11 > 0, Q11 > 0): blank the brake
+        # region beyond runaway, where M11 -> 0 makes them blow up
+        if m11 is not None and q11 is not None:
+            values = np.where((m11 > 0) & (q11 > 0), values, np.nan)
         finite = values[np.isfinite(values)]
         if finite.size:
-            lo, hi = np.percentile(finite, [2, 98])  # clip the colour scale: M11 -> 0 near runaway blows up ex
+            lo, hi = np.percentile(finite, [5, 95])  # colour scale of the bulk: near runaway M11 -> 0 still grows
             if hi <= lo:
                 lo, hi = lo - 0.5, hi + 0.5
             levels = np.linspace(lo, hi, 21)
-            cs = ax.contourf(maps["n11"], maps["opening"], np.clip(values, lo, hi), levels=levels, cmap="viridis")
+            cs = ax.contourf(maps["n11"], maps["opening"], values, levels=levels, cmap="viridis", extend="both")
+            lines = ax.contour(maps["n11"], maps["opening"], values, levels=levels[::4], colors="w", linewidths=0.6)
+            ax.clabel(lines, fontsize=7, fmt="%.2f")
             fig.colorbar(cs, ax=ax)
+        if m11 is not None and np.nanmin(m11) < 0 < np.nanmax(m11):
+            ax.contour(maps["n11"], maps["opening"], m11, levels=[0.0], colors="k", linewidths=1.2)
         if operating_point is not None:
             ax.plot(*operating_point, "rx", ms=9, mew=2)
         ax.set_title(name)
@@ -293,7 +304,8 @@ def plot_coefficient_maps(maps: dict, path=None, *, operating_point: tuple[float
         ax.set_xlabel("N11 (r/min)")
     for ax in axes[:, 0]:
         ax.set_ylabel(f"opening a ({opening_unit})")
-    fig.suptitle("Six transfer coefficients from the characteristics (analytic derivatives)")
+    fig.suptitle("Six transfer coefficients from the characteristics (analytic derivatives); "
+                 "black line: runaway (M11 = 0), blank: no turbine operation")
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=110)

@@ -17,6 +17,7 @@ COMMAND_MODULES = (
     "hillsim.commands.synth",
     "hillsim.commands.extend",
     "hillsim.commands.demo",
+    "hillsim.commands.linearize",
 )
 
 

@@ -179,3 +179,15 @@ def test_bad_map_grid_is_rejected():
         coefficient_maps(IDEAL, [60.0, 70.0], [0.0, 10.0])
     with pytest.raises(InputError, match="at least one"):
         coefficient_maps(IDEAL, [], [10.0])
+
+
+def test_synthetic_francis_at_rated_point_matches_finite_differences():
+    from hillchart.synthetic import SyntheticFrancis
+
+    t = SyntheticFrancis()
+    c = six_coefficients(t, n11=67.8, opening=23.46)  # HLA339-like rated point (Q11 = 0.53 m^3/s)
+    ex, ey, eqx, eqy = fd_coefficients(t, 67.8, 23.46)
+    # the synthetic turbine's derivatives are complex-step exact; central differences agree to ~1e-8
+    np.testing.assert_allclose([c.ex, c.ey, c.eqx, c.eqy], [ex, ey, eqx, eqy], rtol=1e-6, atol=1e-8)
+    # a real Francis at rated: torque falls with speed, and steeper than the ideal turbine's -1
+    assert -1.3 < c.ex < -1.0 and 0 < c.ey < 1 and abs(c.eqx) < 0.1 and 0.45 < c.eqh < 0.55
