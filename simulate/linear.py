@@ -16,9 +16,10 @@ Equations used (paper 000 unless said otherwise)::
     x/y = N2/D2 (rigid), N3/D3 (elastic)                           eqs. (43)-(44), (51)-(52)
     ARX x(k+1) = a1 x(k) + a2 x(k-1) + a3 x(k-2) + b.. y(..)       eq. (53)
 
-Extension (not in the paper, off by default): ``friction_slope`` r_f = 2 h_f0 / H0 adds the linearized penstock
-friction, ``h = -(r_f + Tw s) q`` (rigid) or ``(1 + alpha Te^2 s^2) h = -(r_f + Tw s) q`` (lumped); with r_f = 0 every
-matrix is exactly the paper's. The grid self-regulation e_g enters as ``ex - e_g`` (eq. (13) substituted in eq. (8)).
+Extension (not in the paper, off by default): ``friction_slope`` r_f = 2 h_f0 / H0 adds the linearized steady
+penstock friction, ``h = -r_f q + h_w`` with ``D_p h_w = -Tw s q`` (as the simulator applies friction to the lumped and
+rigid models); it folds into effective coefficients (:meth:`LinearPlant.effective_coefficients`), so with or without
+it the matrices have the paper's form, and with r_f = 0 they are exactly the paper's. The grid self-regulation e_g enters as ``ex - e_g`` (eq. (13) substituted in eq. (8)).
 
 About the B2 dy/dt input of eq. (32): with a piecewise-constant opening, dy/dt is a sum of Dirac impulses, so eq. (32)
 cannot be used with a sampled dy/dt. Writing ``X~ = X - B2 y`` gives the single-input system
@@ -131,7 +132,10 @@ class StateSpace:
     A : ndarray (n, n)
     B1, B2, L0 : ndarray (n,)
     state_names : tuple of str
-        ``("x", "h")`` (rigid water) or ``("x", "h", "dh_dt")`` (elastic water; dh_dt in 1/s).
+        ``("x", "h")`` (rigid water) or ``("x", "h", "dh_dt")`` (elastic water; dh_dt in 1/s); with friction the
+        head states are those of the water column alone, h_w.
+    head_row : ndarray (n,), head_feedthrough : float
+        Turbine head ``h = head_row . X + head_feedthrough y`` (``[0, 1, (0)]`` and 0 without friction).
     """
 
     A: np.ndarray
@@ -139,6 +143,18 @@ class StateSpace:
     B2: np.ndarray
     L0: np.ndarray
     state_names: tuple
+    head_row: np.ndarray | None = None
+    head_feedthrough: float = 0.0
+
+    def __post_init__(self):
+        if self.head_row is None:  # the paper's case: the second state is the head
+            row = np.zeros(self.A.shape[0])
+            row[1] = 1.0
+            object.__setattr__(self, "head_row", row)
+
+    def head(self, states, opening) -> np.ndarray:
+        """Turbine head h from states (rows) and the opening y at the same instants."""
+        return np.asarray(states) @ self.head_row + self.head_feedthrough * np.asarray(opening, dtype=float)
 
     def eigenvalues(self) -> np.ndarray:
         """Eigenvalues of A, 1/s (open-loop stability: all real parts < 0)."""
@@ -157,9 +173,9 @@ class StateSpace:
         n = self.A.shape[0]
         C = np.zeros((2, n))
         C[0, 0] = 1.0
-        C[1, 1] = 1.0
+        C[1] = self.head_row
         B = (self.B1 + self.A @ self.B2).reshape(n, 1)
-        D = (C @ self.B2).reshape(2, 1)
+        D = (C @ self.B2 + np.array([0.0, self.head_feedthrough])).reshape(2, 1)
         return self.A.copy(), B, C, D
 
     def discretize(self, sample_time_s: float) -> DiscreteStateSpace:
@@ -285,46 +301,73 @@ class LinearPlant:
         """``"lumped"`` or ``"rigid"`` (the simulator's penstock model this linear model matches)."""
         return "lumped" if self.elastic else "rigid"
 
+    def effective_coefficients(self) -> tuple[float, ...]:
+        """Six coefficients with the linearized penstock friction folded in (equal to the six when r_f = 0).
+
+        The steady friction acts on the flow algebraically, ``h = h_w - r_f q``, where h_w is the head the rigid or
+        lumped water column alone gives (``D_p h_w = -Tw s q``). Substituting in eqs. (4)-(5) with
+        ``k = 1 / (1 + eqh r_f)``::
+
+            q = k (eqx x + eqy y + eqh h_w)
+            m = (ex - eh r_f k eqx) x + (ey - eh r_f k eqy) y + eh k h_w
+
+        so the plant with friction is the paper's plant in the state h_w with these coefficients.
+        """
+        ex, ey, eh, eqx, eqy, eqh = self.coefficients
+        rf = self.friction_slope
+        k = 1.0 / (1.0 + eqh * rf)
+        return ex - eh * rf * k * eqx, ey - eh * rf * k * eqy, eh * k, eqx * k, eqy * k, eqh * k
+
     def state_space(self) -> StateSpace:
-        """A, B1, B2, L0 (paper 000 eqs. (10)-(12) rigid, (24)-(30) elastic; with r_f, see module docstring)."""
-        ex, eu, eh, eqx, equ, eqh = self.coefficients
+        """A, B1, B2, L0 (paper 000 eqs. (10)-(12) rigid, (24)-(30) elastic).
+
+        With friction (r_f > 0) the matrices are the paper's for :meth:`effective_coefficients` and the second
+        state is h_w (``head_row``/``head_feedthrough`` of the record give the turbine head h).
+        """
+        ex, eu, eh, eqx, equ, eqh = self.effective_coefficients()
         ex = ex - self.self_regulation  # eq. (13) in eq. (8): Ta dx/dt = (ex - e_g) x + ... - m_g0
-        J, Tw, rf = self.inertia_time_s, self.water_time_s, self.friction_slope
+        J, Tw = self.inertia_time_s, self.water_time_s
         if not self.elastic:
-            # eq. (12): from Ta x' = ex x + eh h + eu y - m_g0 and h = -Tw q' - rf q, q = eqx x + equ y + eqh h
+            # eq. (12): from Ta x' = ex x + eh h + eu y - m_g0, h = -Tw q', q = eqx x + equ y + eqh h
             A = np.array(
                 [
                     [ex / J, eh / J],
-                    [-eqx * ex / (eqh * J) - rf * eqx / (Tw * eqh), -(eh * eqx / (eqh * J) + (1.0 + rf * eqh) / (eqh * Tw))],
+                    [-eqx * ex / (eqh * J), -(eh * eqx / (eqh * J) + 1.0 / (eqh * Tw))],
                 ]
             )
-            B1 = np.array([eu / J, -eqx * eu / (eqh * J) - rf * equ / (Tw * eqh)])
+            B1 = np.array([eu / J, -eqx * eu / (eqh * J)])
             B2 = np.array([0.0, -equ / eqh])
             L0 = np.array([-1.0 / J, eqx / (eqh * J)])
-            return StateSpace(A=A, B1=B1, B2=B2, L0=L0, state_names=("x", "h"))
-        aT2 = self.alpha * self.wave_time_s**2
-        # eqs. (27)-(28): alpha Te^2 h'' + Tw eqh h' + (1 + rf eqh) h = -Tw eqx x' - Tw equ y' - rf (eqx x + equ y),
-        # with x' = (ex x + eh h + eu y - m_g0) / J substituted (eq. (23))
-        A = np.array(
-            [
-                [ex / J, eh / J, 0.0],
-                [0.0, 0.0, 1.0],
+            names = ("x", "h") if self.friction_slope == 0 else ("x", "h_w")
+        else:
+            aT2 = self.alpha * self.wave_time_s**2
+            # eqs. (25)-(30): alpha Te^2 h'' + Tw eqh h' + h = -Tw eqx x' - Tw equ y', x' from eq. (23)
+            A = np.array(
                 [
-                    -(Tw * eqx * ex / J + rf * eqx) / aT2,
-                    -(1.0 + rf * eqh + Tw * eqx * eh / J) / aT2,
-                    -Tw * eqh / aT2,
-                ],
-            ]
-        )
-        B1 = np.array([eu / J, 0.0, -(Tw * eqx * eu / J + rf * equ) / aT2])
-        B2 = np.array([0.0, 0.0, -Tw * equ / aT2])
-        L0 = np.array([-1.0 / J, 0.0, Tw * eqx / (aT2 * J)])
-        return StateSpace(A=A, B1=B1, B2=B2, L0=L0, state_names=("x", "h", "dh_dt"))
+                    [ex / J, eh / J, 0.0],
+                    [0.0, 0.0, 1.0],
+                    [-Tw * eqx * ex / (aT2 * J), -(J + Tw * eqx * eh) / (aT2 * J), -Tw * eqh / aT2],
+                ]
+            )
+            B1 = np.array([eu / J, 0.0, -Tw * eqx * eu / (aT2 * J)])
+            B2 = np.array([0.0, 0.0, -Tw * equ / aT2])
+            L0 = np.array([-1.0 / J, 0.0, Tw * eqx / (aT2 * J)])
+            names = ("x", "h", "dh_dt") if self.friction_slope == 0 else ("x", "h_w", "dh_w_dt")
+        # turbine head h = h_w - r_f q = k h_w - r_f k (eqx x + eqy y) (see effective_coefficients)
+        _, _, _, eqx0, _, eqh0 = self.coefficients
+        eqy0 = self.eqy
+        rf = self.friction_slope
+        k = 1.0 / (1.0 + eqh0 * rf)
+        head_row = np.zeros(A.shape[0])
+        head_row[0] = -rf * k * eqx0
+        head_row[1] = k
+        return StateSpace(A=A, B1=B1, B2=B2, L0=L0, state_names=names, head_row=head_row,
+                          head_feedthrough=-rf * k * eqy0)
 
     def _penstock_polynomials(self):
-        """``(N_p, D_p)`` of ``D_p(s) h = -N_p(s) q`` (highest power first)."""
-        n_p = np.array([self.water_time_s, self.friction_slope])
+        """``(N_p, D_p)`` of ``D_p(s) h = -N_p(s) q`` (highest power first): ``N_p = Tw s + r_f D_p``."""
         d_p = np.array([self.alpha * self.wave_time_s**2, 0.0, 1.0]) if self.elastic else np.array([1.0])
+        n_p = np.polyadd([self.water_time_s, 0.0], self.friction_slope * d_p)
         return n_p, d_p
 
     def speed_transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
@@ -397,9 +440,9 @@ class LinearPlant:
         """
         if int(n_samples) != n_samples or n_samples < 1:
             raise InputError(f"n_samples must be an integer >= 1, got {n_samples!r}")
-        disc = self.state_space().discretize(sample_time_s)
-        states = disc.simulate(np.full(int(n_samples), float(amplitude)))
-        return states[:, :2]
+        ss = self.state_space()
+        states = ss.discretize(sample_time_s).simulate(np.full(int(n_samples), float(amplitude)))
+        return np.column_stack([states[:, 0], ss.head(states, float(amplitude))])
 
 
 @dataclass(frozen=True, eq=False)
