@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "hillsim.commands.extend",
     "hillsim.commands.demo",
     "hillsim.commands.linearize",
+    "hillsim.commands.identify",
 )
 
 
