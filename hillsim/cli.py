@@ -16,6 +16,8 @@ from hillchart.errors import HillsimError
 COMMAND_MODULES = (
     "hillsim.commands.synth",
     "hillsim.commands.extend",
+    "hillsim.commands.train",
+    "hillsim.commands.chart",
     "hillsim.commands.demo",
     "hillsim.commands.linearize",
     "hillsim.commands.identify",

@@ -1,0 +1,883 @@
+"""BP nets for the unit characteristics Q11(N11, a) and M11(N11, a): fit, text export, fast evaluation.
+
+BP hill-chart paper (004), sections 2.2-2.6, eqs. (10)-(12): one 2-H-1 net per characteristic (H = 5 in the paper),
+log-sigmoid hidden layer, linear output, inputs and output mapped to [-1, 1] by their min/max (MATLAB
+``mapminmax``)::
+
+    xn = 2 (x - x_min) / (x_max - x_min) - 1                  # mapminmax of the inputs (N11 r/min, a chart unit)
+    yn = sum_i W2_i f(W1_i1 xn_n11 + W1_i2 xn_a + b1_i) + b2  # eq. (11), f(z) = 1 / (1 + exp(-z)) eq. (10)
+    y  = (yn + 1) (y_max - y_min) / 2 + y_min                 # reverse mapminmax of the output
+
+Q11 is in m^3/s and M11 in N*m whatever the chart's units; N11 in r/min; the opening in the chart's unit.
+
+Pieces
+------
+:class:`HillNet`
+    scikit-learn style estimator for one net, trained in torch by Levenberg-Marquardt (:mod:`hillchart.lm`) with a
+    seeded, origin-stratified 80/20 split and a multi-start "loop control" (section 2.3).
+:class:`NetWeights`
+    The exported weights of one net (the ``NET`` block of ``nets.json``), validated on construction.
+:class:`HillNets`
+    The flow and torque nets together; implements the :class:`hillchart.characteristics.Characteristics`
+    protocol and ``numba_kernel()`` for the simulator, ``to_json()``/``save()``; :func:`load_nets` reads it back.
+:func:`train_nets`
+    Both nets from the extended-samples table of :mod:`hillchart.extend`.
+
+There is exactly one implementation of eq. (11) and its analytic gradient at evaluation time, the numba function
+``_net_value_grad``; the vectorized methods loop over it in compiled code. Torch is used only for training.
+
+``nets.json``
+-------------
+::
+
+    {"format": "hillsim.nets", "version": 1,
+     "units": {"n11": "r/min", "opening": "<chart unit>", "q11": "m^3/s", "m11": "N*m"},
+     "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...}}
+    NET = {"inputs": ["n11", "opening"], "output": "q11" | "m11",
+           "x_min": [n11_min, opening_min], "x_max": [n11_max, opening_max], "y_min": float, "y_max": float,
+           "W1": [[w_n11, w_opening], ... H rows], "b1": [... H], "W2": [... H], "b2": float}
+
+Floats are written with Python's shortest round-trip ``repr``, so ``load_nets(save(nets))`` is bit-exact.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numba
+import numpy as np
+import torch
+
+from hillchart import lm
+from hillchart.errors import InputError
+
+FORMAT = "hillsim.nets"
+VERSION = 1
+#: Units fixed by the format (the opening unit is the chart's).
+FIXED_UNITS = {"n11": "r/min", "q11": "m^3/s", "m11": "N*m"}
+#: Origin families of the extended samples (see :mod:`hillchart.extend`).
+ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed")
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# evaluation: the single implementation of eq. (11) and its gradient
+# ----------------------------------------------------------------------------------------------------------------
+# Packed layout of one net (float64 vector):
+#   [H, n11_min, a_min, n11_max, a_max, y_min, y_max, b2, W1 (H x 2 row-major), b1 (H), W2 (H)]
+_HEADER = 8
+
+
+@numba.njit(cache=True)
+def _net_value_grad(p, n11, opening):
+    """Value y and (dy/dN11, dy/da) of one packed net at a scalar point (physical units)."""
+    hidden = int(p[0])
+    n11_min, a_min, n11_max, a_max = p[1], p[2], p[3], p[4]
+    y_min, y_max, b2 = p[5], p[6], p[7]
+    s_n = 2.0 / (n11_max - n11_min)  # d xn / d x of mapminmax
+    s_a = 2.0 / (a_max - a_min)
+    xn_n = s_n * (n11 - n11_min) - 1.0
+    xn_a = s_a * (opening - a_min) - 1.0
+    yn = b2
+    g_n = 0.0
+    g_a = 0.0
+    for i in range(hidden):
+        w_n = p[_HEADER + 2 * i]
+        w_a = p[_HEADER + 2 * i + 1]
+        b1 = p[_HEADER + 2 * hidden + i]
+        w2 = p[_HEADER + 3 * hidden + i]
+        z = w_n * xn_n + w_a * xn_a + b1
+        # eq. (10), paper 004: logsig, evaluated without overflow for either sign of z
+        if z >= 0.0:
+            f = 1.0 / (1.0 + math.exp(-z))
+        else:
+            ez = math.exp(z)
+            f = ez / (1.0 + ez)
+        yn += w2 * f  # eq. (11), paper 004
+        d = w2 * f * (1.0 - f)
+        g_n += d * w_n
+        g_a += d * w_a
+    half_range = 0.5 * (y_max - y_min)
+    y = (yn + 1.0) * half_range + y_min  # reverse mapminmax
+    return y, half_range * g_n * s_n, half_range * g_a * s_a
+
+
+@numba.njit(cache=True)
+def _net_eval_many(p, n11, opening, y, dy_dn11, dy_da):
+    for k in range(n11.shape[0]):
+        y[k], dy_dn11[k], dy_da[k] = _net_value_grad(p, n11[k], opening[k])
+
+
+@numba.njit(cache=True)
+def _nets_kernel(params, n11, opening):
+    """Simulator kernel: ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point."""
+    q, dq_dn, dq_da = _net_value_grad(params[0], n11, opening)
+    m, dm_dn, dm_da = _net_value_grad(params[1], n11, opening)
+    return q, dq_dn, dq_da, m, dm_dn, dm_da
+
+
+def _evaluate(packed: np.ndarray, n11, opening):
+    n11 = np.asarray(n11, dtype=float)
+    opening = np.asarray(opening, dtype=float)
+    n11_b, opening_b = np.broadcast_arrays(n11, opening)
+    shape = n11_b.shape
+    flat_n = np.ascontiguousarray(n11_b, dtype=float).ravel()
+    flat_a = np.ascontiguousarray(opening_b, dtype=float).ravel()
+    y, d_n, d_a = np.empty_like(flat_n), np.empty_like(flat_n), np.empty_like(flat_n)
+    _net_eval_many(packed, flat_n, flat_a, y, d_n, d_a)
+    return y.reshape(shape), d_n.reshape(shape), d_a.reshape(shape)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# weights of one net
+# ----------------------------------------------------------------------------------------------------------------
+def _finite_float(value, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InputError(f"{key} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise InputError(f"{key} must be finite, got {value!r}")
+    return value
+
+
+def _float_vector(value, key: str, length: int | None = None) -> np.ndarray:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)):
+        raise InputError(f"{key} must be a list of numbers, got {value!r}")
+    if length is not None and len(value) != length:
+        raise InputError(f"{key} must have {length} entries, got {len(value)}")
+    return np.array([_finite_float(v, f"{key}[{i}]") for i, v in enumerate(value)], dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class NetWeights:
+    """Weights of one 2-H-1 logsig/purelin net and its input/output scaling (one ``NET`` block of ``nets.json``).
+
+    Parameters
+    ----------
+    x_min, x_max : array_like (2,)
+        mapminmax ranges of the inputs (N11 in r/min, opening in chart units); ``x_max > x_min``.
+    y_min, y_max : float
+        mapminmax range of the output (Q11 in m^3/s or M11 in N*m); ``y_max > y_min``.
+    W1 : array_like (H, 2)
+        Hidden weights, columns (N11, opening), on normalized inputs.
+    b1, W2 : array_like (H,)
+        Hidden biases and output weights.
+    b2 : float
+        Output bias.
+
+    Raises
+    ------
+    InputError
+        Wrong shapes, NaN/inf or empty ranges; the message names the field.
+
+    Examples
+    --------
+    >>> w = NetWeights(x_min=[0.0, 0.0], x_max=[100.0, 30.0], y_min=0.0, y_max=1.0,
+    ...                W1=[[1.0, 0.0]], b1=[0.0], W2=[2.0], b2=-1.0)
+    >>> float(w.evaluate(50.0, 10.0)[0])  # xn_n11 = 0 -> f = 0.5 -> yn = 0 -> y = 0.5
+    0.5
+    """
+
+    x_min: np.ndarray
+    x_max: np.ndarray
+    y_min: float
+    y_max: float
+    W1: np.ndarray
+    b1: np.ndarray
+    W2: np.ndarray
+    b2: float
+    _packed: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self._set_validated(key="")
+
+    def _set_validated(self, key: str):
+        put = object.__setattr__
+        x_min = _float_vector(self.x_min, f"{key}x_min", 2)
+        x_max = _float_vector(self.x_max, f"{key}x_max", 2)
+        for j, name in enumerate(("n11", "opening")):
+            if not x_max[j] > x_min[j]:
+                raise InputError(f"{key}x_max[{j}] ({name}) must be > {key}x_min[{j}] = {x_min[j]!r}, "
+                                 f"got {x_max[j]!r}")
+        y_min = _finite_float(self.y_min, f"{key}y_min")
+        y_max = _finite_float(self.y_max, f"{key}y_max")
+        if not y_max > y_min:
+            raise InputError(f"{key}y_max must be > {key}y_min = {y_min!r}, got {y_max!r}")
+        w1_raw = self.W1.tolist() if isinstance(self.W1, np.ndarray) else self.W1
+        if not isinstance(w1_raw, (list, tuple)) or len(w1_raw) == 0:
+            raise InputError(f"{key}W1 must be a non-empty list of H rows [w_n11, w_opening], got {w1_raw!r}")
+        w1 = np.array([_float_vector(row, f"{key}W1[{i}]", 2) for i, row in enumerate(w1_raw)])
+        hidden = w1.shape[0]
+        b1 = _float_vector(self.b1, f"{key}b1", hidden)
+        w2 = _float_vector(self.W2, f"{key}W2", hidden)
+        b2 = _finite_float(self.b2, f"{key}b2")
+        for name, value in (("x_min", x_min), ("x_max", x_max), ("W1", w1), ("b1", b1), ("W2", w2)):
+            value.setflags(write=False)
+            put(self, name, value)
+        put(self, "y_min", y_min)
+        put(self, "y_max", y_max)
+        put(self, "b2", b2)
+        packed = np.concatenate([[hidden], x_min, x_max, [y_min, y_max, b2], w1.ravel(), b1, w2]).astype(float)
+        packed.setflags(write=False)
+        put(self, "_packed", packed)
+
+    @property
+    def hidden(self) -> int:
+        """Number of hidden neurons H."""
+        return int(self.W1.shape[0])
+
+    @classmethod
+    def from_dict(cls, block, *, key: str, output: str) -> "NetWeights":
+        """Validate a ``NET`` block of ``nets.json`` (``key`` names it in messages, ``output`` is expected)."""
+        if not isinstance(block, dict):
+            raise InputError(f"{key} must be an object, got {type(block).__name__}")
+        required = ("inputs", "output", "x_min", "x_max", "y_min", "y_max", "W1", "b1", "W2", "b2")
+        for name in required:
+            if name not in block:
+                raise InputError(f"{key}.{name} is missing (a NET needs keys {', '.join(required)})")
+        if block["inputs"] != ["n11", "opening"]:
+            raise InputError(f'{key}.inputs must be ["n11", "opening"], got {block["inputs"]!r}')
+        if block["output"] != output:
+            raise InputError(f"{key}.output must be {output!r}, got {block['output']!r}")
+        obj = cls.__new__(cls)
+        for name in ("x_min", "x_max", "y_min", "y_max", "W1", "b1", "W2", "b2"):
+            object.__setattr__(obj, name, block[name])
+        obj._set_validated(key=f"{key}.")
+        return obj
+
+    def to_dict(self, output: str) -> dict:
+        """The ``NET`` block (plain Python floats, so ``json`` writes them exactly)."""
+        return {"inputs": ["n11", "opening"], "output": output,
+                "x_min": [float(v) for v in self.x_min], "x_max": [float(v) for v in self.x_max],
+                "y_min": float(self.y_min), "y_max": float(self.y_max),
+                "W1": [[float(v) for v in row] for row in self.W1],
+                "b1": [float(v) for v in self.b1], "W2": [float(v) for v in self.W2], "b2": float(self.b2)}
+
+    def packed(self) -> np.ndarray:
+        """Read-only float64 vector consumed by the numba kernels (layout in the module source)."""
+        return self._packed
+
+    def evaluate(self, n11, opening):
+        """Output and analytic gradient, vectorized.
+
+        Parameters
+        ----------
+        n11 : array_like, r/min
+        opening : array_like, chart units (broadcast with ``n11``)
+
+        Returns
+        -------
+        y, dy_dn11, dy_da : ndarray, broadcast shape
+        """
+        return _evaluate(self._packed, n11, opening)
+
+    def __eq__(self, other):
+        if not isinstance(other, NetWeights):
+            return NotImplemented
+        return bool(np.array_equal(self._packed, other._packed))
+
+    __hash__ = None
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# one net: scikit-learn style estimator
+# ----------------------------------------------------------------------------------------------------------------
+def stratified_split(groups, validation_fraction: float, rng: np.random.Generator):
+    """Random train/validation split in which every group appears in both parts.
+
+    Each group of ``n_g`` samples gives ``round(validation_fraction n_g)`` samples to validation, clipped to
+    ``[1, n_g - 1]``.
+
+    Parameters
+    ----------
+    groups : array_like (n,)
+        Group label per sample (here: the origin family).
+    validation_fraction : float in (0, 1)
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    train_index, val_index : ndarray of int, sorted
+
+    Raises
+    ------
+    InputError
+        A group with fewer than 2 samples cannot be in both parts.
+
+    Examples
+    --------
+    >>> tr, va = stratified_split(["a"] * 10 + ["b"] * 5, 0.2, np.random.default_rng(0))
+    >>> len(tr), len(va)
+    (12, 3)
+    """
+    groups = np.asarray(groups)
+    train, val = [], []
+    for label in sorted(set(groups.tolist())):
+        members = np.flatnonzero(groups == label)
+        if members.size < 2:
+            raise InputError(f"groups: origin {label!r} has {members.size} sample(s); each origin needs >= 2 so "
+                             f"that it is present in both the training and the validation set")
+        n_val = int(np.clip(round(validation_fraction * members.size), 1, members.size - 1))
+        perm = rng.permutation(members)
+        val.append(perm[:n_val])
+        train.append(perm[n_val:])
+    return np.sort(np.concatenate(train)), np.sort(np.concatenate(val))
+
+
+class HillNet:
+    """One 2-H-1 logsig BP net y(N11, a), trained by Levenberg-Marquardt as MATLAB ``trainlm``.
+
+    BP hill-chart paper (004), sections 2.2-2.3: inputs and output mapped to [-1, 1] (``mapminmax``), a seeded
+    random 80/20 train/validation split stratified by origin, ``restarts`` Nguyen-Widrow initialisations ("loop
+    control"), and the run with the lowest validation MSE kept.
+
+    Parameters
+    ----------
+    hidden : int, default 5
+        Hidden log-sigmoid neurons.
+    restarts : int, default 10
+        Independent initialisations; the best validation MSE wins.
+    seed : int, default 0
+        Seeds the split and every initialisation (``numpy.random.default_rng``).
+    goal : float, default 1e-5
+        Training MSE goal on normalized outputs.
+    max_epochs : int, default 1000
+    max_fail : int, default 6
+        Consecutive validation increases that stop a run.
+    mu, mu_dec, mu_inc, mu_max : float
+        Levenberg-Marquardt damping: initial value, factor on success, factor on failure, upper limit.
+    validation_fraction : float, default 0.2
+    n_threads : int, default 1
+        torch intra-op threads during ``fit`` (one thread keeps results bit-reproducible and is fastest for
+        21-parameter problems).
+
+    Attributes
+    ----------
+    weights_ : NetWeights
+    train_mse_, val_mse_ : float
+        Normalized-output MSEs of the kept run.
+    epochs_, best_epoch_ : int
+    stop_reason_ : str
+    best_restart_ : int
+    restart_val_mse_ : list of float
+    train_index_, val_index_ : ndarray of int
+    fit_time_s_ : float
+        Wall-clock training time.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> X = np.column_stack([rng.uniform(0, 100, 200), rng.uniform(0, 30, 200)])
+    >>> y = 0.02 * X[:, 1] * (1 - X[:, 0] / 250)
+    >>> net = HillNet(restarts=1, seed=0).fit(X, y)
+    >>> bool(np.max(np.abs(net.predict(X) - y)) < 0.01 * np.ptp(y))
+    True
+    """
+
+    def __init__(self, *, hidden: int = 5, restarts: int = 10, seed: int = 0, goal: float = 1e-5,
+                 max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
+                 mu_inc: float = 10.0, mu_max: float = 1e10, validation_fraction: float = 0.2,
+                 n_threads: int = 1):
+        self.hidden = hidden
+        self.restarts = restarts
+        self.seed = seed
+        self.goal = goal
+        self.max_epochs = max_epochs
+        self.max_fail = max_fail
+        self.mu = mu
+        self.mu_dec = mu_dec
+        self.mu_inc = mu_inc
+        self.mu_max = mu_max
+        self.validation_fraction = validation_fraction
+        self.n_threads = n_threads
+
+    def get_params(self, deep: bool = True) -> dict:
+        """Hyperparameters (scikit-learn contract)."""
+        return {name: getattr(self, name) for name in
+                ("hidden", "restarts", "seed", "goal", "max_epochs", "max_fail", "mu", "mu_dec", "mu_inc",
+                 "mu_max", "validation_fraction", "n_threads")}
+
+    def set_params(self, **params) -> "HillNet":
+        valid = self.get_params()
+        for name, value in params.items():
+            if name not in valid:
+                raise InputError(f"HillNet has no parameter {name!r}; valid: {', '.join(valid)}")
+            setattr(self, name, value)
+        return self
+
+    def __repr__(self):
+        return "HillNet(" + ", ".join(f"{k}={v!r}" for k, v in self.get_params().items()) + ")"
+
+    def _validate_params(self):
+        def check_int(name, low):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise InputError(f"HillNet.{name} must be an integer >= {low}, got {value!r}")
+        check_int("hidden", 1)
+        check_int("restarts", 1)
+        check_int("max_epochs", 0)
+        check_int("max_fail", 1)
+        check_int("n_threads", 1)
+        check_int("seed", 0)
+        for name in ("goal", "mu", "mu_max"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise InputError(f"HillNet.{name} must be a finite number >= 0, got {value!r}")
+        if not 0 < self.mu_dec < 1:
+            raise InputError(f"HillNet.mu_dec must be in (0, 1), got {self.mu_dec!r}")
+        if not self.mu_inc > 1:
+            raise InputError(f"HillNet.mu_inc must be > 1, got {self.mu_inc!r}")
+        if not 0 < self.validation_fraction < 1:
+            raise InputError(f"HillNet.validation_fraction must be in (0, 1), got {self.validation_fraction!r}")
+
+    def fit(self, X, y, groups=None) -> "HillNet":
+        """Train on samples ``X = [[N11, a], ...]`` (n, 2) and targets ``y`` (n,).
+
+        Parameters
+        ----------
+        X : array_like (n, 2)
+            Columns N11 (r/min) and opening (chart units).
+        y : array_like (n,)
+            Targets in physical units (Q11 m^3/s or M11 N*m).
+        groups : array_like (n,), optional
+            Origin label per sample; the split puts every label in both parts. ``None``: one group.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InputError
+            Bad shapes, NaN/inf, constant inputs or outputs, too few samples, bad hyperparameters.
+        NumericalError
+            Training diverged to NaN.
+        """
+        self._validate_params()
+        X = np.asarray(X, dtype=float)
+        y = np.asarray(y, dtype=float)
+        if X.ndim != 2 or X.shape[1] != 2:
+            raise InputError(f"X must have shape (n, 2) with columns (n11, opening), got {X.shape}")
+        if y.shape != (X.shape[0],):
+            raise InputError(f"y must have shape ({X.shape[0]},) matching X, got {y.shape}")
+        if X.shape[0] < 10:
+            raise InputError(f"X must have >= 10 samples to train and validate, got {X.shape[0]}")
+        if not np.all(np.isfinite(X)):
+            raise InputError("X contains NaN or inf")
+        if not np.all(np.isfinite(y)):
+            raise InputError("y contains NaN or inf")
+        groups = np.zeros(X.shape[0], dtype=int) if groups is None else np.asarray(groups)
+        if groups.shape != (X.shape[0],):
+            raise InputError(f"groups must have shape ({X.shape[0]},) matching X, got {groups.shape}")
+        x_min, x_max = X.min(axis=0), X.max(axis=0)
+        for j, name in enumerate(("n11", "opening")):
+            if not x_max[j] > x_min[j]:
+                raise InputError(f"X column {j} ({name}) is constant ({x_min[j]!r}); the net needs a range")
+        y_min, y_max = float(y.min()), float(y.max())
+        if not y_max > y_min:
+            raise InputError(f"y is constant ({y_min!r}); the net needs a range")
+
+        xn = 2.0 * (X - x_min) / (x_max - x_min) - 1.0  # mapminmax, section 2.6 of paper 004
+        yn = 2.0 * (y - y_min) / (y_max - y_min) - 1.0
+        rng = np.random.default_rng(self.seed)
+        train_index, val_index = stratified_split(groups, self.validation_fraction, rng)
+        start = time.perf_counter()
+        previous_threads = torch.get_num_threads()
+        torch.set_num_threads(self.n_threads)
+        try:
+            results = []
+            for _ in range(self.restarts):  # "loop control", section 2.3 of paper 004
+                theta0 = lm.nguyen_widrow_init(self.hidden, rng)
+                results.append(lm.levenberg_marquardt(
+                    xn[train_index], yn[train_index], xn[val_index], yn[val_index], theta0, hidden=self.hidden,
+                    goal=self.goal, max_epochs=self.max_epochs, max_fail=self.max_fail, mu=self.mu,
+                    mu_dec=self.mu_dec, mu_inc=self.mu_inc, mu_max=self.mu_max))
+        finally:
+            torch.set_num_threads(previous_threads)
+        self.fit_time_s_ = time.perf_counter() - start
+        best = int(np.argmin([r.val_mse for r in results]))
+        res = results[best]
+        w1, b1, w2, b2 = lm.unpack(res.theta, self.hidden)
+        self.weights_ = NetWeights(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, W1=w1, b1=b1, W2=w2,
+                                   b2=float(b2))
+        self.train_mse_ = res.train_mse
+        self.val_mse_ = res.val_mse
+        self.epochs_ = res.epochs
+        self.best_epoch_ = res.best_epoch
+        self.stop_reason_ = res.stop_reason
+        self.best_restart_ = best
+        self.restart_val_mse_ = [r.val_mse for r in results]
+        self.train_index_ = train_index
+        self.val_index_ = val_index
+        return self
+
+    def _check_fitted(self):
+        if not hasattr(self, "weights_"):
+            raise InputError("this HillNet is not fitted yet; call fit(X, y) before predict")
+
+    def _split_X(self, X):
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2 or X.shape[1] != 2:
+            raise InputError(f"X must have shape (n, 2) with columns (n11, opening), got {X.shape}")
+        return X[:, 0], X[:, 1]
+
+    def predict(self, X) -> np.ndarray:
+        """Net output (n,) in the units of ``y`` at ``X`` (n, 2)."""
+        self._check_fitted()
+        return self.weights_.evaluate(*self._split_X(X))[0]
+
+    def predict_grad(self, X) -> np.ndarray:
+        """Analytic gradient (n, 2): columns dy/dN11 and dy/da."""
+        self._check_fitted()
+        _, d_n, d_a = self.weights_.evaluate(*self._split_X(X))
+        return np.column_stack([d_n, d_a])
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# the pair: Characteristics for the simulator, nets.json
+# ----------------------------------------------------------------------------------------------------------------
+class HillNets:
+    """Flow net Q11(N11, a) (m^3/s) and torque net M11(N11, a) (N*m): eq. (12) of paper 004.
+
+    Implements :class:`hillchart.characteristics.Characteristics` (vectorized numpy in and out, compiled
+    evaluation, no torch) and ``numba_kernel()`` for the simulator's compiled loop.
+
+    Parameters
+    ----------
+    flow, torque : NetWeights
+    opening_unit : str
+        The chart's opening unit ("mm", "deg", "%").
+    training : dict, optional
+        Training record written to ``nets.json`` (JSON-serializable).
+
+    Examples
+    --------
+    >>> w = NetWeights(x_min=[0.0, 0.0], x_max=[100.0, 30.0], y_min=0.0, y_max=1.0,
+    ...                W1=[[0.0, 1.0]], b1=[0.0], W2=[2.0], b2=-1.0)
+    >>> nets = HillNets(flow=w, torque=w, opening_unit="mm")
+    >>> float(nets.q11(40.0, 15.0))
+    0.5
+    >>> nets2 = HillNets.from_json(nets.to_json())
+    >>> nets2.flow == nets.flow
+    True
+    """
+
+    def __init__(self, flow: NetWeights, torque: NetWeights, opening_unit: str, training: dict | None = None):
+        if not isinstance(flow, NetWeights) or not isinstance(torque, NetWeights):
+            raise InputError("HillNets.flow and HillNets.torque must be NetWeights")
+        if not isinstance(opening_unit, str) or not opening_unit:
+            raise InputError(f"HillNets.opening_unit must be a non-empty string, got {opening_unit!r}")
+        self.flow = flow
+        self.torque = torque
+        self.opening_unit = opening_unit
+        self.training = dict(training or {})
+
+    # Characteristics protocol -----------------------------------------------------------------------------------
+    def q11(self, n11, opening) -> np.ndarray:
+        """Unit flow Q11, m^3/s, at N11 (r/min) and opening (chart units), broadcast."""
+        return self.flow.evaluate(n11, opening)[0]
+
+    def m11(self, n11, opening) -> np.ndarray:
+        """Unit torque M11, N*m."""
+        return self.torque.evaluate(n11, opening)[0]
+
+    def q11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]:
+        """(dQ11/dN11 in m^3/s per r/min, dQ11/da in m^3/s per opening unit)."""
+        return self.flow.evaluate(n11, opening)[1:]
+
+    def m11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]:
+        """(dM11/dN11 in N*m per r/min, dM11/da in N*m per opening unit)."""
+        return self.torque.evaluate(n11, opening)[1:]
+
+    def efficiency(self, n11, opening) -> np.ndarray:
+        """Hydraulic efficiency eta = M11 omega11 / (rho g Q11) (inverse of eq. (5), paper 004); NaN where
+        Q11 <= 0 or N11 <= 0."""
+        from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
+        n11 = np.asarray(n11, dtype=float)
+        q = self.q11(n11, opening)
+        m = self.m11(n11, opening)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            eta = m * n11 * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q)
+        return np.where((q > 0) & (n11 > 0), eta, np.nan)
+
+    def numba_kernel(self):
+        """``(kernel, params)``: ``kernel(params, n11, a) -> (q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``,
+        numba-jitted, on scalars (see :mod:`hillchart.characteristics`)."""
+        return _nets_kernel, (self.flow.packed(), self.torque.packed())
+
+    # nets.json --------------------------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "version": VERSION,
+                "units": {"n11": FIXED_UNITS["n11"], "opening": self.opening_unit, "q11": FIXED_UNITS["q11"],
+                          "m11": FIXED_UNITS["m11"]},
+                "flow": self.flow.to_dict("q11"), "torque": self.torque.to_dict("m11"),
+                "training": self.training}
+
+    def to_json(self) -> str:
+        """``nets.json`` text (floats in shortest round-trip form, so loading is bit-exact)."""
+        doc = self.to_dict()
+        lines = []
+        for key, value in doc.items():
+            if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
+                inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
+                lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
+            else:
+                text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
+                lines.append(f" {json.dumps(key)}: {text}")
+        return "{\n" + ",\n".join(lines) + "\n}\n"
+
+    def save(self, path) -> Path:
+        """Write ``nets.json`` to ``path``; returns the path."""
+        path = Path(path)
+        path.write_text(self.to_json(), encoding="utf-8")
+        return path
+
+    @classmethod
+    def from_dict(cls, doc) -> "HillNets":
+        """Validate a parsed ``nets.json`` document (see module docstring)."""
+        if not isinstance(doc, dict):
+            raise InputError(f"nets.json must hold an object, got {type(doc).__name__}")
+        for key in ("format", "version", "units", "flow", "torque"):
+            if key not in doc:
+                raise InputError(f"nets.json: key {key!r} is missing (required: format, version, units, flow, "
+                                 f"torque)")
+        if doc["format"] != FORMAT:
+            raise InputError(f"nets.json: format must be {FORMAT!r}, got {doc['format']!r}")
+        if doc["version"] != VERSION or isinstance(doc["version"], bool):
+            raise InputError(f"nets.json: version must be {VERSION}, got {doc['version']!r}")
+        units = doc["units"]
+        if not isinstance(units, dict):
+            raise InputError(f"nets.json: units must be an object, got {units!r}")
+        for name, unit in FIXED_UNITS.items():
+            if units.get(name) != unit:  # format check, not a default: a missing key reads as None here
+                raise InputError(f"nets.json: units.{name} must be {unit!r}, got {units.get(name)!r}")
+        if "opening" not in units or not isinstance(units["opening"], str) or not units["opening"]:
+            raise InputError(f"nets.json: units.opening must be the chart's opening unit (a string), got "
+                             f"{units.get('opening')!r}")
+        flow = NetWeights.from_dict(doc["flow"], key="flow", output="q11")
+        torque = NetWeights.from_dict(doc["torque"], key="torque", output="m11")
+        training = doc["training"] if "training" in doc else {}
+        if not isinstance(training, dict):
+            raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
+        return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training)
+
+    @classmethod
+    def from_json(cls, text: str) -> "HillNets":
+        """Parse ``nets.json`` text; rejects invalid JSON and malformed blocks (NaN/Infinity literals and numbers
+        that overflow to inf are rejected by the block validation, which names the key)."""
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"nets.json: not valid JSON ({exc})") from None
+        return cls.from_dict(doc)
+
+
+def load_nets(path) -> HillNets:
+    """Read and validate ``nets.json``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    HillNets
+
+    Raises
+    ------
+    InputError
+        Wrong format or version, missing keys, wrong shapes, NaN/inf, ``x_max <= x_min``: the message names the key.
+    FileNotFoundError
+        No such file.
+
+    Examples
+    --------
+    >>> from importlib.resources import files
+    >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # the shipped synthetic-Francis nets
+    >>> nets.opening_unit, nets.flow.hidden
+    ('mm', 5)
+    >>> round(float(nets.efficiency(65.0, 18.0)), 2)  # best efficiency of the synthetic turbine: 0.935
+    0.93
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    try:
+        return HillNets.from_json(text)
+    except InputError as exc:
+        message = str(exc).removeprefix("nets.json: ")
+        raise InputError(f"{path}: {message}") from None
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# both nets from the extended samples
+# ----------------------------------------------------------------------------------------------------------------
+def _column(table, name):
+    try:
+        return np.asarray(table[name])
+    except (KeyError, IndexError, TypeError, ValueError):
+        pass
+    if hasattr(table, name):
+        return np.asarray(getattr(table, name))
+    raise InputError(f"extended samples: column {name!r} is missing (need target, origin, n11, opening, value)")
+
+
+def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, restarts: int = 10, seed: int = 0,
+               record_time: bool = False, **net_params) -> HillNets:
+    """Train the flow and torque nets on the extended samples (paper 004, eq. (12) and section 2.6 steps (5)-(6)).
+
+    Parameters
+    ----------
+    extended : table
+        Extended samples with columns ``target`` ('q11' | 'm11'), ``origin`` ('measured' | 'runaway' |
+        'zero-opening' | 'zero-speed'), ``n11`` (r/min), ``opening`` (chart units), ``value`` (m^3/s or N*m);
+        anything indexable by column name or with those attributes.
+    opening_unit : str, optional
+        The chart's opening unit; default ``extended.opening_unit``.
+    hidden, restarts : int
+        Net size and multi-start count (both nets).
+    seed : int
+        The flow net uses ``seed``, the torque net ``seed + 1``.
+    record_time : bool
+        Put training times (``time_s``) into the training record; off by default so that ``nets.json`` is
+        byte-reproducible.
+    **net_params
+        Further :class:`HillNet` hyperparameters.
+
+    Returns
+    -------
+    HillNets
+        With ``training`` holding per-net sample counts, split, errors (normalized MSE and physical max/RMS),
+        epochs and stop reasons; the fitted estimators are kept in ``nets.estimators``.
+    """
+    if opening_unit is None:
+        opening_unit = getattr(extended, "opening_unit", None)
+        if opening_unit is None:
+            raise InputError("train_nets: opening_unit is required when the table does not carry it")
+    target = _column(extended, "target").astype(str)
+    origin = _column(extended, "origin").astype(str)
+    n11 = _column(extended, "n11").astype(float)
+    opening = _column(extended, "opening").astype(float)
+    value = _column(extended, "value").astype(float)
+    bad_targets = sorted(set(target.tolist()) - {"q11", "m11"})
+    if bad_targets:
+        raise InputError(f"extended samples: target must be 'q11' or 'm11', got {bad_targets}")
+    bad_origins = sorted(set(origin.tolist()) - set(ORIGINS))
+    if bad_origins:
+        raise InputError(f"extended samples: origin must be one of {', '.join(ORIGINS)}, got {bad_origins}")
+    record = {"seed": seed, "hidden": hidden, "restarts": restarts}
+    weights, estimators = {}, {}
+    for offset, (key, tgt) in enumerate((("flow", "q11"), ("torque", "m11"))):
+        sel = target == tgt
+        if not np.any(sel):
+            raise InputError(f"extended samples: no rows with target {tgt!r}")
+        X = np.column_stack([n11[sel], opening[sel]])
+        y = value[sel]
+        groups = origin[sel]
+        est = HillNet(hidden=hidden, restarts=restarts, seed=seed + offset, **net_params).fit(X, y, groups)
+        estimators[key] = est
+        weights[key] = est.weights_
+        record[key] = _training_record(est, X, y, groups, record_time)
+    nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record)
+    nets.estimators = estimators
+    return nets
+
+
+def _training_record(est: HillNet, X, y, groups, record_time: bool) -> dict:
+    pred = est.predict(X)
+    err = pred - y
+    tr, va = est.train_index_, est.val_index_
+    counts = {}
+    for g in sorted(set(groups.tolist())):
+        counts[g] = {"train": int(np.sum(groups[tr] == g)), "validation": int(np.sum(groups[va] == g))}
+    rec = {"seed": est.seed, "n_train": int(tr.size), "n_validation": int(va.size), "samples_by_origin": counts,
+           "train_mse_normalized": est.train_mse_, "validation_mse_normalized": est.val_mse_,
+           "train_rms_error": float(np.sqrt(np.mean(err[tr] ** 2))),
+           "train_max_abs_error": float(np.max(np.abs(err[tr]))),
+           "validation_rms_error": float(np.sqrt(np.mean(err[va] ** 2))),
+           "validation_max_abs_error": float(np.max(np.abs(err[va]))),
+           "epochs": est.epochs_, "best_epoch": est.best_epoch_, "stop_reason": est.stop_reason_,
+           "best_restart": est.best_restart_, "restart_validation_mse": est.restart_val_mse_}
+    if record_time:
+        rec["time_s"] = round(est.fit_time_s_, 3)
+    return rec
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# accuracy against an exact reference (the synthetic turbine's truth.csv)
+# ----------------------------------------------------------------------------------------------------------------
+def read_truth_csv(path) -> dict[str, np.ndarray]:
+    """Read ``truth.csv`` (columns ``n11,opening,q11,m11,efficiency``; r/min, chart units, m^3/s, N*m, fraction).
+
+    Raises
+    ------
+    InputError
+        Missing column or non-finite value (naming the file and column).
+    """
+    path = Path(path)
+    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
+    names = data.dtype.names or ()
+    out = {}
+    for column in ("n11", "opening", "q11", "m11"):
+        if column not in names:
+            raise InputError(f"{path}: column {column!r} is missing (have {', '.join(names)})")
+        values = np.atleast_1d(np.asarray(data[column], dtype=float))
+        if not np.all(np.isfinite(values)):
+            raise InputError(f"{path}: column {column!r} has non-numeric or non-finite values")
+        out[column] = values
+    return out
+
+
+def measured_region_mask(measured_n11, measured_opening, n11, opening) -> np.ndarray:
+    """True where (N11, a) lies inside the convex hull of the measured (digitized) flow samples.
+
+    This is the "measured region" of issue 3 section 4: where the chart itself has data.
+
+    Examples
+    --------
+    >>> measured_region_mask([0, 1, 0, 1], [0, 0, 1, 1], [0.5, 2.0], [0.5, 0.5]).tolist()
+    [True, False]
+    """
+    from scipy.spatial import Delaunay
+
+    hull = Delaunay(np.column_stack([np.asarray(measured_n11, float), np.asarray(measured_opening, float)]))
+    points = np.column_stack([np.ravel(n11), np.ravel(opening)]).astype(float)
+    return (hull.find_simplex(points) >= 0).reshape(np.shape(n11))
+
+
+def truth_errors(characteristics, truth: dict, inside: np.ndarray) -> dict:
+    """Errors of ``characteristics`` against exact values, inside and outside the measured region.
+
+    Parameters
+    ----------
+    characteristics : object with ``q11(n11, a)`` and ``m11(n11, a)``
+    truth : dict of ndarray
+        ``n11``, ``opening``, ``q11``, ``m11`` (see :func:`read_truth_csv`).
+    inside : ndarray of bool
+        Measured-region mask of the truth points (see :func:`measured_region_mask`).
+
+    Returns
+    -------
+    dict
+        For ``q11`` and ``m11``: ``range_measured`` (truth max - min inside, the scale of the issue's
+        percentages), ``rms_measured``, ``max_measured``, ``rms_extended``, ``max_extended`` (physical units) and
+        the same as percentages of ``range_measured`` (``*_pct``).
+    """
+    out = {}
+    for name in ("q11", "m11"):
+        pred = getattr(characteristics, name)(truth["n11"], truth["opening"])
+        err = np.asarray(pred, dtype=float) - truth[name]
+        scale = float(np.ptp(truth[name][inside]))
+        rec = {"range_measured": scale,
+               "rms_measured": float(np.sqrt(np.mean(err[inside] ** 2))),
+               "max_measured": float(np.max(np.abs(err[inside]))),
+               "rms_extended": float(np.sqrt(np.mean(err[~inside] ** 2))),
+               "max_extended": float(np.max(np.abs(err[~inside])))}
+        for key in ("rms_measured", "max_measured", "rms_extended", "max_extended"):
+            rec[key + "_pct"] = 100.0 * rec[key] / scale
+        out[name] = rec
+    return out

@@ -1,0 +1,92 @@
+"""``hillsim train CHART_DIR --out nets.json``: extend the chart's samples and train the flow and torque nets."""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+
+from hillsim.commands.extend import add_extension_arguments, extension_options
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "train",
+        help="train the Q11 and M11 nets (2-H-1 logsig, Levenberg-Marquardt) and write nets.json",
+        description="Load a chart folder, extend its samples (torque from efficiency, runaway, zero opening, zero "
+                    "speed) and train the flow net Q11(N11, a) and the torque net M11(N11, a) as in the BP "
+                    "hill-chart paper (Levenberg-Marquardt, 80/20 split stratified by origin, best of N restarts).",
+    )
+    parser.add_argument("chart", metavar="CHART_DIR", help="chart folder (chart.toml, flow.csv, efficiency.csv, ...)")
+    parser.add_argument("--out", required=True, help="nets.json to write")
+    parser.add_argument("--hidden", type=int, default=5, help="hidden logsig neurons per net (default 5)")
+    parser.add_argument("--restarts", type=int, default=10,
+                        help="random initialisations per net; the best validation error is kept (default 10)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the split and initialisations (flow net: seed, torque net: seed + 1)")
+    parser.add_argument("--record-time", action="store_true",
+                        help="store training times in nets.json (off by default: the file is then byte-for-byte "
+                             "reproducible)")
+    add_extension_arguments(parser)
+    parser.set_defaults(func=run)
+
+
+def _check_int(option: str, value: int, low: int) -> None:
+    from hillchart.errors import InputError
+
+    if value < low:
+        raise InputError(f"{option} must be an integer >= {low}, got {value}")
+
+
+def run(args: argparse.Namespace) -> int:
+    from hillchart.extend import extend_samples
+    from hillchart.nets import train_nets
+    from hillchart.samples import load_chart
+
+    _check_int("--hidden", args.hidden, 1)
+    _check_int("--restarts", args.restarts, 1)
+    _check_int("--seed", args.seed, 0)
+    options = extension_options(args)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        chart = load_chart(args.chart)
+    for w in caught:
+        print(f"warning: {w.message}")
+    extended = extend_samples(chart, options)
+    start = time.perf_counter()
+    nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
+                      record_time=args.record_time)
+    elapsed = time.perf_counter() - start
+    nets.training["chart"] = chart.info.name
+    nets.training["extension"] = {
+        "runaway": options.runaway, "zero_opening": options.zero_opening, "zero_speed": options.zero_speed,
+        "extrapolation_degree": options.extrapolation_degree, "zero_opening_k": options.zero_opening_k,
+        "k_zero_opening_used": extended.k_zero_opening,
+    }
+    if args.record_time:
+        nets.training["time_s"] = round(elapsed, 3)
+    nets.save(args.out)
+    print(f"chart {chart.info.name!r}: {len(extended.value)} extended samples; 2-{args.hidden}-1 logsig nets, "
+          f"best of {args.restarts} Levenberg-Marquardt runs each (seed {args.seed})")
+    print(format_training_table(nets))
+    print(f"training time (both nets): {elapsed:.2f} s")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def format_training_table(nets) -> str:
+    """Text table of the training record: one row per net."""
+    header = (f"{'net':<7} {'n_train':>7} {'n_val':>5} {'train MSE':>10} {'val MSE':>10} {'train max|e|':>13} "
+              f"{'val max|e|':>12} {'unit':<6} {'epochs':>6} {'stop':<10} {'time s':>6}")
+    lines = [header, "-" * len(header)]
+    units = {"flow": "m^3/s", "torque": "N*m"}
+    for key in ("flow", "torque"):
+        rec = nets.training[key]
+        est = getattr(nets, "estimators", {}).get(key)
+        seconds = f"{est.fit_time_s_:6.2f}" if est is not None else "     -"
+        lines.append(f"{key:<7} {rec['n_train']:>7} {rec['n_validation']:>5} {rec['train_mse_normalized']:>10.3g} "
+                     f"{rec['validation_mse_normalized']:>10.3g} {rec['train_max_abs_error']:>13.4g} "
+                     f"{rec['validation_max_abs_error']:>12.4g} {units[key]:<6} {rec['epochs']:>6} "
+                     f"{rec['stop_reason']:<10} {seconds}")
+    lines.append("(MSE on outputs mapped to [-1, 1], as trainlm's goal; max |e| in physical units)")
+    return "\n".join(lines)
