@@ -191,3 +191,35 @@ def test_synthetic_francis_at_rated_point_matches_finite_differences():
     np.testing.assert_allclose([c.ex, c.ey, c.eqx, c.eqy], [ex, ey, eqx, eqy], rtol=1e-6, atol=1e-8)
     # a real Francis at rated: torque falls with speed, and steeper than the ideal turbine's -1
     assert -1.3 < c.ex < -1.0 and 0 < c.ey < 1 and abs(c.eqx) < 0.1 and 0.45 < c.eqh < 0.55
+
+
+def test_nets_trained_on_an_ideal_chart_give_the_ideal_coefficients():
+    from hillchart.nets import HillNet, HillNets
+
+    # an ideal-turbine "chart" on a band of N11 away from 0 (Q11 = k a, M11 = c a / N11), both nets trained by LM
+    n, a = np.meshgrid(np.linspace(50, 90, 15), np.linspace(5, 30, 12))
+    X = np.column_stack([n.ravel(), a.ravel()])
+    flow = HillNet(restarts=3, seed=0, goal=1e-8).fit(X, IDEAL.q11(X[:, 0], X[:, 1]))
+    torque = HillNet(restarts=3, seed=1, goal=1e-8).fit(X, IDEAL.m11(X[:, 0], X[:, 1]))
+    nets = HillNets(flow=flow.weights_, torque=torque.weights_, opening_unit="mm")
+    worst = 0.0
+    for n11 in (55.0, 62.0, 70.0, 78.0, 85.0):
+        for opening in (8.0, 14.0, 20.0, 26.0):
+            c = six_coefficients(nets, n11=n11, opening=opening)
+            worst = max(worst, np.max(np.abs(np.array(c.as_tuple()) - (-1.0, 1.0, 1.5, 0.0, 1.0, 0.5))))
+    # issue 5 bound 0.02; measured 0.002 inside the band (0.019 at a corner sample, outside this grid)
+    assert worst < 0.02
+
+
+def test_shipped_synthetic_nets_at_rated_point_match_the_exact_turbine():
+    from hillchart.nets import load_nets
+    from hillchart.synthetic import SyntheticFrancis
+
+    from data_synthetic import FRANCIS_DIR
+
+    nets = load_nets(FRANCIS_DIR / "nets.json")
+    for n11, opening in ((67.8, 23.46), (67.3, 21.7), (60.0, 18.0), (75.0, 26.0)):  # rated (chart, plant) + nearby
+        c_nets = six_coefficients(nets, n11=n11, opening=opening).as_tuple()
+        c_true = six_coefficients(SyntheticFrancis(), n11=n11, opening=opening).as_tuple()
+        # issue 5 bound 0.05; measured max 0.017 over these points (eqx and ex, the N11 slopes, are the hardest)
+        np.testing.assert_allclose(c_nets, c_true, atol=0.05)

@@ -54,3 +54,26 @@ def test_linearize_missing_nets_file(capsys, tmp_path):
     pytest.importorskip("hillchart.nets")
     assert main(["linearize", str(tmp_path / "none.json"), "--n11", "67.8", "--opening", "20"]) == 2
     assert "hillsim linearize: error:" in capsys.readouterr().err
+
+
+def test_linearize_shipped_nets_json(capsys, tmp_path):
+    from hillchart.nets import load_nets
+
+    from data_synthetic import FRANCIS_DIR
+
+    path = FRANCIS_DIR / "nets.json"
+    png = tmp_path / "nets_maps.png"
+    assert main(["linearize", str(path), "--n11", "67.8", "--opening", "23.46", "--map", str(png),
+                 "--grid", "30"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    ref = six_coefficients(load_nets(path), n11=67.8, opening=23.46)
+    assert out["coefficients"] == {k: getattr(ref, k) for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")}
+    assert out["opening_unit"] == "mm" and png.stat().st_size > 20_000
+
+
+def test_linearize_malformed_nets_json(capsys, tmp_path):
+    bad = tmp_path / "nets.json"
+    bad.write_text('{"format": "something else"}')
+    assert main(["linearize", str(bad), "--n11", "67.8", "--opening", "20"]) == 2
+    err = capsys.readouterr().err
+    assert "hillsim linearize: error:" in err and "nets.json" in err
