@@ -574,7 +574,8 @@ def experiment_plant(plant, settings: ExperimentSettings, *, initial_stroke: flo
 
 
 def compare_identification(plant, *, settings: ExperimentSettings | None = None, characteristics=None,
-                           exact=None, penstock_model: str | None = None) -> IdentificationReport:
+                           exact=None, penstock_model: str | None = None,
+                           initial_opening: float | None = None) -> IdentificationReport:
     """Simulate the identification experiment on ``plant`` and compare identification with the nets.
 
     Parameters
@@ -590,6 +591,8 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     penstock_model : str, optional
         Override the plant's penstock model (``rigid`` / ``lumped`` match the linear models exactly; ``moc`` and
         ``zdomain`` are compared against the lumped elastic model).
+    initial_opening : float, optional
+        Operating point as a stroke fraction (default: the plant scenario's initial power or opening).
 
     Returns
     -------
@@ -599,12 +602,20 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     from simulate.engine import initial_state, run_simulation
 
     settings = settings or ExperimentSettings()
-    if plant.scenario.kind == "frequency-steps":
-        raise InputError("identification needs a loaded operating point: the plant's scenario is frequency-steps "
-                         "(no load); use a scenario with initial_power_mw or initial_opening")
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    steady0 = initial_state(plant, chars)
-    run_plant = experiment_plant(plant, settings, initial_stroke=steady0.stroke, penstock_model=penstock_model)
+    if initial_opening is not None:
+        gov = plant.governor
+        if isinstance(initial_opening, bool) or not isinstance(initial_opening, (int, float)) or not (
+                gov.stroke_min < initial_opening <= gov.stroke_max):
+            raise InputError(f"initial_opening must be a stroke fraction in (governor.stroke_min, "
+                             f"governor.stroke_max] = ({gov.stroke_min}, {gov.stroke_max}], got {initial_opening!r}")
+        stroke0 = float(initial_opening)
+    elif plant.scenario.kind == "frequency-steps":
+        raise InputError("identification needs a loaded operating point: the plant's scenario is frequency-steps "
+                         "(no load); give initial_opening or use a scenario with initial_power_mw")
+    else:
+        stroke0 = initial_state(plant, chars).stroke
+    run_plant = experiment_plant(plant, settings, initial_stroke=stroke0, penstock_model=penstock_model)
     result = run_simulation(run_plant, chars)
     steady = initial_state(run_plant, chars)
     coeffs, linear = linear_reference(run_plant, chars, steady)

@@ -29,6 +29,8 @@ def register(subparsers) -> None:
                              "(opening as stroke fraction); resampled to tau by interpolation")
     parser.add_argument("--penstock-model", choices=("moc", "zdomain", "lumped", "rigid"), default=None,
                         help="override the plant's penstock model (rigid/lumped match the linear models)")
+    parser.add_argument("--initial-opening", type=float, default=None, metavar="STROKE",
+                        help="operating point as a stroke fraction (default: the scenario's initial power/opening)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override a plant value (repeatable), as in hillsim run")
     exp = parser.add_argument_group("experiment")
@@ -91,14 +93,15 @@ def run(args: argparse.Namespace) -> int:
         arx_structure=args.arx)
     exact = _exact(args.exact, plant)
     if args.data is not None:
-        if args.penstock_model is not None:
-            raise InputError("--penstock-model applies to the simulated experiment, not to --data")
+        if args.penstock_model is not None or args.initial_opening is not None:
+            raise InputError("--penstock-model and --initial-opening apply to the simulated experiment, not to --data")
         series = load_measured_series(args.data, sample_time_s=args.tau)
         arma_series = load_measured_series(args.data, sample_time_s=settings.arma_sample_time_s,
                                            operating_point=series.operating_point)
         report = identify_measured(series, settings, plant=plant, exact=exact, arma_series=arma_series)
     else:
-        report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model)
+        report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
+                                        initial_opening=args.initial_opening)
     paths = report.write(args.out)
     summary = report.summary
     print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
