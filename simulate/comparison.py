@@ -421,7 +421,7 @@ class IdentificationReport:
 
 def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, reference: LinearPlant | None = None,
                     reference_coefficients=None, exact_coefficients=None, model_order: int | None = None,
-                    arma_series: RelativeSeries | None = None) -> dict:
+                    arma_series: RelativeSeries | None = None, penstock_matches: bool = True) -> dict:
     """Run every estimator on ``series`` and compare with the nets' linear plant when given.
 
     Returns the pieces of an :class:`IdentificationReport` as a dict (summary, histories, step_responses,
@@ -537,7 +537,10 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
         summary["acceptance"] = {
             "batch_ls_within_0.02_of_nets": bool(six.get("max_abs_batch_ls_minus_nets", np.inf)
                                                   <= BATCH_LS_TOLERANCE),
-            "rls_step_response_within_5pct": bool(main_rls["step_error_vs_nets"] <= STEP_RESPONSE_TOLERANCE),
+            # the 5 % bound applies when the data come from the penstock model the linear model is (rigid/lumped);
+            # for moc / zdomain the step error is reported, not judged (issue 5)
+            "rls_step_response_within_5pct": (bool(main_rls["step_error_vs_nets"] <= STEP_RESPONSE_TOLERANCE)
+                                              if penstock_matches else None),
             "simulation_mode_speed_error_below_1pct": bool(
                 main_rls["simulation_mode_final_theta"]["max_abs_error"] < SIMULATION_MODE_TOLERANCE),
         }
@@ -631,7 +634,8 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
         sample_time_s=settings.arma_sample_time_s, operating_point=op).with_noise(settings.noise_level,
                                                                                  settings.seed + 2)
     parts = identify_series(series, settings, reference=linear, reference_coefficients=coeffs,
-                            exact_coefficients=exact_coeffs, arma_series=arma_series)
+                            exact_coefficients=exact_coeffs, arma_series=arma_series,
+                            penstock_matches=run_plant.penstock.model in ("rigid", "lumped"))
     summary = parts["summary"]
     # the nonlinear simulator's own first opening step (noise-free) against the nets' linear prediction
     if settings.step_amplitude > 0:
@@ -689,7 +693,8 @@ def identify_measured(series: RelativeSeries, settings: ExperimentSettings, *, p
             exact_coeffs = six_coefficients(exact, n11=coeffs.n11_rpm, opening=coeffs.opening)
         summary_head["penstock_model"] = plant.penstock.model
     parts = identify_series(series, settings, reference=reference, reference_coefficients=coeffs,
-                            exact_coefficients=exact_coeffs, arma_series=arma_series)
+                            exact_coefficients=exact_coeffs, arma_series=arma_series,
+                            penstock_matches=plant is not None and plant.penstock.model in ("rigid", "lumped"))
     summary = summary_head | {"operating_point": asdict(series.operating_point),
                               "experiment": asdict(settings)} | parts["summary"]
     return IdentificationReport(summary=summary, series=series, histories=parts["histories"],
@@ -828,9 +833,9 @@ def _jsonable(value):
 # ----------------------------------------------------------------------------------------------------------------
 
 
-def _fmt(value, digits=4) -> str:
+def _fmt(value, digits=4, none="-") -> str:
     if value is None:
-        return "-"
+        return none
     if isinstance(value, bool):
         return "PASS" if value else "FAIL"
     if isinstance(value, float) and not math.isfinite(value):
@@ -899,5 +904,5 @@ def markdown_tables(summary: dict) -> str:
         lines.append("| acceptance check | result |")
         lines.append("|---|---|")
         for k, v in summary["acceptance"].items():
-            lines.append(f"| {k} | {_fmt(v)} |")
+            lines.append(f"| {k} | {_fmt(v, none='reported only (penstock model is not the linear one)')} |")
     return "\n".join(lines) + "\n"

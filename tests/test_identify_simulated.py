@@ -48,7 +48,7 @@ def test_acceptance_with_the_matching_penstock_model(reports, model):
     assert s["arx"]["rls"]["step_error_vs_nets"] < 0.05
     # simulation-mode speed error (eqs. 62-64) below 1 % (measured ~4e-5 absolute)
     assert s["arx"]["rls"]["simulation_mode_final_theta"]["max_abs_error"] < 0.01
-    assert all(s["acceptance"].values())
+    assert all(v is True for v in s["acceptance"].values())
     # and the nets agree with the exact turbine the chart was drawn from (issue 5: within 0.05)
     assert six["max_abs_nets_minus_exact"] < 0.05
     # the linear model is the one that matches the simulator's penstock
@@ -64,6 +64,7 @@ def test_moc_difference_is_reported_and_static_coefficients_do_not_depend_on_it(
     assert moc["simulated_step_vs_nets"]["max_error_frac_of_peak"] < 0.05
     assert lumped["simulated_step_vs_nets"]["max_error_frac_of_peak"] < 0.03
     assert np.isfinite(moc["arx"]["rls"]["step_error_vs_nets"])
+    assert moc["acceptance"]["rls_step_response_within_5pct"] is None  # reported, not judged, for moc
 
 
 def test_paper_002_arma_on_the_rigid_run(reports):
