@@ -27,7 +27,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -161,6 +161,12 @@ class ExperimentSettings:
 
         All switching times are multiples of ``sample_time_s``, so the sampled opening is exactly piecewise
         constant between samples (the zero-order hold the ARX model assumes).
+
+        Examples
+        --------
+        >>> times, levels = ExperimentSettings(step_hold_s=10.0, prbs_duration_s=0.0).opening_schedule()
+        >>> times.tolist(), levels.tolist()
+        ([2.0, 12.0, 22.0, 32.0], [0.01, 0.0, -0.01, 0.0])
         """
         tau = self.sample_time_s
 
@@ -225,8 +231,6 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
         ``"rigid"`` gives the inelastic model (eqs. 10-12); anything else the lumped elastic model (eqs. 24-30) with
         Te = sum L/a and the plant's lumped_alpha. Default: the plant's own model.
     """
-    from hillchart.constants import G_M_S2  # noqa: F401  (documented dependency of Tw)
-
     turbine, pen, gen = plant.turbine, plant.penstock, plant.generator
     model = penstock_model or pen.model
     n11 = steady.speed_rpm * turbine.runner_diameter_m / math.sqrt(steady.head_m)  # N11 = n D1 / sqrt(H)
@@ -266,7 +270,16 @@ class RelativeSeries:
     def from_physical(cls, time_s, speed_rpm, head_m, opening, torque_nm, flow_m3_s, *, sample_time_s: float,
                       operating_point: OperatingPoint | None = None, t_start_s: float | None = None):
         """Resample physical series to ``sample_time_s`` by linear interpolation (paper 000 section 5) and make
-        them relative to ``operating_point`` (default: the first sample)."""
+        them relative to ``operating_point`` (default: the first sample).
+
+        Examples
+        --------
+        >>> t = np.arange(51) * 0.1                       # 10 Hz sensor, 5 s
+        >>> s = RelativeSeries.from_physical(t, 200 + 2 * t, 100 + 0 * t, 0.5 + 0 * t, 1e6 + 0 * t, 50 + 0 * t,
+        ...                                  sample_time_s=0.5)
+        >>> s.time_s[:3].tolist(), [round(v, 12) for v in s.x[:3]]
+        ([0.0, 0.5, 1.0], [0.0, 0.005, 0.01])
+        """
         t = np.asarray(time_s, dtype=float)
         series = {"speed_rpm": speed_rpm, "head_m": head_m, "opening": opening, "torque_nm": torque_nm,
                   "flow_m3_s": flow_m3_s}
@@ -455,7 +468,6 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
 
     # --- ARX by recursive estimators ------------------------------------------------------------------------------
     nets_arx = reference.arx(tau) if reference is not None else None
-    x_peak = float(np.max(np.abs(x)))
     eps0 = settings.dead_zone_eps0
     if eps0 is None:
         a_sum = float(np.abs(nets_arx.a).sum()) if nets_arx is not None else 3.0
