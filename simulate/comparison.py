@@ -277,7 +277,7 @@ class RelativeSeries:
         >>> t = np.arange(51) * 0.1                       # 10 Hz sensor, 5 s
         >>> s = RelativeSeries.from_physical(t, 200 + 2 * t, 100 + 0 * t, 0.5 + 0 * t, 1e6 + 0 * t, 50 + 0 * t,
         ...                                  sample_time_s=0.5)
-        >>> s.time_s[:3].tolist(), [round(v, 12) for v in s.x[:3]]
+        >>> s.time_s[:3].tolist(), [round(float(v), 12) for v in s.x[:3]]
         ([0.0, 0.5, 1.0], [0.0, 0.005, 0.01])
         """
         t = np.asarray(time_s, dtype=float)
