@@ -248,6 +248,46 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
     return coeffs, linear
 
 
+def plant_linearization(plant, characteristics=None, *, initial_opening: float | None = None,
+                        penstock_model: str | None = None, sample_time_s: float = 0.2) -> dict:
+    """The nets' linear model at a plant's verified initial operating point, as a JSON-ready dict.
+
+    Operating point: ``initial_opening`` (stroke fraction) or the plant scenario's initial power/opening. Returns
+    the operating point, the six coefficients, the linear-plant parameters (Tw, J, e_g, Te, alpha, r_f), the
+    eigenvalues of A and open-loop stability, the speed transfer function N/D and the ARX at ``sample_time_s``.
+    """
+    from dataclasses import replace as _replace
+
+    from simulate.config import ScenarioConfig, load_characteristics
+    from simulate.engine import initial_state
+
+    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    if initial_opening is not None:
+        plant = _replace(plant, scenario=ScenarioConfig(kind="opening-steps", t_end_s=10.0,
+                                                        initial_opening=initial_opening))
+    elif plant.scenario.kind == "frequency-steps":
+        raise InputError("the plant's scenario is frequency-steps (no load): give an initial opening")
+    steady = initial_state(plant, chars)
+    coeffs, linear = linear_reference(plant, chars, steady, penstock_model=penstock_model)
+    ss = linear.state_space()
+    num, den = linear.speed_transfer_function()
+    return {
+        "operating_point": {"speed_rpm": steady.speed_rpm, "head_m": steady.head_m, "flow_m3_s": steady.flow_m3_s,
+                            "torque_nm": steady.torque_nm, "power_mw": steady.power_mw, "stroke": steady.stroke,
+                            "opening_chart": steady.opening_chart, "n11_rpm": coeffs.n11_rpm},
+        "coefficients": {k: getattr(coeffs, k) for k in COEFFICIENT_NAMES},
+        "e": coeffs.e,
+        "linear_model": {"kind": "elastic (lumped, eqs. 24-30)" if linear.elastic else "inelastic (eqs. 10-12)",
+                         "water_time_s": linear.water_time_s, "inertia_time_s": linear.inertia_time_s,
+                         "self_regulation": linear.self_regulation, "wave_time_s": linear.wave_time_s,
+                         "alpha": linear.alpha, "friction_slope": linear.friction_slope,
+                         "eigenvalues": [[float(v.real), float(v.imag)] for v in ss.eigenvalues()],
+                         "open_loop_stable": ss.is_stable(),
+                         "speed_tf": {"num": num.tolist(), "den": den.tolist()},
+                         "arx": linear.arx(sample_time_s).to_dict()},
+    }
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # series
 # ----------------------------------------------------------------------------------------------------------------

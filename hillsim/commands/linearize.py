@@ -49,7 +49,14 @@ def register(subparsers) -> None:
     parser.add_argument("nets", metavar="NETS", help="nets.json, or 'synthetic' for the exact synthetic turbine")
     point = parser.add_argument_group("operating point (either N11 directly or speed, head and diameter)")
     point.add_argument("--n11", type=float, default=None, help="unit speed N11, r/min")
-    point.add_argument("--opening", type=float, required=True, help="guide-vane opening, chart units (> 0)")
+    point.add_argument("--opening", type=float, default=None, help="guide-vane opening, chart units (> 0)")
+    point.add_argument("--plant", default=None, metavar="TOML",
+                       help="linearize at this plant's initial operating point (its scenario's initial power or "
+                            "opening, or --stroke) with NETS as the characteristics; adds the linear plant model")
+    point.add_argument("--stroke", type=float, default=None, help="with --plant: operating stroke fraction")
+    point.add_argument("--penstock-model", choices=("moc", "zdomain", "lumped", "rigid"), default=None,
+                       help="with --plant: rigid gives the inelastic model, otherwise the lumped elastic one")
+    point.add_argument("--tau", type=float, default=0.2, help="with --plant: sampling time of the ARX, s")
     point.add_argument("--speed-rpm", type=float, default=None, help="shaft speed n, r/min (with --head-m, --d1-m)")
     point.add_argument("--head-m", type=float, default=None, help="net head H, m")
     point.add_argument("--d1-m", type=float, default=None, help="runner diameter D1, m")
@@ -67,6 +74,12 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
 
     characteristics, label, opening_unit = load_characteristics(args.nets)
+    if args.plant is not None:
+        return _run_plant(args, characteristics, label, opening_unit)
+    if args.stroke is not None or args.penstock_model is not None:
+        raise InputError("--stroke and --penstock-model need --plant")
+    if args.opening is None:
+        raise InputError("the operating point needs --opening (chart units), or --plant")
     physical = (args.speed_rpm, args.head_m, args.d1_m)
     if args.n11 is not None and any(v is not None for v in physical):
         raise InputError("give either --n11 or --speed-rpm/--head-m/--d1-m, not both")
@@ -104,5 +117,24 @@ def run(args: argparse.Namespace) -> int:
         plot_coefficient_maps(maps, args.map, operating_point=(coeffs.n11_rpm, coeffs.opening),
                               opening_unit=opening_unit)
         out["map"] = str(args.map)
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _run_plant(args, characteristics, label, opening_unit) -> int:
+    from simulate.comparison import plant_linearization
+    from simulate.config import load_plant
+
+    if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
+        raise InputError("with --plant the operating point comes from the plant (use --stroke to choose it); "
+                         "drop --n11/--opening/--speed-rpm/--head-m/--d1-m")
+    if args.map is not None:
+        raise InputError("--map draws the chart maps: use it without --plant")
+    if not (np.isfinite(args.tau) and args.tau > 0):
+        raise InputError(f"--tau must be > 0, got {args.tau}")
+    plant = load_plant(args.plant)
+    out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
+    out |= plant_linearization(plant, characteristics, initial_opening=args.stroke,
+                               penstock_model=args.penstock_model, sample_time_s=args.tau)
     print(json.dumps(out, indent=2))
     return 0
