@@ -706,6 +706,24 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
         parts["step_responses"]["simulated_first_step"] = np.r_[simulated, np.full(
             max(0, parts["step_responses"]["time_s"].size - simulated.size), np.nan)][
             : parts["step_responses"]["time_s"].size]
+        # ARX order: the lumped/rigid models are order 3/2; MOC has more modes. Batch LS (lstsq) per order, step
+        # response against the nets' ZOH model and against the simulator's own first step
+        nets_step = parts["step_responses"]["nets_zoh"]
+        sim_step = parts["step_responses"]["simulated_first_step"]
+        ok = np.isfinite(sim_step)
+        sweep = []
+        for order in range(2, 7):
+            phi, target = arx_regressors(series.x, series.y, n_a=order, n_b=order, input_delay=0)
+            theta = np.linalg.lstsq(phi, target, rcond=None)[0]
+            step = ArxModel.from_theta(theta, n_a=order, n_b=order).step_response(nets_step.size - 1)
+            if not np.all(np.isfinite(step)) or np.max(np.abs(step)) > 1e6:
+                sweep.append({"order": order, "unstable": True})
+                continue
+            sweep.append({"order": order,
+                          "step_error_vs_nets": float(np.max(np.abs(step - nets_step)) / np.max(np.abs(nets_step))),
+                          "step_error_vs_simulated_step": float(np.max(np.abs(step[ok] - sim_step[ok]))
+                                                                / np.max(np.abs(sim_step[ok])))})
+        summary["arx_order_sweep"] = sweep
     summary = {
         "source": "simulation",
         "penstock_model": run_plant.penstock.model,
@@ -947,6 +965,17 @@ def markdown_tables(summary: dict) -> str:
                      f"linear prediction: max difference {_fmt(s['max_error_frac_of_peak'])} of the peak "
                      f"(final value {_fmt(s['final_value_simulated'])} vs {_fmt(s['final_value_nets'])} per unit "
                      "step).")
+    if "arx_order_sweep" in summary:
+        lines.append("")
+        lines.append("| ARX order (batch LS, ZOH structure) | step error vs nets | step error vs the simulator's own "
+                     "first step |")
+        lines.append("|---|---|---|")
+        for row in summary["arx_order_sweep"]:
+            if row.get("unstable"):
+                lines.append(f"| {row['order']} | unstable | unstable |")
+            else:
+                lines.append(f"| {row['order']} | {_fmt(row['step_error_vs_nets'])} | "
+                             f"{_fmt(row['step_error_vs_simulated_step'])} |")
     if "arma_paper002" in summary and "ey" in summary["arma_paper002"]:
         a = summary["arma_paper002"]
         nets = a.get("nets", {})

@@ -65,6 +65,11 @@ def test_moc_difference_is_reported_and_static_coefficients_do_not_depend_on_it(
     assert lumped["simulated_step_vs_nets"]["max_error_frac_of_peak"] < 0.03
     assert np.isfinite(moc["arx"]["rls"]["step_error_vs_nets"])
     assert moc["acceptance"]["rls_step_response_within_5pct"] is None  # reported, not judged, for moc
+    # why: the travelling waves need more ARX order at tau = 0.2 s. Batch-LS ARX of order 6 follows the nets'
+    # lumped model within 5 % (measured 2.2 %), order 3 does not (measured 11.5 %); for lumped data order 3 suffices
+    sweep = {row["order"]: row for row in moc["arx_order_sweep"]}
+    assert sweep[6]["step_error_vs_nets"] < 0.05 < sweep[3]["step_error_vs_nets"]
+    assert {row["order"]: row for row in lumped["arx_order_sweep"]}[3]["step_error_vs_nets"] < 0.01
 
 
 def test_paper_002_arma_on_the_rigid_run(reports):
