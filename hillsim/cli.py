@@ -18,8 +18,10 @@ COMMAND_MODULES = (
     "hillsim.commands.extend",
     "hillsim.commands.train",
     "hillsim.commands.chart",
-    "hillsim.commands.demo",
+    "hillsim.commands.linearize",
     "hillsim.commands.run",
+    "hillsim.commands.identify",
+    "hillsim.commands.demo",
 )
 
 
