@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import time
-import warnings
 
-from hillsim.commands.extend import add_extension_arguments, extension_options
+from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
 
 
 def register(subparsers) -> None:
@@ -41,17 +40,12 @@ def _check_int(option: str, value: int, low: int) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.extend import extend_samples
     from hillchart.nets import train_nets
-    from hillchart.samples import load_chart
 
     _check_int("--hidden", args.hidden, 1)
     _check_int("--restarts", args.restarts, 1)
     _check_int("--seed", args.seed, 0)
     options = extension_options(args)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        chart = load_chart(args.chart)
-    for w in caught:
-        print(f"warning: {w.message}")
+    chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
     start = time.perf_counter()
     nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
