@@ -34,7 +34,7 @@ from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from hillchart.characteristics import unit_torque_from_efficiency
 from hillchart.errors import InputError, NumericalError
-from hillchart.samples import ChartSamples
+from hillchart.samples import ChartSamples, parse_cell
 
 ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed")
 TARGETS = ("q11", "m11")
@@ -392,13 +392,7 @@ def read_extended_csv(path, *, opening_unit: str, opening_max: float) -> Extende
         cols["target"].append(t)
         cols["origin"].append(o)
         for name, cell in zip(CSV_COLUMNS[2:], row[2:]):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise InputError(f"{path}: row {line_no}, column {name!r}: not a number: {cell!r}") from None
-            if not np.isfinite(value):
-                raise InputError(f"{path}: row {line_no}, column {name!r}: value must be finite, got {cell!r}")
-            cols[name].append(value)
+            cols[name].append(parse_cell(path, line_no, name, cell))
     return ExtendedSamples(
         target=np.array(cols["target"]),
         origin=np.array(cols["origin"]),

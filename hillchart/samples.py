@@ -129,6 +129,17 @@ def read_chart_info(path) -> ChartInfo:
     return ChartInfo(**data)
 
 
+def parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
+    """One finite number from a CSV cell; the error names file, row (line number) and column."""
+    try:
+        value = float(cell)
+    except ValueError:
+        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r}") from None
+    if not np.isfinite(value):
+        raise InputError(f"{path}: row {line_no}, column {column!r}: value must be finite, got {cell!r}")
+    return value
+
+
 def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Read a numeric CSV with exactly ``columns`` (any order); errors name file, line and column."""
     try:
@@ -154,13 +165,7 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
         if len(row) != len(header):
             raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
         for name, cell in zip(header, row):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise InputError(f"{path}: row {line_no}, column {name!r}: not a number: {cell!r}") from None
-            if not np.isfinite(value):
-                raise InputError(f"{path}: row {line_no}, column {name!r}: value must be finite, got {cell!r}")
-            data[name].append(value)
+            data[name].append(parse_cell(path, line_no, name, cell))
     if not data[columns[0]]:
         raise InputError(f"{path}: no data rows below the header")
     return {c: np.asarray(v, dtype=float) for c, v in data.items()}

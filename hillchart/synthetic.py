@@ -232,6 +232,15 @@ def _csv_text(header, rows) -> str:
     return buffer.getvalue()
 
 
+def _digitized_row(label: float, label_digits: int, n11: float, q11: float, rng: np.random.Generator):
+    """A point as a digitizer exports it: exact label, N11 and Q11 with reading noise, rounded."""
+    return (
+        _fmt(label, label_digits),
+        _fmt(n11 + rng.normal(0, NOISE_N11_RPM), DIGITS["n11"]),
+        _fmt(q11 + rng.normal(0, NOISE_Q11_M3_S), DIGITS["q11"]),
+    )
+
+
 def _flow_lines(turbine: SyntheticFrancis, rng: np.random.Generator):
     rows = []
     n11_grid = np.linspace(*CHART_N11_RANGE, 321)
@@ -241,14 +250,7 @@ def _flow_lines(turbine: SyntheticFrancis, rng: np.random.Generator):
         if inside.size < 2:
             continue
         for n11 in np.linspace(inside[0], inside[-1], 7):
-            q11 = float(turbine.q11(n11, opening))
-            rows.append(
-                (
-                    _fmt(opening, DIGITS["opening"]),
-                    _fmt(n11 + rng.normal(0, NOISE_N11_RPM), DIGITS["n11"]),
-                    _fmt(q11 + rng.normal(0, NOISE_Q11_M3_S), DIGITS["q11"]),
-                )
-            )
+            rows.append(_digitized_row(opening, DIGITS["opening"], n11, float(turbine.q11(n11, opening)), rng))
     return rows
 
 
@@ -268,14 +270,7 @@ def _efficiency_contours(turbine: SyntheticFrancis, rng: np.random.Generator, po
             arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line / [30.0, 20.0], axis=0).T))])
             for s in np.linspace(0.0, arc[-1], points_per_contour, endpoint=not np.allclose(line[0], line[-1])):
                 n, a = np.interp(s, arc, line[:, 0]), np.interp(s, arc, line[:, 1])
-                q11 = float(turbine.q11(n, a))
-                rows.append(
-                    (
-                        _fmt(level, DIGITS["efficiency"]),
-                        _fmt(n + rng.normal(0, NOISE_N11_RPM), DIGITS["n11"]),
-                        _fmt(q11 + rng.normal(0, NOISE_Q11_M3_S), DIGITS["q11"]),
-                    )
-                )
+                rows.append(_digitized_row(level, DIGITS["efficiency"], n, float(turbine.q11(n, a)), rng))
     return rows
 
 
@@ -283,14 +278,7 @@ def _runaway_curve(turbine: SyntheticFrancis, rng: np.random.Generator):
     rows = []
     for opening in RUNAWAY_OPENINGS_MM:
         n11 = turbine.runaway_n11(opening)
-        q11 = float(turbine.q11(n11, opening))
-        rows.append(
-            (
-                _fmt(opening, DIGITS["opening"]),
-                _fmt(n11 + rng.normal(0, NOISE_N11_RPM), DIGITS["n11"]),
-                _fmt(q11 + rng.normal(0, NOISE_Q11_M3_S), DIGITS["q11"]),
-            )
-        )
+        rows.append(_digitized_row(opening, DIGITS["opening"], n11, float(turbine.q11(n11, opening)), rng))
     return rows
 
 

@@ -18,6 +18,9 @@ COMMAND_MODULES = (
     "hillsim.commands.extend",
     "hillsim.commands.train",
     "hillsim.commands.chart",
+    "hillsim.commands.linearize",
+    "hillsim.commands.run",
+    "hillsim.commands.identify",
     "hillsim.commands.demo",
 )
 

@@ -57,3 +57,20 @@ def test_unknown_option_is_an_argparse_error(capsys):
         main(["extend", str(FRANCIS_DIR), "--out", "x.csv", "--colour", "red"])
     assert exc.value.code == 2
     assert "--colour" in capsys.readouterr().err
+
+
+def test_train_warns_when_nets_imply_efficiency_above_the_chart(tmp_path, capsys):
+    """Sayano-Shushenskaya: its opening lines start at N11 = 56, so the zero-speed extrapolation is poor and the
+    default nets reach eta 1.12 inside the digitized region (measured); without that boundary they peak at 0.94."""
+    from tests.external_charts import write_sayano_chart
+
+    folder = write_sayano_chart(tmp_path / "sayano")
+    assert main(["train", str(folder), "--out", str(tmp_path / "a.json")]) == 0
+    assert "the nets' efficiency reaches 1.1" in capsys.readouterr().out
+    assert main(["train", str(folder), "--out", str(tmp_path / "b.json"), "--no-zero-speed"]) == 0
+    assert "the nets' efficiency reaches" not in capsys.readouterr().out
+
+
+def test_train_synthetic_chart_gives_no_efficiency_warning(tmp_path, capsys):
+    assert main(["train", str(FRANCIS_DIR), "--out", str(tmp_path / "n.json")]) == 0
+    assert "efficiency reaches" not in capsys.readouterr().out

@@ -31,6 +31,18 @@ def extension_options(args: argparse.Namespace):
     )
 
 
+def load_chart_reporting_warnings(folder):
+    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``."""
+    from hillchart.samples import load_chart
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        chart = load_chart(folder)
+    for w in caught:
+        print(f"warning: {w.message}")
+    return chart
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "extend",
@@ -46,14 +58,9 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from hillchart.extend import extend_samples
-    from hillchart.samples import load_chart
 
     options = extension_options(args)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        chart = load_chart(args.chart)
-    for w in caught:
-        print(f"warning: {w.message}")
+    chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
     extended.to_csv(args.out)
     print(f"wrote {args.out}: {len(extended.value)} samples")

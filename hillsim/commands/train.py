@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import time
-import warnings
 
-from hillsim.commands.extend import add_extension_arguments, extension_options
+from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
 
 
 def register(subparsers) -> None:
@@ -41,17 +40,12 @@ def _check_int(option: str, value: int, low: int) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.extend import extend_samples
     from hillchart.nets import train_nets
-    from hillchart.samples import load_chart
 
     _check_int("--hidden", args.hidden, 1)
     _check_int("--restarts", args.restarts, 1)
     _check_int("--seed", args.seed, 0)
     options = extension_options(args)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        chart = load_chart(args.chart)
-    for w in caught:
-        print(f"warning: {w.message}")
+    chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
     start = time.perf_counter()
     nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
@@ -66,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
     nets.save(args.out)
+    warning = efficiency_plausibility_warning(nets, chart)
+    if warning:
+        print(f"warning: {warning}")
     print(f"chart {chart.info.name!r}: {len(extended.value)} extended samples; 2-{args.hidden}-1 logsig nets, "
           f"best of {args.restarts} Levenberg-Marquardt runs each (seed {args.seed})")
     print(format_training_table(nets))
@@ -90,3 +87,23 @@ def format_training_table(nets) -> str:
                      f"{rec['stop_reason']:<10} {seconds}")
     lines.append("(MSE on outputs mapped to [-1, 1], as trainlm's goal; max |e| in physical units)")
     return "\n".join(lines)
+
+
+def efficiency_plausibility_warning(nets, chart, *, margin: float = 0.03) -> str | None:
+    """A warning when the nets' efficiency inside the digitized region exceeds the chart's best contour by more
+    than ``margin`` (the flow and torque nets then disagree: usually a poor boundary extrapolation), else None."""
+    import numpy as np
+
+    from hillchart.chartplot import efficiency_from_characteristics
+    from hillchart.nets import measured_region_mask
+
+    n11, opening = np.meshgrid(np.linspace(chart.flow_n11.min(), chart.flow_n11.max(), 60),
+                               np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 60))
+    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, n11, opening)
+    eta = efficiency_from_characteristics(nets, n11[inside], opening[inside])
+    best_net, best_chart = float(np.nanmax(eta)), float(chart.eff_efficiency.max())
+    if best_net <= best_chart + margin:
+        return None
+    return (f"the nets' efficiency reaches {best_net:.3f} inside the digitized region, the chart's best contour is "
+            f"{best_chart:.3f}: the flow and torque nets disagree there; check the extended samples "
+            "(hillsim extend --plot), e.g. train with --no-zero-speed when the opening lines start far from N11 = 0")

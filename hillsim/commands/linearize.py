@@ -1,0 +1,140 @@
+"""``hillsim linearize NETS --n11 X --opening A [--map out.png]``: the six transfer coefficients from the nets.
+
+Prints one JSON object: the operating point, ``ex, ey, eh, eqx, eqy, eqh`` (analytic derivatives of the nets, see
+:mod:`hillchart.linearize`) and paper 002's ``e``. ``NETS`` is a ``nets.json`` or the word ``synthetic`` (the exact
+synthetic Francis turbine the shipped chart was drawn from, for comparison).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+
+def load_characteristics(source: str):
+    """``(characteristics, label, opening_unit)`` for a nets.json path or ``"synthetic"``."""
+    if source == "synthetic":
+        from hillchart.synthetic import SyntheticFrancis
+
+        return SyntheticFrancis(), "synthetic Francis turbine (exact)", "mm"
+    from hillchart.nets import load_nets  # lazy: the nets module pulls in its own dependencies
+
+    nets = load_nets(source)
+    return nets, str(source), getattr(nets, "opening_unit", "chart units")
+
+
+def _chart_ranges(characteristics):
+    """(n11_lo, n11_hi), (a_lo, a_hi) of the nets' input normalization, when the object has one."""
+    flow = getattr(characteristics, "flow", None)
+    if flow is not None and hasattr(flow, "x_min") and hasattr(flow, "x_max"):
+        lo, hi = np.asarray(flow.x_min, float), np.asarray(flow.x_max, float)
+        return (lo[0], hi[0]), (lo[1], hi[1])
+    opening_max = getattr(characteristics, "opening_max", None)
+    if opening_max is not None:
+        return (30.0, 110.0), (0.0, float(opening_max))
+    return None, None
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "linearize",
+        help="six transfer coefficients (ex, ey, eh, eqx, eqy, eqh) from the nets at an operating point",
+        description="Six coefficients of the linear turbine model from the nets' analytic derivatives (paper 000, "
+                    "eqs. 4-7). Prints JSON; --map draws each coefficient over (N11, a).",
+    )
+    parser.add_argument("nets", metavar="NETS", help="nets.json, or 'synthetic' for the exact synthetic turbine")
+    point = parser.add_argument_group("operating point (either N11 directly or speed, head and diameter)")
+    point.add_argument("--n11", type=float, default=None, help="unit speed N11, r/min")
+    point.add_argument("--opening", type=float, default=None, help="guide-vane opening, chart units (> 0)")
+    point.add_argument("--plant", default=None, metavar="TOML",
+                       help="linearize at this plant's initial operating point (its scenario's initial power or "
+                            "opening, or --stroke) with NETS as the characteristics; adds the linear plant model")
+    point.add_argument("--stroke", type=float, default=None, help="with --plant: operating stroke fraction")
+    point.add_argument("--penstock-model", choices=("moc", "zdomain", "lumped", "rigid"), default=None,
+                       help="with --plant: rigid gives the inelastic model, otherwise the lumped elastic one")
+    point.add_argument("--tau", type=float, default=0.2, help="with --plant: sampling time of the ARX, s")
+    point.add_argument("--speed-rpm", type=float, default=None, help="shaft speed n, r/min (with --head-m, --d1-m)")
+    point.add_argument("--head-m", type=float, default=None, help="net head H, m")
+    point.add_argument("--d1-m", type=float, default=None, help="runner diameter D1, m")
+    maps = parser.add_argument_group("coefficient maps")
+    maps.add_argument("--map", default=None, metavar="PNG", help="draw each coefficient over (N11, a) into PNG")
+    maps.add_argument("--n11-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                      help="N11 range of the map, r/min (default: the nets' input range, from 1 r/min)")
+    maps.add_argument("--opening-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                      help="opening range of the map (default: the nets' input range, from 5 %% of its top)")
+    maps.add_argument("--grid", type=int, default=60, help="grid points per axis of the map (default 60)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
+
+    characteristics, label, opening_unit = load_characteristics(args.nets)
+    if args.plant is not None:
+        return _run_plant(args, characteristics, label, opening_unit)
+    if args.stroke is not None or args.penstock_model is not None:
+        raise InputError("--stroke and --penstock-model need --plant")
+    if args.opening is None:
+        raise InputError("the operating point needs --opening (chart units), or --plant")
+    physical = (args.speed_rpm, args.head_m, args.d1_m)
+    if args.n11 is not None and any(v is not None for v in physical):
+        raise InputError("give either --n11 or --speed-rpm/--head-m/--d1-m, not both")
+    if args.n11 is not None:
+        coeffs = six_coefficients(characteristics, n11=args.n11, opening=args.opening)
+        point = {"n11_rpm": args.n11, "opening": args.opening}
+    elif all(v is not None for v in physical):
+        coeffs = six_coefficients_at(characteristics, speed_rpm=args.speed_rpm, head_m=args.head_m,
+                                     runner_diameter_m=args.d1_m, opening=args.opening)
+        point = {"speed_rpm": args.speed_rpm, "head_m": args.head_m, "runner_diameter_m": args.d1_m,
+                 "n11_rpm": coeffs.n11_rpm, "opening": args.opening}
+    else:
+        raise InputError("the operating point needs --n11, or all of --speed-rpm, --head-m and --d1-m")
+    record = coeffs.to_dict()
+    out = {
+        "source": label,
+        "opening_unit": opening_unit,
+        "operating_point": point | {"q11_m3_s": record["q11_m3_s"], "m11_nm": record["m11_nm"]},
+        "coefficients": {k: record[k] for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")},
+        "e": coeffs.e,  # paper 002: e = eqy eh / ey - eqh
+    }
+    if args.map is not None:
+        if args.grid < 2 or args.grid > 1000:
+            raise InputError(f"--grid must be in [2, 1000], got {args.grid}")
+        n_rng, a_rng = _chart_ranges(characteristics)
+        n_lo, n_hi = args.n11_range if args.n11_range else (max(1.0, n_rng[0]), n_rng[1]) if n_rng else (None, None)
+        a_lo, a_hi = (args.opening_range if args.opening_range
+                      else (max(a_rng[0], 0.05 * a_rng[1]), a_rng[1]) if a_rng else (None, None))
+        if n_lo is None or a_lo is None:
+            raise InputError("--map needs --n11-range and --opening-range for these characteristics")
+        for name, lo, hi in (("--n11-range", n_lo, n_hi), ("--opening-range", a_lo, a_hi)):
+            if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+                raise InputError(f"{name} must satisfy 0 < LO < HI, got {lo} {hi}")
+        maps = coefficient_maps(characteristics, np.linspace(n_lo, n_hi, args.grid), np.linspace(a_lo, a_hi, args.grid))
+        plot_coefficient_maps(maps, args.map, operating_point=(coeffs.n11_rpm, coeffs.opening),
+                              opening_unit=opening_unit)
+        out["map"] = str(args.map)
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _run_plant(args, characteristics, label, opening_unit) -> int:
+    from simulate.comparison import plant_linearization
+    from simulate.config import load_plant
+
+    if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
+        raise InputError("with --plant the operating point comes from the plant (use --stroke to choose it); "
+                         "drop --n11/--opening/--speed-rpm/--head-m/--d1-m")
+    if args.map is not None:
+        raise InputError("--map draws the chart maps: use it without --plant")
+    if not (np.isfinite(args.tau) and args.tau > 0):
+        raise InputError(f"--tau must be > 0, got {args.tau}")
+    plant = load_plant(args.plant)
+    out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
+    out |= plant_linearization(plant, characteristics, initial_opening=args.stroke,
+                               penstock_model=args.penstock_model, sample_time_s=args.tau)
+    print(json.dumps(out, indent=2))
+    return 0

@@ -1,0 +1,635 @@
+"""Plant configuration: a TOML file -> frozen dataclasses with units in the names.
+
+Every section is a frozen dataclass whose ``__post_init__`` rejects nonsense with an :class:`InputError` that names
+``section.key``, the bad value and the allowed range. The TOML reader is strict: an unknown key or a missing required
+key is an error naming the key and the valid ones; optional keys have the documented default below.
+
+File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
+
+    [turbine]    rated_head_m, rated_flow_m3_s, rated_speed_rpm, rated_power_mw, runner_diameter_m,
+                 opening_max, characteristics            # "ideal" or a nets.json path relative to the file
+    [penstock]   model, static_head_m, reaches, [lumped_alpha], [zdomain_feedback]
+    [[penstock.segments]]  length_m, diameter_m, wave_speed_m_s, darcy_friction   (upstream first)
+    [generator]  inertia_time_s, self_regulation
+    [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
+                 opening_time_s, stroke_min, stroke_max
+    [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
+    [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation]
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import MISSING, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from hillchart.errors import InputError
+
+PENSTOCK_MODELS = ("moc", "zdomain", "lumped", "rigid")
+PRESSURE_LOOPS = ("improved", "traditional", "newton")
+SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps")
+
+#: Keys each scenario kind accepts beyond ``kind`` and ``t_end_s`` (required ones first in the docs).
+SCENARIO_KEYS = {
+    "load-rejection": ("initial_power_mw", "initial_opening", "event_time_s"),
+    "closure-law": ("initial_power_mw", "initial_opening", "event_time_s", "closing_time_s", "break_opening",
+                    "break_time_s"),
+    "frequency-steps": ("speed_steps", "step_times_s"),
+    "load-step": ("initial_power_mw", "initial_opening", "event_time_s", "load_step"),
+    "opening-steps": ("initial_power_mw", "initial_opening", "opening_steps", "step_times_s"),
+}
+
+
+def _check_number(section: str, key: str, value: Any, *, low: float | None = None, high: float | None = None,
+                  low_open: bool = False, high_open: bool = False) -> float:
+    """Return ``value`` as float or raise InputError naming ``section.key``, the value and the allowed range."""
+    low_txt = "-inf" if low is None else repr(low)
+    high_txt = "inf" if high is None else repr(high)
+    allowed = f"{'(' if low_open or low is None else '['}{low_txt}, {high_txt}{')' if high_open or high is None else ']'}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{section}.{key} must be a number in {allowed}, got {value!r}")
+    value = float(value)
+    bad = not math.isfinite(value)
+    if low is not None:
+        bad |= value <= low if low_open else value < low
+    if high is not None:
+        bad |= value >= high if high_open else value > high
+    if bad:
+        raise InputError(f"{section}.{key} must be in {allowed}, got {value!r}")
+    return value
+
+
+def _check_int(section: str, key: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not (low <= value <= high):
+        raise InputError(f"{section}.{key} must be an integer in [{low}, {high}], got {value!r}")
+    return int(value)
+
+
+def _check_choice(section: str, key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise InputError(f"{section}.{key} must be one of {', '.join(choices)}; got {value!r}")
+    return value
+
+
+def _check_float_list(section: str, key: str, value: Any, *, low: float, high: float) -> tuple[float, ...]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise InputError(f"{section}.{key} must be a list of numbers in [{low}, {high}], got {value!r}")
+    out = tuple(_check_number(section, f"{key}[{i}]", v, low=low, high=high) for i, v in enumerate(value))
+    if not out:
+        raise InputError(f"{section}.{key} must be a non-empty list of numbers, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class TurbineConfig:
+    """Rated values of the unit and where its characteristics come from.
+
+    ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
+    ``a = y * opening_max``. ``characteristics`` is ``"ideal"`` or a path to a nets.json (relative to the plant file).
+    """
+
+    rated_head_m: float
+    rated_flow_m3_s: float
+    rated_speed_rpm: float
+    rated_power_mw: float
+    runner_diameter_m: float
+    opening_max: float
+    characteristics: str
+
+    def __post_init__(self):
+        for name, high in (("rated_head_m", 3000.0), ("rated_flow_m3_s", 1e4), ("rated_speed_rpm", 3600.0),
+                           ("rated_power_mw", 2000.0), ("runner_diameter_m", 20.0), ("opening_max", 1e5)):
+            _check_number("turbine", name, getattr(self, name), low=0.0, high=high, low_open=True)
+        if not isinstance(self.characteristics, str) or not self.characteristics.strip():
+            raise InputError(f"turbine.characteristics must be \"ideal\" or a path to a nets.json, "
+                             f"got {self.characteristics!r}")
+        efficiency = self.rated_efficiency
+        if not (0.0 < efficiency <= 1.0):
+            raise InputError(
+                f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency P_r/(rho g Q_r H_r) = "
+                f"{efficiency:.4g}, which must be in (0, 1]; check rated_power_mw, rated_flow_m3_s, rated_head_m")
+
+    @property
+    def rated_efficiency(self) -> float:
+        """P_r / (rho g Q_r H_r), fraction."""
+        from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
+        return self.rated_power_mw * 1e6 / (RHO_WATER_KG_M3 * G_M_S2 * self.rated_flow_m3_s * self.rated_head_m)
+
+    @property
+    def rated_torque_nm(self) -> float:
+        """P_r / omega_r, N*m (the per-unit torque base of the rotor equation)."""
+        from hillchart.constants import RPM_TO_RAD_S
+        return self.rated_power_mw * 1e6 / (self.rated_speed_rpm * RPM_TO_RAD_S)
+
+
+@dataclass(frozen=True)
+class PenstockSegment:
+    """One pipe of uniform section; segments are in series, upstream first."""
+
+    length_m: float
+    diameter_m: float
+    wave_speed_m_s: float
+    darcy_friction: float
+
+    def __post_init__(self):
+        _check_number("penstock.segments", "length_m", self.length_m, low=0.0, high=1e5, low_open=True)
+        _check_number("penstock.segments", "diameter_m", self.diameter_m, low=0.0, high=30.0, low_open=True)
+        _check_number("penstock.segments", "wave_speed_m_s", self.wave_speed_m_s, low=0.0, high=1600.0,
+                      low_open=True)
+        _check_number("penstock.segments", "darcy_friction", self.darcy_friction, low=0.0, high=0.2)
+
+    @property
+    def area_m2(self) -> float:
+        return math.pi * self.diameter_m ** 2 / 4.0
+
+    @property
+    def travel_time_s(self) -> float:
+        return self.length_m / self.wave_speed_m_s
+
+
+@dataclass(frozen=True)
+class PenstockConfig:
+    """Penstock from the upper reservoir to the turbine inlet.
+
+    ``static_head_m`` is the reservoir level above tailwater; heads are piezometric above tailwater, so the head
+    at the turbine inlet is the turbine's net head (draft-tube losses and velocity head neglected).
+    ``reaches`` is the number of MOC reaches of the segment with the shortest travel time; the time step is that
+    travel time divided by ``reaches`` (Courant number 1). ``lumped_alpha`` is alpha in the lumped model
+    h = -Tw s / (1 + alpha Te^2 s^2) q (default 4/pi^2 puts its resonance on the pipe's first mode, pi a / (2 L)).
+    ``zdomain_feedback`` is F of eq. (17) of the BP hill-chart paper (default 0: lossless characteristic line).
+    """
+
+    model: str
+    static_head_m: float
+    reaches: int
+    segments: tuple[PenstockSegment, ...]
+    lumped_alpha: float = 4.0 / math.pi ** 2
+    zdomain_feedback: float = 0.0
+
+    def __post_init__(self):
+        _check_choice("penstock", "model", self.model, PENSTOCK_MODELS)
+        _check_number("penstock", "static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
+        _check_int("penstock", "reaches", self.reaches, 1, 10000)
+        _check_number("penstock", "lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
+        _check_number("penstock", "zdomain_feedback", self.zdomain_feedback, low=0.0, high=100.0)
+        if not isinstance(self.segments, tuple) or not self.segments or not all(
+                isinstance(s, PenstockSegment) for s in self.segments):
+            raise InputError(f"penstock.segments must be a non-empty list of segments, got {self.segments!r}")
+
+    @property
+    def length_m(self) -> float:
+        return sum(s.length_m for s in self.segments)
+
+    @property
+    def travel_time_s(self) -> float:
+        """One-way wave travel time L/a summed over the segments, s."""
+        return sum(s.travel_time_s for s in self.segments)
+
+    @property
+    def inertance_s2_m2(self) -> float:
+        """sum L_i / (g A_i), s^2/m^2: head (m) = inertance * dQ/dt (m^3/s^2)."""
+        from hillchart.constants import G_M_S2
+        return sum(s.length_m / (G_M_S2 * s.area_m2) for s in self.segments)
+
+    @property
+    def friction_coefficient_s2_m5(self) -> float:
+        """K of the steady friction loss K Q|Q| = sum f L / (2 g D A^2), s^2/m^5."""
+        from hillchart.constants import G_M_S2
+        return sum(s.darcy_friction * s.length_m / (2.0 * G_M_S2 * s.diameter_m * s.area_m2 ** 2)
+                   for s in self.segments)
+
+    def water_time_s(self, rated_flow_m3_s: float, rated_head_m: float) -> float:
+        """Water inertia time Tw = sum L_i Q_r / (g A_i H_r), s (eq. (18) of the BP hill-chart paper)."""
+        return self.inertance_s2_m2 * rated_flow_m3_s / rated_head_m
+
+    @property
+    def moc_time_step_s(self) -> float:
+        """Shortest segment travel time / reaches, s (the default time step of every model)."""
+        return min(s.travel_time_s for s in self.segments) / self.reaches
+
+
+@dataclass(frozen=True)
+class GeneratorConfig:
+    """Rotor and load: ``inertia_time_s`` Ta = J w_r^2 / P_r; ``self_regulation`` e_g (per unit torque per unit
+    speed) of the connected load, active only while the breaker is closed."""
+
+    inertia_time_s: float
+    self_regulation: float = 0.0
+
+    def __post_init__(self):
+        _check_number("generator", "inertia_time_s", self.inertia_time_s, low=0.0, high=100.0, low_open=True)
+        _check_number("generator", "self_regulation", self.self_regulation, low=0.0, high=20.0)
+
+
+@dataclass(frozen=True)
+class GovernorConfig:
+    """Parallel PID on the per-unit speed error with permanent droop, derivative filter and a first-order servo.
+
+    ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
+    ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
+    ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
+    """
+
+    kp: float
+    ki: float
+    kd: float
+    derivative_filter_s: float
+    permanent_droop: float
+    servo_time_s: float
+    closing_time_s: float
+    opening_time_s: float
+    stroke_min: float = 0.0
+    stroke_max: float = 1.0
+
+    def __post_init__(self):
+        _check_number("governor", "kp", self.kp, low=0.0, high=1000.0)
+        _check_number("governor", "ki", self.ki, low=0.0, high=1000.0)
+        _check_number("governor", "kd", self.kd, low=0.0, high=1000.0)
+        _check_number("governor", "derivative_filter_s", self.derivative_filter_s, low=0.0, high=100.0)
+        _check_number("governor", "permanent_droop", self.permanent_droop, low=0.0, high=1.0, high_open=True)
+        _check_number("governor", "servo_time_s", self.servo_time_s, low=0.0, high=100.0, low_open=True)
+        _check_number("governor", "closing_time_s", self.closing_time_s, low=0.0, high=1000.0, low_open=True)
+        _check_number("governor", "opening_time_s", self.opening_time_s, low=0.0, high=1000.0, low_open=True)
+        _check_number("governor", "stroke_min", self.stroke_min, low=0.0, high=1.0)
+        _check_number("governor", "stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+        if self.stroke_min >= self.stroke_max:
+            raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
+                             f"got {self.stroke_min!r}")
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """What happens: ``kind`` (one of :data:`SCENARIO_KINDS`), end time and the kind's own keys.
+
+    Defaults: ``event_time_s`` 1.0; ``load_step`` 0.1 (fraction of the initial load); ``speed_steps``
+    (0.04, -0.08, 0.04) at ``step_times_s`` (10, 40, 70) for frequency-steps (paper 004 Fig. 11a);
+    ``opening_steps`` (0.02,) at ``step_times_s`` (1,) for opening-steps. Exactly one of ``initial_power_mw`` /
+    ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
+    ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
+    vanes move at the slower rate of a full stroke per ``break_time_s``.
+    """
+
+    kind: str
+    t_end_s: float
+    initial_power_mw: float | None = None
+    initial_opening: float | None = None
+    event_time_s: float = 1.0
+    closing_time_s: float | None = None
+    break_opening: float | None = None
+    break_time_s: float | None = None
+    load_step: float = 0.1
+    speed_steps: tuple[float, ...] | None = None
+    opening_steps: tuple[float, ...] | None = None
+    step_times_s: tuple[float, ...] | None = None
+
+    def __post_init__(self):
+        _check_choice("scenario", "kind", self.kind, SCENARIO_KINDS)
+        _check_number("scenario", "t_end_s", self.t_end_s, low=0.0, high=1e5, low_open=True)
+        allowed = set(SCENARIO_KEYS[self.kind])
+        for f in fields(self):
+            if f.name in ("kind", "t_end_s") or f.name in allowed:
+                continue
+            if getattr(self, f.name) != f.default:
+                raise InputError(f"scenario.{f.name} is not used by scenario.kind = {self.kind!r}; "
+                                 f"allowed keys: kind, t_end_s, {', '.join(SCENARIO_KEYS[self.kind])}")
+        _check_number("scenario", "event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
+        if "initial_power_mw" in allowed:
+            if (self.initial_power_mw is None) == (self.initial_opening is None):
+                raise InputError(f"scenario kind {self.kind!r} needs exactly one of scenario.initial_power_mw or "
+                                 f"scenario.initial_opening; got {self.initial_power_mw!r} and "
+                                 f"{self.initial_opening!r}")
+            if self.initial_power_mw is not None:
+                _check_number("scenario", "initial_power_mw", self.initial_power_mw, low=0.0, high=3000.0)
+            if self.initial_opening is not None:
+                _check_number("scenario", "initial_opening", self.initial_opening, low=0.0, high=1.5)
+        if self.kind == "closure-law":
+            if self.closing_time_s is None:
+                raise InputError("scenario.closing_time_s is required for kind 'closure-law' (s, >= 0; "
+                                 "0 closes in one step)")
+            _check_number("scenario", "closing_time_s", self.closing_time_s, low=0.0, high=1000.0)
+            if (self.break_opening is None) != (self.break_time_s is None):
+                raise InputError("scenario.break_opening and scenario.break_time_s go together; got "
+                                 f"{self.break_opening!r} and {self.break_time_s!r}")
+            if self.break_opening is not None:
+                _check_number("scenario", "break_opening", self.break_opening, low=0.0, high=1.0, low_open=True)
+                _check_number("scenario", "break_time_s", self.break_time_s, low=0.0, high=1000.0, low_open=True)
+        if self.kind == "load-step":
+            _check_number("scenario", "load_step", self.load_step, low=-1.0, high=1.0)
+        if self.kind in ("frequency-steps", "opening-steps"):
+            steps_key = "speed_steps" if self.kind == "frequency-steps" else "opening_steps"
+            steps = getattr(self, steps_key)
+            if steps is not None:
+                _check_float_list("scenario", steps_key, steps, low=-1.0, high=1.0)
+            if self.step_times_s is not None:
+                times = _check_float_list("scenario", "step_times_s", self.step_times_s, low=0.0, high=self.t_end_s)
+                if any(b < a for a, b in zip(times, times[1:])):
+                    raise InputError(f"scenario.step_times_s must be non-decreasing, got {list(times)!r}")
+            n_steps = len(self.steps_or_default)
+            if len(self.step_times_or_default) != n_steps:
+                raise InputError(f"scenario.step_times_s must have as many entries as scenario.{steps_key} "
+                                 f"({n_steps}), got {list(self.step_times_or_default)!r}")
+
+    @property
+    def steps_or_default(self) -> tuple[float, ...]:
+        if self.kind == "frequency-steps":
+            return tuple(self.speed_steps) if self.speed_steps is not None else (0.04, -0.08, 0.04)
+        return tuple(self.opening_steps) if self.opening_steps is not None else (0.02,)
+
+    @property
+    def step_times_or_default(self) -> tuple[float, ...]:
+        if self.step_times_s is not None:
+            return tuple(self.step_times_s)
+        return (10.0, 40.0, 70.0) if self.kind == "frequency-steps" else (1.0,)
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """Time step and the turbine-boundary (pressure-loop) solver.
+
+    ``dt_s`` defaults to the MOC step (shortest travel time / reaches); with ``model = "moc"`` it must equal it.
+    ``tolerance`` is on the head residual as a fraction of the rated head. ``relaxation`` alpha is used by the
+    traditional and improved loops (xi <- alpha D_h(xi) + (1 - alpha) xi).
+    """
+
+    dt_s: float | None = None
+    pressure_loop: str = "improved"
+    tolerance: float = 1e-10
+    max_iterations: int = 50
+    relaxation: float = 1.0
+
+    def __post_init__(self):
+        if self.dt_s is not None:
+            _check_number("solver", "dt_s", self.dt_s, low=0.0, high=10.0, low_open=True)
+        _check_choice("solver", "pressure_loop", self.pressure_loop, PRESSURE_LOOPS)
+        _check_number("solver", "tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
+        _check_int("solver", "max_iterations", self.max_iterations, 1, 100000)
+        _check_number("solver", "relaxation", self.relaxation, low=0.0, high=1.0, low_open=True)
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    """The whole plant file. ``base_dir`` resolves a relative ``turbine.characteristics`` path."""
+
+    turbine: TurbineConfig
+    penstock: PenstockConfig
+    generator: GeneratorConfig
+    governor: GovernorConfig
+    scenario: ScenarioConfig
+    solver: SolverConfig = field(default_factory=SolverConfig)
+    base_dir: Path = Path(".")
+
+    def __post_init__(self):
+        sc, gov = self.scenario, self.governor
+        if sc.initial_opening is not None and not (gov.stroke_min <= sc.initial_opening <= gov.stroke_max):
+            raise InputError(f"scenario.initial_opening must be in [governor.stroke_min, governor.stroke_max] = "
+                             f"[{gov.stroke_min!r}, {gov.stroke_max!r}], got {sc.initial_opening!r}")
+        if sc.initial_power_mw is not None and sc.initial_power_mw > 1.5 * self.turbine.rated_power_mw:
+            raise InputError(f"scenario.initial_power_mw must be in [0, 1.5 * turbine.rated_power_mw] = "
+                             f"[0, {1.5 * self.turbine.rated_power_mw!r}], got {sc.initial_power_mw!r}")
+
+    @property
+    def time_step_s(self) -> float:
+        """The simulation step, s (checked against the Courant condition for MOC)."""
+        moc_dt = self.penstock.moc_time_step_s
+        if self.solver.dt_s is None:
+            return moc_dt
+        if self.penstock.model == "moc" and abs(self.solver.dt_s - moc_dt) > 1e-9 * moc_dt:
+            raise InputError(
+                f"solver.dt_s = {self.solver.dt_s!r} s does not meet the MOC Courant condition: with "
+                f"penstock.reaches = {self.penstock.reaches} the step must be (shortest travel time)/reaches = "
+                f"{moc_dt!r} s; omit solver.dt_s or change penstock.reaches")
+        return self.solver.dt_s
+
+    def with_overrides(self, overrides: dict[str, Any]) -> "PlantConfig":
+        """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`)."""
+        raw = to_dict(self)
+        apply_overrides(raw, overrides)
+        return plant_from_dict(raw, base_dir=self.base_dir)
+
+
+_SECTIONS = {
+    "turbine": TurbineConfig,
+    "penstock": PenstockConfig,
+    "generator": GeneratorConfig,
+    "governor": GovernorConfig,
+    "scenario": ScenarioConfig,
+    "solver": SolverConfig,
+}
+_SEGMENT_KEYS = tuple(f.name for f in fields(PenstockSegment))
+
+
+def _build(section: str, cls, raw: Any, extra_keys: tuple[str, ...] = ()):
+    if not isinstance(raw, dict):
+        raise InputError(f"[{section}] must be a table of keys, got {raw!r}")
+    names = [f.name for f in fields(cls) if f.name not in extra_keys]
+    required = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING
+                and f.name not in extra_keys]
+    unknown = sorted(set(raw) - set(names))
+    if unknown:
+        raise InputError(f"unknown key {section}.{unknown[0]}; valid keys of [{section}]: {', '.join(names)}")
+    missing = [k for k in required if k not in raw]
+    if missing:
+        raise InputError(f"missing required key {section}.{missing[0]}; [{section}] needs {', '.join(required)}")
+    return {k: raw[k] for k in names if k in raw}
+
+
+def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> PlantConfig:
+    """Build a :class:`PlantConfig` from the parsed TOML dictionary (strict keys).
+
+    Examples
+    --------
+    >>> raw = {"turbine": {"rated_head_m": 100.0, "rated_flow_m3_s": 10.0, "rated_speed_rpm": 300.0,
+    ...                    "rated_power_mw": 9.0, "runner_diameter_m": 2.0, "opening_max": 1.0,
+    ...                    "characteristics": "ideal"},
+    ...        "penstock": {"model": "moc", "static_head_m": 100.0, "reaches": 4,
+    ...                     "segments": [{"length_m": 400.0, "diameter_m": 2.0, "wave_speed_m_s": 1000.0,
+    ...                                   "darcy_friction": 0.0}]},
+    ...        "generator": {"inertia_time_s": 8.0, "self_regulation": 0.0},
+    ...        "governor": {"kp": 2.0, "ki": 0.5, "kd": 0.0, "derivative_filter_s": 0.0, "permanent_droop": 0.0,
+    ...                     "servo_time_s": 0.2, "closing_time_s": 10.0, "opening_time_s": 20.0},
+    ...        "scenario": {"kind": "load-rejection", "t_end_s": 20.0, "initial_power_mw": 9.0},
+    ...        "solver": {}}
+    >>> plant = plant_from_dict(raw)
+    >>> plant.time_step_s
+    0.1
+    >>> raw["penstock"]["reaches"] = 0
+    >>> plant_from_dict(raw)
+    Traceback (most recent call last):
+    ...
+    hillchart.errors.InputError: penstock.reaches must be an integer in [1, 10000], got 0
+    """
+    if not isinstance(raw, dict):
+        raise InputError(f"plant file must be a table of sections, got {raw!r}")
+    unknown = sorted(set(raw) - set(_SECTIONS))
+    if unknown:
+        raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}")
+    for name in ("turbine", "penstock", "generator", "governor", "scenario"):
+        if name not in raw:
+            raise InputError(f"missing section [{name}]; a plant file needs {', '.join(_SECTIONS)} "
+                             f"([solver] is optional)")
+    turbine = TurbineConfig(**_build("turbine", TurbineConfig, raw["turbine"]))
+    pen_raw = dict(_build("penstock", PenstockConfig, raw["penstock"]))
+    segs = pen_raw.get("segments")
+    if not isinstance(segs, list) or not segs:
+        raise InputError(f"penstock.segments must be a non-empty array of tables [[penstock.segments]], "
+                         f"got {segs!r}")
+    seg_objs = []
+    for i, seg in enumerate(segs):
+        if not isinstance(seg, dict):
+            raise InputError(f"penstock.segments[{i}] must be a table, got {seg!r}")
+        unknown = sorted(set(seg) - set(_SEGMENT_KEYS))
+        if unknown:
+            raise InputError(f"unknown key penstock.segments.{unknown[0]} (segment {i}); valid keys: "
+                             f"{', '.join(_SEGMENT_KEYS)}")
+        missing = [k for k in _SEGMENT_KEYS if k not in seg]
+        if missing:
+            raise InputError(f"missing required key penstock.segments.{missing[0]} (segment {i}); a segment "
+                             f"needs {', '.join(_SEGMENT_KEYS)}")
+        seg_objs.append(PenstockSegment(**seg))
+    pen_raw["segments"] = tuple(seg_objs)
+    penstock = PenstockConfig(**pen_raw)
+    generator = GeneratorConfig(**_build("generator", GeneratorConfig, raw["generator"]))
+    governor = GovernorConfig(**_build("governor", GovernorConfig, raw["governor"]))
+    sc_raw = _build("scenario", ScenarioConfig, raw["scenario"])
+    for key in ("speed_steps", "opening_steps", "step_times_s"):
+        if key in sc_raw and isinstance(sc_raw[key], list):
+            sc_raw[key] = tuple(sc_raw[key])
+    scenario = ScenarioConfig(**sc_raw)
+    solver = SolverConfig(**_build("solver", SolverConfig, raw.get("solver", {})))
+    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor,
+                       scenario=scenario, solver=solver, base_dir=Path(base_dir))
+
+
+def to_dict(plant: PlantConfig) -> dict[str, Any]:
+    """The TOML-shaped dictionary of ``plant`` (only keys that differ from their default are kept for scenario)."""
+    out: dict[str, Any] = {}
+    for name in _SECTIONS:
+        obj = getattr(plant, name)
+        sec = {}
+        for f in fields(obj):
+            value = getattr(obj, f.name)
+            if name == "scenario" and value == f.default and f.name not in ("kind", "t_end_s"):
+                continue
+            if name == "solver" and value is None:
+                continue
+            if f.name == "segments":
+                value = [{k: getattr(s, k) for k in _SEGMENT_KEYS} for s in value]
+            elif isinstance(value, tuple):
+                value = list(value)
+            sec[f.name] = value
+        out[name] = sec
+    return out
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """``"section.key=value"`` -> ``("section.key", value)`` with the value parsed as TOML.
+
+    Examples
+    --------
+    >>> parse_override("penstock.model=\\"rigid\\"")
+    ('penstock.model', 'rigid')
+    >>> parse_override("scenario.t_end_s=30")
+    ('scenario.t_end_s', 30)
+    >>> parse_override("solver.pressure_loop=newton")  # a bare word is taken as a string
+    ('solver.pressure_loop', 'newton')
+    """
+    if "=" not in text:
+        raise InputError(f"--set expects section.key=value, got {text!r}")
+    key, value_text = (s.strip() for s in text.split("=", 1))
+    if key.count(".") != 1 or not all(key.split(".")):
+        raise InputError(f"--set key must be section.key (e.g. solver.dt_s), got {key!r}")
+    try:
+        value = tomllib.loads(f"v = {value_text}")["v"]
+    except tomllib.TOMLDecodeError:
+        if value_text and all(c.isalnum() or c in "-_./" for c in value_text):
+            value = value_text  # a bare word: a string such as newton or ideal
+        else:
+            raise InputError(f"--set {key}: value {value_text!r} is not a TOML value") from None
+    return key, value
+
+
+def apply_overrides(raw: dict[str, Any], overrides: dict[str, Any]) -> None:
+    """Set ``raw[section][key] = value`` for each ``"section.key"`` (a ``None`` value removes the key).
+
+    Switching ``scenario.kind`` drops the scenario keys the new kind does not use.
+    """
+    new_kind = overrides.get("scenario.kind")
+    if new_kind in SCENARIO_KEYS and isinstance(raw.get("scenario"), dict):
+        keep = set(SCENARIO_KEYS[new_kind]) | {"kind", "t_end_s"}
+        raw["scenario"] = {k: v for k, v in raw["scenario"].items() if k in keep}
+    for dotted, value in overrides.items():
+        if not isinstance(dotted, str) or dotted.count(".") != 1:
+            raise InputError(f"override key must be section.key, got {dotted!r}")
+        section, key = dotted.split(".", 1)
+        if section not in _SECTIONS:
+            raise InputError(f"unknown section in override {dotted!r}; valid sections: {', '.join(_SECTIONS)}")
+        sec = raw.setdefault(section, {})
+        if value is None:
+            sec.pop(key, None)
+        else:
+            sec[key] = value
+
+
+def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> PlantConfig:
+    """Read a plant TOML file (strict keys), apply ``{"section.key": value}`` overrides, validate.
+
+    Raises
+    ------
+    InputError
+        Unknown or missing key, out-of-range value, unreadable file.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
+    if overrides:
+        apply_overrides(raw, overrides)
+    return plant_from_dict(raw, base_dir=path.resolve().parent)
+
+
+def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
+    """The characteristics object named by ``turbine.characteristics``.
+
+    ``"ideal"`` gives :class:`hillchart.characteristics.IdealTurbine` from the rated values:
+    q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
+    Anything else is a nets.json path (relative to ``base_dir``) read by ``hillchart.nets.load_nets``.
+
+    Examples
+    --------
+    >>> t = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
+    ...                   runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
+    >>> ideal = load_characteristics(t)
+    >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
+    (0.25, 0.917431)
+    """
+    from hillchart.characteristics import IdealTurbine
+
+    if turbine.characteristics == "ideal":
+        q11_max = turbine.rated_flow_m3_s / (turbine.runner_diameter_m ** 2 * math.sqrt(turbine.rated_head_m))
+        return IdealTurbine(q11_max_m3_s=q11_max, opening_max=turbine.opening_max,
+                            efficiency=turbine.rated_efficiency)
+    path = Path(turbine.characteristics)
+    if not path.is_absolute():
+        path = Path(base_dir) / path
+    if not path.is_file():
+        raise InputError(f"turbine.characteristics = {turbine.characteristics!r}: nets file {str(path)!r} does not "
+                         f"exist; give \"ideal\" or the path of a nets.json (relative to the plant file)")
+    try:
+        from hillchart.nets import load_nets
+    except ImportError as exc:  # the nets module ships separately
+        raise InputError(f"turbine.characteristics = {turbine.characteristics!r} needs hillchart.nets, which "
+                         f"cannot be imported: {exc}") from None
+    return load_nets(path)
+
+
+__all__ = ["PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig",
+           "PenstockSegment", "PenstockConfig", "GeneratorConfig", "GovernorConfig", "ScenarioConfig",
+           "SolverConfig", "PlantConfig", "plant_from_dict", "to_dict", "parse_override", "apply_overrides",
+           "load_plant", "load_characteristics", "replace"]

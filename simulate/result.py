@@ -1,0 +1,162 @@
+"""SimulationResult: the record a run returns (time series in physical units, summary, files on request)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: Columns of timeseries.csv, in order, with units.
+CSV_COLUMNS = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw",
+               "iterations")
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Time series of one run (one row per step, row 0 the verified initial state).
+
+    Attributes
+    ----------
+    time_s, speed_rpm, head_m (at the turbine inlet), flow_m3_s, opening (stroke fraction), opening_chart (chart
+    units), torque_nm (turbine), power_mw (turbine), iterations (pressure-loop iterations of the step, 0 in row 0)
+        ndarray, shape (n_rows,)
+    speed_reference_rpm : float
+        Governor speed reference at the end (rated speed for open-loop kinds).
+    success : bool
+        False when the pressure loop failed and the caller asked for a result instead of an exception; the
+        series then stop at the last good step and ``message`` says why.
+    message : str
+    meta : dict
+        Run settings (penstock model, pressure loop, dt, steady-state residuals, ...).
+    wall_time_s : float
+        Wall-clock time of the time loop (not in the summary, which stays deterministic).
+    """
+
+    time_s: np.ndarray
+    speed_rpm: np.ndarray
+    head_m: np.ndarray
+    flow_m3_s: np.ndarray
+    opening: np.ndarray
+    opening_chart: np.ndarray
+    torque_nm: np.ndarray
+    power_mw: np.ndarray
+    iterations: np.ndarray
+    speed_reference_rpm: float
+    rated_speed_rpm: float
+    success: bool = True
+    message: str = "ok"
+    meta: dict = field(default_factory=dict)
+    wall_time_s: float = float("nan")
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The series by CSV column name."""
+        return {name: getattr(self, name) for name in CSV_COLUMNS}
+
+    def summary(self) -> dict:
+        """Summary figures (fractions of the initial values unless the name says otherwise).
+
+        ``max_speed_rise`` max(n)/n0 - 1; ``t_max_speed_s``; ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
+        1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
+        ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded; steps with the vanes shut count 0,
+        there is nothing to solve); plus the initial point, success,
+        message and the run settings from ``meta``.
+
+        Examples
+        --------
+        >>> t = np.array([0.0, 1.0, 2.0])
+        >>> r = SimulationResult(t, np.array([100.0, 110.0, 100.5]), np.array([50.0, 60.0, 45.0]), t, t, t, t, t,
+        ...                      np.array([0, 2, 4]), speed_reference_rpm=100.0, rated_speed_rpm=100.0)
+        >>> s = r.summary()
+        >>> [round(s[k], 6) for k in ("max_speed_rise", "t_max_speed_s", "max_head_rise", "min_head_drop",
+        ...                           "final_speed_error", "mean_iterations", "max_iterations")]
+        [0.1, 1.0, 0.2, 0.1, 0.005, 3.0, 4]
+        """
+        n0, h0 = float(self.speed_rpm[0]), float(self.head_m[0])
+        i_max = int(np.argmax(self.speed_rpm))
+        steps = self.iterations[1:]
+        out = {
+            "max_speed_rise": float(self.speed_rpm.max() / n0 - 1.0),
+            "t_max_speed_s": float(self.time_s[i_max]),
+            "max_head_rise": float(self.head_m.max() / h0 - 1.0),
+            "min_head_drop": float(1.0 - self.head_m.min() / h0),
+            "final_speed_error": float((self.speed_rpm[-1] - self.speed_reference_rpm) / self.rated_speed_rpm),
+            "mean_iterations": float(steps.mean()) if steps.size else 0.0,
+            "max_iterations": int(steps.max()) if steps.size else 0,
+            "t_max_head_s": float(self.time_s[int(np.argmax(self.head_m))]),
+            "max_head_m": float(self.head_m.max()),
+            "max_speed_rpm": float(self.speed_rpm.max()),
+            "initial_speed_rpm": n0,
+            "initial_head_m": h0,
+            "initial_flow_m3_s": float(self.flow_m3_s[0]),
+            "initial_opening": float(self.opening[0]),
+            "initial_power_mw": float(self.power_mw[0]),
+            "final_opening": float(self.opening[-1]),
+            "t_end_s": float(self.time_s[-1]),
+            "steps": int(self.time_s.size - 1),
+            "success": bool(self.success),
+            "message": self.message,
+        }
+        out.update(self.meta)
+        return out
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write timeseries.csv (header line with :data:`CSV_COLUMNS`, one row per step, 10 significant digits).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> t = np.array([0.0, 0.5])
+        >>> r = SimulationResult(t, t + 200, t + 100, t, t, t, t, t, np.array([0, 3]), 200.0, 200.0)
+        >>> path = r.to_csv(pathlib.Path(tempfile.mkdtemp()) / "timeseries.csv")
+        >>> path.read_text().splitlines()[:2]
+        ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations', '0,200,100,0,0,0,0,0,0']
+        """
+        path = Path(path)
+        data = np.column_stack([self.columns()[c] for c in CSV_COLUMNS])
+        fmt = ["%.10g"] * (len(CSV_COLUMNS) - 1) + ["%d"]
+        np.savetxt(path, data, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt=fmt)
+        return path
+
+    def to_json(self, path: str | Path) -> Path:
+        """Write the :meth:`summary` as JSON (summary.json)."""
+        path = Path(path)
+        path.write_text(json.dumps(self.summary(), indent=2, sort_keys=True, default=_jsonable) + "\n",
+                        encoding="utf-8")
+        return path
+
+    def plot(self, path: str | Path | None = None):
+        """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
+
+        Uses matplotlib's Agg backend (no display). Returns the figure.
+        """
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 9))
+        series = ((self.speed_rpm, "speed (r/min)"), (self.head_m, "head at turbine (m)"),
+                  (self.flow_m3_s, "flow (m$^3$/s)"), (self.opening, "opening (stroke)"))
+        for ax, (values, label) in zip(axes, series):
+            ax.plot(self.time_s, values, lw=1.2)
+            ax.set_ylabel(label)
+            ax.grid(True, alpha=0.3)
+        axes[-1].set_xlabel("time (s)")
+        title = self.meta.get("scenario", "")
+        fig.suptitle(f"{title}  penstock {self.meta.get('penstock_model', '')}, pressure loop "
+                     f"{self.meta.get('pressure_loop', '')}" + ("" if self.success else "  (FAILED)"))
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=120)
+            plt.close(fig)
+        return fig
+
+
+def _jsonable(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)

@@ -1,0 +1,155 @@
+"""Initial steady operation, verified before stepping.
+
+At speed n (rated by default) and stroke y the head H and flow Q satisfy
+
+    penstock:  H = H_st - K Q|Q|                 (K = sum f L / (2 g D A^2))
+    turbine:   Q = Q11(n D1 / sqrt(H), a) D1^2 sqrt(H),  a = y * opening_max
+
+solved by Brent's method (scipy.optimize.brentq) on H; for a power target the stroke is found by a second Brent
+search on P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_TOLERANCE` (relative).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from scipy.optimize import brentq
+
+from hillchart.constants import RPM_TO_RAD_S
+from hillchart.errors import InputError, NumericalError
+
+#: Largest accepted relative residual of every steady-state equation.
+RESIDUAL_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """A verified operating point (physical units) and its relative residuals."""
+
+    speed_rpm: float
+    stroke: float
+    opening_chart: float
+    head_m: float
+    flow_m3_s: float
+    unit_speed_rpm: float
+    unit_flow_m3_s: float
+    torque_nm: float
+    power_mw: float
+    residuals: dict
+
+
+def _turbine_point(kernel, params, speed_rpm, opening, head_m, d1_m):
+    sqrt_h = math.sqrt(head_m)
+    n11 = speed_rpm * d1_m / sqrt_h
+    out = kernel(params, n11, opening)
+    q11, m11 = float(out[0]), float(out[3])
+    return n11, q11, q11 * d1_m * d1_m * sqrt_h, m11 * d1_m ** 3 * head_m
+
+
+def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, friction_s2_m5, d1_m):
+    """Steady head (m) at the turbine for chart opening ``opening`` (H_st - K Q|Q| = H with the turbine law).
+
+    Examples
+    --------
+    >>> from hillchart.characteristics import IdealTurbine, scalar_kernel
+    >>> kernel, params, _ = scalar_kernel(IdealTurbine(q11_max_m3_s=0.5, opening_max=1.0, efficiency=0.9))
+    >>> h = head_at_opening(kernel, params, speed_rpm=300.0, opening=1.0, static_head_m=100.0,
+    ...                     friction_s2_m5=0.01, d1_m=2.0)   # Q = 2 sqrt(H), H = 100 - 0.04 H
+    >>> round(h, 9)
+    96.153846154
+    """
+    def gap(head):
+        flow = _turbine_point(kernel, params, speed_rpm, opening, head, d1_m)[2]
+        return static_head_m - friction_s2_m5 * flow * abs(flow) - head
+
+    g_st = gap(static_head_m)
+    if g_st == 0.0:
+        return float(static_head_m)
+    # One fixed-point step H1 = H_st - K Q(H_st)|Q(H_st)| brackets the root while |Q| grows with H (forward flow:
+    # root below H_st; a slightly negative Q11 at a closed vane gives reverse flow and a root above H_st);
+    # otherwise widen the step geometrically, never to tiny heads where N11 leaves any chart's range.
+    step = g_st
+    other = static_head_m + step
+    g_other = gap(other)
+    while g_other * g_st > 0.0 and 0.1 * static_head_m < other < 10.0 * static_head_m:
+        step *= 2.0
+        other = static_head_m + step
+        g_other = gap(other)
+    if g_other * g_st > 0.0:
+        raise NumericalError(f"steady state: no head between {static_head_m:.6g} and {other:.6g} m balances "
+                             f"friction at opening {opening:.6g} (gaps {g_st:.3g} and {g_other:.3g} m)")
+    low, high = min(static_head_m, other), max(static_head_m, other)
+    return float(brentq(gap, low, high, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
+
+
+def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stroke_min, stroke_max,
+                 speed_rpm=None, power_mw=None, stroke=None) -> SteadyState:
+    """Steady operation at ``speed_rpm`` (rated when None) for a power target or a given stroke, verified.
+
+    Raises
+    ------
+    InputError
+        The power target is outside what the stroke range can give.
+    NumericalError
+        A residual is above :data:`RESIDUAL_TOLERANCE` (the message names the equation and its size).
+
+    Examples
+    --------
+    >>> from hillchart.characteristics import IdealTurbine, scalar_kernel
+    >>> from simulate.config import TurbineConfig
+    >>> t = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
+    ...                   runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
+    >>> ideal = IdealTurbine(q11_max_m3_s=0.25, opening_max=1.0, efficiency=9.0 / 9.81)
+    >>> kernel, params, _ = scalar_kernel(ideal)
+    >>> s = steady_state(kernel, params, turbine=t, static_head_m=100.0, friction_s2_m5=0.0, stroke_min=0.0,
+    ...                  stroke_max=1.0, power_mw=4.5)
+    >>> round(s.stroke, 9), round(s.flow_m3_s, 9)
+    (0.5, 5.0)
+    """
+    if (power_mw is None) == (stroke is None):
+        raise InputError(f"steady state needs exactly one of power_mw or stroke, got {power_mw!r} and {stroke!r}")
+    speed = turbine.rated_speed_rpm if speed_rpm is None else float(speed_rpm)
+    d1, a_max = turbine.runner_diameter_m, turbine.opening_max
+    omega = speed * RPM_TO_RAD_S
+
+    def head_of(y):
+        return head_at_opening(kernel, params, speed_rpm=speed, opening=y * a_max, static_head_m=static_head_m,
+                               friction_s2_m5=friction_s2_m5, d1_m=d1)
+
+    def power_of(y):
+        head = head_of(y)
+        return _turbine_point(kernel, params, speed, y * a_max, head, d1)[3] * omega * 1e-6
+
+    if stroke is None:
+        p_low, p_high = power_of(stroke_min) - power_mw, power_of(stroke_max) - power_mw
+        if p_low == 0.0:
+            stroke = stroke_min
+        elif p_high == 0.0:
+            stroke = stroke_max
+        elif p_low * p_high > 0.0:
+            raise InputError(
+                f"scenario.initial_power_mw = {power_mw!r} is outside the power range the unit gives at "
+                f"{speed:.6g} r/min between governor.stroke_min and stroke_max: "
+                f"[{p_low + power_mw:.6g}, {p_high + power_mw:.6g}] MW")
+        else:
+            stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, stroke_max, xtol=1e-15, rtol=1e-15,
+                            maxiter=500)
+    stroke = float(stroke)
+    head = head_of(stroke)
+    n11, q11, flow, torque = _turbine_point(kernel, params, speed, stroke * a_max, head, d1)
+    power = torque * omega * 1e-6
+    flow_scale = max(abs(flow), 1e-6 * turbine.rated_flow_m3_s)
+    residuals = {
+        "penstock head (H_st - K Q|Q| - H)/H": (static_head_m - friction_s2_m5 * flow * abs(flow) - head) / head,
+        "turbine flow (Q - Q11 D1^2 sqrt(H))/Q": (flow - q11 * d1 * d1 * math.sqrt(head)) / flow_scale,
+    }
+    if power_mw is not None:
+        residuals["power (P - P_target)/P_r"] = (power - power_mw) / turbine.rated_power_mw
+    for name, value in residuals.items():
+        if not abs(value) < RESIDUAL_TOLERANCE:
+            raise NumericalError(f"initial steady state: residual of {name} is {value:.3g}, above the allowed "
+                                 f"{RESIDUAL_TOLERANCE:g} (stroke {stroke:.9g}, head {head:.9g} m)")
+    return SteadyState(speed_rpm=speed, stroke=stroke, opening_chart=stroke * a_max, head_m=head, flow_m3_s=flow,
+                       unit_speed_rpm=n11, unit_flow_m3_s=q11, torque_nm=torque, power_mw=power,
+                       residuals=residuals)

@@ -1,0 +1,50 @@
+"""``hillsim linearize NETS --plant plant.toml``: the linear model at a plant's initial operating point."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from hillsim.cli import main
+
+pytest.importorskip("simulate.engine")
+
+from data_synthetic import FRANCIS_DIR  # noqa: E402
+from hillchart.linearize import six_coefficients  # noqa: E402
+from hillchart.nets import load_nets  # noqa: E402
+
+PLANT_FILE = FRANCIS_DIR.parent / "plant_hla339.toml"
+NETS = FRANCIS_DIR / "nets.json"
+
+
+@pytest.mark.parametrize("model, order", [("rigid", 2), ("lumped", 3)])
+def test_linearize_at_plant_operating_point(capsys, model, order):
+    assert main(["linearize", str(NETS), "--plant", str(PLANT_FILE), "--stroke", "0.68", "--penstock-model",
+                 model]) == 0
+    out = json.loads(capsys.readouterr().out)
+    op = out["operating_point"]
+    assert op["stroke"] == 0.68 and op["n11_rpm"] == pytest.approx(200 * 4.5 / np.sqrt(op["head_m"]), rel=1e-12)
+    ref = six_coefficients(load_nets(NETS), n11=op["n11_rpm"], opening=op["opening_chart"])
+    assert out["coefficients"]["ex"] == pytest.approx(ref.ex, rel=1e-12)
+    lin = out["linear_model"]
+    eig = np.sort([complex(*v) for v in lin["eigenvalues"]])
+    np.testing.assert_allclose(eig, np.sort(np.roots(lin["speed_tf"]["den"])), rtol=1e-9)  # poles of N/D = eig(A)
+    assert lin["open_loop_stable"] and len(lin["arx"]["a"]) == order
+    # Tw at O from the penstock geometry: sum L/(g A) * Q0 / H0 (two segments of the shipped plant)
+    inertance = sum(length / (9.81 * np.pi * d**2 / 4) for length, d in ((320.0, 6.2), (180.0, 5.6)))
+    assert lin["water_time_s"] == pytest.approx(inertance * op["flow_m3_s"] / op["head_m"], rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--stroke", "0.5"], "--stroke and --penstock-model need --plant"),
+        (["--plant", str(PLANT_FILE), "--n11", "67"], "with --plant the operating point comes from the plant"),
+        (["--plant", str(PLANT_FILE), "--stroke", "0.68", "--tau", "-1"], "--tau must be > 0"),
+    ],
+)
+def test_linearize_plant_bad_options(argv, message, capsys):
+    assert main(["linearize", str(NETS), *argv]) == 2
+    assert message in capsys.readouterr().err
