@@ -44,6 +44,7 @@ from simulate.identify import (
     simulation_mode_output,
 )
 from simulate.linear import ArxModel, LinearPlant, combined_coefficient
+from simulate.result import json_default
 
 #: Acceptance bounds of issue 5 (checked and reported, never silently relaxed).
 BATCH_LS_TOLERANCE = 0.02  # absolute, each of the six coefficients, noise-free small signal
@@ -457,7 +458,7 @@ class IdentificationReport:
     simulation: object = None
 
     def to_dict(self) -> dict:
-        return json.loads(json.dumps(self.summary, default=_jsonable))
+        return json.loads(json.dumps(self.summary, default=json_default))
 
     def write(self, out_dir) -> dict[str, Path]:
         """Write ``identification.json``, ``series.csv`` and the figures into ``out_dir``; returns the paths."""
@@ -890,18 +891,6 @@ def plot_report(report: IdentificationReport, out_dir) -> dict[str, Path]:
         fig.savefig(paths["simulation_mode_png"], dpi=100)
         plt.close(fig)
     return paths
-
-
-def _jsonable(value):
-    if isinstance(value, complex):
-        return [value.real, value.imag]
-    if isinstance(value, (np.floating, np.integer, np.bool_)):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
 
 
 # ----------------------------------------------------------------------------------------------------------------

@@ -122,7 +122,7 @@ class SimulationResult:
     def to_json(self, path: str | Path) -> Path:
         """Write the :meth:`summary` as JSON (summary.json)."""
         path = Path(path)
-        path.write_text(json.dumps(self.summary(), indent=2, sort_keys=True, default=_jsonable) + "\n",
+        path.write_text(json.dumps(self.summary(), indent=2, sort_keys=True, default=json_default) + "\n",
                         encoding="utf-8")
         return path
 
@@ -154,9 +154,15 @@ class SimulationResult:
         return fig
 
 
-def _jsonable(value):
-    if isinstance(value, (np.floating, np.integer)):
+def json_default(value):
+    """``json.dumps(default=...)`` for numpy scalars and arrays, complex numbers ([re, im]) and paths; anything
+    else is a TypeError (never silently stringified)."""
+    if isinstance(value, complex):
+        return [value.real, value.imag]
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
         return value.item()
     if isinstance(value, np.ndarray):
         return value.tolist()
-    return str(value)
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")
