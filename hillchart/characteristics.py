@@ -76,6 +76,24 @@ def unit_torque_from_efficiency(q11, n11, efficiency):
     return RHO_WATER_KG_M3 * G_M_S2 * q11 * np.asarray(efficiency, dtype=float) / (n11 * RPM_TO_RAD_S)
 
 
+def efficiency_from_unit_torque(q11, n11, m11):
+    """Hydraulic efficiency (fraction) ``eta = M11 (2 pi N11 / 60) / (rho g Q11)``: eq. (5) of the BP hill-chart
+    paper solved for eta, the inverse of :func:`unit_torque_from_efficiency`. NaN where Q11 <= 0 or N11 <= 0.
+
+    Examples
+    --------
+    >>> round(float(efficiency_from_unit_torque(0.5, 70.0, unit_torque_from_efficiency(0.5, 70.0, 0.9))), 12)
+    0.9
+    >>> float(efficiency_from_unit_torque(0.0, 70.0, -5.0))
+    nan
+    """
+    q11, n11, m11 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (q11, n11, m11)))
+    ok = (q11 > 0) & (n11 > 0)
+    eta = np.full(q11.shape, np.nan)
+    eta[ok] = m11[ok] * n11[ok] * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q11[ok])
+    return eta
+
+
 @numba.njit(cache=True)
 def _ideal_kernel(params, n11, opening):
     q11_max, opening_max, torque_const = params  # torque_const = rho g eta 60 / (2 pi), N*m*min/m^3

@@ -19,13 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
+from hillchart.characteristics import efficiency_from_unit_torque
+from hillchart.extend import ORIGIN_COLOURS
 
 #: Iso-efficiency levels drawn when the caller gives none (those below the chart's best are used).
 DEFAULT_EFFICIENCY_LEVELS = (0.50, 0.60, 0.70, 0.75, 0.80, 0.82, 0.84, 0.86, 0.88, 0.90, 0.91, 0.92, 0.93, 0.94,
                              0.95)
-ORIGIN_COLOURS = {"measured": "tab:blue", "runaway": "tab:red", "zero-opening": "tab:green",
-                  "zero-speed": "tab:orange"}
 
 
 def _pyplot():
@@ -49,12 +48,7 @@ def efficiency_from_characteristics(characteristics, n11, opening) -> np.ndarray
     0.9
     """
     n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
-    q = np.asarray(characteristics.q11(n11, opening), dtype=float)
-    m = np.asarray(characteristics.m11(n11, opening), dtype=float)
-    ok = (q > 0) & (n11 > 0)
-    eta = np.full(q.shape, np.nan)
-    eta[ok] = m[ok] * n11[ok] * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q[ok])  # eq. (5), paper 004, inverted
-    return eta
+    return efficiency_from_unit_torque(characteristics.q11(n11, opening), n11, characteristics.m11(n11, opening))
 
 
 def _domain(nets):

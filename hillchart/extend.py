@@ -37,6 +37,8 @@ from hillchart.errors import InputError, NumericalError
 from hillchart.samples import ChartSamples, parse_cell
 
 ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed")
+#: Plot colour of each origin family (shared by every figure that shows the samples).
+ORIGIN_COLOURS = {"measured": "tab:blue", "runaway": "tab:red", "zero-opening": "tab:green", "zero-speed": "tab:orange"}
 TARGETS = ("q11", "m11")
 CSV_COLUMNS = ("target", "origin", "n11", "opening", "value")
 
@@ -182,7 +184,6 @@ class ExtendedSamples:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        colours = {"measured": "tab:blue", "runaway": "tab:red", "zero-opening": "tab:green", "zero-speed": "tab:orange"}
         fig = plt.figure(figsize=(12, 5.2))
         for i, (target, label) in enumerate((("q11", "Q11 (m$^3$/s)"), ("m11", "M11 (N m)"))):
             ax = fig.add_subplot(1, 2, i + 1, projection="3d")
@@ -190,7 +191,7 @@ class ExtendedSamples:
             for o in ORIGINS:
                 m = origin == o
                 if m.any():
-                    ax.scatter(x[m, 0], x[m, 1], y[m], s=10, color=colours[o], label=f"{o} ({int(m.sum())})")
+                    ax.scatter(x[m, 0], x[m, 1], y[m], s=10, color=ORIGIN_COLOURS[o], label=f"{o} ({int(m.sum())})")
             ax.set_xlabel("N11 (r/min)")
             ax.set_ylabel(f"opening ({self.opening_unit})")
             ax.set_zlabel(label)

@@ -597,13 +597,10 @@ class HillNets:
     def efficiency(self, n11, opening) -> np.ndarray:
         """Hydraulic efficiency eta = M11 omega11 / (rho g Q11) (inverse of eq. (5), paper 004); NaN where
         Q11 <= 0 or N11 <= 0."""
-        from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
+        from hillchart.characteristics import efficiency_from_unit_torque
+
         n11 = np.asarray(n11, dtype=float)
-        q = self.q11(n11, opening)
-        m = self.m11(n11, opening)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            eta = m * n11 * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q)
-        return np.where((q > 0) & (n11 > 0), eta, np.nan)
+        return efficiency_from_unit_torque(self.q11(n11, opening), n11, self.m11(n11, opening))
 
     def numba_kernel(self):
         """``(kernel, params)``: ``kernel(params, n11, a) -> (q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``,

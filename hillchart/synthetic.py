@@ -51,7 +51,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
-from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
+from hillchart.characteristics import efficiency_from_unit_torque
+from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError, NumericalError
 
 _COMPLEX_STEP = 1e-30
@@ -186,9 +187,8 @@ class SyntheticFrancis:
         """Hydraulic efficiency M11 omega11 / (rho g Q11); 0 where Q11 = 0 (no flow, no efficiency)."""
         n11, opening = self._checked(n11, opening)
         q11, m11 = (np.real(v) for v in self._solve(n11, opening))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            eta = m11 * n11 * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q11)
-        return np.where(q11 > 0, eta, 0.0)
+        # at N11 = 0 with flow the runner does no work: 0, not the NaN of the general inverse of eq. (5)
+        return np.where((q11 > 0) & (n11 > 0), efficiency_from_unit_torque(q11, n11, m11), 0.0)
 
     def runaway_n11(self, opening: float) -> float:
         """Runaway unit speed (M11 = 0) at one opening > 0, r/min (Brent's method on a bracket)."""
