@@ -26,8 +26,8 @@ def main() -> None:
     spans = {"q11": np.ptp(truth[:, 2]), "m11": np.ptp(truth[:, 3])}
     units = {"q11": "m3/s", "m11": "N*m"}
     print(f"load + extend: {elapsed:.2f} s; efficiency surface degree {extended.efficiency_surface.degree}")
-    print(f"| target | origin | samples | RMS error | max error | max / truth range |")
-    print(f"|---|---|---|---|---|---|")
+    print("| target | origin | samples | RMS error | max error | max / truth range |")
+    print("|---|---|---|---|---|---|")
     for target in TARGETS:
         x, y, origin = extended.select(target)
         exact = (turbine.q11 if target == "q11" else turbine.m11)(x[:, 0], x[:, 1])

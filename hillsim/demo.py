@@ -100,11 +100,12 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from data_synthetic import FRANCIS_DIR, PLANT_HLA339
     from hillchart.chartplot import chart_figure
     from hillchart.extend import extend_samples
-    from hillchart.linearize import coefficient_maps, plot_coefficient_maps
+    from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients
     from hillchart.nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
     from hillchart.samples import load_chart
     from hillchart.synthetic import SyntheticFrancis
@@ -163,21 +164,17 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
 
     bar.start(STEPS[5])
     freq = replace(plant, scenario=ScenarioConfig(kind="frequency-steps", t_end_s=100.0))
-    freq_summary = _simulate(freq, nets, out / "frequency_steps")
+    _simulate(freq, nets, out / "frequency_steps")
     plt.close("all")
     bar.done()
 
     bar.start(STEPS[6])
     linear = plant_linearization(plant, nets)
     exact_turbine = SyntheticFrancis()
-    from hillchart.linearize import six_coefficients
-
     op = linear["operating_point"]
     exact = six_coefficients(exact_turbine, n11=op["n11_rpm"], opening=op["opening_chart"])
     linear["coefficients_exact"] = {k: getattr(exact, k) for k in linear["coefficients"]}
     _write_json(out / "linearization.json", linear)
-    import numpy as np
-
     n11_grid = np.linspace(20.0, 120.0, 101)
     a_grid = np.linspace(2.0, chart.info.opening_max, 61)
     plot_coefficient_maps(coefficient_maps(nets, n11_grid, a_grid), out / "coefficient_maps.png",
@@ -190,25 +187,38 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
     identification = compare_identification(plant, characteristics=nets, exact=exact_turbine, penstock_model="lumped")
     identification.write(out / "identification")
     plt.close("all")
-    ident = _read_json(out / "identification" / "identification.json")
     bar.done()
 
     bar.start(STEPS[8])
-    summary = _summary(out)
+    results = _load_results(out)
+    summary = _summary(results)
     _write_json(out / "demo_summary.json", summary)
-    build_report(out, summary).write(out / "report.html")
+    build_report(out, results, summary).write(out / "report.html")
     bar.done()
     return summary
 
 
-def _summary(out: Path) -> dict:
-    """The key numbers, each read back from the step's JSON file."""
-    fit = _read_json(out / "fit_errors.json")["truth_errors"]
-    rej = _read_json(out / "load_rejection" / "summary.json")
-    clo = _read_json(out / "closure_law" / "summary.json")
-    fre = _read_json(out / "frequency_steps" / "summary.json")
-    lin = _read_json(out / "linearization.json")
-    ide = _read_json(out / "identification" / "identification.json")
+#: The demo's JSON result files, by the name the report and summary use.
+RESULT_FILES = {
+    "fit": "fit_errors.json",
+    "linearization": "linearization.json",
+    "identification": "identification/identification.json",
+    "load_rejection": "load_rejection/summary.json",
+    "closure_law": "closure_law/summary.json",
+    "frequency_steps": "frequency_steps/summary.json",
+}
+
+
+def _load_results(out: Path) -> dict:
+    """Every step's JSON file, read once (the summary and the report both take their numbers from these)."""
+    return {name: _read_json(out / file) for name, file in RESULT_FILES.items()}
+
+
+def _summary(results: dict) -> dict:
+    """The key numbers, each taken from a step's JSON file."""
+    fit = results["fit"]["truth_errors"]
+    rej, clo, fre = results["load_rejection"], results["closure_law"], results["frequency_steps"]
+    lin, ide = results["linearization"], results["identification"]
     six = ide["six_coefficients"]
     return {
         "q11_rms_measured_pct": fit["q11"]["rms_measured_pct"],
@@ -229,12 +239,11 @@ def _summary(out: Path) -> dict:
     }
 
 
-def build_report(out: Path, summary: dict) -> Report:
-    """``report.html``: every figure of the demo and the tables of key numbers, read from the JSON files."""
-    fit = _read_json(out / "fit_errors.json")
-    lin = _read_json(out / "linearization.json")
-    ide = _read_json(out / "identification" / "identification.json")
-    sims = {name: _read_json(out / name / "summary.json") for name in ("load_rejection", "closure_law", "frequency_steps")}
+def build_report(out: Path, results: dict, summary: dict) -> Report:
+    """``report.html``: every figure of the demo (PNGs under ``out``) and the tables of key numbers, taken from the
+    JSON files (``results``, see :func:`_load_results`)."""
+    fit, lin, ide = results["fit"], results["linearization"], results["identification"]
+    sims = {name: results[name] for name in ("load_rejection", "closure_law", "frequency_steps")}
     report = Report("hillsim demo: synthetic HLA339-like Francis unit")
     report.paragraph(
         "From the digitized hill chart of hillsim's synthetic Francis turbine: extended samples, the two 2-5-1 "

@@ -1,7 +1,6 @@
 """The chart loader: unit normalization, and one test per rejection (each names file, row and column)."""
 
 import shutil
-import warnings
 
 import numpy as np
 import pytest
