@@ -217,12 +217,12 @@ class ExtendedSamples:
         return path
 
 
-def _per_line(chart: ChartSamples):
-    """Yield (opening, n11, q11) of each equal-opening line, sorted by N11."""
+def _per_line(chart: ChartSamples, values: np.ndarray):
+    """(opening, n11, values) of each equal-opening line, sorted by N11; ``values`` are per flow point."""
     for opening in chart.openings:
         m = chart.flow_opening == opening
         order = np.argsort(chart.flow_n11[m])
-        yield opening, chart.flow_n11[m][order], chart.flow_q11[m][order]
+        yield opening, chart.flow_n11[m][order], values[m][order]
 
 
 def zero_opening_torque(chart: ChartSamples, torque: np.ndarray, degree: int):
@@ -236,11 +236,7 @@ def zero_opening_torque(chart: ChartSamples, torque: np.ndarray, degree: int):
     -------
     n11 : ndarray, r/min;   m11_at_zero : ndarray, N*m;   k : float, N*m/(r/min)^2
     """
-    lines = []
-    for opening in chart.openings:
-        m = chart.flow_opening == opening
-        order = np.argsort(chart.flow_n11[m])
-        lines.append((opening, chart.flow_n11[m][order], torque[m][order]))
+    lines = list(_per_line(chart, torque))
     if len(lines) < degree + 1:
         raise InputError(
             f"flow.csv: zero-opening extrapolation of degree {degree} needs at least {degree + 1} opening lines, "
