@@ -24,8 +24,16 @@ or no real root for reverse flow), the head at the turbine would be at or below 
 separate, which this model does not represent: status 2. Reverse flow (Q11 < 0) takes the negative root of the
 quadratic. Status 1: no convergence within ``max_iterations``. Status 3: the kernel returned NaN.
 
-These functions take the kernel as an argument, so numba cannot cache them (a dispatcher-typed argument makes a new
-cache entry per process); they are compiled once per process and kernel.
+The solvers are *templates* with respect to the characteristics: called directly they take the kernel as their first
+argument (compiled once per process and kernel: numba cannot cache a function with a dispatcher-typed argument). The
+time loop does not call them that way: :mod:`simulate.assembly` pastes their source into a generated loop module with
+the kernel bound as the module global ``kernel`` (first parameter removed), so the loop and everything it calls is
+cached on disk. ``opening`` is passed through to the kernel unchanged: a scalar chart opening when called directly,
+the vector of controls (chart units) inside the loop, where ``kernel(params, n11, controls)`` returns
+``(q11, dq11_dn11, m11, dm11_dn11)`` (the solvers read only the first two).
+
+:func:`turbine_step` is the turbine boundary of the loop (a template too: it calls the globals ``pressure_loop`` and
+``kernel``), with :func:`turbine_parameters` its parameter arrays and :func:`turbine_signals` its state accessor.
 """
 
 from __future__ import annotations
@@ -142,3 +150,68 @@ def solve_newton(kernel, params, c_l, k, speed_rpm, opening, head_guess_m, d1_m,
 
 
 SOLVERS = {"improved": solve_improved, "traditional": solve_traditional, "newton": solve_newton}
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The turbine boundary as a component of the time loop
+# ---------------------------------------------------------------------------------------------------------------
+def turbine_parameters(turbine, solver, *, head_floor_m: float, closed_stroke: float, control_scales):
+    """``(scalars, control_scales)`` for :func:`turbine_step`: scalars = [D1 m, head floor m, head tolerance m,
+    closed stroke, max iterations, relaxation]; ``control_scales`` converts each control (fraction of its stroke)
+    into the characteristics' unit (the guide vane: ``opening_max``)."""
+    import numpy as np
+
+    scalars = np.array([turbine.runner_diameter_m, head_floor_m, solver.tolerance * turbine.rated_head_m,
+                        closed_stroke, float(solver.max_iterations), solver.relaxation])
+    return scalars, np.asarray(control_scales, dtype=float)
+
+
+def turbine_state(head_m: float, flow_m3_s: float, torque_nm: float, n_controls: int):
+    """``(signals, controls_chart)``: signals = [head m, flow m^3/s, torque N*m] of the last step."""
+    import numpy as np
+
+    return np.array([head_m, flow_m3_s, torque_nm]), np.zeros(n_controls)
+
+
+@numba.njit(cache=True)
+def turbine_signals(state):
+    """(head m, flow m^3/s, torque N*m) after the last :func:`turbine_step`."""
+    signals = state[0]
+    return signals[0], signals[1], signals[2]
+
+
+def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):  # template: globals kernel, pressure_loop
+    """Solve the turbine boundary at ``speed_rpm`` and ``controls`` (fractions of stroke; control 0 the guide vane)
+    against the penstock relation H = C_L + k Q; store head, flow and torque M11 D1^3 H in ``ts``.
+
+    Shut guide vanes (stroke <= closed stroke) are a closed valve: Q = 0, H = C_L, no iteration. Returns
+    ``(status, iterations)``; on failure ``diag[1:7]`` = speed, opening (chart units), head guess, C_L, k,
+    residual.
+    """
+    scalars, scales = tp
+    signals, chart = ts
+    d1, floor, tol, closed = scalars[0], scalars[1], scalars[2], scalars[3]
+    max_iterations, relaxation = int(scalars[4]), scalars[5]
+    for i in range(chart.size):
+        chart[i] = controls[i] * scales[i]
+    head_guess = signals[0]
+    if controls[0] <= closed:
+        head, flow, iters, residual, status = c_l, 0.0, 0, 0.0, OK
+        if head < floor:
+            status = NO_POSITIVE_HEAD
+    else:
+        head, flow, iters, residual, status = pressure_loop(cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor,
+                                                            tol, max_iterations, relaxation)
+    if status != OK:
+        diag[1] = speed_rpm
+        diag[2] = chart[0]
+        diag[3] = head_guess
+        diag[4] = c_l
+        diag[5] = slope
+        diag[6] = residual
+        return status, iters
+    m11 = kernel(cp, speed_rpm * d1 / math.sqrt(head), chart)[2]
+    signals[0] = head
+    signals[1] = flow
+    signals[2] = m11 * d1 ** 3 * head
+    return status, iters

@@ -349,6 +349,9 @@ class SolverConfig:
     """Time step and the turbine-boundary (pressure-loop) solver.
 
     ``dt_s`` defaults to the MOC step (shortest travel time / reaches); with ``model = "moc"`` it must equal it.
+    ``output_dt_s`` (optional, a whole multiple of dt) stores every n-th step only (long runs). A run whose
+    steps x nodes exceed ``max_node_steps`` (default 3e10, about 100 s of loop) or whose stored series exceed
+    ``max_output_mb`` (default 2000) is refused before it starts, with the estimate.
     ``tolerance`` is on the head residual as a fraction of the rated head. ``relaxation`` alpha is used by the
     traditional and improved loops (xi <- alpha D_h(xi) + (1 - alpha) xi).
     """
@@ -358,10 +361,17 @@ class SolverConfig:
     tolerance: float = 1e-10
     max_iterations: int = 50
     relaxation: float = 1.0
+    output_dt_s: float | None = None
+    max_node_steps: float = 3e10
+    max_output_mb: float = 2000.0
 
     def __post_init__(self):
         if self.dt_s is not None:
             _check_number("solver", "dt_s", self.dt_s, low=0.0, high=10.0, low_open=True)
+        if self.output_dt_s is not None:
+            _check_number("solver", "output_dt_s", self.output_dt_s, low=0.0, high=1e4, low_open=True)
+        _check_number("solver", "max_node_steps", self.max_node_steps, low=0.0, high=1e15, low_open=True)
+        _check_number("solver", "max_output_mb", self.max_output_mb, low=0.0, high=1e7, low_open=True)
         _check_choice("solver", "pressure_loop", self.pressure_loop, PRESSURE_LOOPS)
         _check_number("solver", "tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
         _check_int("solver", "max_iterations", self.max_iterations, 1, 100000)
@@ -394,6 +404,9 @@ class PlantConfig:
         """The simulation step, s (checked against the Courant condition for MOC)."""
         moc_dt = self.penstock.moc_time_step_s
         if self.solver.dt_s is None:
+            if not (math.isfinite(moc_dt) and moc_dt > 0.0):
+                raise InputError(f"the time step (shortest travel time)/penstock.reaches = {moc_dt!r} s is not a "
+                                 f"positive number: check penstock lengths and wave speeds")
             return moc_dt
         if self.penstock.model == "moc" and abs(self.solver.dt_s - moc_dt) > 1e-9 * moc_dt:
             raise InputError(

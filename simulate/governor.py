@@ -151,3 +151,49 @@ def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, br
     times.append(now)
     strokes.append(0.0)
     return np.array(times), np.array(strokes)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Components for the time loop (registry kind "control"; see simulate.components)
+# ---------------------------------------------------------------------------------------------------------------
+# A control component owns the control vector (fractions of each control's full stroke; control 0 the guide vane)
+# and offers  step(p, s, speed_rpm, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state).
+@numba.njit(cache=True)
+def governor_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """Governor PID on the speed at t, then the guide-vane servo: controls at t_next."""
+    gov, ref_times, ref_values, scal = p
+    state, controls = s
+    x = speed_rpm / scal[0] - 1.0
+    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
+    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
+    controls[0] = servo_step(gov, command, controls[0])
+    return controls
+
+
+@numba.njit(cache=True)
+def prescribed_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """The prescribed stroke law at t_next (piecewise linear)."""
+    law_times, law_strokes, scal = p
+    controls = s[0]
+    controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
+    return controls
+
+
+def build_governor(plant, steady, dt_s: float, schedules):
+    """Governor + servo on the guide vane; the speed reference follows the scenario's schedule."""
+    from simulate.components import CompiledPart
+
+    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
+    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
+              scal)
+    return CompiledPart(kind="control", name="governor", functions={"step": governor_control_step},
+                        params=params, state=(np.zeros(3), np.array([steady.stroke])), signals=())
+
+
+def build_prescribed(plant, steady, dt_s: float, schedules):
+    """The guide vane follows the scenario's prescribed law (no governor)."""
+    from simulate.components import CompiledPart
+
+    params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]))
+    return CompiledPart(kind="control", name="prescribed", functions={"step": prescribed_control_step},
+                        params=params, state=(np.array([steady.stroke]),))

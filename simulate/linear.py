@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-import scipy.signal
 
 from hillchart.errors import InputError, NumericalError
 from hillchart.linearize import COEFFICIENT_NAMES
@@ -421,7 +420,11 @@ class LinearPlant:
         gamma = (disc.HB1 + (disc.G - np.eye(n)) @ ss.B2).reshape(n, 1)
         c_x = np.zeros((1, n))
         c_x[0, 0] = 1.0
-        num, den = scipy.signal.ss2tf(disc.G, gamma, c_x, np.zeros((1, 1)))
+        # scipy.signal.ss2tf's own formula for one input and one output with D = 0: den = det(zI - G),
+        # num = det(zI - G + Gamma C) - den. Written out with numpy.poly so that identification does not import
+        # scipy.signal (about 1 s of start-up); tests check it against scipy.signal.cont2discrete.
+        den = np.poly(disc.G)
+        num = (np.poly(disc.G - gamma @ c_x) - den).reshape(1, -1)
         num = np.atleast_1d(np.squeeze(num))
         den = np.atleast_1d(den)
         num = num / den[0]

@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy import signal
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
@@ -208,6 +207,8 @@ def iir_coefficients(model: str, *, water_time_s: float, travel_time_s: float, s
         a_c, b_c, d_c, e_c = zdomain_coefficients(te, tw, dt, zdomain_feedback)
         return np.array([a_c, 0.0, b_c, d_c, e_c])
     if model == "lumped":
+        from scipy import signal  # lazy: scipy.signal costs about 1 s of start-up and only this model needs it
+
         num, den, _ = signal.cont2discrete(([-tw, 0.0], [lumped_alpha * te ** 2, 0.0, 1.0]), dt, method="bilinear")
         num = np.ravel(num)
         num = np.concatenate((np.zeros(3 - num.size), num)) / den[0]
@@ -241,3 +242,134 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
     hist[3] = hist[2]
     hist[2] = h
     hist[4] = flow_m3_s
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Components for the time loop (registry kind "penstock"; see simulate.components)
+# ---------------------------------------------------------------------------------------------------------------
+# Every penstock model offers the same five functions (params and state are tuples of arrays):
+#   relation(p, s, upstream_head_m) -> (C_L, k)      H = C_L + k Q at the turbine for this step
+#   update(p, s, upstream_head_m, head_m, flow_m3_s)   advance the state with the solved boundary values
+#   inlet_flow(p, s) -> Q                              flow at the upstream end after the update, m^3/s
+#   envelope(p, s, upstream_head_m, head_m, env_max, env_min)   fold this step's node heads into the envelope
+#   node_heads(p, s, upstream_head_m, head_m, out)    the piezometric head at every computing node, m
+@numba.njit(cache=True)
+def moc_relation(p, s, upstream_head_m):
+    heads, flows, cur = s
+    c = cur[0]
+    return moc_turbine_relation(heads[c], flows[c], p[0], p[1])
+
+
+@numba.njit(cache=True)
+def moc_update(p, s, upstream_head_m, head_m, flow_m3_s):
+    heads, flows, cur = s
+    c = cur[0]
+    moc_step(heads[c], flows[c], p[0], p[1], upstream_head_m, head_m, flow_m3_s, heads[1 - c], flows[1 - c])
+    cur[0] = 1 - c
+
+
+@numba.njit(cache=True)
+def moc_inlet_flow(p, s):
+    return s[1][s[2][0], 0]
+
+
+@numba.njit(cache=True)
+def moc_node_heads(p, s, upstream_head_m, head_m, out):
+    heads = s[0][s[2][0]]
+    for j in range(heads.size):
+        out[j] = heads[j]
+
+
+@numba.njit(cache=True)
+def moc_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
+    heads = s[0][s[2][0]]
+    for j in range(heads.size):
+        h = heads[j]
+        if h > env_max[j]:
+            env_max[j] = h
+        if h < env_min[j]:
+            env_min[j] = h
+
+
+@numba.njit(cache=True)
+def iir_relation(p, s, upstream_head_m):
+    coef, scal = p
+    return iir_turbine_relation(coef, s[0], upstream_head_m, scal[0], scal[1], scal[2], scal[3])
+
+
+@numba.njit(cache=True)
+def iir_update(p, s, upstream_head_m, head_m, flow_m3_s):
+    coef, scal = p
+    iir_step(coef, s[0], flow_m3_s, scal[3], scal[2])
+
+
+@numba.njit(cache=True)
+def iir_inlet_flow(p, s):
+    return s[0][4]  # no storage in the column: the inlet carries the turbine flow
+
+
+@numba.njit(cache=True)
+def iir_node_heads(p, s, upstream_head_m, head_m, out):
+    out[0] = upstream_head_m
+    out[1] = head_m
+
+
+@numba.njit(cache=True)
+def iir_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
+    env_max[0] = max(env_max[0], upstream_head_m)
+    env_min[0] = min(env_min[0], upstream_head_m)
+    env_max[1] = max(env_max[1], head_m)
+    env_min[1] = min(env_min[1], head_m)
+
+
+def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
+    """Distance of every computing node from the penstock inlet, m (MOC: the grid; other models: inlet, turbine)."""
+    if model != "moc":
+        return np.array([0.0, penstock.length_m])
+    grid = build_moc_grid(penstock, dt_s)
+    x = [0.0]
+    for seg, n in zip(penstock.segments, grid.reaches_per_segment):
+        x += list(x[-1] + seg.length_m * np.arange(1, n + 1) / n)
+    return np.array(x)
+
+
+def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
+    """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes), [current])."""
+    from simulate.components import CompiledPart
+
+    grid = build_moc_grid(plant.penstock, dt_s)
+    heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
+    state = (np.vstack((heads, heads)), np.vstack((flows, flows)), np.zeros(1, dtype=np.int64))
+    return CompiledPart(
+        kind="penstock", name="moc",
+        functions={"relation": moc_relation, "update": moc_update, "inlet_flow": moc_inlet_flow,
+                   "envelope": moc_envelope, "node_heads": moc_node_heads},
+        params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
+        meta={"moc_reaches": int(sum(grid.reaches_per_segment)),
+              "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
+        n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s))
+
+
+def _build_iir(model: str):
+    def build(plant, steady, dt_s: float, upstream_head_m: float):
+        from simulate.components import CompiledPart
+
+        pen, turbine = plant.penstock, plant.turbine
+        tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
+        coef = iir_coefficients(model, water_time_s=tw, travel_time_s=pen.travel_time_s, step_s=dt_s,
+                                lumped_alpha=pen.lumped_alpha, zdomain_feedback=pen.zdomain_feedback)
+        scal = np.array([pen.friction_coefficient_s2_m5, turbine.rated_head_m, turbine.rated_flow_m3_s,
+                         steady.flow_m3_s])
+        hist = np.array([0.0, 0.0, 0.0, 0.0, steady.flow_m3_s])
+        return CompiledPart(
+            kind="penstock", name=model,
+            functions={"relation": iir_relation, "update": iir_update, "inlet_flow": iir_inlet_flow,
+                       "envelope": iir_envelope, "node_heads": iir_node_heads},
+            params=(coef, scal), state=(hist,), n_nodes=2, node_x_m=node_positions_m(pen, model, dt_s))
+    build.__name__ = f"build_{model}"
+    return build
+
+
+build_zdomain = _build_iir("zdomain")
+build_lumped = _build_iir("lumped")
+build_rigid = _build_iir("rigid")

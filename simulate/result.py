@@ -49,10 +49,20 @@ class SimulationResult:
     message: str = "ok"
     meta: dict = field(default_factory=dict)
     wall_time_s: float = float("nan")
+    signals: dict = field(default_factory=dict)
+    envelope_x_m: np.ndarray | None = None
+    envelope_max_m: np.ndarray | None = None
+    envelope_min_m: np.ndarray | None = None
+    steady: object = None
+    plant: object = None
+    characteristics: object = field(default=None, repr=False, compare=False)
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The series by CSV column name."""
-        return {name: getattr(self, name) for name in CSV_COLUMNS}
+        """The series by CSV column name: :data:`CSV_COLUMNS`, then the components' extra signals (e.g. a surge
+        tank's ``surge_level_m``, ``tunnel_flow_m3_s``)."""
+        out = {name: getattr(self, name) for name in CSV_COLUMNS}
+        out.update(self.signals)
+        return out
 
     def summary(self) -> dict:
         """Summary figures (fractions of the initial values unless the name says otherwise).
@@ -114,9 +124,11 @@ class SimulationResult:
         ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations', '0,200,100,0,0,0,0,0,0']
         """
         path = Path(path)
-        data = np.column_stack([self.columns()[c] for c in CSV_COLUMNS])
-        fmt = ["%.10g"] * (len(CSV_COLUMNS) - 1) + ["%d"]
-        np.savetxt(path, data, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt=fmt)
+        columns = self.columns()
+        names = list(columns)
+        data = np.column_stack([columns[c] for c in names])
+        fmt = ["%.10g" if c != "iterations" else "%d" for c in names]
+        np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
         return path
 
     def to_json(self, path: str | Path) -> Path:
@@ -129,20 +141,28 @@ class SimulationResult:
     def plot(self, path: str | Path | None = None):
         """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
 
-        Uses matplotlib's Agg backend (no display). Returns the figure.
+        Intervals where the trajectory leaves the characteristics' trusted domain (``meta["extrapolation"]``) are
+        shaded. Uses matplotlib's object API with the Agg canvas (no pyplot, no display; imported here, not with
+        the module). Returns the figure.
         """
-        import matplotlib
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 9))
+        fig = Figure(figsize=(8, 9))
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(4, 1, sharex=True)
         series = ((self.speed_rpm, "speed (r/min)"), (self.head_m, "head at turbine (m)"),
                   (self.flow_m3_s, "flow (m$^3$/s)"), (self.opening, "opening (stroke)"))
+        intervals = (self.meta.get("extrapolation") or {}).get("intervals_s", [])
         for ax, (values, label) in zip(axes, series):
             ax.plot(self.time_s, values, lw=1.2)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
+            for i, (t0, t1) in enumerate(intervals):
+                ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
+                           label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
+        if intervals:
+            axes[0].legend(loc="best", fontsize=8)
         axes[-1].set_xlabel("time (s)")
         title = self.meta.get("scenario", "")
         fig.suptitle(f"{title}  penstock {self.meta.get('penstock_model', '')}, pressure loop "
@@ -150,7 +170,6 @@ class SimulationResult:
         fig.tight_layout()
         if path is not None:
             fig.savefig(path, dpi=120)
-            plt.close(fig)
         return fig
 
 
