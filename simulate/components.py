@@ -118,12 +118,13 @@ def synthetic_francis(turbine=None, base_dir=None):
 
 def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics"):
     """Nets read from a nets.json ``path`` (relative to ``base_dir``)."""
+    spec = str(path)
     path = Path(path)
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
     if not path.is_file():
-        raise InputError(f"{key} = {str(path)!r}: nets file {str(path)!r} does not exist; give \"ideal\" or the path "
-                         f"of a nets.json")
+        raise InputError(f"{key} = {spec!r}: nets file {str(path)!r} does not exist; give \"ideal\", "
+                         f"\"synthetic\" or the path of a nets.json (relative to the plant file)")
     from hillchart.nets import load_nets
 
     return load_nets(path)

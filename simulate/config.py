@@ -23,11 +23,13 @@ import math
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 from hillchart.errors import InputError
 
-PENSTOCK_MODELS = ("moc", "zdomain", "lumped", "rigid")
+from simulate.components import PENSTOCKS  # noqa: E402  (light: no numba)
+
+PENSTOCK_MODELS = PENSTOCKS.names()  # the penstock registry's names
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
 SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps")
 
@@ -263,6 +265,11 @@ class GovernorConfig:
 class ScenarioConfig:
     """What happens: ``kind`` (one of :data:`SCENARIO_KINDS`), end time and the kind's own keys.
 
+    A tagged union: ``ScenarioConfig(kind=..., ...)`` returns the dataclass of that kind, one per file in
+    :mod:`simulate.scenarios` (``LoadRejection``, ``ClosureLaw``, ``FrequencySteps``, ``LoadStep``,
+    ``OpeningSteps``), each with its own keys (``KEYS``), checks (``validate``), initial point and schedules. A key
+    that the kind does not use must stay at its default (an error names it and the kind's keys).
+
     Defaults: ``event_time_s`` 1.0; ``load_step`` 0.1 (fraction of the initial load); ``speed_steps``
     (0.04, -0.08, 0.04) at ``step_times_s`` (10, 40, 70) for frequency-steps (paper 004 Fig. 11a);
     ``opening_steps`` (0.02,) at ``step_times_s`` (1,) for opening-steps. Exactly one of ``initial_power_mw`` /
@@ -284,16 +291,30 @@ class ScenarioConfig:
     opening_steps: tuple[float, ...] | None = None
     step_times_s: tuple[float, ...] | None = None
 
+    #: keys of this kind beyond ``kind`` and ``t_end_s`` (set by each kind's class)
+    KEYS: ClassVar[tuple[str, ...]] = ()
+
+    def __new__(cls, *args, **kwargs):
+        if cls is ScenarioConfig:
+            from simulate.scenarios import SCENARIO_CLASSES
+
+            kind = kwargs.get("kind", args[0] if args else None)
+            _check_choice("scenario", "kind", kind, SCENARIO_KINDS)
+            cls = SCENARIO_CLASSES[kind]
+        return super().__new__(cls)
+
     def __post_init__(self):
         _check_choice("scenario", "kind", self.kind, SCENARIO_KINDS)
+        if SCENARIO_KEYS.get(self.kind) != self.KEYS:
+            raise InputError(f"scenario.kind = {self.kind!r} does not match the scenario class {type(self).__name__}")
         _check_number("scenario", "t_end_s", self.t_end_s, low=0.0, high=1e5, low_open=True)
-        allowed = set(SCENARIO_KEYS[self.kind])
+        allowed = set(self.KEYS)
         for f in fields(self):
             if f.name in ("kind", "t_end_s") or f.name in allowed:
                 continue
             if getattr(self, f.name) != f.default:
                 raise InputError(f"scenario.{f.name} is not used by scenario.kind = {self.kind!r}; "
-                                 f"allowed keys: kind, t_end_s, {', '.join(SCENARIO_KEYS[self.kind])}")
+                                 f"allowed keys: kind, t_end_s, {', '.join(self.KEYS)}")
         _check_number("scenario", "event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
         if "initial_power_mw" in allowed:
             if (self.initial_power_mw is None) == (self.initial_opening is None):
@@ -304,44 +325,20 @@ class ScenarioConfig:
                 _check_number("scenario", "initial_power_mw", self.initial_power_mw, low=0.0, high=3000.0)
             if self.initial_opening is not None:
                 _check_number("scenario", "initial_opening", self.initial_opening, low=0.0, high=1.5)
-        if self.kind == "closure-law":
-            if self.closing_time_s is None:
-                raise InputError("scenario.closing_time_s is required for kind 'closure-law' (s, >= 0; "
-                                 "0 closes in one step)")
-            _check_number("scenario", "closing_time_s", self.closing_time_s, low=0.0, high=1000.0)
-            if (self.break_opening is None) != (self.break_time_s is None):
-                raise InputError("scenario.break_opening and scenario.break_time_s go together; got "
-                                 f"{self.break_opening!r} and {self.break_time_s!r}")
-            if self.break_opening is not None:
-                _check_number("scenario", "break_opening", self.break_opening, low=0.0, high=1.0, low_open=True)
-                _check_number("scenario", "break_time_s", self.break_time_s, low=0.0, high=1000.0, low_open=True)
-        if self.kind == "load-step":
-            _check_number("scenario", "load_step", self.load_step, low=-1.0, high=1.0)
-        if self.kind in ("frequency-steps", "opening-steps"):
-            steps_key = "speed_steps" if self.kind == "frequency-steps" else "opening_steps"
-            steps = getattr(self, steps_key)
-            if steps is not None:
-                _check_float_list("scenario", steps_key, steps, low=-1.0, high=1.0)
-            if self.step_times_s is not None:
-                times = _check_float_list("scenario", "step_times_s", self.step_times_s, low=0.0, high=self.t_end_s)
-                if any(b < a for a, b in zip(times, times[1:])):
-                    raise InputError(f"scenario.step_times_s must be non-decreasing, got {list(times)!r}")
-            n_steps = len(self.steps_or_default)
-            if len(self.step_times_or_default) != n_steps:
-                raise InputError(f"scenario.step_times_s must have as many entries as scenario.{steps_key} "
-                                 f"({n_steps}), got {list(self.step_times_or_default)!r}")
+        self.validate()
 
-    @property
-    def steps_or_default(self) -> tuple[float, ...]:
-        if self.kind == "frequency-steps":
-            return tuple(self.speed_steps) if self.speed_steps is not None else (0.04, -0.08, 0.04)
-        return tuple(self.opening_steps) if self.opening_steps is not None else (0.02,)
+    def validate(self) -> None:
+        """The kind's own checks (overridden per kind)."""
 
-    @property
-    def step_times_or_default(self) -> tuple[float, ...]:
-        if self.step_times_s is not None:
-            return tuple(self.step_times_s)
-        return (10.0, 40.0, 70.0) if self.kind == "frequency-steps" else (1.0,)
+    def initial_target(self) -> dict:
+        """Keyword for :func:`simulate.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``."""
+        if self.initial_power_mw is not None:
+            return {"power_mw": float(self.initial_power_mw)}
+        return {"stroke": float(self.initial_opening)}
+
+    def schedules(self, plant, initial_stroke: float, initial_load_pu: float):
+        """The :class:`simulate.scenarios.Schedules` the loop follows (per kind)."""
+        raise NotImplementedError(f"scenario kind {self.kind!r} defines no schedules")
 
 
 @dataclass(frozen=True)
@@ -610,9 +607,11 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
 def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     """The characteristics object named by ``turbine.characteristics``.
 
-    ``"ideal"`` gives :class:`hillchart.characteristics.IdealTurbine` from the rated values:
+    One resolver for every command (:func:`simulate.components.resolve_characteristics`): ``"ideal"`` gives
+    :class:`hillchart.characteristics.IdealTurbine` from the rated values:
     q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
-    Anything else is a nets.json path (relative to ``base_dir``) read by ``hillchart.nets.load_nets``.
+    ``"synthetic"`` the exact synthetic Francis turbine; anything else is a nets.json path (relative to
+    ``base_dir``) read by ``hillchart.nets.load_nets``.
 
     Examples
     --------
@@ -622,24 +621,9 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
     (0.25, 0.917431)
     """
-    from hillchart.characteristics import IdealTurbine
+    from simulate.components import resolve_characteristics
 
-    if turbine.characteristics == "ideal":
-        q11_max = turbine.rated_flow_m3_s / (turbine.runner_diameter_m ** 2 * math.sqrt(turbine.rated_head_m))
-        return IdealTurbine(q11_max_m3_s=q11_max, opening_max=turbine.opening_max,
-                            efficiency=turbine.rated_efficiency)
-    path = Path(turbine.characteristics)
-    if not path.is_absolute():
-        path = Path(base_dir) / path
-    if not path.is_file():
-        raise InputError(f"turbine.characteristics = {turbine.characteristics!r}: nets file {str(path)!r} does not "
-                         f"exist; give \"ideal\" or the path of a nets.json (relative to the plant file)")
-    try:
-        from hillchart.nets import load_nets
-    except ImportError as exc:  # the nets module ships separately
-        raise InputError(f"turbine.characteristics = {turbine.characteristics!r} needs hillchart.nets, which "
-                         f"cannot be imported: {exc}") from None
-    return load_nets(path)
+    return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
 
 
 __all__ = ["PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig",

@@ -1,4 +1,5 @@
-"""Scenario kinds -> the schedules the time loop follows.
+"""Scenario kinds -> the schedules the time loop follows (one file per kind; the registry is
+:data:`SCENARIO_CLASSES`).
 
 ``load-rejection``   governor in control; the breaker opens at ``event_time_s``: generator torque and load
                      self-regulation drop to zero (paper 004 Fig. 11b).
@@ -19,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.governor import closure_law
 
 GOVERNOR, PRESCRIBED = 0, 1
 
@@ -55,11 +55,7 @@ def initial_target(scenario) -> dict:
     >>> initial_target(ScenarioConfig(kind="frequency-steps", t_end_s=100.0))
     {'power_mw': 0.0}
     """
-    if scenario.kind == "frequency-steps":
-        return {"power_mw": 0.0}
-    if scenario.initial_power_mw is not None:
-        return {"power_mw": float(scenario.initial_power_mw)}
-    return {"stroke": float(scenario.initial_opening)}
+    return scenario.initial_target()
 
 
 def build_schedules(plant, initial_stroke: float, initial_load_pu: float) -> Schedules:
@@ -77,41 +73,44 @@ def build_schedules(plant, initial_stroke: float, initial_load_pu: float) -> Sch
     >>> s.mode, s.load_times_s.tolist(), s.load_values.tolist(), s.initial_self_regulation
     (0, [2.0], [0.0], 1.0)
     """
-    sc, gov = plant.scenario, plant.governor
+    return plant.scenario.schedules(plant, initial_stroke, initial_load_pu)
+
+
+def steady_schedules(plant, initial_stroke: float, initial_load_pu: float, **changes) -> Schedules:
+    """Schedules of an undisturbed plant (governor in control, constant load with self-regulation e_g), with
+    ``changes`` applied: the common start of every kind's schedules."""
+    from dataclasses import replace
+
     e_g = float(plant.generator.self_regulation)
     none = np.array([np.inf])
-    zero = np.array([0.0])
-    law_t, law_y = np.array([0.0]), np.array([initial_stroke])
-    ref_t, ref_v = none, zero
-    load_t, load_v, reg_v = none, np.array([initial_load_pu]), np.array([e_g])
-    load0, reg0 = initial_load_pu, e_g
-    mode = GOVERNOR
-    if sc.kind in ("load-rejection", "closure-law"):
-        load_t, load_v, reg_v = np.array([sc.event_time_s]), zero, zero
-        if sc.kind == "closure-law":
-            mode = PRESCRIBED
-            law_t, law_y = closure_law(initial_stroke, sc.event_time_s, sc.closing_time_s, sc.break_opening,
-                                       sc.break_time_s)
-    elif sc.kind == "frequency-steps":
-        load0, reg0 = 0.0, 0.0
-        load_v, reg_v = zero, zero
-        ref_t = np.array(sc.step_times_or_default)
-        ref_v = np.cumsum(sc.steps_or_default)
-    elif sc.kind == "load-step":
-        load_t = np.array([sc.event_time_s])
-        load_v = np.array([initial_load_pu * (1.0 + sc.load_step)])
-    elif sc.kind == "opening-steps":
-        mode = PRESCRIBED
-        levels = initial_stroke + np.cumsum(sc.steps_or_default)
-        bad = (levels < gov.stroke_min) | (levels > gov.stroke_max)
-        if np.any(bad):
-            raise InputError(f"scenario.opening_steps take the stroke to {levels[bad][0]:.6g}, outside "
-                             f"[governor.stroke_min, governor.stroke_max] = [{gov.stroke_min}, {gov.stroke_max}] "
-                             f"(initial stroke {initial_stroke:.6g})")
-        times = np.array(sc.step_times_or_default)
-        law_t = np.concatenate(([0.0], np.repeat(times, 2)))
-        law_y = np.concatenate(([initial_stroke], np.ravel(np.column_stack((
-            np.concatenate(([initial_stroke], levels[:-1])), levels)))))
-    return Schedules(mode, np.asarray(law_t, float), np.asarray(law_y, float), np.asarray(ref_t, float),
-                     np.asarray(ref_v, float), np.asarray(load_t, float), np.asarray(load_v, float),
-                     np.asarray(reg_v, float), float(load0), float(reg0))
+    base = Schedules(GOVERNOR, np.array([0.0]), np.array([initial_stroke], dtype=float), none, np.array([0.0]), none,
+                     np.array([initial_load_pu], dtype=float), np.array([e_g]), float(initial_load_pu), e_g)
+    changes = {k: (np.asarray(v, float) if isinstance(v, (np.ndarray, list, tuple)) else v) for k, v in changes.items()}
+    return replace(base, **changes)
+
+
+def check_steps(scenario, steps_key: str) -> None:
+    """Shared checks of the step-list kinds (frequency-steps, opening-steps)."""
+    from simulate.config import _check_float_list
+
+    steps = getattr(scenario, steps_key)
+    if steps is not None:
+        _check_float_list("scenario", steps_key, steps, low=-1.0, high=1.0)
+    if scenario.step_times_s is not None:
+        times = _check_float_list("scenario", "step_times_s", scenario.step_times_s, low=0.0, high=scenario.t_end_s)
+        if any(b < a for a, b in zip(times, times[1:])):
+            raise InputError(f"scenario.step_times_s must be non-decreasing, got {list(times)!r}")
+    n_steps = len(scenario.steps_or_default)
+    if len(scenario.step_times_or_default) != n_steps:
+        raise InputError(f"scenario.step_times_s must have as many entries as scenario.{steps_key} "
+                         f"({n_steps}), got {list(scenario.step_times_or_default)!r}")
+
+
+from simulate.scenarios.load_rejection import LoadRejection  # noqa: E402  (the kinds subclass ScenarioConfig)
+from simulate.scenarios.closure_law import ClosureLaw  # noqa: E402
+from simulate.scenarios.frequency_steps import FrequencySteps  # noqa: E402
+from simulate.scenarios.load_step import LoadStep  # noqa: E402
+from simulate.scenarios.opening_steps import OpeningSteps  # noqa: E402
+
+#: The scenario registry: TOML ``scenario.kind`` -> its config dataclass (which builds its schedules).
+SCENARIO_CLASSES = {cls.KIND: cls for cls in (LoadRejection, ClosureLaw, FrequencySteps, LoadStep, OpeningSteps)}

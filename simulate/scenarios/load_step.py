@@ -1,0 +1,25 @@
+"""``load-step``: grid-connected with load self-regulation e_g; the load torque steps by ``load_step`` times the
+initial load at ``event_time_s`` (paper 001 eq. (14))."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from simulate.config import ScenarioConfig, _check_number
+from simulate.scenarios import GOVERNOR, PRESCRIBED, Schedules, steady_schedules
+
+
+@dataclass(frozen=True)
+class LoadStep(ScenarioConfig):
+    KIND: ClassVar[str] = "load-step"
+    KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s", "load_step")
+
+    def validate(self) -> None:
+        _check_number("scenario", "load_step", self.load_step, low=-1.0, high=1.0)
+
+    def schedules(self, plant, initial_stroke: float, initial_load_pu: float) -> Schedules:
+        return steady_schedules(plant, initial_stroke, initial_load_pu, load_times_s=np.array([self.event_time_s]),
+                                load_values=np.array([initial_load_pu * (1.0 + self.load_step)]))
