@@ -128,14 +128,24 @@ class TurbineConfig:
 
 @dataclass(frozen=True)
 class PenstockSegment:
-    """One pipe of uniform section; segments are in series, upstream first."""
+    """One pipe of uniform section; segments are in series, upstream first. ``elevation_start_m`` /
+    ``elevation_end_m`` (optional, both or neither, on every segment or none): the pipe axis above the tailwater
+    datum of the heads at the segment's ends, for the pressure-head envelope."""
 
     length_m: float
     diameter_m: float
     wave_speed_m_s: float
     darcy_friction: float
+    elevation_start_m: float | None = None
+    elevation_end_m: float | None = None
 
     def __post_init__(self):
+        if (self.elevation_start_m is None) != (self.elevation_end_m is None):
+            raise InputError(f"penstock.segments.elevation_start_m and elevation_end_m go together (the pipe axis above "
+                             f"the tailwater datum, m); got {self.elevation_start_m!r} and {self.elevation_end_m!r}")
+        for key in ("elevation_start_m", "elevation_end_m"):
+            if getattr(self, key) is not None:
+                _check_number("penstock.segments", key, getattr(self, key), low=-3000.0, high=3000.0)
         _check_number("penstock.segments", "length_m", self.length_m, low=0.0, high=1e5, low_open=True)
         _check_number("penstock.segments", "diameter_m", self.diameter_m, low=0.0, high=30.0, low_open=True)
         _check_number("penstock.segments", "wave_speed_m_s", self.wave_speed_m_s, low=0.0, high=1600.0,
@@ -428,6 +438,7 @@ _SECTIONS = {
     "solver": SolverConfig,
 }
 _SEGMENT_KEYS = tuple(f.name for f in fields(PenstockSegment))
+_SEGMENT_REQUIRED = tuple(f.name for f in fields(PenstockSegment) if f.default is MISSING)
 
 
 def _build(section: str, cls, raw: Any, extra_keys: tuple[str, ...] = ()):
@@ -493,11 +504,23 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         if unknown:
             raise InputError(f"unknown key penstock.segments.{unknown[0]} (segment {i}); valid keys: "
                              f"{', '.join(_SEGMENT_KEYS)}")
-        missing = [k for k in _SEGMENT_KEYS if k not in seg]
+        missing = [k for k in _SEGMENT_REQUIRED if k not in seg]
         if missing:
             raise InputError(f"missing required key penstock.segments.{missing[0]} (segment {i}); a segment "
-                             f"needs {', '.join(_SEGMENT_KEYS)}")
-        seg_objs.append(PenstockSegment(**seg))
+                             f"needs {', '.join(_SEGMENT_REQUIRED)}")
+        try:
+            seg_objs.append(PenstockSegment(**seg))
+        except InputError as exc:
+            raise InputError(f"{exc} (segment {i}, counted from 0 upstream first)") from None
+    profiles = [s.elevation_start_m is not None for s in seg_objs]
+    if any(profiles) and not all(profiles):
+        raise InputError(f"penstock.segments: elevation_start_m/elevation_end_m must be given on every segment or on "
+                         f"none; segment {profiles.index(False)} has none")
+    for i in range(1, len(seg_objs) if all(profiles) else 0):
+        if abs(seg_objs[i].elevation_start_m - seg_objs[i - 1].elevation_end_m) > 1e-9:
+            raise InputError(f"penstock.segments: segment {i} starts at elevation {seg_objs[i].elevation_start_m!r} m "
+                             f"but segment {i - 1} ends at {seg_objs[i - 1].elevation_end_m!r} m; the profile must be "
+                             f"continuous")
     pen_raw["segments"] = tuple(seg_objs)
     penstock = PenstockConfig(**pen_raw)
     generator = GeneratorConfig(**_build("generator", GeneratorConfig, raw["generator"]))
@@ -525,7 +548,7 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
             if name == "solver" and value is None:
                 continue
             if f.name == "segments":
-                value = [{k: getattr(s, k) for k in _SEGMENT_KEYS} for s in value]
+                value = [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None} for s in value]
             elif isinstance(value, tuple):
                 value = list(value)
             sec[f.name] = value

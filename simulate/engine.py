@@ -133,10 +133,13 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     compiled_chars = compile_characteristics(chars)
     turbine, pen = plant.turbine, plant.penstock
     guards.check_run_size(plant, dt, n_steps, stride)
+    from simulate.domain import extrapolation_record, extrapolation_warnings, plant_domain
+
+    domain = plant_domain(plant, chars)
     steady = initial_state(plant, chars)
-    guards.check_initial_state(plant, steady)
+    guards.check_initial_state(plant, steady, domain)
+    warnings = guards.check_time_step(plant, dt, steady)
     parts, schedules = build_parts(plant, steady, dt)
-    guards.check_time_step(plant, dt, steady)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
                             closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max])
@@ -215,6 +218,14 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     for part in parts.values():
         meta.update(part.meta.get("summary", {}))
     meta.update(pen_part.meta)
+    head = out["head"][:n_rows]
+    n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
+    meta["extrapolation"] = extrapolation_record(domain, time_s, n11, stroke * turbine.opening_max, stroke)
+    warnings += extrapolation_warnings(meta["extrapolation"])
+    for part in parts.values():
+        warnings += part.meta.get("warnings_after", lambda signals: [])(
+            {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)})
+    meta["warnings"] = warnings
     signals = {name: out_signals[:n_rows, j].copy() for j, name in enumerate(signal_names)}
     return SimulationResult(
         time_s=time_s, speed_rpm=speed, head_m=out["head"][:n_rows], flow_m3_s=out["flow"][:n_rows],

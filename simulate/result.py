@@ -69,6 +69,10 @@ class SimulationResult:
 
         ``max_speed_rise`` max(n)/n0 - 1; ``t_max_speed_s``; ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
         1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
+        ``max_head_m``/``min_head_m`` at the turbine (m) and when; the head envelope along the penstock
+        (``envelope_*``; with a profile ``min_pressure_head_m`` and where, ``column_separation``);
+        ``extrapolation`` (per kind of :mod:`simulate.domain`: fraction of the time outside the trusted domain and the
+        extremes reached); ``warnings`` (time step, extrapolation, column separation);
         ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded; steps with the vanes shut count 0,
         there is nothing to solve); plus the initial point, success,
         message and the run settings from ``meta``.
@@ -96,6 +100,8 @@ class SimulationResult:
             "max_iterations": int(steps.max()) if steps.size else 0,
             "t_max_head_s": float(self.time_s[int(np.argmax(self.head_m))]),
             "max_head_m": float(self.head_m.max()),
+            "min_head_m": float(self.head_m.min()),
+            "t_min_head_s": float(self.time_s[int(np.argmin(self.head_m))]),
             "max_speed_rpm": float(self.speed_rpm.max()),
             "initial_speed_rpm": n0,
             "initial_head_m": h0,
@@ -109,6 +115,14 @@ class SimulationResult:
             "message": self.message,
         }
         out.update(self.meta)
+        if self.envelope_max_m is not None:
+            from simulate.envelope import envelope_summary, envelope_warnings
+
+            env = envelope_summary(self)
+            out.update(env)
+            extra = [w for w in envelope_warnings(env) if w not in out.get("warnings", [])]
+            if extra:
+                out["warnings"] = list(out.get("warnings", [])) + extra
         return out
 
     def to_csv(self, path: str | Path) -> Path:

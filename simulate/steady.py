@@ -71,6 +71,13 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
     # otherwise widen the step geometrically, never to tiny heads where N11 leaves any chart's range.
     step = g_st
     other = static_head_m + step
+    if not (0.1 * static_head_m < other < 10.0 * static_head_m):
+        loss = g_st  # gap at the static head = -K Q|Q|
+        raise InputError(
+            f"steady state: at opening {opening:.6g} and the static head {static_head_m:.6g} m the turbine would pass "
+            f"a flow whose friction loss K Q|Q| = {abs(loss):.6g} m (K = {friction_s2_m5:.6g} s^2/m^5) is not small "
+            f"against penstock.static_head_m: no plausible steady flow; check the penstock segments' length_m, "
+            f"diameter_m and darcy_friction (units m, m, -)")
     g_other = gap(other)
     while g_other * g_st > 0.0 and 0.1 * static_head_m < other < 10.0 * static_head_m:
         step *= 2.0

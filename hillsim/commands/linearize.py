@@ -94,12 +94,22 @@ def run(args: argparse.Namespace) -> int:
     else:
         raise InputError("the operating point needs --n11, or all of --speed-rpm, --head-m and --d1-m")
     record = coeffs.to_dict()
+    import sys
+    from pathlib import Path
+
+    from simulate.domain import point_warnings  # issue 10 section 4: never extrapolate silently
+
+    domain_dir = None if args.nets == "synthetic" else Path(args.nets).parent
+    warnings = point_warnings(characteristics, record["n11_rpm"], args.opening, chart_dir=domain_dir)
+    for line in warnings:
+        print(f"hillsim linearize: warning: {line}", file=sys.stderr)
     out = {
         "source": label,
         "opening_unit": opening_unit,
         "operating_point": point | {"q11_m3_s": record["q11_m3_s"], "m11_nm": record["m11_nm"]},
         "coefficients": {k: record[k] for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")},
         "e": coeffs.e,  # paper 002: e = eqy eh / ey - eqh
+        "warnings": warnings,
     }
     if args.map is not None:
         if args.grid < 2 or args.grid > 1000:
