@@ -100,6 +100,16 @@ CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
 })
 
 
+def upstream_section(plant):
+    """``(name, config)`` of the plant's upstream component: the first :data:`UPSTREAM` entry whose section is in
+    the plant (``plant.<name>`` not None), else ``("reservoir", None)``."""
+    for name in UPSTREAM.names():
+        config = getattr(plant, name, None)
+        if config is not None:
+            return name, config
+    return "reservoir", None
+
+
 def ideal_from_rated(turbine, base_dir=None):
     """:class:`hillchart.characteristics.IdealTurbine` from the rated values: q11_max = Q_r / (D1^2 sqrt(H_r)) at full
     stroke, efficiency P_r / (rho g Q_r H_r)."""

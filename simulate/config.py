@@ -14,7 +14,10 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
     [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
                  opening_time_s, stroke_min, stroke_max
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
-    [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation]
+    [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation], [output_dt_s],
+                 [max_node_steps], [max_output_mb]
+    [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
+                 tunnel_darcy_friction, [level_max_m], [level_min_m]
 """
 
 from __future__ import annotations
@@ -386,6 +389,59 @@ class SolverConfig:
 
 
 @dataclass(frozen=True)
+class SurgeTankConfig:
+    """Headrace tunnel (rigid water column, reservoir -> tank) and a simple throttled surge tank at the penstock inlet.
+
+    ``area_m2`` tank cross-section A_s; ``throttle_loss_coefficient`` R of the throttle loss R Q_s|Q_s| (s^2/m^5,
+    Q_s the flow into the tank; 0 allowed); ``tunnel_length_m`` L, ``tunnel_diameter_m`` D, ``tunnel_darcy_friction``
+    f (0 allowed); ``level_max_m`` (optional) overflow crest above the static level: reaching it is a warning;
+    ``level_min_m`` (optional, negative) tank bottom below the static level: reaching it is an error (air enters the
+    penstock).
+    """
+
+    area_m2: float
+    throttle_loss_coefficient: float
+    tunnel_length_m: float
+    tunnel_diameter_m: float
+    tunnel_darcy_friction: float
+    level_max_m: float | None = None
+    level_min_m: float | None = None
+
+    def __post_init__(self):
+        _check_number("surge_tank", "area_m2", self.area_m2, low=0.0, high=1e5, low_open=True)
+        _check_number("surge_tank", "throttle_loss_coefficient", self.throttle_loss_coefficient, low=0.0, high=1e4)
+        _check_number("surge_tank", "tunnel_length_m", self.tunnel_length_m, low=0.0, high=1e5, low_open=True)
+        _check_number("surge_tank", "tunnel_diameter_m", self.tunnel_diameter_m, low=0.0, high=30.0, low_open=True)
+        _check_number("surge_tank", "tunnel_darcy_friction", self.tunnel_darcy_friction, low=0.0, high=0.2)
+        if self.level_max_m is not None:
+            _check_number("surge_tank", "level_max_m", self.level_max_m, low=0.0, high=1e4, low_open=True)
+        if self.level_min_m is not None:
+            _check_number("surge_tank", "level_min_m", self.level_min_m, low=-1e4, high=0.0, high_open=True)
+
+    @property
+    def tunnel_area_m2(self) -> float:
+        return math.pi * self.tunnel_diameter_m ** 2 / 4.0
+
+    @property
+    def steady_loss_coefficient_s2_m5(self) -> float:
+        """K_t = f L / (2 g D A_t^2) of the tunnel's steady loss K_t Q|Q| (the throttle passes no steady flow)."""
+        from hillchart.constants import G_M_S2
+        return self.tunnel_darcy_friction * self.tunnel_length_m / (2.0 * G_M_S2 * self.tunnel_diameter_m
+                                                                     * self.tunnel_area_m2 ** 2)
+
+    def time_constants(self) -> dict:
+        """Time constants the simulation step must resolve (see :mod:`simulate.guards`)."""
+        return {"surge tank period 2 pi sqrt(L A_s / (g A_t)) (surge_tank.area_m2, tunnel_length_m, "
+                "tunnel_diameter_m)": self.period_s}
+
+    @property
+    def period_s(self) -> float:
+        """Mass-oscillation period 2 pi sqrt(L A_s / (g A_t)) of the frictionless tank, s."""
+        from hillchart.constants import G_M_S2
+        return 2.0 * math.pi * math.sqrt(self.tunnel_length_m * self.area_m2 / (G_M_S2 * self.tunnel_area_m2))
+
+
+@dataclass(frozen=True)
 class PlantConfig:
     """The whole plant file. ``base_dir`` resolves a relative ``turbine.characteristics`` path."""
 
@@ -396,6 +452,7 @@ class PlantConfig:
     scenario: ScenarioConfig
     solver: SolverConfig = field(default_factory=SolverConfig)
     base_dir: Path = Path(".")
+    surge_tank: SurgeTankConfig | None = None
 
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
@@ -436,6 +493,7 @@ _SECTIONS = {
     "governor": GovernorConfig,
     "scenario": ScenarioConfig,
     "solver": SolverConfig,
+    "surge_tank": SurgeTankConfig,
 }
 _SEGMENT_KEYS = tuple(f.name for f in fields(PenstockSegment))
 _SEGMENT_REQUIRED = tuple(f.name for f in fields(PenstockSegment) if f.default is MISSING)
@@ -489,7 +547,7 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:
             raise InputError(f"missing section [{name}]; a plant file needs {', '.join(_SECTIONS)} "
-                             f"([solver] is optional)")
+                             f"([solver] and [surge_tank] are optional)")
     turbine = TurbineConfig(**_build("turbine", TurbineConfig, raw["turbine"]))
     pen_raw = dict(_build("penstock", PenstockConfig, raw["penstock"]))
     segs = pen_raw.get("segments")
@@ -531,7 +589,9 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
             sc_raw[key] = tuple(sc_raw[key])
     scenario = ScenarioConfig(**sc_raw)
     solver = SolverConfig(**_build("solver", SolverConfig, raw.get("solver", {})))
-    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor,
+    surge_tank = (SurgeTankConfig(**_build("surge_tank", SurgeTankConfig, raw["surge_tank"]))
+                  if "surge_tank" in raw else None)
+    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor, surge_tank=surge_tank,
                        scenario=scenario, solver=solver, base_dir=Path(base_dir))
 
 
@@ -540,12 +600,14 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in _SECTIONS:
         obj = getattr(plant, name)
+        if obj is None:  # an optional section that is absent
+            continue
         sec = {}
         for f in fields(obj):
             value = getattr(obj, f.name)
             if name == "scenario" and value == f.default and f.name not in ("kind", "t_end_s"):
                 continue
-            if name == "solver" and value is None:
+            if name in ("solver", "surge_tank") and value is None:
                 continue
             if f.name == "segments":
                 value = [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None} for s in value]

@@ -40,9 +40,11 @@ CHUNK_WALL_S = 0.25
 
 
 def upstream_friction_s2_m5(plant: PlantConfig) -> float:
-    """Steady head loss coefficient upstream of the penstock (the headrace tunnel of a surge tank), s^2/m^5."""
-    tank = getattr(plant, "surge_tank", None)
-    return 0.0 if tank is None else tank.tunnel_friction_s2_m5
+    """Steady head loss coefficient K Q|Q| upstream of the penstock (e.g. a surge tank's headrace tunnel), s^2/m^5."""
+    from simulate.components import upstream_section
+
+    config = upstream_section(plant)[1]
+    return 0.0 if config is None else config.steady_loss_coefficient_s2_m5
 
 
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
@@ -72,13 +74,12 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
 
 def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
     """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries."""
-    from simulate.components import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM
+    from simulate.components import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, upstream_section
 
     turbine = plant.turbine
     load0 = steady.torque_nm / turbine.rated_torque_nm
     schedules = build_schedules(plant, steady.stroke, load0)
-    upstream = UPSTREAM.builder("surge_tank" if getattr(plant, "surge_tank", None) is not None
-                                else "reservoir")(plant, steady, dt_s)
+    upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
     head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
     parts = {
         "upstream": upstream,
@@ -187,7 +188,17 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     wall = _time.perf_counter() - wall
 
     message = "ok"
-    if status != 0:
+    if status == 0:  # a component may find the run invalid afterwards (e.g. a surge tank running dry)
+        all_signals = {name: out_signals[:, j] for j, name in enumerate(signal_names)}
+        all_time = np.arange(rows) * (dt * stride)
+        for part in parts.values():
+            problem = part.meta.get("error_after", lambda time_s, signals: "")(all_time, all_signals)
+            if problem:
+                if raise_on_failure:
+                    raise NumericalError(problem)
+                message, status = problem, -1
+                break
+    if status > 0:
         failed_step = int(k_done)
         n_rows = failed_step // stride + 1
         message = (f"pressure loop '{plant.solver.pressure_loop}' failed ({STATUS_TEXT[int(status)]}) at t = "

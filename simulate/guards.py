@@ -73,9 +73,11 @@ def time_constants(plant, steady=None) -> dict:
             out["governor.derivative_filter_s"] = gov.derivative_filter_s
         if gov.ki > 0.0 and gov.kp > 0.0:
             out["governor integral time kp/ki"] = gov.kp / gov.ki
-    tank = getattr(plant, "surge_tank", None)
-    if tank is not None:
-        out["surge tank period 2 pi sqrt(L A_s / (g A_t))"] = tank.period_s
+    from simulate.components import upstream_section
+
+    upstream = upstream_section(plant)[1]
+    if upstream is not None and hasattr(upstream, "time_constants"):
+        out.update(upstream.time_constants())
     return out
 
 
