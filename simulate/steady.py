@@ -14,8 +14,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from scipy.optimize import brentq
-
 from hillchart.constants import RPM_TO_RAD_S
 from hillchart.errors import InputError, NumericalError
 
@@ -86,6 +84,8 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
     if g_other * g_st > 0.0:
         raise NumericalError(f"steady state: no head between {static_head_m:.6g} and {other:.6g} m balances "
                              f"friction at opening {opening:.6g} (gaps {g_st:.3g} and {g_other:.3g} m)")
+    from scipy.optimize import brentq  # lazy: scipy.optimize is about a third of a second of start-up
+
     low, high = min(static_head_m, other), max(static_head_m, other)
     return float(brentq(gap, low, high, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
 
@@ -140,6 +140,8 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
                 f"{speed:.6g} r/min between governor.stroke_min and stroke_max: "
                 f"[{p_low + power_mw:.6g}, {p_high + power_mw:.6g}] MW")
         else:
+            from scipy.optimize import brentq
+
             stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, stroke_max, xtol=1e-15, rtol=1e-15,
                             maxiter=500)
     stroke = float(stroke)

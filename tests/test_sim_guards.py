@@ -118,3 +118,18 @@ def test_ctrl_c_stops_a_long_run_within_about_a_second(tmp_path):
     # chunks of about 0.25 s of work: honoured within about a second (3 s allowed on a loaded 2-core machine)
     print(f"Ctrl-C honoured after {waited:.2f} s")
     assert waited < 3.0, waited
+
+
+def test_absurd_penstock_gives_a_clean_error_not_a_math_domain_error():
+    """Issue 10: a penstock of 1e9 m ended in 'math domain error' in the steady state."""
+    with pytest.raises(InputError, match=r"penstock\.segments\.length_m must be in \(0\.0, 100000\.0\], got 1000000000\.0 "
+                                         r"\(segment 0"):
+        load_plant(PLANT_HLA339, {"penstock.segments": [
+            {"length_m": 1e9, "diameter_m": 6.0, "wave_speed_m_s": 1100.0, "darcy_friction": 0.012}]})
+    # the longest allowed pipe, narrow and rough: the friction loss dwarfs the static head
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.segments": [
+        {"length_m": 1e5, "diameter_m": 0.5, "wave_speed_m_s": 1100.0, "darcy_friction": 0.2}]})
+    with pytest.raises(InputError, match=r"steady state: .* friction loss K Q\|Q\| = .* is not small against "
+                                         r"penstock\.static_head_m: no plausible steady flow; check the penstock "
+                                         r"segments' length_m, diameter_m and darcy_friction"):
+        run_simulation(plant)
