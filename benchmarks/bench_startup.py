@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -34,10 +35,18 @@ def commands(out_dir: Path) -> list[tuple[str, list[str], float]]:
     ]
 
 
+CPU: list[float] = []
+
+
 def wall(cmd: list[str], env: dict) -> float:
+    """Wall time of one process (its CPU time, user + sys, is appended to CPU: on a loaded machine it is the
+    better estimate of the wall time on a quiet one, as the commands are single-threaded)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     proc = subprocess.run(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     elapsed = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    CPU.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {proc.stderr[-2000:]}")
     return elapsed
@@ -60,15 +69,20 @@ def main(argv=None) -> int:
                 cache = tmp / f"cache-{len(rows)}-{i}"
                 env = dict(base_env, NUMBA_CACHE_DIR=str(cache / "numba"), HILLSIM_CACHE_DIR=str(cache / "loops"))
                 cold.append(wall(cmd, env))
+            cold_cpu = statistics.median(CPU[-args.cold:])
             warm = [wall(cmd, env) for _ in range(args.repeat)]
-            rows.append((label, statistics.median(warm), min(warm), max(warm), statistics.median(cold), target))
+            warm_cpu = statistics.median(CPU[-args.repeat:])
+            rows.append((label, statistics.median(warm), min(warm), max(warm), warm_cpu, statistics.median(cold),
+                         cold_cpu, target))
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     print(f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}; {os.cpu_count()} cores; median of {args.repeat} "
           f"warm / {args.cold} cold runs")
-    print("| command | warm median (s) | warm range (s) | cold median (s) | target warm (s) | ratio warm/target |")
-    print("|---|---|---|---|---|---|")
-    for label, med, lo, hi, cold, target in rows:
-        print(f"| `{label}` | {med:.2f} | {lo:.2f}-{hi:.2f} | {cold:.2f} | {target:.1f} | {med / target:.2f} |")
+    print("| command | warm wall median (s) | warm wall range (s) | warm CPU median (s) | cold wall (s) | cold CPU (s) "
+          "| target warm (s) | ratio warm wall/target |")
+    print("|---|---|---|---|---|---|---|---|")
+    for label, med, lo, hi, cpu, cold, cold_cpu, target in rows:
+        print(f"| `{label}` | {med:.2f} | {lo:.2f}-{hi:.2f} | {cpu:.2f} | {cold:.2f} | {cold_cpu:.2f} | {target:.1f} "
+              f"| {med / target:.2f} |")
     return 0
 
 
