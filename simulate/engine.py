@@ -159,7 +159,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     if up_part.signals:
         out_signals[0, :len(up_part.signals)] = up_part.meta["initial_signals"]
     nodes = np.zeros(pen_part.n_nodes)
-    pen_part.functions["node_heads"](pen_part.params, pen_part.state, up_part.meta.get(
+    node_heads = pen_part.functions["node_heads"]
+    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state, up_part.meta.get(
         "initial_head_m", pen.static_head_m), steady.head_m, nodes)
     env_max, env_min = nodes.copy(), nodes.copy()
     diag = np.zeros(8)
@@ -218,7 +219,9 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     if schedules.mode == GOVERNOR:
         from simulate.governor import piecewise_constant
 
-        ref_end = float(piecewise_constant(schedules.ref_times_s, schedules.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
+        # py_func: a one-off call from Python need not load the compiled version from the disk cache
+        ref_end = float(piecewise_constant.py_func(schedules.ref_times_s, schedules.ref_values,
+                                                   time_s[-1] + 1e-9 * dt, 0.0))
     tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
             "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "water_time_s": tw,
