@@ -100,14 +100,28 @@ CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
 })
 
 
-def upstream_section(plant):
-    """``(name, config)`` of the plant's upstream component: the first :data:`UPSTREAM` entry whose section is in
-    the plant (``plant.<name>`` not None), else ``("reservoir", None)``."""
-    for name in UPSTREAM.names():
+def section_component(registry: Registry, plant, default: str):
+    """``(name, config)``: the first entry of ``registry`` whose name is an optional plant section that is present
+    (``plant.<name>`` not None), else ``(default, None)``. This is how a component chosen by the presence of its
+    TOML section (a surge tank; later e.g. a ``[synchronous_generator]`` on the shaft) is picked without the engine
+    naming it."""
+    for name in registry.names():
+        if name == default:
+            continue
         config = getattr(plant, name, None)
         if config is not None:
             return name, config
-    return "reservoir", None
+    return default, None
+
+
+def upstream_section(plant):
+    """``(name, config)`` of the plant's upstream component (``("reservoir", None)`` without an upstream section)."""
+    return section_component(UPSTREAM, plant, "reservoir")
+
+
+def shaft_section(plant):
+    """``(name, config)`` of the plant's shaft component (``("rotor", None)``: the ``[generator]`` swing equation)."""
+    return section_component(SHAFTS, plant, "rotor")
 
 
 def ideal_from_rated(turbine, base_dir=None):

@@ -74,7 +74,7 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
 
 def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
     """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries."""
-    from simulate.components import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, upstream_section
+    from simulate.components import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
 
     turbine = plant.turbine
     load0 = steady.torque_nm / turbine.rated_torque_nm
@@ -86,7 +86,7 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
         "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
         "control": CONTROLS.builder("governor" if schedules.mode == GOVERNOR else "prescribed")(
             plant, steady, dt_s, schedules),
-        "shaft": SHAFTS.builder("rotor")(plant, steady, dt_s, schedules),
+        "shaft": SHAFTS.builder(shaft_section(plant)[0])(plant, steady, dt_s, schedules),
     }
     return parts, schedules
 

@@ -95,3 +95,15 @@ def test_result_carries_its_steady_state_and_plant():
     plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 3.0})
     r = run_simulation(plant)
     assert r.plant is plant and r.steady.flow_m3_s == r.flow_m3_s[0] and r.steady.speed_rpm == r.speed_rpm[0]
+
+
+def test_components_chosen_by_their_section_are_picked_without_naming_them():
+    from types import SimpleNamespace
+
+    from simulate.components import Registry, section_component
+
+    reg = Registry("shaft", "shaft", {"rotor": "simulate.rotor:build_rotor",
+                                      "synchronous_generator": "somewhere:build"})
+    assert section_component(reg, SimpleNamespace(), "rotor") == ("rotor", None)
+    cfg = object()
+    assert section_component(reg, SimpleNamespace(synchronous_generator=cfg), "rotor") == ("synchronous_generator", cfg)
