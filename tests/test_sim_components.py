@@ -107,3 +107,29 @@ def test_components_chosen_by_their_section_are_picked_without_naming_them():
     assert section_component(reg, SimpleNamespace(), "rotor") == ("rotor", None)
     cfg = object()
     assert section_component(reg, SimpleNamespace(synchronous_generator=cfg), "rotor") == ("synchronous_generator", cfg)
+
+
+def test_a_kernel_without_a_source_file_runs_uncached():
+    """A kernel from an interactive session (its module has no __file__) cannot be disk-cached: compiled in memory."""
+    import sys
+    import types
+
+    mod = types.ModuleType("hillsim_interactive_kernel")
+    sys.modules[mod.__name__] = mod
+    try:
+        src = ("import numba\n@numba.njit\ndef k(params, n11, controls):\n"
+               "    q = params[0] / params[1] * controls[0]\n    m = params[2] * q / n11\n    return q, 0.0, m, -m / n11\n")
+        exec(src, mod.__dict__)
+        mod.k.__module__ = mod.__name__
+        plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 5.0})
+        ideal = load_characteristics(plant.turbine)
+
+        class Interactive(ControlVectorIdeal):
+            def numba_control_kernel(self):
+                return mod.k, self.ideal.numba_kernel()[1]
+
+        r = run_simulation(plant, Interactive(ideal))
+        ref = run_simulation(plant, ideal)
+        np.testing.assert_allclose(r.speed_rpm, ref.speed_rpm, rtol=1e-12, atol=0)
+    finally:
+        del sys.modules[mod.__name__]
