@@ -76,3 +76,13 @@ def test_second_run_loads_the_loop_from_the_disk_cache(tmp_path):
         outputs.append(proc.stdout.strip().splitlines()[-1])
     assert outputs[0] != "MISSES []"  # the first process compiled (the spy sees misses: the check can fail)
     assert outputs[1] == "MISSES []", outputs[1]
+
+
+def test_identification_imports_no_torch_scipy_signal_or_matplotlib(tmp_path):
+    loaded = _modules_after(
+        "import numpy as np\nimport simulate.comparison\n"
+        "from simulate.identify import RecursiveLeastSquares, SixCoefficientLeastSquares\n"
+        "rng = np.random.default_rng(0)\n"
+        "RecursiveLeastSquares().fit(rng.normal(size=(50, 2)), rng.normal(size=50))\n"
+        "SixCoefficientLeastSquares().fit(rng.normal(size=(50, 3)), rng.normal(size=(50, 2)))\n", tmp_path)
+    assert loaded == {"torch": False, "scipy.signal": False, "matplotlib": False}
