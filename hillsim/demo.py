@@ -15,8 +15,6 @@ A notebook user runs the same pipeline with::
 from __future__ import annotations
 
 import json
-import sys
-import time
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -35,26 +33,6 @@ STEPS = (
     "identification vs nets",
     "report",
 )
-
-
-class Progress:
-    """``[k/N] step ... done (t s)`` lines on stderr, only when enabled (a terminal and not --quiet)."""
-
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
-        self.index = 0
-        self._start = 0.0
-
-    def start(self, label: str) -> None:
-        self.index += 1
-        self._start = time.perf_counter()
-        if self.enabled:
-            print(f"[{self.index}/{len(STEPS)}] {label} ...", end="", file=sys.stderr, flush=True)
-
-    def done(self, note: str = "") -> None:
-        if self.enabled:
-            extra = f", {note}" if note else ""
-            print(f" done ({time.perf_counter() - self._start:.1f} s{extra})", file=sys.stderr, flush=True)
 
 
 def _write_json(path: Path, data) -> Path:
@@ -77,25 +55,39 @@ def _simulate(plant, nets, out_dir: Path) -> dict:
     return _read_json(out_dir / "summary.json")
 
 
-def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int = 10, seed: int = 0) -> dict:
+def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int = 10, seed: int = 0,
+             outputs=None) -> dict:
     """Run the whole pipeline on the shipped synthetic chart and plant; returns the key numbers.
 
     Parameters
     ----------
     out : path
-        Output folder (created).
+        Output folder (created). The files are written into a private temporary folder and put in place when the
+        demo has finished (:mod:`hillsim.outputs`): an interrupted or failed demo leaves nothing behind.
     fast : bool
         Reuse the shipped ``data_synthetic/francis/nets.json`` instead of training.
     progress : bool
-        Print step progress on stderr.
+        Print step progress on stderr (one line per step on a terminal, a start and a done line elsewhere).
     restarts, seed : int
         Training multi-start count and seed (ignored with ``fast``).
+    outputs : hillsim.outputs.OutputSet or None
+        Declare ``out`` on this set (the CLI's, committed by the CLI) instead of a set of the demo's own.
 
     Returns
     -------
     dict
         The numbers of ``demo_summary.json``.
     """
+    from hillsim.outputs import OutputSet
+
+    if outputs is not None:
+        return _run_demo(outputs.folder("--out", out), fast=fast, progress=progress, restarts=restarts, seed=seed)
+    with OutputSet("demo") as own:
+        return _run_demo(own.folder("out", out), fast=fast, progress=progress, restarts=restarts, seed=seed)
+
+
+def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int) -> dict:
+    """The demo, written into the (temporary) folder ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -112,9 +104,10 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
     from simulate.comparison import compare_identification, plant_linearization
     from simulate.config import ScenarioConfig, load_plant
 
+    from hillsim.progress import Stages
+
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    bar = Progress(progress)
+    bar = Stages(enabled=progress, total=len(STEPS))
     files: dict[str, Path] = {}
 
     bar.start(STEPS[0])

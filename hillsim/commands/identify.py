@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
                                      load_measured_series, markdown_tables)
     from simulate.config import load_plant, parse_override
 
+    out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
     overrides = dict(parse_override(text) for text in args.set)
     plant = load_plant(args.plant, overrides)
     settings = ExperimentSettings(
@@ -102,10 +103,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
                                         initial_opening=args.initial_opening)
-    paths = report.write(args.out)
+    paths = report.write(out)
     summary = report.summary
     print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
           f"{summary['samples']} samples)")
     print(markdown_tables(summary))
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    print("wrote " + ", ".join(str(Path(args.out) / p.relative_to(out)) for p in paths.values()))
     return 0

@@ -73,6 +73,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
 
+    map_png = args.outputs.file("--map", args.map)  # checked now, renamed into place at the end
     characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.plant is not None:
         return _run_plant(args, characteristics, label, opening_unit)
@@ -114,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
             if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
                 raise InputError(f"{name} must satisfy 0 < LO < HI, got {lo} {hi}")
         maps = coefficient_maps(characteristics, np.linspace(n_lo, n_hi, args.grid), np.linspace(a_lo, a_hi, args.grid))
-        plot_coefficient_maps(maps, args.map, operating_point=(coeffs.n11_rpm, coeffs.opening),
+        plot_coefficient_maps(maps, map_png, operating_point=(coeffs.n11_rpm, coeffs.opening),
                               opening_unit=opening_unit)
         out["map"] = str(args.map)
     print(json.dumps(out, indent=2))

@@ -29,13 +29,10 @@ def run_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
     from simulate.engine import run_simulation
 
+    out = args.outputs.folder("--out", args.out, stale=("transient.png",))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
     result = run_simulation(plant, raise_on_failure=False)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {str(out)!r} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
     result.to_csv(out / "timeseries.csv")
     result.to_json(out / "summary.json")
     if not args.no_plot:
@@ -44,9 +41,10 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"{plant.scenario.kind}: {summary['steps']} steps of {summary['dt_s']:.6g} s, "
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
-          f"mean iterations {summary['mean_iterations']:.2f}; wrote {out}")
+          f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
     if not result.success:
-        raise_message = f"{result.message} (series up to the failure written to {out})"
+        args.outputs.commit()  # the series up to the failure are a result too
+        raise_message = f"{result.message} (series up to the failure written to {args.out})"
         from hillchart.errors import NumericalError
         raise NumericalError(raise_message)
     return 0

@@ -44,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     _check_int("--hidden", args.hidden, 1)
     _check_int("--restarts", args.restarts, 1)
     _check_int("--seed", args.seed, 0)
+    out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
     options = extension_options(args)
     chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
@@ -59,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
-    nets.save(args.out)
+    nets.save(out)
     warning = efficiency_plausibility_warning(nets, chart)
     if warning:
         print(f"warning: {warning}")
