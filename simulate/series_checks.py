@@ -26,9 +26,9 @@ from hillchart.errors import InputError
 STROKE_MAX = 1.5
 #: Sampling coarser than this many identification steps is refused (interpolation would invent the data between).
 MAX_SAMPLING_RATIO = 5.0
-#: Bytes per resampled sample over the whole identification: 6 series, regressors and theta histories of the five
-#: recursive estimators (p <= 6), step and simulation-mode responses; measured 300-500 on the shipped experiment,
-#: rounded up.
+#: Bytes per resampled sample over the whole identification (6 series, regressors and theta histories of the
+#: recursive estimators, step and simulation-mode responses): tracemalloc peak of ``identify_measured`` measured 520-575
+#: B per sample (300 and 1200 samples of the shipped load rejection), rounded up to 1 KiB for the figures.
 BYTES_PER_SAMPLE = 1024
 #: Default memory bound of the resampled series (bytes).
 MAX_BYTES = 2 * 1024**3
@@ -141,9 +141,8 @@ def check_measured_table(path, columns: dict, rows: np.ndarray, *, sample_time_s
     bad = np.flatnonzero((opening < 0) | (opening > STROKE_MAX))
     if bad.size:
         top = float(np.max(opening))
-        hint = (" (the values look like %: divide by 100)" if 1.5 < top <= 100.0 and np.min(opening) >= 0
-                else " (the values look like chart units, e.g. mm: divide by the opening at full stroke)"
-                if top > 100.0 else "")
+        hint = (" (the values look like % or the chart's units, e.g. mm: divide by 100 or by the opening at full "
+                "stroke)" if top > STROKE_MAX else "")
         raise InputError(f"{path}: column 'opening' must be the stroke fraction in [0, {STROKE_MAX:g}] (1 = full "
                          f"servo stroke): {_num(opening[bad[0]])} at {_rows(rows, bad)}{hint}")
     for name in ("speed_rpm", "head_m", "opening", "torque_nm", "flow_m3_s"):
