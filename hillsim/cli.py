@@ -57,7 +57,7 @@ class HelpFormatter(argparse.HelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if ("default" in text.lower() or action.default in (None, False, argparse.SUPPRESS)
+        if ("default" in text.lower() or any(action.default is v for v in (None, False, argparse.SUPPRESS))
                 or action.required or not action.option_strings):
             return text
         return text + " (default: %(default)s)"

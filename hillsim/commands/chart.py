@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import warnings
 
+from hillsim import progress
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -46,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
                              f"were trained with {nets.opening_unit!r}")
         extended = extend_samples(chart, _recorded_options(nets))
     title = args.title or (f"hill chart of {chart.info.name} from its nets" if chart is not None else None)
+    progress.start("drawing the hill chart, surfaces and errors")
     chart_figure(nets, samples=chart, extended=extended, path=out, title=title)
+    progress.done()
     print(f"wrote {args.out}")
     return 0
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError
+from hillsim import progress
 
 
 def register(subparsers) -> None:
@@ -116,15 +117,20 @@ def run(args: argparse.Namespace) -> int:
         except InputError as exc:  # e.g. sampled too coarsely for paper 002's 0.04 s: the rest stands
             arma_series = None
             notes.append(f"paper 002's ARMA fit uses the series at {settings.arma_sample_time_s} s: {exc}")
+        progress.start("identifying from the measured series")
         report = identify_measured(series, settings, plant=plant, exact=exact, arma_series=arma_series)
     else:
+        progress.start(f"simulating the experiment ({settings.duration_s:g} s) and identifying")
         report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
                                         initial_opening=args.initial_opening)
     summary = report.summary
     notes += review_summary(summary, report.series, settings)
     if notes:
         summary["warnings"] = notes
+    progress.done()
+    progress.start("writing identification.json, the series and the figures")
     paths = report.write(out)
+    progress.done()
     print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
           f"{summary['samples']} samples)")
     print(markdown_tables(display_summary(summary)))

@@ -9,6 +9,7 @@ import argparse
 from pathlib import Path
 
 from hillchart.errors import InputError
+from hillsim import progress
 
 
 def register(subparsers) -> None:
@@ -32,7 +33,9 @@ def run_command(args: argparse.Namespace) -> int:
     out = args.outputs.folder("--out", args.out, stale=("transient.png",))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
+    progress.start(f"simulating {plant.scenario.kind}, {plant.scenario.t_end_s:g} s")
     result = run_simulation(plant, raise_on_failure=False)
+    progress.done()
     result.to_csv(out / "timeseries.csv")
     result.to_json(out / "summary.json")
     if not args.no_plot:

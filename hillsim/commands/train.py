@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from hillsim import progress
+
 from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
 
 
@@ -49,9 +51,11 @@ def run(args: argparse.Namespace) -> int:
     chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
     start = time.perf_counter()
+    progress.start(f"training both nets ({args.restarts} restarts each)")
     nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
                       record_time=args.record_time)
     elapsed = time.perf_counter() - start
+    progress.done()
     nets.training["chart"] = chart.info.name
     nets.training["extension"] = {
         "runaway": options.runaway, "zero_opening": options.zero_opening, "zero_speed": options.zero_speed,
