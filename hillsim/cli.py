@@ -151,7 +151,7 @@ def run_command(args: argparse.Namespace) -> int:
 
     def fail(message: str, code: int) -> int:
         outputs.discard()
-        progress.current().enabled = False
+        progress.current().abort()
         print(f"hillsim {command}: {message}", file=sys.stderr)
         return code
 

@@ -74,6 +74,15 @@ class Stages:
         return elapsed
 
 
+    def abort(self, word: str = "stopped") -> None:
+        """End the current stage without a time (an error follows): on a terminal, finish its line."""
+        if self._start is None:
+            return
+        self._start = None
+        if self.enabled and self._is_terminal():
+            print(f" {word}", file=self.stream, flush=True)
+
+
 _current = Stages(enabled=False)
 
 
