@@ -119,10 +119,12 @@ class SimulationResult:
         np.savetxt(path, data, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt=fmt)
         return path
 
-    def to_json(self, path: str | Path) -> Path:
-        """Write the :meth:`summary` as JSON (summary.json)."""
+    def to_json(self, path: str | Path, *, series: bool = False) -> Path:
+        """Write the :meth:`summary` as JSON (summary.json); with ``series=True`` also every column of
+        timeseries.csv under ``"series"`` (``{column: [values]}``, full precision)."""
         path = Path(path)
-        path.write_text(json.dumps(self.summary(), indent=2, sort_keys=True, default=json_default) + "\n",
+        data = self.summary() | ({"series": self.columns()} if series else {})
+        path.write_text(json.dumps(data, indent=2, sort_keys=True, default=json_default) + "\n",
                         encoding="utf-8")
         return path
 

@@ -34,3 +34,25 @@ def shipped_rejection(example_plant, shipped_nets):
     from simulate.engine import run_simulation
 
     return run_simulation(example_plant, characteristics=shipped_nets)
+
+
+@pytest.fixture(scope="session")
+def demo_fast_run(tmp_path_factory):
+    """``hillsim demo --fast --quiet`` run once: (output folder, stdout, stderr). Tests only read the folder."""
+    import contextlib
+    import io
+
+    from hillsim.cli import main
+
+    out = tmp_path_factory.mktemp("demo") / "demo"
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        code = main(["demo", "--fast", "--quiet", "--out", str(out)])
+    assert code == 0, stderr.getvalue()
+    return out, stdout.getvalue(), stderr.getvalue()
+
+
+@pytest.fixture(scope="session")
+def demo_fast_dir(demo_fast_run):
+    """The folder of :func:`demo_fast_run`."""
+    return demo_fast_run[0]

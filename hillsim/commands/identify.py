@@ -52,8 +52,13 @@ def register(subparsers) -> None:
                      help="half-width of uniform measurement noise on x, h, m, q (relative; default 0)")
     exp.add_argument("--seed", type=int, default=0, help="seed of the PRBS and the noise (default 0)")
     est = parser.add_argument_group("estimators")
-    est.add_argument("--p0", type=float, default=1e10, help="P(0) = p0 I of the recursive estimators (default 1e10)")
-    est.add_argument("--forgetting", type=float, default=0.98, help="lambda of the RLS-with-forgetting (default 0.98)")
+    est.add_argument("--p0", type=float, default=1e10,
+                     help="P(0) = p0 I of the recursive estimators (default 1e10, as ExperimentSettings.rls_p0; the "
+                          "estimators' own default 1.0 is the paper's P(0) = I, which leaves theta far from least "
+                          "squares on per-unit data)")
+    est.add_argument("--forgetting-factor", "--forgetting", dest="forgetting", type=float, default=0.98,
+                     help="lambda of the RLS-with-forgetting variant (default 0.98, as "
+                          "ExperimentSettings.forgetting_factor; RecursiveLeastSquares' own default 1.0 is plain RLS)")
     est.add_argument("--eps0", type=float, default=None,
                      help="dead zone of the dead-zone RLS (default: (1 + sum|a|) x noise, or 1e-7 without noise)")
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
