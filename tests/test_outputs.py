@@ -136,58 +136,29 @@ def test_stale_names_are_removed_from_folders_without_a_manifest(tmp_path):
 
 # ----------------------------------------------------------------------------------------------------- locking
 
+#: A hillsim command (through the CLI's run_command) that declares an output folder, writes into it, says so in the
+#: ready file and then works for a while: the first of two concurrent writers, or the target of a signal.
 HOLDER = textwrap.dedent("""
-    import sys, time
+    import argparse, sys, time
     from pathlib import Path
-    from hillsim.outputs import OutputSet
-    outputs = OutputSet()
-    outputs.folder("--out", sys.argv[1])
-    Path(sys.argv[2]).write_text("locked")
-    time.sleep(30)
+    from hillsim.cli import run_command
+
+    def work(args):
+        out = args.outputs.folder("--out", sys.argv[1])
+        (out / "timeseries.csv").write_text("time_s\\n0\\n")
+        Path(sys.argv[2]).write_text("working")
+        time.sleep(float(sys.argv[3]))
+        return 0
+
+    sys.exit(run_command(argparse.Namespace(command="hold", func=work, quiet=True)))
 """)
 
 
-def test_second_process_is_refused_while_the_first_writes(tmp_path):
-    ready = tmp_path / "ready"
-    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(tmp_path / "run"), str(ready)], env=ENV)
-    try:
-        deadline = time.monotonic() + 60
-        while not ready.exists():
-            assert holder.poll() is None and time.monotonic() < deadline
-            time.sleep(0.05)
-        with pytest.raises(OutputLockedError, match=rf"--out '.*run' is being written by another hillsim process "
-                                                    rf"\(pid {holder.pid}\)"):
-            OutputSet().folder("--out", tmp_path / "run")
-    finally:
-        holder.kill()
-        holder.wait()
-    # the kernel released the dead holder's lock: the folder is usable again, no stale lock to delete by hand
-    with OutputSet() as outputs:
-        (outputs.folder("--out", tmp_path / "run") / "a.txt").write_text("ok")
-    assert (tmp_path / "run" / "a.txt").read_text() == "ok"
-
-
-def test_two_concurrent_hillsim_runs_into_one_folder(tmp_path):
-    """Issue 14: two runs into the same --out corrupted each other and both exited 0."""
-    out = tmp_path / "rejection"
-    cmd = [sys.executable, "-m", "hillsim.cli", "run", str(PLANT), "--out", str(out), "--no-plot",
-           "--set", "scenario.t_end_s=5"]
-    first = subprocess.Popen(cmd, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    lock = tmp_path / ".rejection.hillsim-lock"
-    deadline = time.monotonic() + 60
-    while not lock.exists() and first.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.02)
-    second = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
-    first_out, first_err = first.communicate(timeout=120)
-    assert first.returncode == 0, first_err
-    assert second.returncode == 2
-    assert "is being written by another hillsim process" in second.stderr and "Traceback" not in second.stderr
-    rows = (out / "timeseries.csv").read_text().splitlines()
-    assert rows[0].startswith("time_s,") and len(rows) > 100 and "\0" not in "".join(rows)
-    assert _leftovers(tmp_path) == []
-
-
-# ------------------------------------------------------------------------------------------ signals and errors
+def _start_holder(out: Path, ready: Path, seconds: float) -> subprocess.Popen:
+    proc = subprocess.Popen([sys.executable, "-c", HOLDER, str(out), str(ready), str(seconds)], env=ENV,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for(ready, proc)
+    return proc
 
 
 def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 60) -> None:
@@ -198,18 +169,65 @@ def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 60) -> None:
         time.sleep(0.02)
 
 
+def test_a_second_writer_is_refused_while_the_first_writes(tmp_path):
+    """Issue 14: two runs into the same --out corrupted each other and both exited 0. Two processes: a writer
+    holding --out, and `hillsim run` into the same folder."""
+    out = tmp_path / "rejection"
+    holder = _start_holder(out, tmp_path / "ready", 30)
+    try:
+        with pytest.raises(OutputLockedError, match=rf"--out '.*rejection' is being written by another hillsim "
+                                                    rf"process \(pid {holder.pid}\)"):
+            OutputSet().folder("--out", out)
+        second = subprocess.run([sys.executable, "-m", "hillsim.cli", "run", str(PLANT), "--out", str(out)],
+                                env=ENV, capture_output=True, text=True, timeout=120)
+        assert second.returncode == 2 and "Traceback" not in second.stderr
+        assert "hillsim run: error: --out" in second.stderr and "is being written by another hillsim" in second.stderr
+        assert not out.exists()  # the first writer's files are still private; nothing of the second's
+    finally:
+        holder.kill()
+        holder.wait()
+    # the kernel released the killed holder's lock: the folder is usable again, no stale lock to delete by hand
+    with OutputSet() as outputs:
+        (outputs.folder("--out", out) / "a.txt").write_text("ok")
+    assert (out / "a.txt").read_text() == "ok"
+
+
+def test_the_first_writer_finishes_intact_beside_a_refused_second(tmp_path):
+    out = tmp_path / "run"
+    holder = _start_holder(out, tmp_path / "ready", 1.0)
+    with pytest.raises(OutputLockedError):
+        OutputSet().folder("--out", out)
+    assert holder.wait(timeout=60) == 0
+    assert (out / "timeseries.csv").read_text() == "time_s\n0\n"
+    assert _leftovers(tmp_path) == []
+
+
+# ------------------------------------------------------------------------------------------ signals and errors
+
+
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
-def test_signal_during_a_run_exits_cleanly_and_writes_nothing(tmp_path, sig, code, word):
+def test_signal_while_writing_exits_cleanly_and_leaves_nothing(tmp_path, sig, code, word):
+    """Issue 10: SIGTERM/SIGINT while writing left a truncated timeseries.csv."""
+    holder = _start_holder(tmp_path / "run", tmp_path / "ready", 30)
+    holder.send_signal(sig)
+    _, err = holder.communicate(timeout=60)
+    assert holder.returncode == code
+    assert err.strip() == f"hillsim hold: {word}; no outputs written"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ready"]  # no folder, no temporary, no lock
+
+
+def test_ctrl_c_during_a_real_run_exits_130_and_writes_nothing(tmp_path):
+    """`hillsim run` interrupted while it imports and compiles the loop (numba): one line, exit 130."""
     out = tmp_path / "rejection"
     proc = subprocess.Popen([sys.executable, "-m", "hillsim.cli", "run", str(PLANT), "--out", str(out)], env=ENV,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _wait_for(tmp_path / ".rejection.hillsim-lock", proc)  # outputs declared: the work (imports, compile) runs
     time.sleep(0.3)
-    proc.send_signal(sig)
+    proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == code
-    assert f"hillsim run: {word}; no outputs written" in err and "Traceback" not in err
-    assert list(tmp_path.iterdir()) == []  # no folder, no temporary, no lock
+    assert proc.returncode == 130
+    assert "hillsim run: interrupted; no outputs written" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def _args(func, command="fake") -> argparse.Namespace:
