@@ -171,17 +171,19 @@ def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 60) -> None:
 
 def test_a_second_writer_is_refused_while_the_first_writes(tmp_path):
     """Issue 14: two runs into the same --out corrupted each other and both exited 0. Two processes: a writer
-    holding --out, and `hillsim run` into the same folder."""
+    holding the folder, and a hillsim command writing into the same folder."""
     out = tmp_path / "rejection"
     holder = _start_holder(out, tmp_path / "ready", 30)
     try:
         with pytest.raises(OutputLockedError, match=rf"--out '.*rejection' is being written by another hillsim "
                                                     rf"process \(pid {holder.pid}\)"):
             OutputSet().folder("--out", out)
-        second = subprocess.run([sys.executable, "-m", "hillsim.cli", "run", str(PLANT), "--out", str(out)],
+        # the second writer is a real command (synth: the lightest to start; every command declares its outputs the
+        # same way, and `run` declares --out before importing the simulator, see test_run_checks_out_before_...)
+        second = subprocess.run([sys.executable, "-m", "hillsim.cli", "synth", str(out)],
                                 env=ENV, capture_output=True, text=True, timeout=120)
         assert second.returncode == 2 and "Traceback" not in second.stderr
-        assert "hillsim run: error: --out" in second.stderr and "is being written by another hillsim" in second.stderr
+        assert "hillsim synth: error: OUT_DIR" in second.stderr and "is being written by another hillsim" in second.stderr
         assert not out.exists()  # the first writer's files are still private; nothing of the second's
     finally:
         holder.kill()
