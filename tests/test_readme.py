@@ -23,3 +23,12 @@ def test_readme_generated_blocks_are_current(demo_fast_dir):
     assert script.stale_blocks(text.replace("Q11 RMS 0.227 %", "Q11 RMS 0.228 %"), expected) == ["demo-summary"]
     for name in script.FIGURES:
         assert (REPO / "docs" / name).stat().st_size > 10_000, name
+
+
+def test_readme_quickstart_is_the_example_file():
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    start = text.index("```python\n", text.index("`examples/quickstart.py`")) + len("```python\n")
+    block = text[start:text.index("```\n", start)]
+    source = (REPO / "examples" / "quickstart.py").read_text(encoding="utf-8")
+    code = source[source.index('"""', 3) + 3:].lstrip("\n")  # the README shows the file without its docstring
+    assert block == code
