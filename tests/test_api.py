@@ -73,3 +73,16 @@ def test_forgetting_factor_has_one_name():
     b = parser.parse_args(["identify", "p.toml", "--out", "o", "--forgetting", "0.9"])  # the old spelling works
     assert a.forgetting == b.forgetting == 0.9
     assert parser.parse_args(["identify", "p.toml", "--out", "o"]).p0 == 1e10
+
+
+def test_summary_json_has_tidy_floats(tmp_path):
+    """Issue 13: "final_opening": 3.719570726996532e-111 in summary.json."""
+    from simulate.result import SimulationResult
+
+    t = np.array([0.0, 0.5, 1.0])
+    opening = np.array([0.68, 0.3, 3.719570726996532e-111])
+    power = np.array([225.00000000000028, 100.0, 0.0])
+    r = SimulationResult(t, t + 200, t + 100, t, opening, t, t, power, np.array([0, 3, 2]), 200.0, 200.0)
+    data = json.loads(r.to_json(tmp_path / "s.json").read_text())
+    assert data["final_opening"] == 0.0 and data["initial_power_mw"] == 225.0
+    assert r.summary()["final_opening"] == 3.719570726996532e-111  # the in-memory summary keeps full precision
