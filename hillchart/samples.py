@@ -148,7 +148,15 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
     table = read_table(path, columns)
     if table.note:
         warnings.warn(table.note, UserWarning, stacklevel=3)
-    return table.columns
+    columns_read = _Columns(table.columns)
+    columns_read.lines = table.lines  # file line of each row, for messages about rows below blank lines
+    return columns_read
+
+
+class _Columns(dict):
+    """``{column: values}`` with ``.lines``, the file line number of each row (header = 1, blank lines counted)."""
+
+    lines: np.ndarray
 
 
 def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allowed: str) -> None:

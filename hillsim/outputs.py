@@ -166,8 +166,12 @@ class OutputSet:
         if final.exists() and not os.access(final, os.W_OK):
             raise InputError(f"{_describe(option, final)} exists and is read-only")
         lock = self._lock(option, final)
-        # the suffix stays last: writers that choose the format by it (matplotlib's savefig) see the real one
-        fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{final.stem}{TMP_TAG}", suffix=final.suffix)
+        try:
+            # the suffix stays last: writers that choose the format by it (matplotlib's savefig) see the real one
+            fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{final.stem}{TMP_TAG}", suffix=final.suffix)
+        except OSError as exc:
+            lock.release()
+            raise InputError(f"{_describe(option, final)}: cannot write in {str(parent)!r}: {exc.strerror}") from None
         os.close(fd)
         self._targets.append(_Target(option, final, Path(tmp), "file", lock))
         return Path(tmp)
@@ -180,7 +184,7 @@ class OutputSet:
         self._check_new(option, final)
         if final.exists() and not final.is_dir():
             raise InputError(f"{_describe(option, final)} exists and is not a folder")
-        existing = final
+        existing = final.parent  # the temporary folder and the lock live beside the target
         while not existing.exists():
             if existing.parent == existing:  # pragma: no cover - the root always exists
                 break
@@ -199,8 +203,21 @@ class OutputSet:
                     raise InputError(f"{_describe(option, final)}: cannot create {str(parent)!r}: "
                                      f"{exc.strerror}") from None
                 created.append(parent)
-        lock = self._lock(option, final)
-        tmp = Path(tempfile.mkdtemp(dir=final.parent, prefix=f".{final.name}{TMP_TAG}"))
+        try:
+            lock = self._lock(option, final)
+            try:
+                tmp = Path(tempfile.mkdtemp(dir=final.parent, prefix=f".{final.name}{TMP_TAG}"))
+            except OSError as exc:
+                lock.release()
+                raise InputError(f"{_describe(option, final)}: cannot write in {str(final.parent)!r}: "
+                                 f"{exc.strerror}") from None
+        except InputError:
+            for folder in reversed(created):
+                try:
+                    folder.rmdir()
+                except OSError:
+                    break
+            raise
         self._targets.append(_Target(option, final, tmp, "folder", lock, tuple(stale), created))
         return tmp
 

@@ -63,6 +63,16 @@ def test_read_only_folder_is_refused(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_folder_output_needs_a_writable_parent(tmp_path, monkeypatch):
+    # the temporary folder and the lock live beside the target: an existing, writable target is not enough
+    (tmp_path / "run").mkdir()
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p) == tmp_path and mode & os.W_OK else real(p, mode))
+    with pytest.raises(InputError, match=r"--out '.*run': the folder '.*' is read-only"):
+        OutputSet().folder("--out", tmp_path / "run")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
 def test_the_same_path_twice_is_refused(tmp_path):
     outputs = OutputSet()
     outputs.file("--out", tmp_path / "a.png")
