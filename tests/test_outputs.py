@@ -307,3 +307,14 @@ def test_version(capsys):
     from hillsim import __version__
 
     assert capsys.readouterr().out.strip() == f"hillsim {__version__}"
+
+
+def test_an_unexpected_error_keeps_its_traceback_and_writes_nothing(tmp_path):
+    """Issue 14: `train ... --out n.json` wrote n.json, then crashed (QhullError): nothing may be left."""
+    def func(args):
+        args.outputs.file("--out", tmp_path / "n.json").write_text("{}")
+        raise RuntimeError("QhullError: initial simplex is flat")  # a bug, not bad input: the traceback stays
+
+    with pytest.raises(RuntimeError, match="simplex"):
+        run_command(_args(func, "train"))
+    assert list(tmp_path.iterdir()) == []
