@@ -165,20 +165,21 @@ def run_command(args: argparse.Namespace) -> int:
             else:
                 outputs.discard()
             return code
-        except KeyboardInterrupt:
-            return fail("interrupted; no outputs written", EXIT_INTERRUPTED)
-        except Terminated:
-            return fail("terminated; no outputs written", EXIT_TERMINATED)
-        except HillsimError as exc:
-            return fail(f"error: {exc}", EXIT_INPUT)
-        except OSError as exc:
-            where = _output_option(outputs, exc)
-            reason = exc.strerror or str(exc)
-            if where:
-                return fail(f"error: {where}: cannot write {exc.filename!s}: {reason}", EXIT_INPUT)
-            target = f"{exc.filename}: " if exc.filename else ""
-            return fail(f"error: {target}{reason}", EXIT_INPUT)
-        except BaseException:
+        except BaseException as exc:
+            # a signal wins over whatever it turned into on the way (a library may wrap the KeyboardInterrupt)
+            if isinstance(exc, Terminated) or state["signal"] == signal.SIGTERM:
+                return fail("terminated; no outputs written", EXIT_TERMINATED)
+            if isinstance(exc, KeyboardInterrupt) or state["signal"] is not None:
+                return fail("interrupted; no outputs written", EXIT_INTERRUPTED)
+            if isinstance(exc, HillsimError):
+                return fail(f"error: {exc}", EXIT_INPUT)
+            if isinstance(exc, OSError):
+                where = _output_option(outputs, exc)
+                reason = exc.strerror or str(exc)
+                if where:
+                    return fail(f"error: {where}: cannot write {exc.filename!s}: {reason}", EXIT_INPUT)
+                target = f"{exc.filename}: " if exc.filename else ""
+                return fail(f"error: {target}{reason}", EXIT_INPUT)
             outputs.discard()
             raise
 

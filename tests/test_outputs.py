@@ -318,3 +318,15 @@ def test_an_unexpected_error_keeps_its_traceback_and_writes_nothing(tmp_path):
     with pytest.raises(RuntimeError, match="simplex"):
         run_command(_args(func, "train"))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_wrapped_into_another_error_still_exits_130(tmp_path, capsys):
+    def func(args):
+        args.outputs.folder("--out", tmp_path / "run")
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except KeyboardInterrupt:
+            raise RuntimeError("compilation failed") from None  # what a library catching everything might do
+
+    assert run_command(_args(func)) == 130
+    assert "interrupted" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
