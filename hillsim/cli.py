@@ -94,10 +94,22 @@ def _harmonize(name: str, parser: argparse.ArgumentParser) -> None:
     for action in parser._actions:
         if action.dest in METAVARS and isinstance(action.metavar, (str, type(None))):
             action.metavar = METAVARS[action.dest]
-        elif action.dest == "out" and name in OUT_METAVARS:
-            action.metavar = OUT_METAVARS[name]
+        elif action.dest == "out" and action.option_strings and (name in OUT_METAVARS or action.metavar is None):
+            action.metavar = OUT_METAVARS.get(name) or _out_metavar(action.help or "")
     if "quiet" not in {a.dest for a in parser._actions}:
         parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def _out_metavar(help_text: str) -> str:
+    """``--out``'s metavar for a command not in :data:`OUT_METAVARS`: DIR for a folder, else the file type its help
+    names, else PATH."""
+    text = help_text.lower()
+    if "folder" in text or "director" in text:
+        return "DIR"
+    for kind in ("png", "csv", "json", "html", "toml"):
+        if kind in text:
+            return kind.upper()
+    return "PATH"
 
 
 @contextmanager
