@@ -16,7 +16,7 @@ from hillchart.samples import load_chart
 from simulate.config import load_plant
 from simulate.engine import initial_state, run_simulation
 
-out = Path(sys.argv[1] if len(sys.argv) > 1 else "quickstart_out")
+out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/quickstart")  # out/ is gitignored
 out.mkdir(parents=True, exist_ok=True)
 
 # 1. the digitized chart and its extension (torque from efficiency, runaway / zero-opening / zero-speed samples)

@@ -15,7 +15,6 @@ opening in the chart's own unit. Anything wrong is an :class:`~hillchart.errors.
 
 from __future__ import annotations
 
-import csv
 import tomllib
 import warnings
 from dataclasses import dataclass
@@ -115,7 +114,7 @@ def read_chart_info(path) -> ChartInfo:
     if not path.is_file():
         raise InputError(f"{path}: missing file (a chart folder needs chart.toml)")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is accepted
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
     unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
@@ -141,34 +140,23 @@ def parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
 
 
 def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """Read a numeric CSV with exactly ``columns`` (any order); errors name file, line and column."""
-    try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            rows = list(csv.reader(handle))
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file ({exc})") from None
-    if not rows:
-        raise InputError(f"{path}: empty file; expected a header {','.join(columns)}")
-    header = [name.strip() for name in rows[0]]
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise InputError(f"{path}: missing column(s) {missing}; the header must be {','.join(columns)}")
-    unknown = [c for c in header if c not in columns]
-    if unknown:
-        raise InputError(f"{path}: unknown column(s) {unknown}; the header must be {','.join(columns)}")
-    if len(set(header)) != len(header):
-        raise InputError(f"{path}: repeated column in header {header}")
-    data = {c: [] for c in columns}
-    for line_no, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue  # blank line
-        if len(row) != len(header):
-            raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
-        for name, cell in zip(header, row):
-            data[name].append(parse_cell(path, line_no, name, cell))
-    if not data[columns[0]]:
-        raise InputError(f"{path}: no data rows below the header")
-    return {c: np.asarray(v, dtype=float) for c, v in data.items()}
+    """Read a numeric CSV with exactly ``columns`` (any order); errors name file, row (line number) and column.
+    A byte-order mark, semicolon/tab delimiters and decimal commas are handled by :func:`hillchart.tabular.read_table`
+    (how an unusual file was read is a UserWarning)."""
+    from hillchart.tabular import read_table
+
+    table = read_table(path, columns)
+    if table.note:
+        warnings.warn(table.note, UserWarning, stacklevel=3)
+    columns_read = _Columns(table.columns)
+    columns_read.lines = table.lines  # file line of each row, for messages about rows below blank lines
+    return columns_read
+
+
+class _Columns(dict):
+    """``{column: values}`` with ``.lines``, the file line number of each row (header = 1, blank lines counted)."""
+
+    lines: np.ndarray
 
 
 def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allowed: str) -> None:

@@ -2,13 +2,27 @@
 
 Each sub-command lives in its own module under :mod:`hillsim.commands` and exposes ``register(subparsers)``,
 which adds its parser and sets ``func`` (called with the parsed namespace, returns an exit code).
+
+What every command gets from here:
+
+- ``args.outputs``, an :class:`hillsim.outputs.OutputSet`: a command declares its output files and folders with it
+  before working (checked, locked, written under temporary names); they are put in place when the command returns 0
+  and removed on any error, interrupt or termination, so nothing partial is left behind;
+- ``--quiet`` (added when the command does not define it) and progress lines on stderr (:mod:`hillsim.progress`);
+- the same conventions in ``--help``: defaults shown, the same metavar for the same thing (:data:`METAVARS`);
+- exit codes: 0 success; 2 bad input, unusable output or numerical failure (one line ``hillsim CMD: error: ...``,
+  no traceback); 130 interrupted (Ctrl-C, also when the interrupt hit code that swallows exceptions, such as a
+  finalizer during numba compilation); 143 terminated (SIGTERM).
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
+from contextlib import contextmanager
 
 from hillchart.errors import HillsimError
 
@@ -24,26 +38,168 @@ COMMAND_MODULES = (
     "hillsim.commands.demo",
 )
 
+#: One metavar per kind of argument, whichever command takes it (``dest`` -> metavar; a command's own metavar is
+#: replaced so ``--help`` names the same thing the same way everywhere).
+METAVARS = {"chart": "CHART_DIR", "samples": "CHART_DIR", "plant": "PLANT_TOML", "nets": "NETS_JSON",
+            "data": "SERIES_CSV"}
+#: ``--out`` of each command: a folder (DIR) or the file type it writes.
+OUT_METAVARS = {"run": "DIR", "identify": "DIR", "demo": "DIR", "extend": "CSV", "train": "NETS_JSON",
+                "chart": "PNG"}
+
+EXIT_INPUT = 2
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Shows ``(default: X)`` after an option's help unless the help already states its default, the default is
+    None/False (nothing to say) or the argument is a required positional."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("default" in text.lower() or any(action.default is v for v in (None, False, argparse.SUPPRESS))
+                or action.required or not action.option_strings):
+            return text
+        return text + " (default: %(default)s)"
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived (raised from the signal handler so outputs are cleaned up on the way out)."""
+
+
+def _version() -> str:
+    from hillsim import __version__
+
+    return __version__
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hillsim",
         description="Francis turbine hill chart -> BP nets -> nonlinear transient simulation.",
+        formatter_class=HelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"hillsim {_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMAND_MODULES:
         importlib.import_module(name).register(subparsers)
+    for name, sub in subparsers.choices.items():
+        _harmonize(name, sub)
     return parser
+
+
+def _harmonize(name: str, parser: argparse.ArgumentParser) -> None:
+    """Help conventions shared by every command (see the module docstring)."""
+    parser.formatter_class = HelpFormatter
+    for action in parser._actions:
+        if action.dest in METAVARS and isinstance(action.metavar, (str, type(None))):
+            action.metavar = METAVARS[action.dest]
+        elif action.dest == "out" and action.option_strings and (name in OUT_METAVARS or action.metavar is None):
+            action.metavar = OUT_METAVARS.get(name) or _out_metavar(action.help or "")
+    if "quiet" not in {a.dest for a in parser._actions}:
+        parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def _out_metavar(help_text: str) -> str:
+    """``--out``'s metavar for a command not in :data:`OUT_METAVARS`: DIR for a folder, else the file type its help
+    names, else PATH."""
+    text = help_text.lower()
+    if "folder" in text or "director" in text:
+        return "DIR"
+    for kind in ("png", "csv", "json", "html", "toml"):
+        if kind in text:
+            return kind.upper()
+    return "PATH"
+
+
+@contextmanager
+def _signals(state: dict):
+    """SIGINT -> KeyboardInterrupt, SIGTERM -> :class:`Terminated`, each also recorded in ``state["signal"]`` (a
+    KeyboardInterrupt raised inside a finalizer is swallowed by Python; the record still ends the command)."""
+
+    def handler(signum, frame):
+        state["signal"] = signum
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Terminated(signum)
+
+    previous = {}
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, handler)
+    except ValueError:  # not the main thread: leave the handlers alone
+        pass
+    try:
+        yield state
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def _output_option(outputs, exc: OSError) -> str | None:
+    """The option whose output the failing path belongs to (temporary or final), if any."""
+    name = getattr(exc, "filename", None)
+    if not name:
+        return None
+    path = os.path.abspath(str(name))
+    for target in outputs._targets:
+        for root in (target.final, target.temporary):
+            root = os.path.abspath(root)
+            if path == root or path.startswith(root + os.sep):
+                return f"{target.option} {str(target.final)!r}"
+    return None
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Run ``args.func(args)`` with the shared output set, progress, error and signal handling; the exit code."""
+    from hillsim import progress
+    from hillsim.outputs import OutputSet
+
+    command = args.command
+    outputs = OutputSet(command)
+    args.outputs = outputs
+    progress.configure(enabled=not getattr(args, "quiet", False))
+    state = {"signal": None}
+
+    def fail(message: str, code: int) -> int:
+        outputs.discard()
+        progress.current().abort()
+        print(f"hillsim {command}: {message}", file=sys.stderr)
+        return code
+
+    with _signals(state):
+        try:
+            code = int(args.func(args) or 0)
+            if state["signal"] is not None:  # a signal swallowed on the way (e.g. in a finalizer)
+                raise Terminated() if state["signal"] == signal.SIGTERM else KeyboardInterrupt
+            if code == 0:
+                outputs.commit()
+            else:
+                outputs.discard()
+            return code
+        except BaseException as exc:
+            # a signal wins over whatever it turned into on the way (a library may wrap the KeyboardInterrupt)
+            if isinstance(exc, Terminated) or state["signal"] == signal.SIGTERM:
+                return fail("terminated; no outputs written", EXIT_TERMINATED)
+            if isinstance(exc, KeyboardInterrupt) or state["signal"] is not None:
+                return fail("interrupted; no outputs written", EXIT_INTERRUPTED)
+            if isinstance(exc, HillsimError):
+                return fail(f"error: {exc}", EXIT_INPUT)
+            if isinstance(exc, OSError):
+                where = _output_option(outputs, exc)
+                reason = exc.strerror or str(exc)
+                if where:
+                    return fail(f"error: {where}: cannot write {exc.filename!s}: {reason}", EXIT_INPUT)
+                target = f"{exc.filename}: " if exc.filename else ""
+                return fail(f"error: {target}{reason}", EXIT_INPUT)
+            outputs.discard()
+            raise
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except (HillsimError, FileNotFoundError) as exc:
-        print(f"hillsim {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    return run_command(args)
 
 
 if __name__ == "__main__":  # pragma: no cover

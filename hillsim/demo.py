@@ -15,8 +15,6 @@ A notebook user runs the same pipeline with::
 from __future__ import annotations
 
 import json
-import sys
-import time
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -31,33 +29,18 @@ STEPS = (
     "load rejection (governor)",
     "load rejection (closure law)",
     "no-load frequency steps",
-    "linearize at the rated point",
+    "linearize at the scenario's initial point",
     "identification vs nets",
     "report",
 )
 
 
-class Progress:
-    """``[k/N] step ... done (t s)`` lines on stderr, only when enabled (a terminal and not --quiet)."""
-
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
-        self.index = 0
-        self._start = 0.0
-
-    def start(self, label: str) -> None:
-        self.index += 1
-        self._start = time.perf_counter()
-        if self.enabled:
-            print(f"[{self.index}/{len(STEPS)}] {label} ...", end="", file=sys.stderr, flush=True)
-
-    def done(self, note: str = "") -> None:
-        if self.enabled:
-            extra = f", {note}" if note else ""
-            print(f" done ({time.perf_counter() - self._start:.1f} s{extra})", file=sys.stderr, flush=True)
-
-
 def _write_json(path: Path, data) -> Path:
+    """JSON with tidy floats (:func:`hillchart.tidy.tidy_floats`: 12 significant digits, dust below 1e-30 -> 0)."""
+    from hillchart.tidy import tidy_floats
+    from simulate.result import json_default
+
+    data = tidy_floats(json.loads(json.dumps(data, default=json_default)))
     path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     return path
 
@@ -77,25 +60,39 @@ def _simulate(plant, nets, out_dir: Path) -> dict:
     return _read_json(out_dir / "summary.json")
 
 
-def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int = 10, seed: int = 0) -> dict:
+def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int = 10, seed: int = 0,
+             outputs=None) -> dict:
     """Run the whole pipeline on the shipped synthetic chart and plant; returns the key numbers.
 
     Parameters
     ----------
     out : path
-        Output folder (created).
+        Output folder (created). The files are written into a private temporary folder and put in place when the
+        demo has finished (:mod:`hillsim.outputs`): an interrupted or failed demo leaves nothing behind.
     fast : bool
         Reuse the shipped ``data_synthetic/francis/nets.json`` instead of training.
     progress : bool
-        Print step progress on stderr.
+        Print step progress on stderr (one line per step on a terminal, a start and a done line elsewhere).
     restarts, seed : int
         Training multi-start count and seed (ignored with ``fast``).
+    outputs : hillsim.outputs.OutputSet or None
+        Declare ``out`` on this set (the CLI's, committed by the CLI) instead of a set of the demo's own.
 
     Returns
     -------
     dict
         The numbers of ``demo_summary.json``.
     """
+    from hillsim.outputs import OutputSet
+
+    if outputs is not None:
+        return _run_demo(outputs.folder("--out", out), fast=fast, progress=progress, restarts=restarts, seed=seed)
+    with OutputSet("demo") as own:
+        return _run_demo(own.folder("out", out), fast=fast, progress=progress, restarts=restarts, seed=seed)
+
+
+def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int) -> dict:
+    """The demo, written into the (temporary) folder ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -112,9 +109,10 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
     from simulate.comparison import compare_identification, plant_linearization
     from simulate.config import ScenarioConfig, load_plant
 
+    from hillsim.progress import Stages
+
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    bar = Progress(progress)
+    bar = Stages(enabled=progress, total=len(STEPS))
     files: dict[str, Path] = {}
 
     bar.start(STEPS[0])
@@ -190,6 +188,8 @@ def run_demo(out, *, fast: bool = False, progress: bool = False, restarts: int =
     bar.done()
 
     bar.start(STEPS[8])
+    for file in RESULT_FILES.values():  # the simulator's and identification's own JSON, tidied like the demo's
+        _write_json(out / file, _read_json(out / file))
     results = _load_results(out)
     summary = _summary(results)
     _write_json(out / "demo_summary.json", summary)
@@ -230,6 +230,7 @@ def _summary(results: dict) -> dict:
         "closure_law_max_speed_rise": clo["max_speed_rise"],
         "closure_law_max_head_rise": clo["max_head_rise"],
         "frequency_steps_max_iterations": fre["max_iterations"],
+        "operating_point_power_mw": lin["operating_point"]["power_mw"],
         "ey_nets": lin["coefficients"]["ey"],
         "ey_exact": lin["coefficients_exact"]["ey"],
         "six_max_abs_batch_ls_minus_nets": six["max_abs_batch_ls_minus_nets"],
@@ -292,8 +293,10 @@ def build_report(out: Path, results: dict, summary: dict) -> Report:
              Value(six["nets"][k], "{:.4f}", f"identification/identification.json:six_coefficients.nets.{k}"),
              Value(six["batch_ls"][k], "{:.4f}", f"identification/identification.json:six_coefficients.batch_ls.{k}")]
             for k in names]
-    report.table(["coefficient", "nets, rated point", "exact turbine, rated point", "nets, identification point",
-                  "batch LS (paper 000 eqs. 69-70)"], rows, "Relative coefficients at the operating point")
+    report.table(["coefficient", "nets, scenario point", "exact turbine, scenario point", "nets, identification point",
+                  "batch LS (paper 000 eqs. 69-70)"], rows,
+                 "Relative coefficients at the scenario's initial point (the plant's initial load; not the chart's "
+                 "design rated N11 of the README's linearize example) and at the identification point")
     report.figure(out / "coefficient_maps.png", "The six coefficients over the chart")
 
     report.heading("5. Identification against the nets")
@@ -333,7 +336,8 @@ def format_summary(summary: dict) -> str:
         f"{summary['load_rejection_mean_iterations']:.2f} iterations/step",
         f"{'load rejection (closure law)':<38} max speed rise {summary['closure_law_max_speed_rise']:.1%}, "
         f"max head rise {summary['closure_law_max_head_rise']:.1%}",
-        f"{'ey at the rated point':<38} nets {summary['ey_nets']:.4f}, exact {summary['ey_exact']:.4f}",
+        f"{'ey at the scenario point':<38} nets {summary['ey_nets']:.4f}, exact {summary['ey_exact']:.4f} "
+        f"({summary['operating_point_power_mw']:.0f} MW)",
         f"{'six coefficients, batch LS vs nets':<38} max |diff| {summary['six_max_abs_batch_ls_minus_nets']:.4f}",
         f"{'RLS step response vs nets':<38} {summary['rls_step_error_vs_nets']:.3f} of peak; simulation-mode "
         f"speed error {summary['rls_simulation_mode_max_speed_error']:.2e} pu",

@@ -24,9 +24,9 @@ rotor ``Ta dx/dt = (M - M_g)/M_r - e_g x`` (torque base M_r = P_r/omega_r) becom
 
 from __future__ import annotations
 
-import csv
 import json
 import math
+import warnings
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -369,47 +369,21 @@ def load_measured_series(path, *, sample_time_s: float, operating_point: Operati
     ``hillsim run`` works as is), then one numeric row per sample, time strictly increasing. The sensors may be
     sampled at any rate; every column is interpolated linearly onto the tau grid.
     """
+    from hillchart.tabular import read_table
+    from simulate.series_checks import check_measured_table
+
     path = Path(path)
+    table = read_table(path, MEASURED_COLUMNS, extra="ignore", what="series file")  # BOM, ';'/tab, rows = lines
+    if len(table.lines) < 10:
+        raise InputError(f"{path}: needs at least 10 data rows, got {len(table.lines)}")
+    check_measured_table(path, table.columns, table.lines, sample_time_s=sample_time_s)  # units, outliers, size
+    if table.note:
+        warnings.warn(table.note, UserWarning, stacklevel=2)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot read series file {str(path)!r}: {exc.strerror}") from None
-    rows = list(csv.reader(text.splitlines()))
-    if not rows:
-        raise InputError(f"{path}: empty file; expected a header line {','.join(MEASURED_COLUMNS)}")
-    header = [h.strip() for h in rows[0]]
-    missing = [c for c in MEASURED_COLUMNS if c not in header]
-    if missing:
-        raise InputError(f"{path}: missing column {missing[0]!r}; the header must name {', '.join(MEASURED_COLUMNS)} "
-                         f"(units in the names), got {', '.join(header)}")
-    idx = [header.index(c) for c in MEASURED_COLUMNS]
-    data = []
-    for line_no, row in enumerate(rows[1:], start=2):
-        if not row or all(not cell.strip() for cell in row):
-            continue
-        if len(row) != len(header):
-            raise InputError(f"{path}: line {line_no} has {len(row)} fields, the header has {len(header)}")
-        try:
-            data.append([float(row[i]) for i in idx])
-        except ValueError:
-            bad = next(header[i] for i in idx if not _is_float(row[i]))
-            raise InputError(f"{path}: line {line_no}, column {bad!r} is not a number: "
-                             f"{row[header.index(bad)]!r}") from None
-    if len(data) < 10:
-        raise InputError(f"{path}: needs at least 10 data rows, got {len(data)}")
-    arr = np.array(data)
-    try:
-        return RelativeSeries.from_physical(*arr.T, sample_time_s=sample_time_s, operating_point=operating_point)
+        return RelativeSeries.from_physical(*(table.columns[c] for c in MEASURED_COLUMNS),
+                                            sample_time_s=sample_time_s, operating_point=operating_point)
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
-
-
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -901,6 +875,8 @@ def plot_report(report: IdentificationReport, out_dir) -> dict[str, Path]:
 def _fmt(value, digits=4, none="-") -> str:
     if value is None:
         return none
+    if isinstance(value, str):  # already worded by the caller (e.g. "unstable")
+        return value
     if isinstance(value, bool):
         return "PASS" if value else "FAIL"
     if isinstance(value, float) and not math.isfinite(value):

@@ -677,7 +677,7 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is accepted
     except OSError as exc:
         raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
     try:

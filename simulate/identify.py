@@ -32,6 +32,8 @@ from simulate.linear import ArxModel, turbine_parameters_from_arma
 
 
 def _as_matrix(name: str, value, *, n_cols: int | None = None) -> np.ndarray:
+    if np.asarray(value).dtype.kind == "c":  # a float cast would drop the imaginary part silently
+        raise InputError(f"{name}: Complex data not supported")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -42,6 +44,8 @@ def _as_matrix(name: str, value, *, n_cols: int | None = None) -> np.ndarray:
         raise InputError(f"{name} must be 2-D (n_samples, n_features), got shape {arr.shape}")
     if arr.shape[0] == 0:
         raise InputError(f"{name} has no samples")
+    if arr.shape[1] == 0:
+        raise InputError(f"{name} has 0 feature(s) (shape={arr.shape}) while a minimum of 1 is required.")
     if n_cols is not None and arr.shape[1] != n_cols:
         raise InputError(f"{name} must have {n_cols} columns, got {arr.shape[1]}")
     if not np.all(np.isfinite(arr)):
@@ -51,6 +55,8 @@ def _as_matrix(name: str, value, *, n_cols: int | None = None) -> np.ndarray:
 
 
 def _as_vector(name: str, value, *, n: int | None = None) -> np.ndarray:
+    if np.asarray(value).dtype.kind == "c":
+        raise InputError(f"{name}: Complex data not supported")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

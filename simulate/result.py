@@ -145,10 +145,16 @@ class SimulationResult:
         np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
         return path
 
-    def to_json(self, path: str | Path) -> Path:
-        """Write the :meth:`summary` as JSON (summary.json)."""
+    def to_json(self, path: str | Path, *, series: bool = False) -> Path:
+        """Write the :meth:`summary` as JSON (summary.json); with ``series=True`` also every column of
+        timeseries.csv under ``"series"`` (``{column: [values]}``, full precision). Summary floats are tidied
+        (:func:`hillchart.tidy.tidy_floats`: 12 significant digits, |x| < 1e-30 written as 0)."""
+        from hillchart.tidy import tidy_floats
+
         path = Path(path)
-        path.write_text(json.dumps(self.summary(), indent=2, sort_keys=True, default=json_default) + "\n",
+        summary = tidy_floats(json.loads(json.dumps(self.summary(), default=json_default)))
+        data = summary | ({"series": self.columns()} if series else {})
+        path.write_text(json.dumps(data, indent=2, sort_keys=True, default=json_default) + "\n",
                         encoding="utf-8")
         return path
 

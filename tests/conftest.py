@@ -1,3 +1,58 @@
+"""Shared, session-scoped fixtures: expensive objects built once for the whole test run.
+
+Each fixture returns an object the tests must not modify (frozen dataclasses, or read-only folders by convention).
+"""
+
 import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def shipped_nets():
+    """The shipped ``data_synthetic/francis/nets.json``, loaded once."""
+    from data_synthetic import FRANCIS_DIR
+    from hillchart.nets import load_nets
+
+    return load_nets(FRANCIS_DIR / "nets.json")
+
+
+@pytest.fixture(scope="session")
+def example_plant():
+    """The shipped example plant (``data_synthetic/plant_hla339.toml``), loaded once (a frozen PlantConfig)."""
+    from data_synthetic import PLANT_HLA339
+    from simulate.config import load_plant
+
+    return load_plant(PLANT_HLA339)
+
+
+@pytest.fixture(scope="session")
+def shipped_rejection(example_plant, shipped_nets):
+    """The example plant's scenario (100 % load rejection, MOC, governor) on the shipped nets: a SimulationResult."""
+    from simulate.engine import run_simulation
+
+    return run_simulation(example_plant, characteristics=shipped_nets)
+
+
+@pytest.fixture(scope="session")
+def demo_fast_run(tmp_path_factory):
+    """``hillsim demo --fast --quiet`` run once: (output folder, stdout, stderr). Tests only read the folder."""
+    import contextlib
+    import io
+
+    from hillsim.cli import main
+
+    out = tmp_path_factory.mktemp("demo") / "demo"
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        code = main(["demo", "--fast", "--quiet", "--out", str(out)])
+    assert code == 0, stderr.getvalue()
+    return out, stdout.getvalue(), stderr.getvalue()
+
+
+@pytest.fixture(scope="session")
+def demo_fast_dir(demo_fast_run):
+    """The folder of :func:`demo_fast_run`."""
+    return demo_fast_run[0]

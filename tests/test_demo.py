@@ -6,7 +6,6 @@ import re
 
 import pytest
 
-from hillsim.cli import main
 
 PROMISED = [
     "extended.csv", "extended.png", "nets.json", "fit_errors.json", "hillchart.png", "coefficient_maps.png",
@@ -19,10 +18,8 @@ PROMISED = [
 
 
 @pytest.fixture(scope="module")
-def demo_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    assert main(["demo", "--fast", "--out", str(out)]) == 0
-    return out
+def demo_dir(demo_fast_dir):
+    return demo_fast_dir  # one shared `hillsim demo --fast --quiet` run (tests/conftest.py)
 
 
 def test_every_promised_file_exists(demo_dir):
@@ -65,7 +62,6 @@ def test_summary_matches_step_files(demo_dir):
     assert 0.05 < rejection["max_speed_rise"] < 0.8 and rejection["max_head_rise"] > 0.02
 
 
-def test_quiet_prints_nothing(tmp_path, capsys):
-    assert main(["demo", "--fast", "--quiet", "--out", str(tmp_path)]) == 0
-    captured = capsys.readouterr()
-    assert captured.out == "" and captured.err == ""
+def test_quiet_prints_nothing(demo_fast_run):
+    _, out, err = demo_fast_run  # the shared run is the --quiet one: its stdout and stderr were captured
+    assert out == "" and err == ""

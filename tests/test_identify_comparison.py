@@ -175,10 +175,10 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
     "text, match",
     [
         ("", "empty file"),
-        ("time_s,speed_rpm,head_m,opening,torque_nm\n1,2,3,4,5\n", "missing column 'flow_m3_s'"),
+        ("time_s,speed_rpm,head_m,opening,torque_nm\n1,2,3,4,5\n", r"missing column\(s\) \['flow_m3_s'\]"),
         ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n" + "0,1,1,1,1,1\n" * 3, "at least 10 data rows"),
-        ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n0,1,1,x,1,1\n", "column 'opening' is not a number"),
-        ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n0,1,1,1\n", "line 2 has 4 fields"),
+        ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n0,1,1,x,1,1\n", "row 2, column 'opening': not a number"),
+        ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n0,1,1,1\n", "row 2 has 4 fields"),
         ("time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s\n"
          + "".join(f"{i % 3},1,1,1,1,1\n" for i in range(12)), "strictly increasing"),
     ],

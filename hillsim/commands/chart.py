@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import warnings
 
+from hillsim import progress
+
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -27,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.chartplot import chart_figure
     from hillchart.nets import load_nets
 
+    out = args.outputs.file("--out", args.out)  # checked now, renamed into place at the end
     nets = load_nets(args.nets)
     chart = extended = None
     if args.samples is not None:
@@ -45,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
                              f"were trained with {nets.opening_unit!r}")
         extended = extend_samples(chart, _recorded_options(nets))
     title = args.title or (f"hill chart of {chart.info.name} from its nets" if chart is not None else None)
-    chart_figure(nets, samples=chart, extended=extended, path=args.out, title=title)
+    progress.start("drawing the hill chart, surfaces and errors")
+    chart_figure(nets, samples=chart, extended=extended, path=out, title=title)
+    progress.done()
     print(f"wrote {args.out}")
     return 0
 

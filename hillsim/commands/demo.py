@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 
 def register(subparsers) -> None:
@@ -23,7 +22,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillsim.demo import format_summary, run_demo
 
-    summary = run_demo(args.out, fast=args.fast, progress=sys.stderr.isatty() and not args.quiet)
+    summary = run_demo(args.out, fast=args.fast, progress=not args.quiet, outputs=args.outputs)
     if not args.quiet:
         print(format_summary(summary))
         print(f"wrote {args.out}/report.html")

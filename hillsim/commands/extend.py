@@ -59,10 +59,11 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.extend import extend_samples
 
+    out, plot = args.outputs.file("--out", args.out), args.outputs.file("--plot", args.plot)  # checked first
     options = extension_options(args)
     chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
-    extended.to_csv(args.out)
+    extended.to_csv(out)
     print(f"wrote {args.out}: {len(extended.value)} samples")
     for target, per_origin in extended.counts().items():
         print(f"  {target}: " + ", ".join(f"{o} {n}" for o, n in per_origin.items()))
@@ -71,6 +72,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  efficiency surface: polynomial of degree {extended.efficiency_surface.degree}, "
           f"cross-validated RMSE {extended.efficiency_surface.cv_rmse:.4f}")
     if args.plot:
-        extended.plot(args.plot)
+        extended.plot(plot)
         print(f"wrote {args.plot}")
     return 0

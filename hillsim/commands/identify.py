@@ -10,9 +10,15 @@ figures into DIR, prints the tables. ``--data series.csv`` identifies from a mea
 from __future__ import annotations
 
 import argparse
+import copy
+import math
+import warnings
 from pathlib import Path
 
+import numpy as np
+
 from hillchart.errors import InputError
+from hillsim import progress
 
 
 def register(subparsers) -> None:
@@ -46,8 +52,13 @@ def register(subparsers) -> None:
                      help="half-width of uniform measurement noise on x, h, m, q (relative; default 0)")
     exp.add_argument("--seed", type=int, default=0, help="seed of the PRBS and the noise (default 0)")
     est = parser.add_argument_group("estimators")
-    est.add_argument("--p0", type=float, default=1e10, help="P(0) = p0 I of the recursive estimators (default 1e10)")
-    est.add_argument("--forgetting", type=float, default=0.98, help="lambda of the RLS-with-forgetting (default 0.98)")
+    est.add_argument("--p0", type=float, default=1e10,
+                     help="P(0) = p0 I of the recursive estimators (default 1e10, as ExperimentSettings.rls_p0; the "
+                          "estimators' own default 1.0 is the paper's P(0) = I, which leaves theta far from least "
+                          "squares on per-unit data)")
+    est.add_argument("--forgetting-factor", "--forgetting", dest="forgetting", type=float, default=0.98,
+                     help="lambda of the RLS-with-forgetting variant (default 0.98, as "
+                          "ExperimentSettings.forgetting_factor; RecursiveLeastSquares' own default 1.0 is plain RLS)")
     est.add_argument("--eps0", type=float, default=None,
                      help="dead zone of the dead-zone RLS (default: (1 + sum|a|) x noise, or 1e-7 without noise)")
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
@@ -83,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
                                      load_measured_series, markdown_tables)
     from simulate.config import load_plant, parse_override
 
+    out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
     overrides = dict(parse_override(text) for text in args.set)
     plant = load_plant(args.plant, overrides)
     settings = ExperimentSettings(
@@ -92,20 +104,119 @@ def run(args: argparse.Namespace) -> int:
         forgetting_factor=args.forgetting, dead_zone_eps0=args.eps0, dead_zone_delta=args.delta,
         arx_structure=args.arx)
     exact = _exact(args.exact, plant)
+    notes: list[str] = []
     if args.data is not None:
         if args.penstock_model is not None or args.initial_opening is not None:
             raise InputError("--penstock-model and --initial-opening apply to the simulated experiment, not to --data")
-        series = load_measured_series(args.data, sample_time_s=args.tau)
-        arma_series = load_measured_series(args.data, sample_time_s=settings.arma_sample_time_s,
-                                           operating_point=series.operating_point)
+        from simulate.series_checks import check_against_plant
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            series = load_measured_series(args.data, sample_time_s=args.tau)
+        for w in caught:
+            print(f"warning: {w.message}")
+        check_against_plant(args.data, series.operating_point, plant)
+        try:
+            arma_series = load_measured_series(args.data, sample_time_s=settings.arma_sample_time_s,
+                                               operating_point=series.operating_point)
+        except InputError as exc:  # e.g. sampled too coarsely for paper 002's 0.04 s: the rest stands
+            arma_series = None
+            notes.append(f"paper 002's ARMA fit uses the series at {settings.arma_sample_time_s} s: {exc}")
+        progress.start("identifying from the measured series")
         report = identify_measured(series, settings, plant=plant, exact=exact, arma_series=arma_series)
     else:
+        progress.start(f"simulating the experiment ({settings.duration_s:g} s) and identifying")
         report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
                                         initial_opening=args.initial_opening)
-    paths = report.write(args.out)
     summary = report.summary
+    notes += review_summary(summary, report.series, settings)
+    if notes:
+        summary["warnings"] = notes
+    progress.done()
+    progress.start("writing identification.json, the series and the figures")
+    paths = report.write(out)
+    progress.done()
     print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
           f"{summary['samples']} samples)")
-    print(markdown_tables(summary))
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    print(markdown_tables(display_summary(summary)))
+    for note in notes:
+        print(f"warning: {note}")
+    print("wrote " + ", ".join(str(Path(args.out) / p.relative_to(out)) for p in paths.values()))
     return 0
+
+
+#: A measured opening moving less than this (relative to the operating opening) over the last ``quiet_s`` counts as
+#: a quiet tail (position sensors resolve about 0.1 % of the stroke).
+QUIET_TAIL_TOLERANCE = 1e-3
+#: Numbers printed plainly up to this magnitude; larger ones (a diverging response) in scientific notation.
+PLAIN_LIMIT = 1e6
+
+
+def arx_pole_modulus(entry: dict) -> float:
+    """Largest |pole| of an identified ARX model ``x(k+1) = sum a_i x(k+1-i) + ...`` (theta = a's then b's): the
+    roots of z^n - a1 z^(n-1) - ... - an. The model is unstable when it is >= 1."""
+    a = np.asarray(entry["theta"][: entry["n_a"]], dtype=float)
+    if not np.all(np.isfinite(a)):
+        return math.inf
+    roots = np.roots(np.r_[1.0, -a])
+    return float(np.max(np.abs(roots))) if roots.size else 0.0
+
+
+def has_quiet_tail(series, settings) -> bool:
+    """Whether the last ``settings.quiet_s`` of the series hold the opening constant (the part where only noise
+    drives the estimators); False when the series is shorter than that or the opening moves."""
+    n = int(round(settings.quiet_s / series.sample_time_s))
+    if n < 2 or n >= series.y.size:
+        return False
+    return float(np.ptp(series.y[-n:])) <= QUIET_TAIL_TOLERANCE
+
+
+def review_summary(summary: dict, series, settings) -> list[str]:
+    """Adds ``max_pole_modulus`` and ``stable`` to each identified ARX model, removes the quiet-tail spread when the
+    series has no quiet tail, and returns the warnings (unstable models, no quiet tail, outside the small-signal
+    range); the caller records them in ``summary["warnings"]``."""
+    from simulate.series_checks import small_signal_warning
+
+    notes = []
+    signal = small_signal_warning(series)
+    if signal:
+        notes.append(signal)
+    quiet = has_quiet_tail(series, settings)
+    for name, entry in summary["arx"].items():
+        if not isinstance(entry, dict) or "n_a" not in entry or "theta" not in entry:
+            continue
+        modulus = arx_pole_modulus(entry)
+        entry["max_pole_modulus"] = modulus
+        entry["stable"] = bool(modulus < 1.0)
+        if not entry["stable"]:
+            notes.append(f"the ARX model identified by {name} is unstable (largest pole |z| = {modulus:.6f} >= 1): "
+                         "its step response and simulation-mode output diverge, so their errors are not shown")
+        if not quiet and "theta_spread_quiet_tail" in entry:
+            entry["theta_spread_quiet_tail"] = None
+    if not quiet:
+        summary.setdefault("experiment", {})["quiet_s"] = 0.0  # nothing to shade in the convergence plot
+        notes.append(f"no quiet tail (the opening moves within the last {settings.quiet_s:g} s, or the series is "
+                     "shorter): the theta spread in the quiet tail is not reported")
+    return notes
+
+
+def display_summary(summary: dict) -> dict:
+    """A copy of ``summary`` for the printed tables: an unstable model's step and simulation-mode errors read
+    "unstable", and numbers beyond :data:`PLAIN_LIMIT` are written in scientific notation."""
+    shown = copy.deepcopy(summary)
+    for entry in shown["arx"].values():
+        if isinstance(entry, dict) and entry.get("stable") is False:
+            if "step_error_vs_nets" in entry:
+                entry["step_error_vs_nets"] = "unstable"
+            entry["simulation_mode_final_theta"]["max_abs_error"] = "unstable"
+
+    def walk(node):
+        if isinstance(node, dict):
+            return {k: walk(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [walk(v) for v in node]
+        if isinstance(node, float) and math.isfinite(node) and abs(node) >= PLAIN_LIMIT:
+            return f"{node:.3e}"
+        return node
+
+    return walk(shown)

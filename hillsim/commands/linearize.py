@@ -13,6 +13,7 @@ import json
 import numpy as np
 
 from hillchart.errors import InputError
+from hillsim import progress
 
 
 def load_characteristics(source: str):
@@ -73,6 +74,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
 
+    map_png = args.outputs.file("--map", args.map)  # checked now, renamed into place at the end
     characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.plant is not None:
         return _run_plant(args, characteristics, label, opening_unit)
@@ -123,10 +125,12 @@ def run(args: argparse.Namespace) -> int:
         for name, lo, hi in (("--n11-range", n_lo, n_hi), ("--opening-range", a_lo, a_hi)):
             if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
                 raise InputError(f"{name} must satisfy 0 < LO < HI, got {lo} {hi}")
+        progress.start(f"coefficient maps on a {args.grid} x {args.grid} grid")
         maps = coefficient_maps(characteristics, np.linspace(n_lo, n_hi, args.grid), np.linspace(a_lo, a_hi, args.grid))
-        plot_coefficient_maps(maps, args.map, operating_point=(coeffs.n11_rpm, coeffs.opening),
+        plot_coefficient_maps(maps, map_png, operating_point=(coeffs.n11_rpm, coeffs.opening),
                               opening_unit=opening_unit)
         out["map"] = str(args.map)
+        progress.done()
     print(json.dumps(out, indent=2))
     return 0
 

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from hillchart.errors import InputError
+from hillsim import progress
 
 
 def register(subparsers) -> None:
@@ -46,22 +47,21 @@ def run_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
     from simulate.engine import run_simulation
 
+    out = args.outputs.folder("--out", args.out, stale=("transient.png", "envelope.png"))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {str(out)!r} exists and is not a directory")
     reached = [0.0]
 
-    def progress(step, n_steps):
+    def on_progress(step, n_steps):
         reached[0] = step / n_steps
 
+    progress.start(f"simulating {plant.scenario.kind}, {plant.scenario.t_end_s:g} s")
     try:
-        result = run_simulation(plant, raise_on_failure=False, progress=progress)
+        result = run_simulation(plant, raise_on_failure=False, progress=on_progress)
     except KeyboardInterrupt:
         print(f"hillsim run: interrupted after {100 * reached[0]:.0f} % of the run; nothing written", file=sys.stderr)
         return 130
-    out.mkdir(parents=True, exist_ok=True)
+    progress.done()
     write_run_outputs(result, out, plot=not args.no_plot)
     summary = result.summary()
     for line in summary.get("warnings", []):
@@ -69,9 +69,10 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"{plant.scenario.kind}: {summary['steps']} steps of {summary['dt_s']:.6g} s, "
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
-          f"mean iterations {summary['mean_iterations']:.2f}; wrote {out}")
+          f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
     if not result.success:
-        raise_message = f"{result.message} (series up to the failure written to {out})"
+        args.outputs.commit()  # the series up to the failure are a result too
+        raise_message = f"{result.message} (series up to the failure written to {args.out})"
         from hillchart.errors import NumericalError
         raise NumericalError(raise_message)
     return 0

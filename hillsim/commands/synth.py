@@ -19,7 +19,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.synthetic import write_synthetic_chart
 
-    written = write_synthetic_chart(args.out_dir, seed=args.seed)
-    for name, path in written.items():
-        print(f"wrote {path}")
+    written = write_synthetic_chart(args.outputs.folder("OUT_DIR", args.out_dir), seed=args.seed)
+    for name in written:
+        print(f"wrote {args.out_dir}/{name}")
     return 0

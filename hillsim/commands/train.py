@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
+from hillsim import progress
+
 from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
 
 
@@ -44,13 +46,16 @@ def run(args: argparse.Namespace) -> int:
     _check_int("--hidden", args.hidden, 1)
     _check_int("--restarts", args.restarts, 1)
     _check_int("--seed", args.seed, 0)
+    out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
     options = extension_options(args)
     chart = load_chart_reporting_warnings(args.chart)
     extended = extend_samples(chart, options)
     start = time.perf_counter()
+    progress.start(f"training both nets ({args.restarts} restarts each)")
     nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
                       record_time=args.record_time)
     elapsed = time.perf_counter() - start
+    progress.done()
     nets.training["chart"] = chart.info.name
     nets.training["extension"] = {
         "runaway": options.runaway, "zero_opening": options.zero_opening, "zero_speed": options.zero_speed,
@@ -59,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
-    nets.save(args.out)
+    nets.save(out)
     warning = efficiency_plausibility_warning(nets, chart)
     if warning:
         print(f"warning: {warning}")

@@ -1,0 +1,73 @@
+"""Wall times a user sees: ``hillsim demo --fast`` and the whole test suite (issue 13), median and range of N runs.
+
+    PYTHONPATH=. python benchmarks/bench_wall_times.py [--runs 3] [--skip-suite] [--skip-demo]
+
+Prints one row per measurement with the median, min and max wall time, the CPU time (user + sys of the child
+processes: less sensitive to other load than the wall time) and the 1-minute load average before each run, with the
+date and the machine's core count, so the README's figures can be re-measured and compared. Quote the wall times only
+from a quiet machine (load average well below the core count).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _timed(cmd: list[str], env: dict) -> tuple[float, float, float, int]:
+    """(wall s, child CPU s, load average before, exit code) of one run."""
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    if proc.returncode != 0:
+        sys.stderr.write(proc.stderr[-2000:])
+    return wall, cpu, load, proc.returncode
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--skip-suite", action="store_true")
+    parser.add_argument("--skip-demo", action="store_true")
+    args = parser.parse_args(argv)
+    env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    cases = []
+    if not args.skip_demo:
+        cases.append(("hillsim demo --fast", lambda tmp: [sys.executable, "-m", "hillsim.cli", "demo", "--fast",
+                                                          "--quiet", "--out", str(Path(tmp) / "demo")]))
+    if not args.skip_suite:
+        cases.append(("pytest -q (whole suite)", lambda tmp: [sys.executable, "-m", "pytest", "-q", "-p",
+                                                              "no:cacheprovider"]))
+    print(f"{datetime.date.today().isoformat()}, {os.cpu_count()} cores, {args.runs} runs each")
+    print(f"{'what':<26} {'median s':>9} {'min s':>7} {'max s':>7} {'CPU s (median)':>15} {'load avg before':>16}")
+    failed = False
+    for label, make in cases:
+        walls, cpus, loads = [], [], []
+        for _ in range(args.runs):
+            with tempfile.TemporaryDirectory() as tmp:
+                wall, cpu, load, code = _timed(make(tmp), env)
+            failed |= code != 0
+            walls.append(wall)
+            cpus.append(cpu)
+            loads.append(load)
+        print(f"{label:<26} {statistics.median(walls):>9.1f} {min(walls):>7.1f} {max(walls):>7.1f} "
+              f"{statistics.median(cpus):>15.1f} {', '.join(f'{v:.2f}' for v in loads):>16}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

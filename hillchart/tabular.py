@@ -1,0 +1,163 @@
+"""Numeric CSV tables as users export them: one reader for every hillsim CSV input.
+
+What a spreadsheet or a digitizer may hand over, and what :func:`read_table` does with it:
+
+- a UTF-8 byte-order mark (Excel's "CSV UTF-8"): accepted;
+- semicolon- or tab-separated columns (spreadsheets in locales whose decimal separator is a comma): the delimiter
+  is detected from the header line; with a semicolon or tab a decimal comma is accepted when no cell mixes commas and
+  points. The choice is stated in :attr:`Table.note` (the callers print it as a warning);
+- blank lines: skipped;
+- a non-UTF-8 file, a short or long row, a cell that is not a finite number: an
+  :class:`~hillchart.errors.InputError` naming the file, the line and the column.
+
+Rows are numbered as the file's lines (header = row 1, blank lines counted), in every message and in
+:attr:`Table.lines`, so ``row 302`` is line 302 in an editor.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab"}
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    """A numeric table read by :func:`read_table`.
+
+    Attributes
+    ----------
+    columns : dict[str, ndarray]
+        The requested columns (float arrays, one value per data row).
+    lines : ndarray of int
+        The file line number of each data row (header = line 1).
+    header : list[str]
+        The header as read.
+    note : str or None
+        How an unusual file was read (delimiter, decimal comma), for a warning; None for a plain CSV.
+    """
+
+    columns: dict
+    lines: np.ndarray
+    header: list
+    note: str | None = None
+
+
+def read_text(path: Path, what: str = "file") -> str:
+    """The text of a UTF-8 file (a byte-order mark is dropped); errors are InputErrors naming the file."""
+    try:
+        return Path(path).read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); save it as UTF-8 "
+                         "(CSV UTF-8 in a spreadsheet)") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a folder, expected a {what}") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {what} {str(path)!r}: {exc.strerror}") from None
+
+
+def detect_delimiter(header_line: str) -> str:
+    """``,`` unless the header has no comma but semicolons or tabs (then the one it has most of)."""
+    if "," in header_line:
+        return ","
+    counts = {d: header_line.count(d) for d in (";", "\t")}
+    best = max(counts, key=counts.get)
+    return best if counts[best] else ","
+
+
+def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: bool = False) -> float:
+    """One finite number from a cell; the error names file, line and column and shows the cell as written."""
+    text = cell.strip()
+    if decimal_comma:
+        text = text.replace(",", ".")
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r}") from None
+    if not math.isfinite(value):
+        raise InputError(f"{path}: row {line_no}, column {column!r}: value must be finite, got {cell!r}")
+    return value
+
+
+def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example: str | None = None,
+               what: str = "CSV file") -> Table:
+    """Read the numeric ``columns`` (any order) of a CSV file.
+
+    Parameters
+    ----------
+    path : path
+    columns : tuple of str
+        Required column names.
+    extra : "error" | "ignore"
+        What to do with other columns.
+    example : str, optional
+        The header to show in messages (default ``columns`` joined by commas).
+    what : str
+        What the file is, for the message when it cannot be read.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "flow.csv"
+    >>> _ = p.write_bytes("\\ufeffopening;n11;q11\\n10;60,5;0,25\\n\\n12;61;0,3\\n".encode("utf-8"))
+    >>> t = read_table(p, ("opening", "n11", "q11"))
+    >>> t.columns["n11"].tolist(), t.lines.tolist(), t.note.split(":")[1].strip()
+    ([60.5, 61.0], [2, 4], 'semicolon-separated with decimal commas; read as such')
+    """
+    path = Path(path)
+    expected = example or ",".join(columns)
+    text = read_text(path, what)
+    lines_text = text.splitlines()
+    first = next((i for i, line in enumerate(lines_text) if line.strip()), None)
+    if first is None:
+        raise InputError(f"{path}: empty file; expected a header {expected}")
+    delimiter = detect_delimiter(lines_text[first])
+    rows = list(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
+    header = [name.strip() for name in rows[first]]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        hint = ""
+        if delimiter == "," and len(header) == 1 and any(d in lines_text[first] for d in (";", "\t")):
+            hint = " (the header has no comma-separated columns)"
+        raise InputError(f"{path}: missing column(s) {missing}{hint}; the header must be {expected}, got "
+                         f"{lines_text[first]!r}")
+    unknown = [c for c in header if c not in columns]
+    if unknown and extra == "error":
+        raise InputError(f"{path}: unknown column(s) {unknown}; the header must be {expected}")
+    if len(set(header)) != len(header):
+        raise InputError(f"{path}: repeated column in header {header}")
+    body = [(line_no, row) for line_no, row in enumerate(rows[first + 1:], start=first + 2)
+            if row and any(cell.strip() for cell in row)]
+    decimal_comma = False
+    note = None
+    if delimiter != ",":
+        cells = [row[header.index(c)] for _, row in body for c in columns if header.index(c) < len(row)]
+        has_comma = any("," in c for c in cells)
+        mixed = next((c for c in cells if "," in c and "." in c), None)
+        if has_comma and mixed is not None:
+            raise InputError(f"{path}: {DELIMITER_NAMES[delimiter]}-separated, but the cell {mixed!r} holds both a "
+                             "comma and a point: save the file as CSV with a point as the decimal separator")
+        decimal_comma = has_comma
+        note = (f"{path}: {DELIMITER_NAMES[delimiter]}-separated" + (" with decimal commas" if decimal_comma else "")
+                + "; read as such")
+    data = {c: [] for c in columns}
+    index = [(c, header.index(c)) for c in columns]
+    lines = []
+    for line_no, row in body:
+        if len(row) != len(header):
+            raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
+        for name, i in index:
+            data[name].append(parse_number(path, line_no, name, row[i], decimal_comma=decimal_comma))
+        lines.append(line_no)
+    if not lines:
+        raise InputError(f"{path}: no data rows below the header")
+    return Table(columns={c: np.asarray(v, dtype=float) for c, v in data.items()},
+                 lines=np.asarray(lines, dtype=int), header=header, note=note)

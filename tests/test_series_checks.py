@@ -1,0 +1,170 @@
+"""Issue 14: measured series in the wrong units, outliers, memory; issue 13: identify's honest report."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hillchart.errors import InputError
+from hillsim.commands.identify import arx_pole_modulus, display_summary, has_quiet_tail, review_summary
+from simulate.comparison import MEASURED_COLUMNS, ExperimentSettings, OperatingPoint, load_measured_series
+from simulate.config import load_plant
+from simulate.series_checks import (check_against_plant, check_measured_table, check_time, hampel_outliers,
+                                    small_signal_warning)
+
+REPO = Path(__file__).resolve().parents[1]
+PLANT = REPO / "data_synthetic" / "plant_hla339.toml"
+
+
+def _columns(n=300, dt=0.02):
+    """A plausible measured series of the shipped plant: small opening steps around stroke 0.68."""
+    t = dt * np.arange(n)
+    y = 0.68 * (1 + 0.01 * (t > 1.0))
+    return {"time_s": t, "speed_rpm": 200 * (1 + 0.002 * np.sin(t)), "head_m": 176 + 0 * t, "opening": y,
+            "torque_nm": 1.07e7 * (1 + 0.01 * np.sin(t)), "flow_m3_s": 142.5 * y / 0.68}
+
+
+def _write(path, cols):
+    lines = [",".join(MEASURED_COLUMNS)] + [",".join(repr(float(cols[c][i])) for c in MEASURED_COLUMNS)
+                                            for i in range(len(cols["time_s"]))]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+ROWS = np.arange(300) + 2  # file line numbers of a header + 300 rows
+
+
+def test_a_plausible_series_passes():
+    check_measured_table("s.csv", _columns(), ROWS, sample_time_s=0.2)  # nothing raised
+
+
+@pytest.mark.parametrize("scale, unit", [(100.0, "%"), (32.0, "mm")])
+def test_opening_in_percent_or_chart_units_is_refused(scale, unit):
+    """Issue 14: opening at 68x full stroke gave eqy 4.8e-177 and exit 0."""
+    cols = _columns()
+    cols["opening"] = cols["opening"] * scale
+    with pytest.raises(InputError, match=r"s.csv: column 'opening' must be the stroke fraction in \[0, 1.5\].*"
+                                         r"at rows 2, 3, 4, 5, 6 and 295 more \(the values look like %"):
+        check_measured_table("s.csv", cols, ROWS, sample_time_s=0.2)
+
+
+@pytest.mark.parametrize("factor, unit", [(1e3, "ms"), (1e6, "us")])
+def test_time_in_ms_or_us_is_refused_with_the_likely_unit(factor, unit):
+    """Issue 14: time in us was killed for memory at 24 GB."""
+    cols = _columns()
+    cols["time_s"] = cols["time_s"] * factor
+    with pytest.raises(InputError, match=rf"median sampling interval is {0.02 * factor:g} s.*is time in {unit}\? "
+                                         rf"then the sampling interval is 0.02 s"):
+        check_measured_table("s.csv", cols, ROWS, sample_time_s=0.2)
+
+
+def test_memory_estimate_refuses_a_huge_resampling():
+    t = 0.2 * np.arange(1000)  # 200 s at tau 0.2 s: 1000 samples, about 1 MB by the estimate
+    check_time("s.csv", t, t * 0 + 2, sample_time_s=0.2, max_bytes=2e6)  # passes under 2 MB
+    with pytest.raises(InputError, match=r"spans 199.8 s: at tau = 0.2 s that is 1e\+03 samples, about 0.000954 GiB"):
+        check_time("s.csv", t, t * 0 + 2, sample_time_s=0.2, max_bytes=5e5)
+
+
+def test_outliers_are_named_by_row(tmp_path):
+    """Issue 14: samples of 1e308 or -200 r/min disappeared in resampling without a word."""
+    cols = _columns()
+    cols["head_m"][100] = 1e308
+    with pytest.raises(InputError, match=r"s.csv: column 'head_m': isolated outlier\(s\) at row 102 \(values 1e\+308"):
+        load_measured_series(_write(tmp_path / "s.csv", cols), sample_time_s=0.2)
+    cols = _columns()
+    cols["speed_rpm"][200] = -200
+    with pytest.raises(InputError, match=r"column 'speed_rpm' must be > 0 r/min: -200 at row 202"):
+        load_measured_series(_write(tmp_path / "s.csv", cols), sample_time_s=0.2)
+    cols = _columns()
+    cols["torque_nm"][50:52] = 0.0  # a two-sample sensor dropout
+    with pytest.raises(InputError, match=r"column 'torque_nm': isolated outlier\(s\) at rows 52, 53"):
+        load_measured_series(_write(tmp_path / "s.csv", cols), sample_time_s=0.2)
+
+
+def test_hampel_keeps_steps_ramps_and_noise():
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 10, 501)
+    for x in (np.where(t > 5, 1.0, 0.0), 3 * t, np.sin(t) + 1e-3 * rng.standard_normal(t.size)):
+        assert hampel_outliers(x).size == 0
+    x = np.sin(t)
+    x[250] += 2.0  # a spike twice the signal's amplitude
+    assert hampel_outliers(x).tolist() == [250]
+
+
+def test_the_shipped_load_rejection_passes_the_checks(shipped_rejection):
+    """No false alarm on a large, fast, genuine transient (44 % overspeed, vanes closing at the rate limit)."""
+    r = shipped_rejection
+    cols = {"time_s": r.time_s, "speed_rpm": r.speed_rpm, "head_m": r.head_m, "opening": r.opening,
+            "torque_nm": r.torque_nm, "flow_m3_s": r.flow_m3_s}
+    check_measured_table("timeseries.csv", cols, np.arange(r.time_s.size) + 2, sample_time_s=0.2)
+
+
+def _op(**kw):
+    base = dict(speed_rpm=200.0, head_m=176.0, flow_m3_s=97.0, torque_nm=7.3e6, opening=0.68)
+    return OperatingPoint(**(base | kw))
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("speed_rpm", 200 * 2 * math.pi / 60, "it looks like rad/s; the column must be in r/min"),
+    ("speed_rpm", 200 / 60, "it looks like r/s"),
+    ("flow_m3_s", 97e3, "it looks like l/s"),
+    ("torque_nm", 7.3e3, r"it looks like kN\*m"),
+    ("head_m", 17.3, "it looks like bar"),
+    ("speed_rpm", 1e4, r"expected 0.2 to 5 x rated"),
+])
+def test_units_are_checked_against_the_plant(field, value, match):
+    plant = load_plant(PLANT)
+    check_against_plant("s.csv", _op(), plant)  # the shipped plant's own operating point passes
+    with pytest.raises(InputError, match=rf"s.csv: column '{field}' starts at .*{match}"):
+        check_against_plant("s.csv", _op(**{field: value}), plant)
+
+
+def test_part_load_flow_and_torque_are_not_flagged():
+    check_against_plant("s.csv", _op(flow_m3_s=20.0, torque_nm=5e5), load_plant(PLANT))
+
+
+class _Series:
+    def __init__(self, amplitude, n=600, tau=0.2, quiet=True):
+        t = tau * np.arange(n)
+        self.sample_time_s = tau
+        self.y = amplitude * ((t > 5) & (t < 15))
+        if not quiet:
+            self.y = self.y + amplitude * (t > t[-1] - 10)  # a move within the last 100 s
+        self.x = self.h = self.m = self.q = 0.5 * self.y
+
+
+def test_small_signal_warning():
+    assert small_signal_warning(_Series(0.01)) is None
+    text = small_signal_warning(_Series(0.44))
+    assert text.startswith("the series leaves the small-signal range: opening by 44 %, speed by 22 %")
+
+
+def test_quiet_tail_is_reported_only_when_there_is_one():
+    settings = ExperimentSettings()  # quiet_s 100 s = 500 samples at 0.2 s
+    assert has_quiet_tail(_Series(0.01, n=600), settings)
+    assert not has_quiet_tail(_Series(0.01, n=600, quiet=False), settings)
+    assert not has_quiet_tail(_Series(0.01, n=400), settings)  # shorter than the tail
+
+
+def _summary(theta):
+    entry = {"theta": theta, "n_a": 3, "n_b": 3, "step_error_vs_nets": 3.3e23, "theta_spread_quiet_tail": 0.1,
+             "simulation_mode_final_theta": {"max_abs_error": 332826844722642498355200.0}}
+    return {"arx": {"rls": entry, "dead_zone_eps0": 1e-7}, "experiment": {"quiet_s": 100.0}}
+
+
+def test_unstable_model_is_said_not_printed_as_a_huge_number():
+    """Issue 13: an unstable identified model printed 332826844722642498355200.0000."""
+    unstable = [2.1, -1.05, 0.0, 0.01, 0.0, 0.0]  # z^3 - 2.1 z^2 + 1.05 z: poles (2.1 +- sqrt(0.21)) / 2 and 0
+    assert arx_pole_modulus({"theta": unstable, "n_a": 3}) == pytest.approx((2.1 + math.sqrt(0.21)) / 2, rel=1e-12)
+    summary = _summary(unstable)
+    notes = review_summary(summary, _Series(0.01), ExperimentSettings())
+    assert summary["arx"]["rls"]["stable"] is False and summary["arx"]["rls"]["max_pole_modulus"] > 1
+    assert any("identified by rls is unstable (largest pole |z| = 1.279129 >= 1)" in n for n in notes)
+    shown = display_summary(summary)["arx"]["rls"]
+    assert shown["step_error_vs_nets"] == "unstable"
+    assert shown["simulation_mode_final_theta"]["max_abs_error"] == "unstable"
+    stable = _summary([1.5, -0.56, 0.0, 0.01, 0.0, 0.0])  # poles 0.8 and 0.7
+    assert review_summary(stable, _Series(0.01), ExperimentSettings()) == []
+    assert stable["arx"]["rls"]["stable"] is True
+    assert display_summary(stable)["arx"]["rls"]["step_error_vs_nets"] == "3.300e+23"  # huge but stable: readable
