@@ -182,7 +182,8 @@ def run_command(args: argparse.Namespace) -> int:
             if isinstance(exc, Terminated) or state["signal"] == signal.SIGTERM:
                 return fail("terminated; no outputs written", EXIT_TERMINATED)
             if isinstance(exc, KeyboardInterrupt) or state["signal"] is not None:
-                return fail("interrupted; no outputs written", EXIT_INTERRUPTED)
+                where = f" {exc.args[0]}" if isinstance(exc, KeyboardInterrupt) and exc.args else ""
+                return fail(f"interrupted{where}; no outputs written", EXIT_INTERRUPTED)
             if isinstance(exc, HillsimError):
                 return fail(f"error: {exc}", EXIT_INPUT)
             if isinstance(exc, OSError):

@@ -112,7 +112,9 @@ def test_ctrl_c_stops_a_long_run_within_about_a_second(tmp_path):
     out, err = proc.communicate(timeout=60)
     waited = time.perf_counter() - sent
     assert proc.returncode == 130, err
-    assert err.strip().splitlines() == [err.strip()] and "interrupted after" in err and "nothing written" in err
+    # one line about the interrupt (a progress line may precede it on a non-terminal)
+    last = err.strip().splitlines()[-1]
+    assert "interrupted" in last and "no outputs written" in last and err.count("interrupted") == 1
     assert "Traceback" not in err
     assert not (tmp_path / "long").exists()
     # chunks of about 0.25 s of work: honoured within about a second (3 s allowed on a loaded 2-core machine)

@@ -59,8 +59,8 @@ def run_command(args: argparse.Namespace) -> int:
     try:
         result = run_simulation(plant, raise_on_failure=False, progress=on_progress)
     except KeyboardInterrupt:
-        print(f"hillsim run: interrupted after {100 * reached[0]:.0f} % of the run; nothing written", file=sys.stderr)
-        return 130
+        # the CLI turns this into its one-line message and exit 130, discarding the output set
+        raise KeyboardInterrupt(f"after {100 * reached[0]:.0f} % of the run") from None
     progress.done()
     write_run_outputs(result, out, plot=not args.no_plot)
     summary = result.summary()
