@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "hillsim.commands.linearize",
     "hillsim.commands.run",
     "hillsim.commands.identify",
+    "hillsim.commands.sweep",
     "hillsim.commands.demo",
 )
 
