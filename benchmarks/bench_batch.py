@@ -8,6 +8,10 @@ calls, and the loop-only rate of the sequential calls (sum of ``SimulationResult
 one core can do. The load average is printed: the machine may be shared.
 
 Run:  PYTHONPATH=$PWD python benchmarks/bench_batch.py [--sizes 1,10,100,1000] [--repeat 3]
+      PYTHONPATH=$PWD python benchmarks/bench_batch.py --dask 1000    # local sweep vs two-worker LocalCluster
+
+``--dask N``: an N-case sweep (closing time x initial power) locally and on a two-worker Dask ``LocalCluster``
+(worker processes, so each compiles the loop once), checks that both results.csv are identical and prints the times.
 """
 
 from __future__ import annotations
@@ -44,7 +48,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="1,10,100,1000")
     parser.add_argument("--repeat", type=int, default=3, help="timings per cell (median reported)")
+    parser.add_argument("--dask", type=int, default=0, metavar="N", help="compare an N-case sweep local vs Dask")
     args = parser.parse_args()
+    if args.dask:
+        dask_compare(args.dask)
+        return
     sizes = [int(s) for s in args.sizes.split(",")]
     plant = load_plant(PLANT_HLA339)
     chars = load_characteristics(plant.turbine, plant.base_dir)
@@ -82,6 +90,34 @@ def main() -> None:
         print(f"| {n} | {s:.3g} | {statistics.median(loop):.3g} | {cells} | {best / s:.2f} |", flush=True)
     print()
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+
+
+def dask_compare(n: int) -> None:
+    import tempfile
+    from pathlib import Path
+
+    from simulate.sweep import build_variants, run_batch_dask
+
+    plant = load_plant(PLANT_HLA339)
+    side = max(1, int(round(n ** 0.5)))
+    variants = build_variants(plant, [f"governor.closing_time_s=6:20:{side}",
+                                      f"scenario.initial_power_mw=80:225:{max(1, -(-n // side))}"])
+    print(f"{len(variants)} cases; load average {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    t0 = time.perf_counter()
+    local = run_batch(plant, variants)
+    t_local = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    dask = run_batch_dask(plant, variants, n_workers=2, processes=True)
+    t_dask = time.perf_counter() - t0
+    with tempfile.TemporaryDirectory() as tmp:
+        local.to_csv(Path(tmp) / "a.csv")
+        dask.to_csv(Path(tmp) / "b.csv")
+        same = (Path(tmp) / "a.csv").read_text() == (Path(tmp) / "b.csv").read_text()
+    print(f"| cases | local ({local.mechanism}, {local.workers}) s | Dask LocalCluster (2 worker processes) s | "
+          f"ok | identical results.csv |")
+    print("|---|---|---|---|---|")
+    print(f"| {len(variants)} | {t_local:.2f} | {t_dask:.2f} (incl. cluster start and compile in each worker) | "
+          f"{local.n_ok} | {same} |")
 
 
 if __name__ == "__main__":
