@@ -23,6 +23,7 @@ COMMAND_MODULES = (
     "hillsim.commands.identify",
     "hillsim.commands.sweep",
     "hillsim.commands.optimize_closure",
+    "hillsim.commands.report",
     "hillsim.commands.demo",
 )
 

@@ -264,7 +264,7 @@ def plot_sweep(batch: BatchResult, path: str | Path) -> Path | None:
         colour = batch.column(colour_key)[ok] if colour_key else None
         for i, (name, label) in enumerate(figures):
             ax = axes[i, j]
-            sc = ax.scatter(x, batch.column(name)[ok], c=colour, s=14, cmap="viridis")
+            sc = ax.scatter(x, batch.column(name)[ok], c=colour, s=14, cmap="viridis" if colour is not None else None)
             ax.grid(True, alpha=0.3)
             if j == 0:
                 ax.set_ylabel(label)
