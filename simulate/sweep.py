@@ -15,6 +15,7 @@ from __future__ import annotations
 import csv
 import itertools
 import json
+import logging
 import math
 import time
 from pathlib import Path
@@ -213,7 +214,7 @@ def run_batch_dask(plant: PlantConfig, variants, *, characteristics=None, addres
     try:
         if address is None:
             cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
-                                   dashboard_address=None)
+                                   dashboard_address=None, silence_logs=logging.CRITICAL)
             client = Client(cluster)
         else:
             try:

@@ -95,6 +95,11 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
               "path": t.characteristics}
     if chars_path is not None:
         source["sha256"] = _hash(chars_path)
+        try:
+            nets_doc = json.loads(chars_path.read_text(encoding="utf-8"))
+            source["format"] = f"{nets_doc.get('format')} version {nets_doc.get('version')}"
+        except (OSError, ValueError):
+            pass  # load_characteristics has read and validated the same file just before
         training = getattr(chars, "training", None) or {}
         source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}
         flow = getattr(chars, "flow", None)
@@ -455,7 +460,7 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         rows = []
         for name in ("law", "best_linear"):
             d = cl[name]
-            rows.append((name.replace("_", " "), _v(d["closing_time_s"], f"closure.{name}.closing_time_s"),
+            rows.append(({"law": "two-stage optimum", "best_linear": "best linear closure"}[name], _v(d["closing_time_s"], f"closure.{name}.closing_time_s"),
                          "-" if d["break_opening"] is None else _v(d["break_opening"], f"closure.{name}.break_opening"),
                          "-" if d["break_time_s"] is None else _v(d["break_time_s"], f"closure.{name}.break_time_s"),
                          _v(d["max_speed_rise"], f"closure.{name}.max_speed_rise", "{:.4f}"),
