@@ -59,6 +59,18 @@ SERIES_NAMES = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "torque
 MECHANISMS = ("auto", "serial", "processes", "threads")
 
 
+def _numeric_keys() -> dict[str, tuple[str, ...]]:
+    out = {}
+    for section, cls in _SECTION_CLASSES.items():
+        out[section] = tuple(f"{section}.{f.name}" for f in fields(cls)
+                             if str(f.type).replace(" ", "") in ("float", "int", "float|None", "int|None"))
+    return out
+
+
+_NUMERIC_KEYS = _numeric_keys()
+_ALL_KEYS = {section: tuple(f.name for f in fields(cls)) for section, cls in _SECTION_CLASSES.items()}
+
+
 def numeric_keys() -> dict[str, tuple[str, ...]]:
     """Numeric keys of every plant section (what :func:`check_key` accepts before the scenario-kind check).
 
@@ -67,11 +79,7 @@ def numeric_keys() -> dict[str, tuple[str, ...]]:
     >>> "governor.closing_time_s" in numeric_keys()["governor"]
     True
     """
-    out = {}
-    for section, cls in _SECTION_CLASSES.items():
-        out[section] = tuple(f"{section}.{f.name}" for f in fields(cls)
-                             if str(f.type).replace(" ", "") in ("float", "int", "float|None", "int|None"))
-    return out
+    return dict(_NUMERIC_KEYS)
 
 
 def check_key(plant: PlantConfig, key: Any) -> str:
@@ -93,15 +101,14 @@ def check_key(plant: PlantConfig, key: Any) -> str:
     if not isinstance(key, str) or key.count(".") != 1 or not all(key.split(".")):
         raise InputError(f"varied key must be section.key (e.g. governor.closing_time_s), got {key!r}")
     section, name = key.split(".")
-    table = numeric_keys()
+    table = _NUMERIC_KEYS
     if section not in table:
         raise InputError(f"unknown section in varied key {key!r}; valid sections: {', '.join(table)}")
     if key in STRUCTURE_KEYS or key in STRUCTURE_CHOICE_KEYS:
         why = STRUCTURE_KEYS.get(key, "it selects a model every case shares")
         raise InputError(f"varied key {key!r} changes the plant structure ({why}); a batch varies numbers of one "
                          f"structure: run one batch per {key}")
-    all_names = [f.name for f in fields(_SECTION_CLASSES[section])]
-    if name not in all_names:
+    if name not in _ALL_KEYS[section]:
         raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(table[section])}")
     if key not in table[section]:
         raise InputError(f"varied key {key!r} is not numeric; numeric keys of [{section}]: "
@@ -464,7 +471,9 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
         report(1)
         rest = indexed[1:]
         chunks = [rest[s:s + chunk_size] for s in range(0, len(rest), chunk_size)]
-        if mechanism == "threads":
+        if not chunks:
+            pass
+        elif mechanism == "threads":
             with ThreadPoolExecutor(max_workers=workers) as pool:
                 for part in pool.map(lambda c: run_chunk(plant, chars, c, keep_series), chunks):
                     cases.extend(part)

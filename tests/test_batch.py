@@ -132,3 +132,8 @@ def test_check_key_accepts_numeric_keys_and_names_non_numeric_ones(plant):
         check_key(plant, "turbine.characteristics")
     with pytest.raises(InputError, match="is not numeric"):
         check_key(plant, "scenario.speed_steps")
+
+
+def test_processes_with_a_single_case_runs_it_in_this_process(plant, nets):
+    batch = run_batch(plant, [{"governor.kp": 2.5}], characteristics=nets, mechanism="processes")
+    assert [c.status for c in batch.cases] == ["ok"] and batch.case_steps == batch.cases[0].steps > 0

@@ -191,11 +191,31 @@ def test_dask_two_worker_local_cluster_gives_identical_results(plant, tmp_path):
     assert all(c.ok for c in dask.cases)
 
 
-def test_dask_missing_says_how_to_install(plant, monkeypatch):
+def test_sweep_cli_on_dask_equals_the_local_sweep(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("dask.distributed")
+    import functools
+
+    import simulate.sweep
+
+    # threads of this process instead of worker processes (each would compile the loop: seconds per worker)
+    monkeypatch.setattr(simulate.sweep, "run_batch_dask",
+                        functools.partial(simulate.sweep.run_batch_dask, processes=False))
+    args = ["--vary", "governor.closing_time_s=8:12:3", "--vary", "governor.kp=1.5,2.5", *SHORT, "--no-plot"]
+    assert main(["sweep", PLANT, "--out", str(tmp_path / "local"), *args]) == 0
+    assert main(["sweep", PLANT, "--out", str(tmp_path / "dask"), "--scheduler", "dask", "--workers", "2",
+                 *args]) == 0
+    assert "sweep: 6 cases on Dask LocalCluster" in capsys.readouterr().out
+    assert (tmp_path / "local" / "results.csv").read_text() == (tmp_path / "dask" / "results.csv").read_text()
+    assert json.loads((tmp_path / "dask" / "sweep.json").read_text())["mechanism"] == "dask"
+
+
+def test_dask_missing_says_how_to_install(plant, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if not installed
     with pytest.raises(InputError) as info:
         run_batch_dask(plant, [{"governor.kp": 1.0}])
     assert str(info.value) == DASK_MISSING and "pip install 'hillsim[dask]'" in DASK_MISSING
+    code = main(["sweep", PLANT, "--vary", "governor.kp=1,2", "--out", "/nonexistent/x", "--scheduler", "dask"])
+    assert code == 2 and "pip install 'hillsim[dask]'" in capsys.readouterr().err
 
 
 def test_dask_bad_scheduler_address(plant):
