@@ -491,6 +491,76 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
                        wall_time_s=time.perf_counter() - wall)
 
 
-__all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "MECHANISMS", "FIGURES", "CaseResult", "BatchResult", "numeric_keys",
+def _init_pool_worker(plant, members, domains):
+    _WORKER.update(plant=plant, members=members, domains=domains)
+
+
+def _run_pool_chunk(task):
+    member, keep_series, chunk = task
+    w = _WORKER
+    return [run_case(w["plant"], w["members"][member], i, v, domain=w["domains"][member], keep_series=keep_series)
+            for i, v in chunk]
+
+
+class BatchPool:
+    """Worker processes kept across many batches of one plant (the generations of an optimizer, say).
+
+    The pool is forked once, after this process has run the plant once (so the workers inherit the compiled loop);
+    each :meth:`run` then costs only the transfer of its chunks, which makes batches of a few dozen cases worth
+    running in parallel (a fresh pool per batch pays off only from :data:`SERIAL_BELOW` cases on). ``members`` are
+    the characteristics a batch can use (e.g. the members of an ensemble), chosen per :meth:`run` by index. With one
+    worker everything runs in this process. Use as a context manager, or call :meth:`close`.
+    """
+
+    def __init__(self, plant: PlantConfig, members: Sequence | None = None, *, workers: int | None = None):
+        self.plant = plant
+        self.members = list(members) if members else [load_characteristics(plant.turbine, plant.base_dir)]
+        self.domains = [nets_domain(m) for m in self.members]
+        self.workers = default_workers() if workers is None else workers
+        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
+            raise InputError(f"workers must be a positive integer, got {workers!r}")
+        self._pool = None
+        if self.workers > 1:
+            run_case(plant, self.members[0], 0, {})  # compile here, before the fork
+            ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
+                                              else "spawn")
+            self._pool = ctx.Pool(processes=self.workers, initializer=_init_pool_worker,
+                                  initargs=(plant, self.members, self.domains))
+
+    def run(self, variants: Iterable[dict], *, member: int = 0, chunk_size: int | None = None,
+            keep_series: bool = False) -> BatchResult:
+        """Like :func:`run_batch` with ``characteristics = members[member]``, on the pool's workers."""
+        if isinstance(member, bool) or not isinstance(member, int) or not 0 <= member < len(self.members):
+            raise InputError(f"member must be an index in [0, {len(self.members) - 1}], got {member!r}")
+        keys, variants = validate_variants(self.plant, variants)
+        n = len(variants)
+        if chunk_size is None:
+            chunk_size = max(1, math.ceil(n / (2 * self.workers))) if n else 1
+        wall = time.perf_counter()
+        indexed = list(enumerate(variants))
+        chunks = [indexed[s:s + chunk_size] for s in range(0, n, chunk_size)]
+        if self._pool is None:
+            parts = [run_chunk(self.plant, self.members[member], chunk, keep_series) for chunk in chunks]
+        else:
+            parts = self._pool.map(_run_pool_chunk, [(member, keep_series, chunk) for chunk in chunks])
+        cases = sorted((c for part in parts for c in part), key=lambda c: c.index)
+        return BatchResult(keys=keys, cases=cases, mechanism="pool" if self._pool is not None else "serial",
+                           workers=self.workers, chunk_size=chunk_size, wall_time_s=time.perf_counter() - wall)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self) -> "BatchPool":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+__all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "MECHANISMS", "FIGURES", "CaseResult", "BatchResult", "BatchPool",
+           "numeric_keys",
            "check_key", "check_value", "variant_overrides", "extrapolation_kinds", "nets_domain", "case_from_result",
            "run_case", "run_chunk", "run_batch", "validate_variants", "default_workers"]

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.optimize import brentq, differential_evolution
 
 from hillchart.errors import InputError
-from simulate.batch import run_batch
+from simulate.batch import BatchPool
 from simulate.config import PlantConfig, load_characteristics
 from simulate.studies import LoadCase
 
@@ -116,24 +116,34 @@ class LawEvaluation:
 
 
 class ClosureEvaluator:
-    """Evaluates laws in batches over ``load_cases`` x ``members`` (characteristics) of one closure plant."""
+    """Evaluates laws in batches over ``load_cases`` x ``members`` (characteristics) of one closure plant, on a
+    :class:`simulate.batch.BatchPool` kept for all batches (``workers=1``: in this process). Close it (or use it as a
+    context manager) when done."""
 
     def __init__(self, plant: PlantConfig, load_cases: tuple[LoadCase, ...], members: list | None = None, *,
-                 workers: int | None = None, mechanism: str = "auto"):
+                 workers: int | None = 1):
         self.plant = closure_plant(plant)
         self.load_cases = tuple(load_cases)
         self.members = members or [load_characteristics(self.plant.turbine, self.plant.base_dir)]
-        self.workers, self.mechanism = workers, mechanism
+        self.pool = BatchPool(self.plant, self.members, workers=workers)
         self.evaluations = 0
         self.history: list[LawEvaluation] = []
+
+    def close(self) -> None:
+        self.pool.close()
+
+    def __enter__(self) -> "ClosureEvaluator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def evaluate(self, laws: list[ClosureLaw], record: bool = True) -> list[LawEvaluation]:
         variants = [{**lc.overrides, **law.overrides()} for law in laws for lc in self.load_cases]
         per_law = len(self.load_cases)
         grouped: list[list] = [[] for _ in laws]
-        for chars in self.members:
-            batch = run_batch(self.plant, variants, characteristics=chars, workers=self.workers,
-                              mechanism=self.mechanism)
+        for member in range(len(self.members)):
+            batch = self.pool.run(variants, member=member)
             for j, case in enumerate(batch.cases):
                 grouped[j // per_law].append(case)
         out = []
@@ -270,7 +280,11 @@ def optimize_closure(plant: PlantConfig, load_cases: tuple[LoadCase, ...], *, mo
         if isinstance(value, bool) or not isinstance(value, int) or value < (2 if name == "linear_points" else 1):
             raise InputError(f"{name} must be a positive integer, got {value!r}")
     wall = time.perf_counter()
-    evaluator = ClosureEvaluator(plant, load_cases, members, workers=workers)
+    with ClosureEvaluator(plant, load_cases, members, workers=workers) as evaluator:
+        return _optimize(evaluator, mode, limit, bounds, seed, maxiter, popsize, linear_points, progress, wall)
+
+
+def _optimize(evaluator, mode, limit, bounds, seed, maxiter, popsize, linear_points, progress, wall):
     linear_grid = evaluator.evaluate([ClosureLaw(closing_time_s=float(t))
                                       for t in np.linspace(bounds[0][0], bounds[0][1], linear_points)],
                                      record=False)

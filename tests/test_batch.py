@@ -137,3 +137,18 @@ def test_check_key_accepts_numeric_keys_and_names_non_numeric_ones(plant):
 def test_processes_with_a_single_case_runs_it_in_this_process(plant, nets):
     batch = run_batch(plant, [{"governor.kp": 2.5}], characteristics=nets, mechanism="processes")
     assert [c.status for c in batch.cases] == ["ok"] and batch.case_steps == batch.cases[0].steps > 0
+
+
+def test_batch_pool_reused_across_batches_equals_serial(plant, nets):
+    from simulate.batch import BatchPool
+
+    serial = run_batch(plant, VARIANTS, characteristics=nets, mechanism="serial")
+    with BatchPool(plant, [nets], workers=2) as pool:
+        first = pool.run(VARIANTS[:2])
+        second = pool.run(VARIANTS)
+        with pytest.raises(InputError, match=r"member must be an index in \[0, 0\], got 1"):
+            pool.run(VARIANTS, member=1)
+    assert first.mechanism == "pool" and [c.index for c in second.cases] == [0, 1, 2, 3]
+    for a, b in zip(serial.cases, second.cases):
+        assert (a.max_speed_rise, a.max_head_m, a.min_head_m) == (b.max_speed_rise, b.max_head_m, b.min_head_m)
+    assert first.cases[1].max_head_m == serial.cases[1].max_head_m
