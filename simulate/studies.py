@@ -25,7 +25,7 @@ import hashlib
 import json
 import math
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -204,6 +204,7 @@ def plant_toml(plant: PlantConfig) -> str:
     Examples
     --------
     >>> import tomllib
+    >>> from dataclasses import replace
     >>> from simulate.config import load_plant
     >>> from data_synthetic import PLANT_HLA339
     >>> plant = load_plant(PLANT_HLA339)
