@@ -212,6 +212,7 @@ def test_optimize_closure_cli_writes_law_front_and_a_verification_that_agrees(tm
     assert doc["mode"] == "head" and doc["limit"] == 0.5  # from [limits] of the file
     assert doc["law"]["max_speed_rise"] <= 0.5 and len(doc["verification"]) == 3
     assert doc["verification_max_abs_difference"] <= 1e-9  # hillsim run == batch (issue: 1e-9)
+    assert doc["extrapolated_cases"] == [] and all(c["beyond_nets_range"] is False for c in doc["cases"])
     worst = max(c["max_head_rise"] for c in doc["cases"])
     assert doc["law"]["max_head_rise"] == worst
     run_summary = json.loads((out / "verification" / "0" / "summary.json").read_text())

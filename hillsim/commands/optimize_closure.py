@@ -189,8 +189,11 @@ def optimize_command(args: argparse.Namespace) -> int:
               "member": k // len(study.load_cases), "status": c.status,
               "max_speed_rise": c.max_speed_rise, "max_head_rise": c.max_head_rise, "max_head_m": c.max_head_m,
               "initial_opening": c.initial_opening,
-              "closure_end_s": plant.scenario.event_time_s + law.law.duration_s(c.initial_opening)}
+              "closure_end_s": plant.scenario.event_time_s + law.law.duration_s(c.initial_opening),
+              "max_unit_speed_rpm": c.max_unit_speed_rpm, "beyond_nets_range": c.beyond_nets_range,
+              "extrapolated": c.extrapolated}
              for k, c in enumerate(law.cases)]
+    extrapolated = [f"{c['load_case']} (member {c['member']})" for c in cases if c["extrapolated"]]
     doc = {
         "plant_file": str(args.plant), "plant_sha256": study.sha256, "mode": mode,
         "objective": "max_head_rise" if mode == "head" else "max_speed_rise",
@@ -199,6 +202,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         "improvement_over_best_linear": opt.improvement,
         "linear_family": [_law_row(g) for g in opt.linear_family],
         "pareto_two_stage": [_law_row(f) for f in opt.pareto_two_stage],
+        "extrapolated_cases": extrapolated,
         "verification": verification, "verification_max_abs_difference": worst_diff,
         "verification_tolerance": VERIFY_TOLERANCE, "members": len(members),
         "load_cases": [{"name": lc.name, "overrides": lc.overrides} for lc in study.load_cases],
@@ -221,6 +225,9 @@ def optimize_command(args: argparse.Namespace) -> int:
           f"{law.max_head_rise:.4f}; best linear T1 {opt.best_linear.law.closing_time_s:.4g} s: "
           f"{opt.best_linear.max_speed_rise:.4f}, {opt.best_linear.max_head_rise:.4f}; verification by hillsim run "
           f"max |diff| {worst_diff:.3g}; wrote {out}")
+    if extrapolated:
+        print(f"optimize-closure: warning: with the optimum the run leaves the characteristics' trusted domain in "
+              f"{', '.join(extrapolated)}: figures there are extrapolated (closure.json extrapolated_cases)")
     if not worst_diff <= VERIFY_TOLERANCE:
         raise NumericalError(f"verification: hillsim run and the batch differ by {worst_diff:.3g} (> "
                              f"{VERIFY_TOLERANCE:g}); see {out / 'closure.json'}")

@@ -167,6 +167,9 @@ def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
         axes[1].axhline(level, color="tab:red", ls="--", lw=1, label=f"limit {level:.1f} m")
         axes[1].legend(fontsize=8, loc="upper right")
     events = _events(plant)
+    shut = np.nonzero((t > events[0][0]) & (result.opening <= 1e-6))[0] if events else np.array([], int)
+    if shut.size:
+        events = events + [(float(t[shut[0]]), "vanes shut")]
     for ax in axes:
         for time_s, name in events:
             ax.axvline(time_s, color="0.4", lw=0.8, ls=":")
