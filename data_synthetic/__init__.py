@@ -9,3 +9,5 @@ from pathlib import Path
 FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
 #: The shipped example plant.
 PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"
+#: The example plant with [limits] and [[load_cases]] for the design studies (hillsim optimize-closure, report).
+PLANT_HLA339_GUARANTEE = Path(__file__).resolve().parent / "plant_hla339_guarantee.toml"

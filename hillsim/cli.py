@@ -35,6 +35,9 @@ COMMAND_MODULES = (
     "hillsim.commands.linearize",
     "hillsim.commands.run",
     "hillsim.commands.identify",
+    "hillsim.commands.sweep",
+    "hillsim.commands.optimize_closure",
+    "hillsim.commands.report",
     "hillsim.commands.demo",
 )
 

@@ -1,0 +1,499 @@
+"""``hillsim report plant.toml --out DIR [--closure DIR] [--sweep DIR]``: a self-contained regulating-guarantee
+report (one HTML file) for the plant's load cases.
+
+Runs the plant's scenario for every ``[[load_cases]]`` entry (or the plant's own scenario) exactly as
+``hillsim run`` does and writes, in DIR: ``report.html`` (everything embedded), ``report.json`` (every number the page
+shows; each number in the page carries its ``report.json`` key in ``data-key``), ``cases/<n>/timeseries.csv`` and
+``cases/<n>/summary.json`` (the ``hillsim run`` files of each case), and the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import InputError
+from hillsim.report import Report, Value
+
+#: Names under which the simulator's result may carry the head envelope along the penstock (core branch).
+ENVELOPE_FIELDS = {"position": ("position_m", "distance_m", "x_m", "chainage_m"),
+                   "max_head": ("max_head_m", "head_max_m"), "min_head": ("min_head_m", "head_min_m"),
+                   "min_pressure_head": ("min_pressure_head_m", "pressure_head_min_m")}
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "report", help="regulating-guarantee report (self-contained HTML) for the plant's load cases",
+        description="Run the plant's scenario for each [[load_cases]] entry (or the plant's scenario) and write a "
+                    "self-contained report.html with the plant data sheet, the [limits] with PASS/FAIL per case, "
+                    "transients, the head envelope (when the simulator provides it), the hill chart with the "
+                    "operating range, extrapolation warnings, version, date and input hashes.")
+    parser.add_argument("plant", type=Path, help="plant TOML file (optional [limits] and [[load_cases]])")
+    parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
+    parser.add_argument("--closure", type=Path, default=None, metavar="DIR",
+                        help="include the hillsim optimize-closure results in DIR (closure.json, pareto.png)")
+    parser.add_argument("--sweep", type=Path, default=None, metavar="DIR",
+                        help="include the hillsim sweep results in DIR (sweep.json, sweep.png)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a plant-file key (as in hillsim run)")
+    parser.set_defaults(func=report_command)
+
+
+class Verdict(Value):
+    """A PASS / FAIL / n/a cell (coloured)."""
+
+    def cell(self) -> str:
+        colour = {"PASS": "#1a7f37", "FAIL": "#cf222e"}.get(self.value, "#777")
+        key = f" data-key='{self.key}'" if self.key else ""
+        return f"<td style='color:#fff;background:{colour};font-weight:600;text-align:center'{key}>{self.value}</td>"
+
+
+def _get(obj, names):
+    for name in names:
+        value = obj.get(name) if isinstance(obj, dict) else getattr(obj, name, None)
+        if value is not None:
+            return value
+    return None
+
+
+def read_envelope(result) -> dict | None:
+    """The head envelope of a run as ``{position_m, max_head_m, min_head_m[, min_pressure_head_m]}`` lists, read
+    from ``result.envelope`` (object or dict with one of the :data:`ENVELOPE_FIELDS` names), or None."""
+    env = getattr(result, "envelope", None)
+    if env is None:
+        return None
+    pos, hmax, hmin = (_get(env, ENVELOPE_FIELDS[k]) for k in ("position", "max_head", "min_head"))
+    if pos is None or hmax is None or hmin is None:
+        return None
+    out = {"position_m": [float(v) for v in np.ravel(pos)], "max_head_m": [float(v) for v in np.ravel(hmax)],
+           "min_head_m": [float(v) for v in np.ravel(hmin)]}
+    pmin = _get(env, ENVELOPE_FIELDS["min_pressure_head"])
+    if pmin is not None and np.ndim(pmin) == 1:
+        out["min_pressure_head_m"] = [float(v) for v in np.ravel(pmin)]
+    return out
+
+
+def _hash(path: Path) -> str:
+    from simulate.studies import file_sha256
+    return file_sha256(path)
+
+
+def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
+    t, p, g, gov, sc = plant.turbine, plant.penstock, plant.generator, plant.governor, plant.scenario
+    if sc.kind == "closure-law":
+        law = {"kind": "prescribed closure (no governor)", "closing_time_s": sc.closing_time_s,
+               "break_opening": sc.break_opening, "break_time_s": sc.break_time_s}
+    else:
+        law = {"kind": "governor (PID) with servo rate limits", "closing_time_s": gov.closing_time_s,
+               "opening_time_s": gov.opening_time_s}
+    source = {"kind": "ideal turbine" if t.characteristics == "ideal" else "nets.json",
+              "path": t.characteristics}
+    if chars_path is not None:
+        source["sha256"] = _hash(chars_path)
+        try:
+            nets_doc = json.loads(chars_path.read_text(encoding="utf-8"))
+            source["format"] = f"{nets_doc.get('format')} version {nets_doc.get('version')}"
+        except (OSError, ValueError):
+            pass  # load_characteristics has read and validated the same file just before
+        training = getattr(chars, "training", None) or {}
+        source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}
+        flow = getattr(chars, "flow", None)
+        if flow is not None:
+            source["n11_range_rpm"] = [float(flow.x_min[0]), float(flow.x_max[0])]
+            source["opening_range"] = [float(flow.x_min[1]), float(flow.x_max[1])]
+    return {
+        "turbine": {"rated_head_m": t.rated_head_m, "rated_flow_m3_s": t.rated_flow_m3_s,
+                    "rated_speed_rpm": t.rated_speed_rpm, "rated_power_mw": t.rated_power_mw,
+                    "runner_diameter_m": t.runner_diameter_m, "opening_max": t.opening_max,
+                    "rated_efficiency": t.rated_efficiency},
+        "penstock": {"model": p.model, "static_head_m": p.static_head_m, "length_m": p.length_m,
+                     "reaches": p.reaches, "water_time_s": p.water_time_s(t.rated_flow_m3_s, t.rated_head_m),
+                     "two_l_over_a_s": 2.0 * p.travel_time_s, "time_step_s": plant.time_step_s,
+                     "segments": [{"length_m": s.length_m, "diameter_m": s.diameter_m,
+                                   "wave_speed_m_s": s.wave_speed_m_s, "darcy_friction": s.darcy_friction}
+                                  for s in p.segments]},
+        "generator": {"inertia_time_s": g.inertia_time_s, "self_regulation": g.self_regulation},
+        "governor": {"kp": gov.kp, "ki": gov.ki, "kd": gov.kd, "derivative_filter_s": gov.derivative_filter_s,
+                     "permanent_droop": gov.permanent_droop, "servo_time_s": gov.servo_time_s,
+                     "closing_time_s": gov.closing_time_s, "opening_time_s": gov.opening_time_s},
+        "scenario": {"kind": sc.kind, "t_end_s": sc.t_end_s, "event_time_s": sc.event_time_s},
+        "closure_law": law,
+        "characteristics": source,
+    }
+
+
+def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = result.time_s
+    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(9, 7.5))
+    panels = ((result.speed_rpm, "speed (r/min)"), (result.head_m, "head at turbine (m)"),
+              (result.opening, "guide-vane stroke"))
+    for ax, (values, label) in zip(axes, panels):
+        ax.plot(t, values, lw=1.2)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    n0, h0 = result.speed_rpm[0], result.head_m[0]
+    t_end = float(t[-1]) if t.size else 1.0
+
+    def note(ax, x, y, text, marker, below):
+        right = x > 0.6 * t_end  # text to the left of late points, so it stays inside the axes
+        ax.plot(x, y, marker)
+        ax.annotate(text, (x, y), xytext=(-8 if right else 8, -14 if below else 4), textcoords="offset points",
+                    fontsize=8, ha="right" if right else "left")
+
+    i = int(np.argmax(result.speed_rpm))
+    note(axes[0], t[i], result.speed_rpm[i],
+         f"max {result.speed_rpm[i]:.1f} r/min (+{100 * case.max_speed_rise:.1f} %) at {t[i]:.2f} s", "rv", True)
+    j, k = int(np.argmax(result.head_m)), int(np.argmin(result.head_m))
+    note(axes[1], t[j], result.head_m[j],
+         f"max {result.head_m[j]:.1f} m (+{100 * case.max_head_rise:.1f} %) at {t[j]:.2f} s", "rv", True)
+    note(axes[1], t[k], result.head_m[k], f"min {result.head_m[k]:.1f} m at {t[k]:.2f} s", "b^", False)
+    if limits is not None and limits.max_speed_rise is not None:
+        axes[0].axhline(n0 * (1 + limits.max_speed_rise), color="tab:red", ls="--", lw=1,
+                        label=f"limit +{100 * limits.max_speed_rise:g} %")
+        axes[0].legend(fontsize=8, loc="upper right")
+    if limits is not None and (limits.max_head_m is not None or limits.max_head_rise is not None):
+        level = min(v for v in (limits.max_head_m, None if limits.max_head_rise is None
+                                else h0 * (1 + limits.max_head_rise)) if v is not None)
+        axes[1].axhline(level, color="tab:red", ls="--", lw=1, label=f"limit {level:.1f} m")
+        axes[1].legend(fontsize=8, loc="upper right")
+    events = _events(plant)
+    shut = np.nonzero((t > events[0][0]) & (result.opening <= 1e-6))[0] if events else np.array([], int)
+    if shut.size:
+        events = events + [(float(t[shut[0]]), "vanes shut")]
+    for ax in axes:
+        for time_s, name in events:
+            ax.axvline(time_s, color="0.4", lw=0.8, ls=":")
+    for time_s, name in events:
+        axes[0].annotate(name, (time_s, axes[0].get_ylim()[1]), xytext=(3, -10), textcoords="offset points",
+                         fontsize=8, color="0.3")
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _events(plant) -> list[tuple[float, str]]:
+    sc = plant.scenario
+    if sc.kind in ("load-rejection", "closure-law"):
+        return [(sc.event_time_s, "load rejection")]
+    if sc.kind == "load-step":
+        return [(sc.event_time_s, f"load step {sc.load_step:+g}")]
+    return [(t, "step") for t in sc.step_times_or_default]
+
+
+def plot_hill_chart_with_runs(chars, plant, runs, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from hillchart.chartplot import plot_hill_chart
+
+    d1 = plant.turbine.runner_diameter_m
+    traj = []
+    for name, result in runs:
+        sqrt_h = np.sqrt(np.maximum(result.head_m, 1e-9))
+        traj.append((name, result.speed_rpm * d1 / sqrt_h, result.flow_m3_s / (d1 * d1 * sqrt_h)))
+    n_all = np.concatenate([n for _, n, _ in traj])
+    flow = getattr(chars, "flow", None)
+    if flow is not None:
+        n11_range = (max(1e-3, float(flow.x_min[0]), 0.05 * float(flow.x_max[0])), float(flow.x_max[0]))
+        opening_range = (float(flow.x_min[1]), float(flow.x_max[1]))
+    else:
+        n11_range = (max(1e-3, 0.8 * float(n_all.min())), 1.1 * float(n_all.max()))
+        opening_range = (0.0, plant.turbine.opening_max)
+    fig, ax = plt.subplots(figsize=(9, 7))
+    plot_hill_chart(chars, ax, n11_range=n11_range, opening_range=opening_range, grid=161,
+                    title="hill chart with the operating range of each load case")
+    for name, n11, q11 in traj:
+        line, = ax.plot(n11, q11, lw=1.6, label=f"{name}: N11 {n11.min():.1f}-{n11.max():.1f} r/min")
+        ax.plot(n11[0], q11[0], "o", color=line.get_color())
+    ax.legend(loc="upper left", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_envelope(envelopes, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for name, env in envelopes:
+        line, = ax.plot(env["position_m"], env["max_head_m"], label=f"{name}: max head")
+        ax.plot(env["position_m"], env["min_head_m"], "--", color=line.get_color(), label=f"{name}: min head")
+    ax.set_xlabel("distance from the reservoir (m)")
+    ax.set_ylabel("piezometric head (m)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _case_json(case, lc, verdicts, folder: str) -> dict:
+    from simulate.batch import extrapolation_kinds
+
+    return {"name": lc.name, "overrides": lc.overrides, "status": case.status, "error": case.error,
+            "max_speed_rise": case.max_speed_rise, "max_speed_rpm": case.max_speed_rpm,
+            "t_max_speed_s": case.t_max_speed_s, "max_head_m": case.max_head_m, "max_head_rise": case.max_head_rise,
+            "t_max_head_s": case.t_max_head_s, "min_head_m": case.min_head_m,
+            "min_pressure_head_m": None if math.isnan(case.min_pressure_head_m) else case.min_pressure_head_m,
+            "initial_power_mw": case.initial_power_mw, "initial_opening": case.initial_opening,
+            "max_unit_speed_rpm": case.max_unit_speed_rpm, "min_unit_speed_rpm": case.min_unit_speed_rpm,
+            "max_opening_chart": case.max_opening_chart, "beyond_nets_range": case.beyond_nets_range,
+            "extrapolation": extrapolation_kinds(case.extrapolation), "verdicts": verdicts,
+            "summary_file": f"{folder}/summary.json", "timeseries_file": f"{folder}/timeseries.csv"}
+
+
+def build_report(args) -> tuple[dict, Path]:
+    """Run the cases, write the per-case files and figures; return (report.json document, out dir)."""
+    import hillsim
+    from simulate.batch import case_from_result, nets_domain, variant_overrides
+    from simulate.config import load_characteristics, parse_override
+    from simulate.engine import run_simulation
+    from simulate.studies import load_study
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {str(out)!r} exists and is not a directory")
+    study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
+    closure_doc = sweep_doc = None
+    if args.closure is not None:
+        path = Path(args.closure) / "closure.json"
+        try:
+            closure_doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise InputError(f"--closure {str(args.closure)!r}: cannot read {path.name}: {exc}") from None
+        if not isinstance(closure_doc, dict) or "law" not in closure_doc or "best_linear" not in closure_doc:
+            raise InputError(f"--closure {str(args.closure)!r}: {path.name} is not a hillsim optimize-closure output")
+    if args.sweep is not None:
+        path = Path(args.sweep) / "sweep.json"
+        try:
+            sweep_doc = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise InputError(f"--sweep {str(args.sweep)!r}: cannot read {path.name}: {exc}") from None
+        if not isinstance(sweep_doc, dict) or "cases" not in sweep_doc:
+            raise InputError(f"--sweep {str(args.sweep)!r}: {path.name} is not a hillsim sweep output")
+    plant = study.plant
+    chars = load_characteristics(plant.turbine, plant.base_dir)
+    chars_path = None if plant.turbine.characteristics == "ideal" else \
+        (plant.base_dir / plant.turbine.characteristics).resolve()
+    domain = nets_domain(chars)
+    out.mkdir(parents=True, exist_ok=True)
+    inputs = [{"role": "plant file", "path": str(args.plant), "sha256": study.sha256}]
+    if chars_path is not None:
+        inputs.append({"role": "characteristics", "path": str(chars_path), "sha256": _hash(chars_path)})
+    if closure_doc is not None:
+        inputs.append({"role": "closure optimization", "path": str(Path(args.closure) / "closure.json"),
+                       "sha256": _hash(Path(args.closure) / "closure.json")})
+    if sweep_doc is not None:
+        inputs.append({"role": "sweep", "path": str(Path(args.sweep) / "sweep.json"),
+                       "sha256": _hash(Path(args.sweep) / "sweep.json")})
+    cases, runs, envelopes, warnings = [], [], [], []
+    for i, lc in enumerate(study.load_cases):
+        folder = f"cases/{i}"
+        (out / folder).mkdir(parents=True, exist_ok=True)
+        case_plant = plant.with_overrides(variant_overrides(lc.overrides)) if lc.overrides else plant
+        result = run_simulation(case_plant, characteristics=chars, raise_on_failure=False)
+        result.to_csv(out / folder / "timeseries.csv")
+        result.to_json(out / folder / "summary.json")
+        case = case_from_result(i, lc.overrides, case_plant, result, domain)
+        verdicts = study.limits.check(case) if study.limits is not None else []
+        doc = _case_json(case, lc, verdicts, folder)
+        cases.append(doc)
+        runs.append((lc.name, result))
+        plot_transient(result, case, case_plant, study.limits, out / f"transient_{i}.png",
+                       f"{lc.name}: {case_plant.scenario.kind}")
+        env = read_envelope(result)
+        if env is not None:
+            envelopes.append((lc.name, env))
+            doc["envelope"] = env
+        if not result.success:
+            warnings.append(f"{lc.name}: the run failed: {result.message}")
+        if case.beyond_nets_range:
+            warnings.append(f"{lc.name}: the trajectory leaves the nets' training range (N11 "
+                            f"{case.min_unit_speed_rpm:.1f}-{case.max_unit_speed_rpm:.1f} r/min, opening up to "
+                            f"{case.max_opening_chart:.2f}; nets N11 {domain[0][0]:g}-{domain[1][0]:g}, opening "
+                            f"{domain[0][1]:g}-{domain[1][1]:g}): figures there are extrapolated")
+        for kind, fraction in (doc["extrapolation"] or {}).items():
+            warnings.append(f"{lc.name}: extrapolation ({kind}) during {100 * fraction:.1f} % of the run "
+                            f"(simulator record)")
+    plot_hill_chart_with_runs(chars, plant, runs, out / "hillchart.png")
+    if envelopes:
+        plot_envelope(envelopes, out / "envelope.png")
+    verdict_list = [v["verdict"] for c in cases for v in c["verdicts"]]
+    overall = ("FAIL" if "FAIL" in verdict_list else "PASS" if verdict_list and "n/a" not in verdict_list
+               else "PASS (some limits not judged)" if "PASS" in verdict_list else "no limits")
+    report = {
+        "title": f"Regulating-guarantee report: {Path(args.plant).name}",
+        "hillsim_version": hillsim.__version__,
+        "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC"),
+        "inputs": inputs, "overrides": list(args.overrides),
+        "plant": plant_sheet(plant, chars_path, chars),
+        "limits": None if study.limits is None else study.limits.as_dict(),
+        "overall_verdict": overall, "cases": cases, "warnings": warnings,
+        "envelope_available": bool(envelopes),
+        "closure": None if closure_doc is None else {
+            k: closure_doc.get(k) for k in ("mode", "constraint", "law", "best_linear",
+                                            "improvement_over_best_linear", "verification_max_abs_difference",
+                                            "evaluations")},
+        "sweep": None if sweep_doc is None else {k: sweep_doc.get(k) for k in ("keys", "cases", "ok", "failed",
+                                                                                "error", "extrapolated_cases")},
+    }
+    return report, out
+
+
+def _v(value, key, fmt="{:.4g}"):
+    return Value(value, fmt, f"report.json:{key}")
+
+
+def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Path | None) -> Path:
+    r = Report(report["title"])
+    r.paragraph(f"hillsim {report['hillsim_version']}, generated {report['date_utc']}. Overall verdict: "
+                f"{report['overall_verdict']}.")
+    r.table(("input", "path", "SHA-256"), [(i["role"], i["path"], i["sha256"]) for i in report["inputs"]],
+            caption="input files")
+    p = report["plant"]
+    r.heading("Plant data sheet")
+    t = p["turbine"]
+    r.table(("rated value", "value", "unit"), [
+        ("head", _v(t["rated_head_m"], "plant.turbine.rated_head_m"), "m"),
+        ("flow", _v(t["rated_flow_m3_s"], "plant.turbine.rated_flow_m3_s"), "m3/s"),
+        ("speed", _v(t["rated_speed_rpm"], "plant.turbine.rated_speed_rpm"), "r/min"),
+        ("power", _v(t["rated_power_mw"], "plant.turbine.rated_power_mw"), "MW"),
+        ("runner diameter D1", _v(t["runner_diameter_m"], "plant.turbine.runner_diameter_m"), "m"),
+        ("opening at full stroke", _v(t["opening_max"], "plant.turbine.opening_max"), "chart units"),
+        ("rated efficiency P/(rho g Q H)", _v(t["rated_efficiency"], "plant.turbine.rated_efficiency"), "-")],
+        caption="turbine")
+    pen = p["penstock"]
+    r.table(("penstock", "value", "unit"), [
+        ("model", pen["model"], ""), ("static head", _v(pen["static_head_m"], "plant.penstock.static_head_m"), "m"),
+        ("length", _v(pen["length_m"], "plant.penstock.length_m"), "m"),
+        ("water inertia time Tw (rated)", _v(pen["water_time_s"], "plant.penstock.water_time_s"), "s"),
+        ("wave reflection time 2L/a", _v(pen["two_l_over_a_s"], "plant.penstock.two_l_over_a_s"), "s"),
+        ("MOC reaches / time step", f"{pen['reaches']} / {pen['time_step_s']:.5g} s", ""),
+        ("rotor inertia time Ta", _v(p["generator"]["inertia_time_s"], "plant.generator.inertia_time_s"), "s"),
+        ("load self-regulation e_g", _v(p["generator"]["self_regulation"], "plant.generator.self_regulation"),
+         "pu")], caption="penstock and rotor")
+    r.table(("segment", "length (m)", "diameter (m)", "wave speed (m/s)", "Darcy f"),
+            [(i + 1, *(_v(s[k], f"plant.penstock.segments.{i}.{k}") for k in
+                       ("length_m", "diameter_m", "wave_speed_m_s", "darcy_friction")))
+             for i, s in enumerate(pen["segments"])], caption="penstock segments (upstream first)")
+    gov = p["governor"]
+    r.table(("governor", "value"), [(k, _v(v, f"plant.governor.{k}")) for k, v in gov.items()],
+            caption="governor (parallel PID, permanent droop, servo)")
+    law = p["closure_law"]
+    r.table(("closure law", "value"), [(k, _v(v, f"plant.closure_law.{k}") if isinstance(v, (int, float)) else
+                                        ("-" if v is None else v)) for k, v in law.items()],
+            caption=f"scenario {p['scenario']['kind']}, event at {p['scenario']['event_time_s']:g} s, "
+                    f"{p['scenario']['t_end_s']:g} s simulated")
+    src = p["characteristics"]
+    r.table(("characteristics", "value"), [(k, ", ".join(f"{x:g}" for x in v) if isinstance(v, list) else
+                                            json.dumps(v) if isinstance(v, dict) else v) for k, v in src.items()],
+            caption="turbine characteristics source")
+
+    r.heading("Guarantee limits")
+    cases = report["cases"]
+    if report["limits"] is None:
+        r.paragraph("The plant file has no [limits] section: nothing is judged.")
+    else:
+        r.table(("limit", "allowed"), [(k, "-" if v is None else _v(v, f"limits.{k}"))
+                                       for k, v in report["limits"].items()], caption="[limits] of the plant file")
+        rows = []
+        for i, c in enumerate(cases):
+            for j, v in enumerate(c["verdicts"]):
+                rows.append((c["name"], v["limit"], _v(v["allowed"], f"cases.{i}.verdicts.{j}.allowed"),
+                             _v(v["value"], f"cases.{i}.verdicts.{j}.value", "{:.5g}"),
+                             Verdict(v["verdict"], key=f"report.json:cases.{i}.verdicts.{j}.verdict")))
+        r.table(("load case", "limit", "allowed", "reached", "verdict"), rows,
+                caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}); n/a = not computed by "
+                        f"this simulator version (min pressure head needs the penstock envelope) or the run failed")
+
+    r.heading("Load cases")
+    r.table(("load case", "status", "initial power (MW)", "initial stroke", "max speed rise", "max speed (r/min)",
+             "t (s)", "max head (m)", "max head rise", "t (s)", "min head (m)", "N11 range (r/min)"),
+            [(c["name"], c["status"], _v(c["initial_power_mw"], f"cases.{i}.initial_power_mw"),
+              _v(c["initial_opening"], f"cases.{i}.initial_opening"),
+              _v(c["max_speed_rise"], f"cases.{i}.max_speed_rise", "{:.4f}"),
+              _v(c["max_speed_rpm"], f"cases.{i}.max_speed_rpm", "{:.2f}"),
+              _v(c["t_max_speed_s"], f"cases.{i}.t_max_speed_s", "{:.2f}"),
+              _v(c["max_head_m"], f"cases.{i}.max_head_m", "{:.2f}"),
+              _v(c["max_head_rise"], f"cases.{i}.max_head_rise", "{:.4f}"),
+              _v(c["t_max_head_s"], f"cases.{i}.t_max_head_s", "{:.2f}"),
+              _v(c["min_head_m"], f"cases.{i}.min_head_m", "{:.2f}"),
+              f"{c['min_unit_speed_rpm']:.1f}-{c['max_unit_speed_rpm']:.1f}") for i, c in enumerate(cases)],
+            caption="figures of each run (heads at the turbine inlet; rises relative to the initial value); the "
+                    "hillsim run files of each case are in cases/<n>/")
+    r.heading("Transients")
+    for i, c in enumerate(cases):
+        r.figure(out / f"transient_{i}.png", f"{c['name']}: speed, head and stroke with the maxima and the event")
+    r.heading("Head envelope along the penstock")
+    if report["envelope_available"]:
+        r.figure(out / "envelope.png", "max and min piezometric head at every computing node")
+    else:
+        r.paragraph("Not available: this simulator version reports the head at the turbine inlet only. The report "
+                    "draws the envelope when the run result carries it (SimulationResult.envelope with "
+                    "position_m, max_head_m, min_head_m and optionally min_pressure_head_m).")
+    r.heading("Hill chart and operating range")
+    r.figure(out / "hillchart.png", "iso-efficiency contours of the characteristics with each run's (N11, Q11) path")
+    r.heading("Extrapolation warnings")
+    if report["warnings"]:
+        r.parts.append("<ul>" + "".join(f"<li>{_esc(w)}</li>" for w in report["warnings"]) + "</ul>")
+    else:
+        r.paragraph("None: every run stayed inside the characteristics' training range"
+                    + (" and the simulator recorded no extrapolation." if any(c["extrapolation"] is not None
+                                                                             for c in cases)
+                       else " (the simulator's own extrapolation record is not available in this version)."))
+    if report["closure"] is not None:
+        cl = report["closure"]
+        r.heading("Closure-law optimization")
+        rows = []
+        for name in ("law", "best_linear"):
+            d = cl[name]
+            rows.append(({"law": "two-stage optimum", "best_linear": "best linear closure"}[name], _v(d["closing_time_s"], f"closure.{name}.closing_time_s"),
+                         "-" if d["break_opening"] is None else _v(d["break_opening"], f"closure.{name}.break_opening"),
+                         "-" if d["break_time_s"] is None else _v(d["break_time_s"], f"closure.{name}.break_time_s"),
+                         _v(d["max_speed_rise"], f"closure.{name}.max_speed_rise", "{:.4f}"),
+                         _v(d["max_head_rise"], f"closure.{name}.max_head_rise", "{:.4f}")))
+        r.table(("law", "T1 (s per full stroke)", "break stroke", "T2 (s per full stroke)", "worst max speed rise",
+                 "worst max head rise"), rows,
+                caption=f"{cl['constraint']}; improvement over the best linear closure "
+                        f"{cl['improvement_over_best_linear']:.4f}; verification by hillsim run max |diff| "
+                        f"{cl['verification_max_abs_difference']:.3g}")
+        if closure_dir is not None and (closure_dir / "pareto.png").is_file():
+            r.figure(closure_dir / "pareto.png", "Pareto front of the two-stage laws and the linear-closure family")
+    if report["sweep"] is not None:
+        sw = report["sweep"]
+        r.heading("Sweep")
+        r.paragraph(f"{sw['cases']} cases over {', '.join(sw['keys'] or [])}: {sw['ok']} ok, {sw['failed']} failed, "
+                    f"{sw['error']} errors, {len(sw['extrapolated_cases'] or [])} extrapolated.")
+        if sweep_dir is not None and (sweep_dir / "sweep.png").is_file():
+            r.figure(sweep_dir / "sweep.png", "sweep: each maximum against the varied keys")
+    return r.write(out / "report.html")
+
+
+def _esc(text: str) -> str:
+    import html
+    return html.escape(text)
+
+
+def report_command(args: argparse.Namespace) -> int:
+    report, out = build_report(args)
+    (out / "report.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    path = write_html(report, out, args.closure, args.sweep)
+    print(f"report: {len(report['cases'])} load case(s), overall {report['overall_verdict']}, "
+          f"{len(report['warnings'])} warning(s); wrote {path}")
+    return 0

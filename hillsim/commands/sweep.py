@@ -1,0 +1,95 @@
+"""``hillsim sweep plant.toml --vary KEY=START:STOP:COUNT --vary KEY=v1,v2 [--cases cases.csv] --out DIR
+[--scheduler local|dask [ADDRESS]]``: run the Cartesian product of the varied values as one batch.
+
+Writes ``DIR/results.csv`` (one row per case), ``DIR/sweep.json`` and ``DIR/sweep.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from hillchart.errors import InputError
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "sweep", help="run a plant's scenario over a grid of values (batched, local cores or Dask)",
+        description="Run the plant's scenario for every combination of the --vary values (and/or every row of "
+                    "--cases) and write results.csv, sweep.json and sweep.png into --out. A failing case is a row "
+                    "with its error.")
+    parser.add_argument("plant", type=Path, help="plant TOML file")
+    parser.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:COUNT|KEY=v1,v2,...",
+                        help="a numeric plant key and its values: COUNT evenly spaced values with both ends "
+                             "included, or a list (repeatable; the sweep is the Cartesian product)")
+    parser.add_argument("--cases", type=Path, default=None, metavar="CASES.CSV",
+                        help="one column per key (section.key header), one row of numbers per case")
+    parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
+    parser.add_argument("--scheduler", nargs="+", default=["local"], metavar="local|dask [ADDRESS]",
+                        help="local cores (default) or Dask: a LocalCluster, or the scheduler at ADDRESS "
+                             "(tcp://HOST:PORT); Dask needs pip install 'hillsim[dask]'")
+    parser.add_argument("--workers", type=int, default=None, help="parallel workers (default: available cores)")
+    parser.add_argument("--chunk-size", type=int, default=None, help="cases per task (default: automatic)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a plant-file key for every case (as in hillsim run)")
+    parser.add_argument("--no-plot", action="store_true", help="do not write sweep.png")
+    parser.set_defaults(func=sweep_command)
+
+
+class Progress:
+    """A progress bar on a terminal (stderr), nothing per case otherwise (the stage lines say enough)."""
+
+    def __init__(self, stream=None, width: int = 40):
+        self.stream = sys.stderr if stream is None else stream
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.width = width
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.tty or total <= 0:
+            return
+        filled = int(self.width * done / total)
+        self.stream.write(f"\r[{'#' * filled}{'.' * (self.width - filled)}] {done}/{total} cases")
+        if done >= total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def parse_scheduler(values: list[str]) -> tuple[str, str | None]:
+    """``["local"]``, ``["dask"]`` or ``["dask", ADDRESS]`` -> (scheduler, address)."""
+    kind = values[0]
+    if kind not in ("local", "dask"):
+        raise InputError(f"--scheduler must be local or dask [ADDRESS], got {kind!r}")
+    if len(values) > 2 or (kind == "local" and len(values) > 1):
+        raise InputError(f"--scheduler takes local, dask or dask ADDRESS; got {' '.join(values)!r}")
+    return kind, (values[1] if len(values) == 2 else None)
+
+
+def sweep_command(args: argparse.Namespace) -> int:
+    from simulate.config import load_plant, parse_override
+    from simulate.sweep import build_variants, run_sweep, write_sweep
+
+    scheduler, address = parse_scheduler(args.scheduler)
+    for name in ("workers", "chunk_size"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            raise InputError(f"--{name.replace('_', '-')} must be an integer >= 1, got {value}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {str(out)!r} exists and is not a directory")
+    overrides = dict(parse_override(text) for text in args.overrides)
+    plant = load_plant(args.plant, overrides)
+    variants = build_variants(plant, args.vary, args.cases)
+    where = f"Dask {'LocalCluster' if address is None else address}" if scheduler == "dask" else "local cores"
+    print(f"sweep: {len(variants)} cases on {where}", flush=True)
+    batch = run_sweep(plant, variants, scheduler=scheduler, address=address, workers=args.workers,
+                      chunk_size=args.chunk_size, progress=Progress())
+    statuses = [c.status for c in batch.cases]
+    print(f"sweep: ran {len(batch.cases)} cases in {batch.wall_time_s:.2f} s ({batch.mechanism}, {batch.workers} "
+          f"workers): {statuses.count('ok')} ok, {statuses.count('failed')} failed, {statuses.count('error')} "
+          f"errors, {sum(bool(c.extrapolated) for c in batch.cases)} extrapolated", flush=True)
+    paths = write_sweep(batch, out, plant_file=str(args.plant), plot=not args.no_plot,
+                        extra={"vary": list(args.vary), "cases_file": None if args.cases is None else str(args.cases),
+                               "overrides": list(args.overrides)})
+    print(f"sweep: wrote {', '.join(p.name for p in paths.values())} to {out}")
+    return 0

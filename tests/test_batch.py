@@ -1,0 +1,154 @@
+"""simulate.batch: identical to single runs, failing cases as records, structure/garbage refused."""
+
+import math
+
+import numpy as np
+import pytest
+
+from data_synthetic import PLANT_HLA339
+from hillchart.errors import InputError
+from simulate.batch import (CaseResult, BatchResult, check_key, extrapolation_kinds, run_batch, run_case,
+                            variant_overrides)
+from simulate.config import load_characteristics, load_plant
+from simulate.engine import run_simulation
+
+# 5 s of the shipped plant (nets, MOC, 8 reaches): the load rejection at 2 s and the first 3 s of overspeed.
+BASE = {"scenario.t_end_s": 5.0}
+
+
+@pytest.fixture(scope="module")
+def plant():
+    return load_plant(PLANT_HLA339, BASE)
+
+
+@pytest.fixture(scope="module")
+def nets(plant):
+    return load_characteristics(plant.turbine, plant.base_dir)
+
+
+VARIANTS = [{"governor.closing_time_s": 8.0, "scenario.initial_power_mw": 160.0},
+            {"governor.closing_time_s": 14.0, "scenario.initial_power_mw": 225.0},
+            {"governor.kp": 3.5},
+            {"penstock.static_head_m": 175.0}]
+
+
+@pytest.mark.parametrize("mechanism", ["serial", "processes", "threads"])
+def test_batch_equals_single_runs_exactly(plant, nets, mechanism):
+    batch = run_batch(plant, VARIANTS, characteristics=nets, mechanism=mechanism, workers=2, chunk_size=1,
+                      keep_series=True)
+    assert batch.mechanism == mechanism and [c.index for c in batch.cases] == [0, 1, 2, 3]
+    for variant, case in zip(VARIANTS, batch.cases):
+        single = run_simulation(load_plant(PLANT_HLA339, {**BASE, **variant_overrides(variant)}),
+                                characteristics=nets)
+        s = single.summary()
+        assert case.status == "ok", case.error
+        # the same code path on the same inputs: bit-identical, whatever the mechanism
+        assert case.max_speed_rise == s["max_speed_rise"] and case.max_head_m == s["max_head_m"]
+        assert case.min_head_m == single.head_m.min() and case.steps == s["steps"]
+        assert np.array_equal(case.series["speed_rpm"], single.speed_rpm)
+        assert np.array_equal(case.series["head_m"], single.head_m)
+    # the varied initial power really changed the run (the test would pass vacuously otherwise)
+    assert batch.cases[0].initial_power_mw == pytest.approx(160.0, rel=1e-9)
+    assert batch.cases[0].max_speed_rise < batch.cases[1].max_speed_rise
+
+
+def test_failing_cases_are_records_and_the_batch_goes_on(plant, nets):
+    variants = [{"governor.closing_time_s": -1.0},            # out of range: no run
+                {"scenario.initial_power_mw": 1000.0},         # beyond 1.5 x rated: no run
+                {"solver.relaxation": 1.0, "solver.max_iterations": 1},   # pressure loop cannot converge
+                {"governor.closing_time_s": 10.0}]
+    batch = run_batch(plant, variants, characteristics=nets, mechanism="serial")
+    statuses = [c.status for c in batch.cases]
+    assert statuses == ["error", "error", "failed", "ok"]
+    assert "governor.closing_time_s must be in (0.0, 1000.0], got -1.0" in batch.cases[0].error
+    assert "scenario.initial_power_mw" in batch.cases[1].error
+    assert "failed (no convergence)" in batch.cases[2].error
+    assert math.isnan(batch.cases[0].max_speed_rise) and batch.n_ok == 1
+
+
+def test_nets_range_flag_when_the_stroke_goes_beyond_the_chart(plant, nets):
+    batch = run_batch(plant, [{"governor.stroke_max": 1.5, "scenario.initial_opening": 1.2}, {}],
+                      characteristics=nets, mechanism="serial")
+    wide, base = batch.cases
+    assert wide.status == "ok" and wide.max_opening_chart == pytest.approx(1.2 * 32.0, rel=1e-9)
+    assert wide.beyond_nets_range is True and wide.extrapolated is True  # 38.4 mm on a 32 mm chart
+    assert base.beyond_nets_range is False and base.extrapolated is False
+
+
+def test_envelope_and_extrapolation_fields_are_read_when_the_summary_has_them(plant, nets):
+    def run_with_envelope(case_plant, characteristics, raise_on_failure):
+        result = run_simulation(case_plant, characteristics=characteristics, raise_on_failure=raise_on_failure)
+        meta = dict(result.meta, min_pressure_head_m=12.5, min_pressure_head_x_m=310.0,
+                    extrapolation={"nets_range": {"fraction": 0.25, "n11_max": 130.0},
+                                   "full_stroke": {"fraction": 0.0}})
+        return type(result)(**{**result.__dict__, "meta": meta})
+
+    case = run_case(plant, nets, 0, {}, run=run_with_envelope)
+    assert case.min_pressure_head_m == 12.5 and case.min_pressure_head_at == "min_pressure_head_x_m=310.0"
+    assert case.extrapolated is True
+    batch = BatchResult(keys=(), cases=[case], mechanism="serial", workers=1, chunk_size=1, wall_time_s=0.0)
+    row = batch.rows()[0]
+    assert row["extrapolation"] == "nets_range:0.25" and row["min_pressure_head_m"] == 12.5
+
+
+def test_extrapolation_record_shapes():
+    assert extrapolation_kinds({"a": {"time_fraction": 0.0}, "b": 0.5, "c": {"extrapolated": True}}) == \
+        {"b": 0.5, "c": 1.0}
+    assert extrapolation_kinds({}) == {}
+    assert CaseResult(index=0, values={}, status="ok", extrapolation={}).extrapolated is False
+    assert CaseResult(index=0, values={}, status="ok").extrapolated is None
+
+
+@pytest.mark.parametrize("variant,message", [
+    ({"penstock.reaches": 16}, "changes the plant structure"),
+    ({"penstock.model": 1.0}, "changes the plant structure"),
+    ({"scenario.kind": 1.0}, "changes the plant structure"),
+    ({"governor.kpp": 1.0}, "unknown key 'governor.kpp'; numeric keys of [governor]: governor.kp"),
+    ({"rotor.inertia": 1.0}, "unknown section in varied key 'rotor.inertia'"),
+    ({"kp": 1.0}, "varied key must be section.key"),
+    ({"governor.kp": "fast"}, "value of varied key 'governor.kp' must be a number, got 'fast'"),
+    ({"governor.kp": True}, "must be a number, got True"),
+    ({"governor.kp": float("nan")}, "must be finite"),
+    ({"scenario.break_opening": 0.2}, "is not used by scenario.kind = 'load-rejection'"),
+    ({"scenario.initial_power_mw": 100.0, "scenario.initial_opening": 0.5}, "cannot both be varied"),
+])
+def test_bad_variants_are_refused_before_anything_runs(plant, variant, message):
+    with pytest.raises(InputError) as info:
+        run_batch(plant, [{}, variant])
+    assert message in str(info.value)
+
+
+@pytest.mark.parametrize("kwargs,message", [({"mechanism": "gpu"}, "mechanism must be one of"),
+                                            ({"workers": 0}, "workers must be a positive integer"),
+                                            ({"chunk_size": 0}, "chunk_size must be a positive integer")])
+def test_bad_batch_options(plant, kwargs, message):
+    with pytest.raises(InputError, match=message):
+        run_batch(plant, [{}], **kwargs)
+
+
+def test_check_key_accepts_numeric_keys_and_names_non_numeric_ones(plant):
+    assert check_key(plant, "scenario.initial_power_mw") == "scenario.initial_power_mw"
+    with pytest.raises(InputError, match="'turbine.characteristics' changes the plant structure"):
+        check_key(plant, "turbine.characteristics")
+    with pytest.raises(InputError, match="is not numeric"):
+        check_key(plant, "scenario.speed_steps")
+
+
+def test_processes_with_a_single_case_runs_it_in_this_process(plant, nets):
+    batch = run_batch(plant, [{"governor.kp": 2.5}], characteristics=nets, mechanism="processes")
+    assert [c.status for c in batch.cases] == ["ok"] and batch.case_steps == batch.cases[0].steps > 0
+
+
+def test_batch_pool_reused_across_batches_equals_serial(plant, nets):
+    from simulate.batch import BatchPool
+
+    serial = run_batch(plant, VARIANTS, characteristics=nets, mechanism="serial")
+    with BatchPool(plant, [nets], workers=2) as pool:
+        first = pool.run(VARIANTS[:2])
+        second = pool.run(VARIANTS)
+        with pytest.raises(InputError, match=r"member must be an index in \[0, 0\], got 1"):
+            pool.run(VARIANTS, member=1)
+    assert first.mechanism == "pool" and [c.index for c in second.cases] == [0, 1, 2, 3]
+    for a, b in zip(serial.cases, second.cases):
+        assert (a.max_speed_rise, a.max_head_m, a.min_head_m) == (b.max_speed_rise, b.max_head_m, b.min_head_m)
+    assert first.cases[1].max_head_m == serial.cases[1].max_head_m

@@ -1,0 +1,174 @@
+"""hillsim report: every number on the page equals report.json, which equals the hillsim run files; sections,
+PASS/FAIL, warnings, envelope, garbage."""
+
+import json
+import re
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+
+from data_synthetic import FRANCIS_DIR, PLANT_HLA339, PLANT_HLA339_GUARANTEE
+from hillsim.cli import main
+
+SECTIONS = ("Plant data sheet", "Guarantee limits", "Load cases", "Transients", "Head envelope along the penstock",
+            "Hill chart and operating range", "Extrapolation warnings", "Closure-law optimization", "Sweep")
+
+
+class Cells(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.cells, self.headings, self.images, self._in_h2 = [], [], [], False
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag == "td" and "data-key" in attrs:
+            self.cells.append((attrs["data-key"], attrs.get("data-value")))
+        if tag == "h2":
+            self._in_h2 = True
+        if tag == "img":
+            self.images.append(attrs.get("src", ""))
+
+    def handle_endtag(self, tag):
+        if tag == "h2":
+            self._in_h2 = False
+
+    def handle_data(self, data):
+        if self._in_h2:
+            self.headings.append(data)
+
+
+def resolve(doc, dotted):
+    for part in dotted.split("."):
+        doc = doc[int(part)] if isinstance(doc, list) else doc[part]
+    return doc
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    base = tmp_path_factory.mktemp("report")
+    assert main(["optimize-closure", str(PLANT_HLA339_GUARANTEE), "--out", str(base / "opt"), "--maxiter", "2",
+                 "--popsize", "2"]) == 0
+    assert main(["sweep", str(PLANT_HLA339), "--vary", "governor.closing_time_s=8,12", "--out", str(base / "sw"),
+                 "--set", "scenario.t_end_s=6"]) == 0
+    out = base / "rep"
+    assert main(["report", str(PLANT_HLA339_GUARANTEE), "--out", str(out), "--closure", str(base / "opt"),
+                 "--sweep", str(base / "sw")]) == 0
+    html = (out / "report.html").read_text()
+    parser = Cells()
+    parser.feed(html)
+    return out, html, json.loads((out / "report.json").read_text()), parser
+
+
+def test_every_number_on_the_page_equals_report_json(made):
+    out, html, doc, cells = made
+    assert len(cells.cells) > 60
+    for key, value in cells.cells:
+        file, dotted = key.split(":", 1)
+        assert file == "report.json"
+        expected = resolve(doc, dotted)
+        if isinstance(expected, str):  # a verdict cell
+            assert re.search(rf"data-key='report.json:{re.escape(dotted)}'>{expected}<", html)
+        else:
+            assert value == repr(expected), key  # the exact float, not a rounded display
+
+
+def test_report_json_equals_the_hillsim_run_files_of_each_case(made):
+    out, html, doc, cells = made
+    assert [c["name"] for c in doc["cases"]] == ["rated load", "70 % load", "rated load, low reservoir"]
+    for case in doc["cases"]:
+        summary = json.loads((out / case["summary_file"]).read_text())
+        series = np.loadtxt(out / case["timeseries_file"], delimiter=",", skiprows=1)
+        for key in ("max_speed_rise", "max_head_rise", "max_head_m", "t_max_speed_s", "initial_power_mw"):
+            assert case[key] == summary[key]
+        assert case["min_head_m"] == pytest.approx(series[:, 2].min(), rel=1e-9)  # csv has 10 digits
+    # the plant data sheet: Tw and 2L/a of the shipped penstock by hand (two segments)
+    g = 9.81  # hillchart.constants.G_M_S2 (the papers' value)
+    tw = (320 / (g * np.pi * 6.2 ** 2 / 4) + 180 / (g * np.pi * 5.6 ** 2 / 4)) * 142.5 / 176.0
+    assert doc["plant"]["penstock"]["water_time_s"] == pytest.approx(tw, rel=1e-12)
+    assert doc["plant"]["penstock"]["two_l_over_a_s"] == pytest.approx(2 * (320 / 1120 + 180 / 1180), rel=1e-12)
+    assert doc["closure"]["law"] == json.loads((out.parent / "opt" / "closure.json").read_text())["law"]
+
+
+def test_page_has_every_section_self_contained(made):
+    out, html, doc, cells = made
+    assert all(s in cells.headings for s in SECTIONS)
+    assert len(cells.images) == 3 + 1 + 1 + 1  # transients, hill chart, pareto, sweep (no envelope yet)
+    assert all(src.startswith("data:image/png;base64,") for src in cells.images)
+    assert doc["hillsim_version"] and re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC", doc["date_utc"])
+    roles = {i["role"]: i["sha256"] for i in doc["inputs"]}
+    import hashlib
+    assert roles["plant file"] == hashlib.sha256(PLANT_HLA339_GUARANTEE.read_bytes()).hexdigest()
+    assert roles["characteristics"] == hashlib.sha256((FRANCIS_DIR / "nets.json").read_bytes()).hexdigest()
+    # the shipped limits: speed and head PASS, min pressure head not judged without the envelope
+    verdicts = {(c["name"], v["limit"]): v["verdict"] for c in doc["cases"] for v in c["verdicts"]}
+    assert verdicts[("rated load", "max_speed_rise")] == "PASS"
+    assert verdicts[("rated load", "min_pressure_head_m")] == "n/a"
+    assert doc["overall_verdict"] == "PASS (some limits not judged)"
+
+
+def _plant(tmp_path, extra):
+    text = PLANT_HLA339.read_text().replace('"francis/nets.json"', json.dumps(str(FRANCIS_DIR / "nets.json")))
+    path = tmp_path / "plant.toml"
+    path.write_text(extra + "\n" + text)
+    return path
+
+
+def test_fail_verdict_and_extrapolation_warning(tmp_path, capsys):
+    plant = _plant(tmp_path, "[limits]\nmax_speed_rise = 0.30\n"
+                             "[[load_cases]]\nname = \"rated\"\nscenario.initial_power_mw = 225.0\n"
+                             "[[load_cases]]\nname = \"low\"\nscenario.initial_power_mw = 100.0\n"
+                             "[[load_cases]]\nname = \"overopen\"\nscenario.initial_opening = 1.2\n"
+                             "governor.stroke_max = 1.5\n")
+    out = tmp_path / "rep"
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=10"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    verdicts = [c["verdicts"][0]["verdict"] for c in doc["cases"]]
+    assert verdicts[:2] == ["FAIL", "PASS"]  # 44 % > 30 % at rated load; about 8 % from 100 MW
+    assert doc["overall_verdict"] == "FAIL"
+    assert doc["cases"][2]["beyond_nets_range"] is True
+    assert any("overopen: the trajectory leaves the nets' training range" in w for w in doc["warnings"])
+    assert "leaves the nets&#x27; training range" in (out / "report.html").read_text()
+    assert "overall FAIL" in capsys.readouterr().out
+
+
+def test_envelope_is_drawn_when_the_result_carries_one(tmp_path, monkeypatch):
+    import simulate.engine
+
+    original = simulate.engine.run_simulation
+
+    def with_envelope(*args, **kwargs):
+        result = original(*args, **kwargs)
+        object.__setattr__(result, "envelope", {"position_m": np.array([0.0, 250.0, 500.0]),
+                                                "max_head_m": np.array([180.0, 200.0, result.head_m.max()]),
+                                                "min_head_m": np.array([180.0, 160.0, result.head_m.min()])})
+        return result
+
+    monkeypatch.setattr(simulate.engine, "run_simulation", with_envelope)
+    out = tmp_path / "rep"
+    assert main(["report", str(PLANT_HLA339), "--out", str(out), "--set", "scenario.t_end_s=6"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["envelope_available"] and doc["cases"][0]["envelope"]["position_m"] == [0.0, 250.0, 500.0]
+    assert (out / "envelope.png").is_file()
+    assert "max and min piezometric head at every computing node" in (out / "report.html").read_text()
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--closure", "/nonexistent"], "--closure '/nonexistent': cannot read closure.json"),
+    (["--sweep", "/nonexistent"], "--sweep '/nonexistent': cannot read sweep.json"),
+    (["--set", "governor.kp=-1"], "governor.kp must be in [0.0, 1000.0], got -1.0"),
+])
+def test_report_garbage(tmp_path, capsys, args, message):
+    out = tmp_path / "never"
+    assert main(["report", str(PLANT_HLA339), "--out", str(out), *args]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_report_refuses_foreign_json(tmp_path, capsys):
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "closure.json").write_text("{\"x\": 1}")
+    assert main(["report", str(PLANT_HLA339), "--out", str(tmp_path / "o"), "--closure", str(tmp_path / "c")]) == 2
+    assert "is not a hillsim optimize-closure output" in capsys.readouterr().err
+    plant = _plant(tmp_path, "[limits]\nmax_speed_rise = 9.0\n")
+    assert main(["report", str(plant), "--out", str(tmp_path / "o")]) == 2
+    assert "limits.max_speed_rise must be a number in (0.0, 5.0], got 9.0" in capsys.readouterr().err
