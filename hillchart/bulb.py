@@ -35,17 +35,30 @@ r_m = D/2 sqrt((1 + nu^2)/2) (the radius that halves the annulus area), blade sp
 * Unit quantities (paper 003 eqs. (1)-(2)): ``n11 = n D / sqrt(H)``, ``Q11 = Q / (D^2 sqrt(H))``; the unit
   characteristic is the same model with D = 1 m, H = 1 m and u = 2 pi r_m n11 / 60 (:meth:`SyntheticBulb.q11`).
 
-Operation (how a rig or a plant runs the machine): constant speed n (a synchronous generator), head set by the water
-system, ``H = H_static - K_sys Q^2`` (headwater minus a tailwater that rises with discharge, plus intake and conduit
-losses, lumped as one quadratic). Because u is fixed at constant speed, the system curve only adds ``g K_sys A^2``
-to the quadratic's leading coefficient: each (a0, beta) gives its operating point in closed form, with no
-iteration (:meth:`SyntheticBulb.operate`). There is exactly one implementation of the velocity solution
-(:func:`_axial_velocity`) and one of the torque (:func:`_torque_nm`), used by both.
+Operation: two closures fix the operating point of a setting (a0, beta) at constant speed n.
 
-Default parameters resemble the paper's machine: a 3.8 m runner at 136.36 r/min (44 poles, 50 Hz), heads 9-14 m,
-powers 1.6-9.7 MW, n11 139-172 r/min, Q11 0.26-3.2 m^3/s; best efficiency 0.92 at a0 = -10.5 deg, beta = 44.5 deg,
-above 0.85 over a wide diagonal band, down to 0.55 at the corner a0 = 16 deg, beta = 40 deg. The on-cam blade angle
-rises with the guide-vane angle (-14 deg at beta = 40 deg, -6 deg from beta = 60 deg on).
+* ``"water-system"`` (:meth:`SyntheticBulb.operate`, the default of the synthetic test table, as issue 11
+  asks): the head is set by the plant's water system,
+  ``H = H_static - K_sys Q^2`` (headwater minus a tailwater that rises with discharge, plus intake and conduit
+  losses, lumped as one quadratic). Because u is fixed at constant speed, the system curve only adds
+  ``g K_sys A^2`` to the quadratic's leading coefficient: closed form, no iteration. But then n11 and Q11 are both
+  functions of Q alone (``n11 = n D / sqrt(H(Q))``, ``Q11 = Q / (D^2 sqrt(H(Q)))``): every setting lands on ONE
+  curve of the (Q11, n11) plane, and paper 003's efficiency map over (Q11, n11) (its Fig. 4) degenerates to a line.
+  Any passive water system H(Q) does this; it is what a plant on a fixed water system really does.
+* ``"best-efficiency"`` (:meth:`SyntheticBulb.best_efficiency_points`): a model-test rig runs at constant speed and, for each blade / guide-vane setting, sets the head that gives the
+  setting's best efficiency, ``d eta / d n11 = 0`` at fixed (a0, beta): the optimum of each propeller curve, i.e.
+  the point where this combination of blade and guide-vane angle is the one to use. This is how the a0 and beta
+  isolines of a conventional double-regulated FCCM (paper 003 Fig. 1) pair a setting with one (Q11, n11), and it
+  spreads the settings over a 2-D region of the (Q11, n11) plane, with H = (n D / n11)^2.
+
+There is exactly one implementation of the velocity solution (:func:`_axial_velocity`) and one of the torque
+(:func:`_torque_nm`), used by both closures and by the unit characteristic.
+
+Default parameters resemble the paper's machine (a 3.8 m runner at 136.36 r/min, 44 poles at 50 Hz). Water-system
+closure over the paper's ranges (H_static 14 m): heads 9-14 m, powers 1.6-9.7 MW, n11 139-172 r/min, Q11 0.26-3.2
+m^3/s, efficiency 0.55-0.92 (best at a0 = -10.5 deg, beta = 44.5 deg; above 0.85 over a wide diagonal band; the
+best blade angle rises with the guide-vane angle). Best-efficiency closure: n11 73-126 r/min, Q11 0.23-2.5 m^3/s,
+efficiency 0.80-0.947, heads 17-51 m at this speed (a model-test head range; H scales with n^2).
 """
 
 from __future__ import annotations
@@ -59,11 +72,13 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
-from hillchart.errors import InputError
+from hillchart.errors import InputError, NumericalError
 
 #: The paper's control ranges (section 3): runner-blade angle a0 and guide-vane angle beta, degrees.
 BLADE_RANGE_DEG = (-18.0, 16.0)
 GUIDE_VANE_RANGE_DEG = (40.0, 78.0)
+#: Operating closures (module docstring).
+CLOSURES = ("water-system", "best-efficiency")
 #: Columns of the synthetic test table (units in the names, efficiency as a fraction).
 TABLE_COLUMNS = ("blade_angle_deg", "guide_vane_deg", "efficiency", "head_m", "power_kw", "flow_m3_s")
 #: Columns of the dense truth grid (the table's plus exact unit quantities).
@@ -283,6 +298,65 @@ class SyntheticBulb:
                                n11_rpm=p.speed_rpm * d / sqrt_h,  # eq. (2), paper 003
                                q11_m3_s=flow / (d * d * sqrt_h))  # eq. (1), paper 003
 
+    def best_efficiency_n11(self, blade_angle_deg, guide_vane_deg, *, n11_bounds=(20.0, 400.0)) -> np.ndarray:
+        """Unit speed (r/min) of best efficiency of each setting, ``d eta / d n11 = 0`` at fixed (a0, beta).
+
+        Golden-section search on [20, 400] r/min, vectorized over all settings (hand-written: scipy's bounded
+        scalar minimizer takes one point at a time; 90 golden steps shrink the bracket by 0.618^90 ~ 1e-19, i.e. to
+        machine precision). Efficiency over n11 is single-humped for this model (tests check the optimum against a
+        fine scan).
+
+        Raises
+        ------
+        NumericalError
+            An optimum on the bracket's edge (no interior best point).
+        """
+        gv, bl = self._check_controls(guide_vane_deg, blade_angle_deg)
+        lo = np.full(gv.shape, float(n11_bounds[0]))
+        hi = np.full(gv.shape, float(n11_bounds[1]))
+        ratio = (math.sqrt(5.0) - 1.0) / 2.0
+        a, c = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        fa, fc = self.unit_efficiency(a, gv, bl), self.unit_efficiency(c, gv, bl)
+        for _ in range(90):
+            left = fa > fc  # the maximum lies in [lo, c]
+            hi = np.where(left, c, hi)
+            lo = np.where(left, lo, a)
+            a_new = np.where(left, hi - ratio * (hi - lo), c)
+            c_new = np.where(left, a, lo + ratio * (hi - lo))
+            f_new = self.unit_efficiency(np.where(left, a_new, c_new), gv, bl)
+            fa, fc = np.where(left, f_new, fc), np.where(left, fa, f_new)
+            a, c = a_new, c_new
+        n11 = 0.5 * (lo + hi)
+        edge = (n11 < n11_bounds[0] + 1e-6) | (n11 > n11_bounds[1] - 1e-6)
+        if np.any(edge):
+            raise NumericalError(f"best_efficiency_n11: the optimum lies on the search bracket {list(n11_bounds)} "
+                                 f"r/min for {int(edge.sum())} setting(s)")
+        return n11
+
+    def best_efficiency_points(self, blade_angle_deg, guide_vane_deg) -> OperatingPoints:
+        """Operating points of the model test: constant speed, head set to each setting's best-efficiency point
+        (module docstring), ``H = (n D / n11*)^2`` (eq. (2) of paper 003 solved for H), ``Q = Q11 D^2 sqrt(H)``
+        (eq. (1)), ``M = M11 D^3 H``, ``P = M omega``."""
+        p = self.params
+        gv, bl = self._check_controls(guide_vane_deg, blade_angle_deg)
+        n11 = self.best_efficiency_n11(bl, gv)
+        q11, m11 = self._unit(n11, gv, bl)
+        d = p.runner_diameter_m
+        head = (p.speed_rpm * d / n11) ** 2  # eq. (2), paper 003
+        flow = q11 * d * d * np.sqrt(head)  # eq. (1), paper 003
+        power_w = m11 * d ** 3 * head * p.speed_rpm * RPM_TO_RAD_S
+        efficiency = power_w / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)
+        return OperatingPoints(blade_angle_deg=bl, guide_vane_deg=gv, head_m=head, flow_m3_s=flow,
+                               power_kw=power_w / 1e3, efficiency=efficiency, n11_rpm=n11, q11_m3_s=q11)
+
+    def operating_points(self, blade_angle_deg, guide_vane_deg, closure: str) -> OperatingPoints:
+        """The points of ``closure`` ``"best-efficiency"`` or ``"water-system"`` (see the module docstring)."""
+        if closure not in CLOSURES:
+            raise InputError(f"closure must be one of {CLOSURES}, got {closure!r}")
+        if closure == "water-system":
+            return self.operate(blade_angle_deg, guide_vane_deg)
+        return self.best_efficiency_points(blade_angle_deg, guide_vane_deg)
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # the model test: scattered test table and dense truth grid
@@ -332,7 +406,8 @@ controls = ["blade_angle_deg", "guide_vane_deg"]
 
 
 def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: float = 0.003,
-                     truth_step_deg: float = 0.5, turbine: SyntheticBulb | None = None) -> dict[str, Path]:
+                     truth_step_deg: float = 0.5, closure: str = "water-system",
+                     turbine: SyntheticBulb | None = None) -> dict[str, Path]:
     """Write the model test of the synthetic bulb turbine: ``table.csv`` + ``table.toml`` and ``truth.csv``.
 
     ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings (:func:`scattered_settings`) as a
@@ -340,7 +415,10 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     (0.003 = 0.3 %), efficiency computed from those measured values as ``P / (rho g Q H)`` (so its noise is about
     sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table loader derives them from D and the speed in
     ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
-    ``truth_step_deg`` over the paper's ranges. Same seed, same bytes; all files are built in memory first.
+    ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
+    (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11)
+    plane; "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same seed, same bytes; all files are built
+    in memory first.
 
     Returns
     -------
@@ -351,12 +429,14 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
         raise InputError(f"noise must be a relative standard deviation in [0, 0.1), got {noise!r}")
     if not (isinstance(truth_step_deg, (int, float)) and 0.05 <= truth_step_deg <= 5):
         raise InputError(f"truth_step_deg must be in [0.05, 5] deg, got {truth_step_deg!r}")
+    if closure not in CLOSURES:
+        raise InputError(f"closure must be one of {CLOSURES}, got {closure!r}")
     turbine = turbine or SyntheticBulb()
     p = turbine.params
     blade, gv = scattered_settings(n_points, seed)
     # the rig sets (and logs) the angles to DIGITS decimals: the operating point is that of the logged angles
     blade, gv = np.round(blade, DIGITS["blade_angle_deg"]), np.round(gv, DIGITS["guide_vane_deg"])
-    op = turbine.operate(blade, gv)
+    op = turbine.operating_points(blade, gv, closure)
     rng = np.random.default_rng([seed, 1])  # a separate stream for the measurement noise
     head = op.head_m * (1.0 + noise * rng.standard_normal(blade.size))
     flow = op.flow_m3_s * (1.0 + noise * rng.standard_normal(blade.size))
@@ -366,9 +446,9 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     bl_grid = np.arange(BLADE_RANGE_DEG[0], BLADE_RANGE_DEG[1] + 1e-9, truth_step_deg)
     gv_grid = np.arange(GUIDE_VANE_RANGE_DEG[0], GUIDE_VANE_RANGE_DEG[1] + 1e-9, truth_step_deg)
     bb, gg = (g.ravel() for g in np.meshgrid(bl_grid, gv_grid, indexing="ij"))
-    truth_op = turbine.operate(bb, gg)
+    truth_op = turbine.operating_points(bb, gg, closure)
     truth = {c: truth_op.column(c) for c in TRUTH_COLUMNS}
-    suffix = f", seed {seed}, noise {noise:g}" if noise else f", seed {seed}, no noise"
+    suffix = f", {closure} closure, seed {seed}, noise {noise:g}"
     texts = {
         "table.toml": TABLE_TOML.format(suffix=suffix, diameter=repr(float(p.runner_diameter_m)),
                                         speed=repr(float(p.speed_rpm))),

@@ -22,6 +22,7 @@ COMMAND_MODULES = (
     "hillsim.commands.run",
     "hillsim.commands.identify",
     "hillsim.commands.demo",
+    "hillsim.commands.fccm",
 )
 
 

@@ -104,13 +104,39 @@ def test_table_is_scattered_noisy_and_reproducible(tmp_path):
 
 
 def test_noise_free_table_equals_the_truth_to_the_written_digits(tmp_path):
-    write_bulb_table(tmp_path, seed=0, noise=0.0, n_points=20)
+    write_bulb_table(tmp_path, seed=0, noise=0.0, n_points=20, closure="best-efficiency")
     table = load_test_table(tmp_path)
-    exact = SyntheticBulb().operate(table.column("blade_angle_deg"), table.column("guide_vane_deg"))
+    exact = SyntheticBulb().best_efficiency_points(table.column("blade_angle_deg"), table.column("guide_vane_deg"))
     np.testing.assert_allclose(table.column("head_m"), exact.head_m, atol=0.5e-4)  # 4 decimals written
     np.testing.assert_allclose(table.column("efficiency"), exact.efficiency, atol=2e-5)  # 5 decimals + P, Q, H rounding
     truth = np.genfromtxt(tmp_path / "truth.csv", delimiter=",", names=True)
     assert truth.dtype.names == TRUTH_COLUMNS and truth.size == 69 * 77  # 0.5 deg grid over the paper's ranges
+
+
+def test_best_efficiency_closure_is_the_optimum_of_each_propeller_curve():
+    """The golden-section optimum against a 0.01 r/min scan, and its stationarity."""
+    bulb = SyntheticBulb()
+    n = np.linspace(20.0, 400.0, 38001)
+    for blade, gv in [(-18.0, 40.0), (16.0, 78.0), (0.0, 55.0), (-10.0, 70.0), (16.0, 40.0)]:
+        best = float(bulb.best_efficiency_n11(blade, gv))
+        assert best == pytest.approx(n[np.argmax(bulb.unit_efficiency(n, gv, blade))], abs=0.011)  # scan step
+        eta = lambda x: float(bulb.unit_efficiency(x, gv, blade))
+        assert eta(best) >= max(eta(best - 0.05), eta(best + 0.05))
+    op = bulb.best_efficiency_points(np.array([-5.0, 5.0]), np.array([50.0, 60.0]))
+    d, speed = bulb.params.runner_diameter_m, bulb.params.speed_rpm
+    np.testing.assert_allclose(op.n11_rpm, speed * d / np.sqrt(op.head_m), rtol=1e-13)  # eq. (2)
+    np.testing.assert_allclose(op.q11_m3_s, op.flow_m3_s / (d * d * np.sqrt(op.head_m)), rtol=1e-13)  # eq. (1)
+
+
+def test_water_system_closure_puts_every_setting_on_one_curve_of_the_fccm(grid):
+    """Why the test table uses the best-efficiency closure: on a passive water system H(Q), n11 and Q11 are both
+    functions of Q, so n11 is one function of Q11 (a line in the FCCM plane); the best-efficiency closure is 2-D."""
+    bulb, blade, gv, op = grid
+    order = np.argsort(op.q11_m3_s.ravel())
+    assert np.all(np.diff(op.n11_rpm.ravel()[order]) >= 0)  # a monotone curve n11(Q11): no 2-D spread
+    best = bulb.best_efficiency_points(blade, gv)
+    order = np.argsort(best.q11_m3_s.ravel())
+    assert np.sum(np.diff(best.n11_rpm.ravel()[order]) < 0) > 100  # n11 is not a function of Q11 here
 
 
 def test_bad_table_options_leave_nothing(tmp_path):
@@ -118,7 +144,9 @@ def test_bad_table_options_leave_nothing(tmp_path):
         write_bulb_table(tmp_path / "x", noise=-0.1)
     with pytest.raises(InputError, match="n_points"):
         write_bulb_table(tmp_path / "y", n_points=5)
-    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+    with pytest.raises(InputError, match="closure"):
+        write_bulb_table(tmp_path / "z", closure="on-cam")
+    assert not any((tmp_path / n).exists() for n in "xyz")
 
 
 def test_cli_synth_bulb(tmp_path, capsys):

@@ -14,7 +14,8 @@ def _write_medium(args):
 def _write_bulb(args):
     from hillchart.bulb import write_bulb_table
 
-    return write_bulb_table(args.out_dir, seed=args.seed, n_points=args.points, noise=args.noise)
+    return write_bulb_table(args.out_dir, seed=args.seed, n_points=args.points, noise=args.noise,
+                            closure=args.closure)
 
 
 #: Turbine name -> writer (the digitized chart of the medium-head Francis; the bulb's model-test table).
@@ -36,6 +37,8 @@ def register(subparsers) -> None:
     parser.add_argument("--noise", type=float, default=0.003,
                         help="bulb: relative measurement noise (std) of head, flow and power (default 0.003)")
     parser.add_argument("--points", type=int, default=150, help="bulb: scattered test points (default 150)")
+    parser.add_argument("--closure", choices=("water-system", "best-efficiency"), default="water-system",
+                        help="bulb: head on the plant's water system (default) or at each setting's best efficiency")
     parser.set_defaults(func=run)
 
 
