@@ -13,8 +13,9 @@ r_m = D/2 sqrt((1 + nu^2)/2) (the radius that halves the annulus area), blade sp
 * Axial velocity through the runner (continuity): cm = Q / A (the same at runner inlet and outlet).
 * Guide vanes: the vane angle beta is counted from the closed position; the flow leaves the (conical) guide vanes
   at ``alpha = beta - beta_closed`` from the circumferential direction (beta_closed: vane angle at which the
-  vanes touch and the flow angle would be zero); the swirl is carried to the runner as a free vortex, so at r_m ``cu1 = s cm cot(alpha)`` with the
-  swirl factor s (area and radius ratio of guide-vane exit to runner, a geometry constant).
+  vanes touch and the flow angle would be zero); the swirl is carried to the runner as a free vortex, so at r_m
+  ``cu1 = s cm cot(alpha)`` with the swirl factor s (area and radius ratio of guide-vane exit to runner, a
+  geometry constant).
 * Adjustable blades: turning the blades by phi (the blade angle a0) turns the blade inlet and outlet angles
   (from the circumferential direction) equally: ``beta1b = beta1_0 + phi``, ``beta2 = beta2_0 + phi``. The flow
   leaves along the blade: ``cu2 = u - cm cot(beta2)``.
@@ -45,9 +46,9 @@ Operation: two closures fix the operating point of a setting (a0, beta) at const
   functions of Q alone (``n11 = n D / sqrt(H(Q))``, ``Q11 = Q / (D^2 sqrt(H(Q)))``): every setting lands on ONE
   curve of the (Q11, n11) plane, and paper 003's efficiency map over (Q11, n11) (its Fig. 4) degenerates to a line.
   Any passive water system H(Q) does this; it is what a plant on a fixed water system really does.
-* ``"best-efficiency"`` (:meth:`SyntheticBulb.best_efficiency_points`): a model-test rig runs at constant speed and, for each blade / guide-vane setting, sets the head that gives the
-  setting's best efficiency, ``d eta / d n11 = 0`` at fixed (a0, beta): the optimum of each propeller curve, i.e.
-  the point where this combination of blade and guide-vane angle is the one to use. This is how the a0 and beta
+* ``"best-efficiency"`` (:meth:`SyntheticBulb.best_efficiency_points`): a model-test rig runs at constant speed
+  and, for each blade / guide-vane setting, sets the head that gives the setting's best efficiency,
+  ``d eta / d n11 = 0`` at fixed (a0, beta): the optimum of each propeller curve, i.e. the point where this combination of blade and guide-vane angle is the one to use. This is how the a0 and beta
   isolines of a conventional double-regulated FCCM (paper 003 Fig. 1) pair a setting with one (Q11, n11), and it
   spreads the settings over a 2-D region of the (Q11, n11) plane, with H = (n D / n11)^2.
 
@@ -410,15 +411,15 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
                      turbine: SyntheticBulb | None = None) -> dict[str, Path]:
     """Write the model test of the synthetic bulb turbine: ``table.csv`` + ``table.toml`` and ``truth.csv``.
 
-    ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings (:func:`scattered_settings`) as a
-    rig measures them: head, flow and power each with Gaussian relative noise of standard deviation ``noise``
-    (0.003 = 0.3 %), efficiency computed from those measured values as ``P / (rho g Q H)`` (so its noise is about
+    ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings
+    (:func:`scattered_settings`) as a rig measures them: head, flow and power each with Gaussian relative noise
+    of standard deviation ``noise`` (0.003 = 0.3 %), efficiency computed from those measured values as ``P / (rho g Q H)`` (so its noise is about
     sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table loader derives them from D and the speed in
     ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
     ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
     (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11)
-    plane; "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same seed, same bytes; all files are built
-    in memory first.
+    plane; "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same
+    seed, same bytes; all files are built in memory first.
 
     Returns
     -------

@@ -736,7 +736,8 @@ class FCCMNet:
             bad = np.argwhere(~np.isfinite(arr))
             if bad.size:
                 i, j = bad[0]
-                raise InputError(f"{name}: sample {i}, column {names[j]!r} is {float(arr[i, j])!r}; values must be finite")
+                raise InputError(f"{name}: sample {i}, column {names[j]!r} is {float(arr[i, j])!r}; values must be "
+                                 "finite")
         x_min, x_max = X.min(axis=0), X.max(axis=0)
         y_min, y_max = Y.min(axis=0), Y.max(axis=0)
         for lo, hi, names in ((x_min, x_max, input_names), (y_min, y_max, output_names)):
@@ -808,8 +809,10 @@ class FCCMNet:
         """The ``training`` block of ``fccm_nets.json`` (JSON-serializable, no timings: byte-reproducible)."""
         self._check_fitted()
         return {"seed": self.seed, "split": list(self.split), "restarts": self.restarts,
-                "hidden": self.hidden_, "c": self.c_, "hidden_rule": "eq. (3) of paper 003: round(sqrt(n_in + n_out) + C)"
-                if self.c_ is not None else "fixed", "selection": self.selection_,
+                "hidden": self.hidden_, "c": self.c_,
+                "hidden_rule": ("eq. (3) of paper 003: round(sqrt(n_in + n_out) + C)" if self.c_ is not None
+                                else "fixed"),
+                "selection": self.selection_,
                 "n_train": int(self.train_index_.size), "n_validation": int(self.val_index_.size),
                 "n_test": int(self.test_index_.size), "train_mse_normalized": self.train_mse_,
                 "validation_mse_normalized": self.val_mse_, "test_mse_normalized": self.test_mse_,
@@ -817,7 +820,7 @@ class FCCMNet:
 
 
 def split_errors(weights: FCCMWeights, X, Y, parts: dict) -> dict:
-    """Per output RMSE and max |error| (physical units) on each part, e.g. ``{"train": idx, "validation": idx, ...}``."""
+    """Per output RMSE and max |error| (physical units) on each part (``{"train": idx, "validation": idx, ...}``)."""
     err = weights.predict(X) - np.asarray(Y, dtype=float).reshape(len(X), -1)
     out = {}
     for j, name in enumerate(weights.outputs):
@@ -897,7 +900,8 @@ def _box_boundary_path(u, v):
 def efficiency_maps(table: TestTable, weights: FCCMWeights, *, pixels: int = 160,
                     net_resolution: int = 161) -> EfficiencyMaps:
     """Fig. 4 of paper 003: efficiency over (Q11, n11) by linear interpolation of the test points
-    (``scipy.interpolate.griddata``, Delaunay) and from the net, on the same pixel grid.
+    (``scipy.interpolate.griddata``, Delaunay on coordinates scaled to the unit box: Q11 ~ 1 and n11 ~ 100 would
+    otherwise give skinny triangles and striped maps) and from the net, on the same pixel grid.
 
     The net's map: the net evaluated on a dense grid over its 2-D input box, each grid point carried to (Q11, n11)
     by eqs. (1)-(2), then linearly interpolated onto the pixels and masked to the image of the input box (a map
@@ -933,8 +937,9 @@ def efficiency_maps(table: TestTable, weights: FCCMWeights, *, pixels: int = 160
     n_hi = max(n11_pts.max(), n11_net[ok].max())
     q_axis, n_axis = np.linspace(q_lo, q_hi, pixels), np.linspace(n_lo, n_hi, pixels)
     qq, nn = np.meshgrid(q_axis, n_axis)
-    interp = griddata(np.column_stack([q11_pts, n11_pts]), eta_pts, (qq, nn), method="linear")
-    net = griddata(np.column_stack([q11_net[ok], n11_net[ok]]), grid["efficiency"][ok], (qq, nn), method="linear")
+    interp = griddata(np.column_stack([q11_pts, n11_pts]), eta_pts, (qq, nn), method="linear", rescale=True)
+    net = griddata(np.column_stack([q11_net[ok], n11_net[ok]]), grid["efficiency"][ok], (qq, nn), method="linear",
+                   rescale=True)
     inside = _box_boundary_path(q11_net, n11_net).contains_points(np.column_stack([qq.ravel(), nn.ravel()]))
     net = np.where(inside.reshape(qq.shape), net, np.nan)
     mask = np.isfinite(interp) & np.isfinite(net)
@@ -1043,7 +1048,8 @@ def grey_relational_analysis(references: dict, comparisons: dict, *, rho: float 
     Examples
     --------
     >>> r = grey_relational_analysis({"y": [0, 1, 2, 3]}, {"same": [0, 2, 4, 6], "reverse": [3, 2, 1, 0]})
-    >>> r["y"]["same"], round(r["y"]["reverse"], 4)   # same shape -> 1; reverse: 0.5 / (delta + 0.5), delta = 1, 1/3, 1/3, 1
+    >>> # same shape -> 1; reverse: 0.5 / (delta + 0.5) with delta = 1, 1/3, 1/3, 1
+    >>> r["y"]["same"], round(r["y"]["reverse"], 4)
     (1.0, 0.4667)
     """
     if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not 0 < rho <= 1:
@@ -1102,9 +1108,9 @@ def format_grey_relational_table(degrees: dict) -> str:
 def truth_comparison(weights: FCCMWeights, table: TestTable, truth: dict) -> dict:
     """The net and linear interpolation of the test points against exact values on a dense grid (section 4).
 
-    Linear interpolation is ``scipy.interpolate.griddata(method="linear")`` of all test points in the net's input
-    space; grid points outside their convex hull (where interpolation is undefined) are left out of both errors
-    and counted.
+    Linear interpolation is ``scipy.interpolate.griddata(method="linear", rescale=True)`` (Delaunay on
+    coordinates scaled to the unit box) of all test points in the net's input space; grid points outside their
+    convex hull (where interpolation is undefined) are left out of both errors and counted.
 
     Parameters
     ----------
@@ -1128,7 +1134,7 @@ def truth_comparison(weights: FCCMWeights, table: TestTable, truth: dict) -> dic
     pred = weights.predict(Xt)
     X = table.matrix(weights.inputs)
     Y = table.matrix(weights.outputs)
-    interp = griddata(X, Y, Xt, method="linear") if X.shape[1] > 1 else np.column_stack(
+    interp = griddata(X, Y, Xt, method="linear", rescale=True) if X.shape[1] > 1 else np.column_stack(
         [np.interp(Xt[:, 0], np.sort(X[:, 0]), Y[np.argsort(X[:, 0]), j], left=np.nan, right=np.nan)
          for j in range(Y.shape[1])])
     inside = np.all(np.isfinite(interp), axis=1)
@@ -1377,6 +1383,11 @@ def analyse_fccm(table: TestTable, inputs, outputs, *, net: FCCMNet | None = Non
         metrics["similarity"]["grey_range"] = [float(min(maps.interpolated[mask].min(), maps.net[mask].min())),
                                                float(max(maps.interpolated[mask].max(), maps.net[mask].max()))]
         figures["fccm_efficiency_maps.png"] = lambda p, m=maps, a=ga, b=gb, s=sim: plot_efficiency_maps(m, a, b, s, p)
+        if mask.sum() < 0.02 * mask.size:
+            metrics["warnings"].append(
+                f"the efficiency maps overlap on {int(mask.sum())} of {mask.size} pixels only: the test points lie "
+                "(nearly) on one curve of the (Q11, n11) plane (e.g. a plant at constant speed on a water system "
+                "H(Q)), so the image similarity measures little")
     except InputError as exc:
         metrics["skipped"]["similarity"] = str(exc)
     if len(inputs) == 2:

@@ -90,8 +90,8 @@ def run(args: argparse.Namespace) -> int:
         t = m["truth"]
         print(f"against the truth ({t['points']} grid points):")
         for o in outputs:
-            print(f"  {o:<16} net RMS {t[o]['net_rms_pct']:.3f} %, linear interpolation {t[o]['interpolation_rms_pct']:.3f} "
-                  f"% of the range")
+            print(f"  {o:<16} net RMS {t[o]['net_rms_pct']:.3f} %, linear interpolation "
+                  f"{t[o]['interpolation_rms_pct']:.3f} % of the range")
         print(f"  acceptance (RMS <= 1.5 %, net better for >= 3 outputs): "
               f"{'PASS' if m['acceptance']['passed'] else 'FAIL'}")
     for name, reason in m["skipped"].items():
