@@ -49,8 +49,9 @@ Operation: two closures fix the operating point of a setting (a0, beta) at const
 * ``"best-efficiency"`` (:meth:`SyntheticBulb.best_efficiency_points`): a model-test rig runs at constant speed
   and, for each blade / guide-vane setting, sets the head that gives the setting's best efficiency,
   ``d eta / d n11 = 0`` at fixed (a0, beta): the optimum of each propeller curve, i.e. the point where this
-  combination of blade and guide-vane angle is the one to use. This is how the a0 and beta isolines of a conventional double-regulated FCCM (paper 003 Fig. 1) pair a setting with one (Q11, n11), and it
-  spreads the settings over a 2-D region of the (Q11, n11) plane, with H = (n D / n11)^2.
+  combination of blade and guide-vane angle is the one to use. This is how the a0 and beta isolines of a
+  conventional double-regulated FCCM (paper 003 Fig. 1) pair a setting with one (Q11, n11), and it spreads the
+  settings over a 2-D region of the (Q11, n11) plane, with H = (n D / n11)^2.
 
 There is exactly one implementation of the velocity solution (:func:`_axial_velocity`) and one of the torque
 (:func:`_torque_nm`), used by both closures and by the unit characteristic.
@@ -414,8 +415,8 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings
     (:func:`scattered_settings`) as a rig measures them: head, flow and power each with Gaussian relative noise
     of standard deviation ``noise`` (0.003 = 0.3 %), efficiency computed from those measured values as
-    ``P / (rho g Q H)`` (so its noise is about sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table loader derives them from D and the speed in
-    ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
+    ``P / (rho g Q H)`` (so its noise is about sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table
+    loader derives them from D and the speed in ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
     ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
     (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11)
     plane; "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same
