@@ -412,15 +412,15 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
                      turbine: SyntheticBulb | None = None) -> dict[str, Path]:
     """Write the model test of the synthetic bulb turbine: ``table.csv`` + ``table.toml`` and ``truth.csv``.
 
-    ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings
-    (:func:`scattered_settings`) as a rig measures them: head, flow and power each with Gaussian relative noise
-    of standard deviation ``noise`` (0.003 = 0.3 %), efficiency computed from those measured values as
-    ``P / (rho g Q H)`` (so its noise is about sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table
-    loader derives them from D and the speed in ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is
-    the exact, noise-free grid of step ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
-    (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11)
-    plane; "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same
-    seed, same bytes; all files are built in memory first.
+    ``table.csv`` (columns :data:`TABLE_COLUMNS`) holds ``n_points`` scattered settings (:func:`scattered_settings`)
+    as a rig measures them: head, flow and power each with Gaussian relative noise of standard deviation ``noise``
+    (0.003 = 0.3 %), efficiency computed from those measured values as ``P / (rho g Q H)`` (so its noise is about
+    sqrt(3) ``noise``), angles exact. No n11/Q11 columns: the table loader derives them from D and the speed in
+    ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
+    ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
+    (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11) plane;
+    "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same seed, same
+    bytes; all files are built in memory first.
 
     Returns
     -------
