@@ -52,6 +52,9 @@ def test_physical_trends(grid):
     assert np.all(np.diff(op.flow_m3_s, axis=0) > 0) and np.all(np.diff(op.flow_m3_s, axis=1) > 0)
     order = np.argsort(op.flow_m3_s.ravel())
     assert np.all(np.diff(op.head_m.ravel()[order]) < 0)
+    blade_ratio = float(bulb.operate(16.0, 59.0).flow_m3_s / bulb.operate(-18.0, 59.0).flow_m3_s)
+    vane_ratio = float(bulb.operate(0.0, 78.0).flow_m3_s / bulb.operate(0.0, 40.0).flow_m3_s)
+    assert blade_ratio > 7.0 and 1.8 < vane_ratio < 2.5  # 7.2 and 2.1: the blades carry the flow control
     on_cam = blade[np.argmax(op.efficiency, axis=0), 0]
     assert on_cam[-1] > on_cam[0] + 4  # -14 deg at beta = 40, about -6 deg at beta = 78
     assert op.efficiency.max() > 0.9
