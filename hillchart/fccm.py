@@ -1520,6 +1520,24 @@ class DoubleRegulatedNets:
         return efficiency_from_unit_torque(self.q11(n11, opening, blade_angle), n11,
                                            self.m11(n11, opening, blade_angle))
 
+    def on_cam(self, openings, heads_m, *, speed_rpm: float, runner_diameter_m: float, **kwargs) -> dict:
+        """:func:`on_cam_relation` of these nets, with ``outside_domain`` (per head: n11 = n D / sqrt(H) or an
+        opening outside the box the nets were fitted on) and a :class:`UserWarning` when any is (extrapolation)."""
+        import warnings
+
+        cam = on_cam_relation(self.efficiency, openings, heads_m, speed_rpm=speed_rpm,
+                              runner_diameter_m=runner_diameter_m, **kwargs)
+        n11 = speed_rpm * runner_diameter_m / np.sqrt(cam["head_m"])
+        lo, hi = self.flow.x_min, self.flow.x_max
+        outside = (n11 < lo[0]) | (n11 > hi[0])
+        outside = outside | bool(np.any((cam["opening"] < lo[1]) | (cam["opening"] > hi[1])))
+        cam["outside_domain"] = outside
+        if outside.any():
+            warnings.warn(f"on_cam: heads {cam['head_m'][outside].tolist()} m (or the openings) lie outside the "
+                          f"nets' fitted box (n11 {lo[0]:.4g}-{hi[0]:.4g} r/min, opening {lo[1]:.4g}-{hi[1]:.4g}): "
+                          "extrapolated", UserWarning, stacklevel=2)
+        return cam
+
     def to_dict(self) -> dict:
         return {"format": "hillsim.nets", "version": 1,
                 "units": {"n11": "r/min", "opening": self.opening_unit, "blade_angle": "deg", "q11": "m^3/s",
@@ -1585,8 +1603,9 @@ def load_double_regulated_nets(path) -> DoubleRegulatedNets:
 
 
 def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_range=(110.0, 230.0)) -> dict:
-    """Scattered samples of the synthetic bulb's unit characteristic (its 'chart'): a seeded Latin hypercube over
-    n11 (r/min), guide-vane angle and blade angle (the paper's ranges), with exact Q11 (m^3/s) and M11 (N*m)."""
+    """Scattered samples of the synthetic bulb's unit characteristic (its 'chart'): the 8 corners of the box plus a
+    seeded Latin hypercube over n11 (r/min), guide-vane angle and blade angle (the paper's ranges), with exact Q11
+    (m^3/s) and M11 (N*m)."""
     from scipy.stats import qmc
 
     from hillchart.bulb import BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, SyntheticBulb
@@ -1594,13 +1613,16 @@ def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_
     turbine = turbine or SyntheticBulb()
     lo = np.array([n11_range[0], GUIDE_VANE_RANGE_DEG[0], BLADE_RANGE_DEG[0]])
     hi = np.array([n11_range[1], GUIDE_VANE_RANGE_DEG[1], BLADE_RANGE_DEG[1]])
-    x = qmc.scale(qmc.LatinHypercube(d=3, seed=np.random.default_rng(seed)).random(n_points), lo, hi)
+    corners = np.array([[lo[0] if i & 1 == 0 else hi[0], lo[1] if i & 2 == 0 else hi[1],
+                         lo[2] if i & 4 == 0 else hi[2]] for i in range(8)])  # the fitted box = the chart's ranges
+    x = np.vstack([corners, qmc.scale(qmc.LatinHypercube(d=3, seed=np.random.default_rng(seed)).random(n_points - 8),
+                                      lo, hi)])
     n11, gv, blade = x.T
     return {"n11": n11, "opening": gv, "blade_angle": blade, "q11": turbine.q11(n11, gv, blade),
             "m11": turbine.m11(n11, gv, blade)}
 
 
-def train_double_regulated_nets(samples: dict, *, hidden: int = 10, restarts: int = 3, seed: int = 0,
+def train_double_regulated_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0,
                                 split=(0.70, 0.15, 0.15)) -> DoubleRegulatedNets:
     """Q11 and M11 nets (3-H-1 logsig, Levenberg-Marquardt, as :class:`FCCMNet`) from chart samples with keys
     n11, opening, blade_angle, q11, m11; the flow net uses ``seed``, the torque net ``seed + 1``."""

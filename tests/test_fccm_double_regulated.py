@@ -21,15 +21,15 @@ def trained():
 
 
 def test_three_input_nets_match_the_synthetic_bulb(trained):
-    """600 chart samples, 3-10-1 nets: measured RMS 0.14 % of the range for both, max 1.4 %."""
+    """600 chart samples, 3-15-1 nets: measured RMS 0.09 % (Q11) and 0.06 % (M11) of the range, max 0.5 %."""
     bulb, nets = trained
     rng = np.random.default_rng(5)
     n11, gv, blade = rng.uniform(110, 230, 4000), rng.uniform(40, 78, 4000), rng.uniform(-18, 16, 4000)
     for name in ("q11", "m11"):
         exact = getattr(bulb, name)(n11, gv, blade)
         err = getattr(nets, name)(n11, gv, blade) - exact
-        assert np.sqrt(np.mean(err ** 2)) < 0.005 * np.ptp(exact)  # 0.5 %: 3.5x the measured RMS
-        assert np.max(np.abs(err)) < 0.03 * np.ptp(exact)
+        assert np.sqrt(np.mean(err ** 2)) < 0.003 * np.ptp(exact)  # 0.3 %: 3x the measured RMS
+        assert np.max(np.abs(err)) < 0.015 * np.ptp(exact)  # 1.5 %: 3x the measured max
 
 
 def test_net_format_round_trip_and_the_two_input_loader_refuses_it(trained, tmp_path):
@@ -91,18 +91,25 @@ def test_on_cam_refinement_is_exact_for_a_quadratic():
 
 
 def test_on_cam_from_the_nets_follows_the_exact_one(trained, tmp_path):
-    """Over a = 40-78 deg and H = 8-14 m the nets' cam is within 2.5 deg of the exact one (measured max 2.2 deg,
-    at the open end where efficiency is flat in phi) and its efficiency within 0.02 (measured 0.018)."""
+    """Over a = 40-78 deg and H = 8-14 m the nets' cam is within 1.5 deg of the exact one (measured max 1.1 deg,
+    where efficiency is flat in phi, so a small error in eta moves its optimum far) and its efficiency within 0.012
+    (measured 0.006; 2x margin)."""
     bulb, nets = trained
     p = bulb.params
     kw = dict(speed_rpm=p.speed_rpm, runner_diameter_m=p.runner_diameter_m)
     openings, heads = np.linspace(40, 78, 39), [8.0, 10.0, 12.0, 14.0]
     cam = on_cam_relation(nets.efficiency, openings, heads, **kw)
     exact = on_cam_relation(bulb.unit_efficiency, openings, heads, **kw)
-    assert np.max(np.abs(cam["blade_angle"] - exact["blade_angle"])) < 2.5
-    assert np.max(np.abs(cam["efficiency"] - exact["efficiency"])) < 0.02
+    assert np.max(np.abs(cam["blade_angle"] - exact["blade_angle"])) < 1.5
+    assert np.max(np.abs(cam["efficiency"] - exact["efficiency"])) < 0.012
     assert np.all(np.diff(exact["blade_angle"][:, :20], axis=1) > 0)  # the cam opens the blades with the vanes
     assert plot_on_cam(cam, exact, tmp_path / "cam.png").stat().st_size > 10000
+    via_method = nets.on_cam(openings, heads, **kw)
+    np.testing.assert_array_equal(via_method["blade_angle"], cam["blade_angle"])
+    assert not via_method["outside_domain"].any()  # n11 138-183 r/min inside the fitted 110-230
+    with pytest.warns(UserWarning, match="outside the nets' fitted box"):
+        far = nets.on_cam(openings, [3.0, 10.0], **kw)  # H = 3 m: n11 = 299 r/min
+    assert far["outside_domain"].tolist() == [True, False]
     with pytest.raises(InputError, match="heads_m must be > 0"):
         on_cam_relation(nets.efficiency, openings, [0.0], **kw)
     with pytest.raises(InputError, match="3-input"):
