@@ -28,6 +28,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
+import tempfile
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -1319,11 +1321,17 @@ class FCCMReport:
     def write(self, out_dir, *, plots: bool = True) -> dict:
         """Write ``fccm_nets.json``, ``metrics.json`` and (``plots``) the PNGs into ``out_dir``; returns
         name -> path. Figures are drawn into a temporary folder first, so a failure leaves no partial set."""
-        import shutil
-        import tempfile
-
         out = Path(out_dir)
+        created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
+        try:
+            return self._write_via(out, plots)
+        except BaseException:
+            if created and out.is_dir() and not any(out.iterdir()):
+                out.rmdir()  # a folder this call created stays only with the complete set in it
+            raise
+
+    def _write_via(self, out: Path, plots: bool) -> dict:
         with tempfile.TemporaryDirectory(dir=out, prefix=".fccm-") as tmp:
             tmp = Path(tmp)
             names = [NETS_FILE, METRICS_FILE]

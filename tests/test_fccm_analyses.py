@@ -191,3 +191,19 @@ def test_bad_cli_options_leave_nothing(run, tmp_path, capsys, argv, message):
     import re
     assert re.search(message, capsys.readouterr().err)
     assert not (tmp_path / "o").exists()
+
+
+def test_a_failing_figure_leaves_no_output_folder(run, tmp_path):
+    base, _ = run
+    table = load_test_table(base / "table")
+    report = analyse_fccm(table, INPUTS.split(","), OUTPUTS.split(","), net=FCCMNet(hidden=4, restarts=1))
+
+    def broken(path):
+        raise RuntimeError("figure failed")
+
+    report.figures["fccm_control_maps.png"] = broken
+    with pytest.raises(RuntimeError, match="figure failed"):
+        report.write(tmp_path / "o")
+    assert not (tmp_path / "o").exists()
+    written = report.write(tmp_path / "o", plots=False)
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == sorted(written) == ["fccm_nets.json", "metrics.json"]
