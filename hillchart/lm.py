@@ -20,6 +20,14 @@ set or per-epoch control); the algorithm is the published one and is short.
 Parameter vector layout (``theta``, length ``4 H + 1``)::
 
     theta = [W1 (H x 2, row-major: w_n11, w_opening per neuron), b1 (H), W2 (H), b2]
+
+General n_in-H-n_out nets (paper 003's full-characteristic net, :mod:`hillchart.fccm`) use the same functions with
+``n_inputs`` / ``n_outputs`` (defaults 2 and 1 give the layout above unchanged)::
+
+    theta = [W1 (H x n_in, row-major), b1 (H), W2 (n_out x H, row-major), b2 (n_out)]   length H (n_in + 1 + n_out) + n_out
+
+with targets of shape (n, n_out); the residual vector is the (n, n_out) error array flattened row-major and the
+performance is its mean square (``trainlm``'s ``mse`` over all outputs).
 """
 
 from __future__ import annotations
@@ -33,58 +41,79 @@ import torch
 from hillchart.errors import NumericalError
 
 
-def n_parameters(hidden: int) -> int:
-    """Number of weights and biases of a 2-``hidden``-1 net: ``4 hidden + 1``.
+def n_parameters(hidden: int, n_inputs: int = 2, n_outputs: int = 1) -> int:
+    """Number of weights and biases of an ``n_inputs``-``hidden``-``n_outputs`` net (``4 hidden + 1`` for 2-H-1).
 
     Examples
     --------
     >>> n_parameters(5)
     21
+    >>> n_parameters(10, 2, 4)  # paper 003's 2-10-4 net
+    74
     """
-    return 4 * hidden + 1
+    return hidden * (n_inputs + 1 + n_outputs) + n_outputs
 
 
-def unpack(theta, hidden: int):
-    """Split a parameter vector into ``(W1 (H, 2), b1 (H,), W2 (H,), b2 ())`` views (numpy or torch)."""
-    h = hidden
-    return theta[: 2 * h].reshape(h, 2), theta[2 * h: 3 * h], theta[3 * h: 4 * h], theta[4 * h]
+def unpack(theta, hidden: int, n_inputs: int = 2, n_outputs: int = 1):
+    """Split a parameter vector into ``(W1 (H, n_in), b1 (H,), W2, b2)`` views (numpy or torch): for one output
+    ``W2 (H,)`` and ``b2 ()`` (the 2-H-1 layout), else ``W2 (n_out, H)`` and ``b2 (n_out,)``."""
+    h, k = hidden, n_inputs * hidden
+    w1, b1 = theta[:k].reshape(h, n_inputs), theta[k: k + h]
+    if n_outputs == 1:
+        return w1, b1, theta[k + h: k + 2 * h], theta[k + 2 * h]
+    return w1, b1, theta[k + h: k + h + n_outputs * h].reshape(n_outputs, h), theta[k + h + n_outputs * h:]
 
 
-def forward(theta: torch.Tensor, xn: torch.Tensor, hidden: int) -> torch.Tensor:
-    """Normalized net output ``yn`` (n,) for normalized inputs ``xn`` (n, 2).
+def forward(theta: torch.Tensor, xn: torch.Tensor, hidden: int, n_outputs: int = 1) -> torch.Tensor:
+    """Normalized net output ``yn`` (n,) for one output, (n, n_out) for several, at normalized inputs ``xn``
+    (n, n_in).
 
     eq. (11), BP hill-chart paper (004): ``yn = sum_i W2_i f(W1_i . xn + b1_i) + b2`` with the log-sigmoid
     ``f(z) = 1 / (1 + exp(-z))`` of eq. (10).
     """
-    w1, b1, w2, b2 = unpack(theta, hidden)
-    return torch.sigmoid(xn @ w1.T + b1) @ w2 + b2  # eqs. (10)-(11), paper 004
+    w1, b1, w2, b2 = unpack(theta, hidden, xn.shape[1], n_outputs)
+    return torch.sigmoid(xn @ w1.T + b1) @ (w2 if n_outputs == 1 else w2.T) + b2  # eqs. (10)-(11), paper 004
 
 
-def residual_jacobian(theta: torch.Tensor, xn: torch.Tensor, hidden: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """Net output ``yn`` (n,) and its analytic Jacobian ``d yn / d theta`` (n, 4 H + 1).
+def residual_jacobian(theta: torch.Tensor, xn: torch.Tensor, hidden: int,
+                      n_outputs: int = 1) -> tuple[torch.Tensor, torch.Tensor]:
+    """Net output ``yn`` and its analytic Jacobian ``d yn / d theta``: (n,) and (n, 4 H + 1) for 2-H-1; for
+    ``n_outputs`` > 1 the output flattened row-major (n n_out,) and (n n_out, n_parameters).
 
-    With ``f = sigmoid(z)``, ``z = W1 xn + b1`` and ``d = W2 f (1 - f)``:
-    ``dyn/dW1_ij = d_i xn_j``, ``dyn/db1_i = d_i``, ``dyn/dW2_i = f_i``, ``dyn/db2 = 1``.
+    With ``f = sigmoid(z)``, ``z = W1 xn + b1`` and ``d_k = W2_k f (1 - f)`` for output k:
+    ``dyn_k/dW1_ij = d_ki xn_j``, ``dyn_k/db1_i = d_ki``, ``dyn_k/dW2_ki = f_i``, ``dyn_k/db2_k = 1``.
     """
-    w1, b1, w2, b2 = unpack(theta, hidden)
+    n_in = xn.shape[1]
+    w1, b1, w2, b2 = unpack(theta, hidden, n_in, n_outputs)
     f = torch.sigmoid(xn @ w1.T + b1)
-    yn = f @ w2 + b2
-    d = f * (1.0 - f) * w2
-    n = xn.shape[0]
-    jac = torch.empty((n, n_parameters(hidden)), dtype=theta.dtype)
-    jac[:, : 2 * hidden] = (d[:, :, None] * xn[:, None, :]).reshape(n, 2 * hidden)
-    jac[:, 2 * hidden: 3 * hidden] = d
-    jac[:, 3 * hidden: 4 * hidden] = f
-    jac[:, 4 * hidden] = 1.0
-    return yn, jac
+    n, h, k = xn.shape[0], hidden, n_in * hidden
+    if n_outputs == 1:
+        yn = f @ w2 + b2
+        d = f * (1.0 - f) * w2
+        jac = torch.empty((n, n_parameters(hidden, n_in)), dtype=theta.dtype)
+        jac[:, :k] = (d[:, :, None] * xn[:, None, :]).reshape(n, k)
+        jac[:, k: k + h] = d
+        jac[:, k + h: k + 2 * h] = f
+        jac[:, k + 2 * h] = 1.0
+        return yn, jac
+    yn = f @ w2.T + b2  # (n, n_out)
+    d = (f * (1.0 - f))[:, None, :] * w2[None, :, :]  # (n, n_out, H)
+    jac = torch.zeros((n, n_outputs, n_parameters(hidden, n_in, n_outputs)), dtype=theta.dtype)
+    jac[:, :, :k] = (d[:, :, :, None] * xn[:, None, None, :]).reshape(n, n_outputs, k)
+    jac[:, :, k: k + h] = d
+    for o in range(n_outputs):
+        jac[:, o, k + h + o * h: k + h + (o + 1) * h] = f
+        jac[:, o, k + h + n_outputs * h + o] = 1.0
+    return yn.reshape(-1), jac.reshape(n * n_outputs, -1)
 
 
-def nguyen_widrow_init(hidden: int, rng: np.random.Generator) -> np.ndarray:
+def nguyen_widrow_init(hidden: int, rng: np.random.Generator, n_inputs: int = 2, n_outputs: int = 1) -> np.ndarray:
     """Initial parameter vector as MATLAB's ``initnw`` for a logsig layer on inputs in [-1, 1].
 
-    Hidden layer: weight rows of random direction and norm ``0.7 H^(1/2)`` (2 inputs), biases spread evenly over
-    ``[-0.7 H^(1/2), 0.7 H^(1/2)]`` with the sign of the first weight, then scaled by 4 to the logsig active input
-    range [-4, 4]. Output layer (purelin, infinite active range): uniform in [-1, 1] as ``rands``.
+    Hidden layer: weight rows of random direction and norm ``0.7 H^(1/n_in)`` (``H^(1/2)`` for 2 inputs), biases
+    spread evenly over ``[-0.7 H^(1/n_in), 0.7 H^(1/n_in)]`` with the sign of the first weight, then scaled by 4 to
+    the logsig active input range [-4, 4]. Output layer (purelin, infinite active range): uniform in [-1, 1] as
+    ``rands``. The defaults draw exactly the random numbers of the 2-H-1 net.
 
     Examples
     --------
@@ -95,8 +124,8 @@ def nguyen_widrow_init(hidden: int, rng: np.random.Generator) -> np.ndarray:
     >>> np.allclose(np.linalg.norm(w1, axis=1), 4 * 0.7 * 5 ** 0.5)
     True
     """
-    magw = 0.7 * hidden ** (1.0 / 2.0)
-    w = rng.uniform(-1.0, 1.0, size=(hidden, 2))
+    magw = 0.7 * hidden ** (1.0 / n_inputs)
+    w = rng.uniform(-1.0, 1.0, size=(hidden, n_inputs))
     w = magw * w / np.linalg.norm(w, axis=1, keepdims=True)
     if hidden == 1:
         b = np.zeros(1)
@@ -104,9 +133,13 @@ def nguyen_widrow_init(hidden: int, rng: np.random.Generator) -> np.ndarray:
         b = magw * np.linspace(-1.0, 1.0, hidden) * np.sign(w[:, 0])
     active_half_width = 4.0  # logsig active input range [-4, 4]
     w, b = active_half_width * w, active_half_width * b
-    w2 = rng.uniform(-1.0, 1.0, size=hidden)
-    b2 = rng.uniform(-1.0, 1.0)
-    return np.concatenate([w.ravel(), b, w2, [b2]])
+    if n_outputs == 1:
+        w2 = rng.uniform(-1.0, 1.0, size=hidden)
+        b2 = [rng.uniform(-1.0, 1.0)]
+    else:
+        w2 = rng.uniform(-1.0, 1.0, size=(n_outputs, hidden)).ravel()
+        b2 = rng.uniform(-1.0, 1.0, size=n_outputs)
+    return np.concatenate([w.ravel(), b, w2, b2])
 
 
 @dataclass(frozen=True)
@@ -142,13 +175,13 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
 
     Parameters
     ----------
-    xn_train : ndarray (n, 2)
+    xn_train : ndarray (n, 2) or (n, n_in)
         Normalized training inputs.
-    yn_train : ndarray (n,)
-        Normalized training targets.
-    xn_val, yn_val : ndarray (m, 2), (m,)
+    yn_train : ndarray (n,) or (n, n_out)
+        Normalized training targets; a 2-D array trains an n_in-H-n_out net (layout in the module docstring).
+    xn_val, yn_val : ndarray (m, 2), (m,) or (m, n_in), (m, n_out)
         Normalized validation set (m >= 1).
-    theta0 : ndarray (4 H + 1,)
+    theta0 : ndarray (n_parameters(H, n_in, n_out),)
         Initial weights.
     hidden : int
         Hidden neurons H.
@@ -179,17 +212,19 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     yv = torch.as_tensor(np.asarray(yn_val, dtype=float), dtype=dtype)
     theta = torch.as_tensor(np.array(theta0, dtype=float), dtype=dtype)
     eye = torch.eye(theta.shape[0], dtype=dtype)
+    n_out = 1 if yt.ndim == 1 else yt.shape[1]  # a 2-D target array: n_in-H-n_out net
+    yt_flat = yt.reshape(-1)
 
     def val_mse(th):
-        return float(torch.mean((forward(th, xv, hidden) - yv) ** 2))
+        return float(torch.mean((forward(th, xv, hidden, n_out) - yv) ** 2))
 
     best_theta, best_vperf, best_epoch = theta.clone(), val_mse(theta), 0
     val_fail = 0
     stop_reason = "max_epochs"
     epoch = 0
     for epoch in range(max_epochs + 1):
-        yn, jac = residual_jacobian(theta, xt, hidden)
-        err = yn - yt
+        yn, jac = residual_jacobian(theta, xt, hidden, n_out)
+        err = yn - yt_flat
         perf = float(torch.mean(err * err))
         if not np.isfinite(perf):
             raise NumericalError(f"Levenberg-Marquardt: training MSE is {perf} at epoch {epoch}")
@@ -217,7 +252,7 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
             step, info = torch.linalg.solve_ex(jtj + mu * eye, -jte)
             if int(info) == 0:  # a singular system (saturated neurons, tiny mu) counts as a failed step
                 trial = theta + step
-                perf2 = float(torch.mean((forward(trial, xt, hidden) - yt) ** 2))
+                perf2 = float(torch.mean((forward(trial, xt, hidden, n_out) - yt) ** 2))
             else:
                 perf2 = math.inf
             if perf2 < perf:  # NaN compares False: also a failed step
@@ -232,6 +267,6 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         elif vperf > best_vperf:
             val_fail += 1
     # trainlm returns the weights with the best validation performance, whatever stopped it
-    train_mse = float(torch.mean((forward(best_theta, xt, hidden) - yt) ** 2))
+    train_mse = float(torch.mean((forward(best_theta, xt, hidden, n_out) - yt) ** 2))
     return LMResult(theta=best_theta.numpy().copy(), train_mse=train_mse, val_mse=best_vperf,
                     best_epoch=best_epoch, epochs=epoch, stop_reason=stop_reason)

@@ -39,6 +39,7 @@ COMMAND_MODULES = (
     "hillsim.commands.optimize_closure",
     "hillsim.commands.report",
     "hillsim.commands.demo",
+    "hillsim.commands.fccm",
 )
 
 #: One metavar per kind of argument, whichever command takes it (``dest`` -> metavar; a command's own metavar is

@@ -1,0 +1,103 @@
+"""``hillsim fccm TABLE_DIR --inputs ... --outputs ... --out DIR``: full-characteristic net and paper 003's analyses."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "fccm",
+        help="double-regulated turbine test table -> multi-output BP net, maps, image similarity, grey relations",
+        description="Train one logsig BP net (Levenberg-Marquardt, 30/35/35 split, validation stop, hidden size "
+                    "from eq. (3) with C chosen by validation) from a test-table folder (table.csv, table.toml) and "
+                    "run the analyses of paper 003: efficiency maps over (Q11, n11) from interpolation and from the "
+                    "net, their image similarity, the maps over the inputs, the operating characteristic and the "
+                    "grey relational analysis of the controls.",
+    )
+    parser.add_argument("table", metavar="TABLE_DIR", help="test-table folder (table.csv + table.toml)")
+    parser.add_argument("--inputs", required=True, help="comma-separated input columns, e.g. "
+                        "blade_angle_deg,guide_vane_deg")
+    parser.add_argument("--outputs", required=True, help="comma-separated output columns, e.g. "
+                        "efficiency,head_m,power_kw,flow_m3_s")
+    parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
+    parser.add_argument("--hidden", type=int, default=None,
+                        help="hidden neurons (default: eq. (3) of paper 003 with C in 1..10 chosen by validation)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the split and the initialisations (default 0)")
+    parser.add_argument("--restarts", type=int, default=5, help="initialisations per hidden size (default 5)")
+    parser.add_argument("--split", default="0.30,0.35,0.35",
+                        help="train,validation,test fractions (default 0.30,0.35,0.35 as paper 003)")
+    parser.add_argument("--truth", default=None, help="exact grid CSV (e.g. truth.csv of hillsim synth --turbine "
+                        "bulb): net and linear interpolation against it")
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    parser.set_defaults(func=run)
+
+
+def _names(option: str, text: str) -> list[str]:
+    from hillchart.errors import InputError
+
+    names = [n.strip() for n in text.split(",")]
+    if not text.strip() or any(not n for n in names):
+        raise InputError(f"{option} must be comma-separated column names, got {text!r}")
+    return names
+
+
+def _split(text: str) -> tuple:
+    from hillchart.errors import InputError
+
+    try:
+        parts = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"--split must be three comma-separated fractions, got {text!r}") from None
+    if len(parts) != 3:
+        raise InputError(f"--split must be three comma-separated fractions (train,validation,test), got {text!r}")
+    return parts
+
+
+def run(args: argparse.Namespace) -> int:
+    from hillchart.errors import InputError
+    from hillchart.fccm import (FCCMNet, analyse_fccm, format_grey_relational_table, load_test_table,
+                                read_truth_csv)
+
+    inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.outputs)
+    if args.hidden is not None and args.hidden < 1:
+        raise InputError(f"--hidden must be an integer >= 1, got {args.hidden}")
+    for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1)):
+        if value < low:
+            raise InputError(f"{option} must be an integer >= {low}, got {value}")
+    net = FCCMNet(hidden=args.hidden, seed=args.seed, restarts=args.restarts, split=_split(args.split))
+    net._validate_params()  # bad --split before any file is read
+    table = load_test_table(args.table)
+    truth = read_truth_csv(args.truth) if args.truth else None
+    report = analyse_fccm(table, inputs, outputs, net=net, truth=truth)
+    written = report.write(args.out, plots=not args.no_plots)
+    m = report.metrics
+    rule = f"C = {m['c']} of eq. (3)" if m["c"] is not None else "fixed"
+    print(f"table {table.info.name!r}: {table.n_rows} points; net {len(inputs)}-{m['hidden']}-{len(outputs)} "
+          f"({rule}), split {net.split}, seed {args.seed}")
+    print(f"{'output':<16} {'train RMSE':>12} {'val RMSE':>12} {'test RMSE':>12} {'test max':>12}")
+    for o in outputs:
+        e = m["errors"][o]
+        print(f"{o:<16} {e['train']['rmse']:>12.5g} {e['validation']['rmse']:>12.5g} {e['test']['rmse']:>12.5g} "
+              f"{e['test']['max_abs_error']:>12.5g}")
+    if "similarity" in m:
+        s = m["similarity"]
+        print(f"image similarity (interpolation vs net): Euclidean {s['euclidean']:.4f}, cosine {s['cosine']:.5f}, "
+              f"angle {s['angle_deg']:.2f} deg, pixel RMS {s['pixel_rms']:.2f} grey levels ({s['pixels']} pixels)")
+    if "grey_relational" in m:
+        print(format_grey_relational_table(m["grey_relational"]))
+    if "truth" in m:
+        t = m["truth"]
+        print(f"against the truth ({t['points']} grid points):")
+        for o in outputs:
+            print(f"  {o:<16} net RMS {t[o]['net_rms_pct']:.3f} %, linear interpolation "
+                  f"{t[o]['interpolation_rms_pct']:.3f} % of the range")
+        print(f"  acceptance (RMS <= 1.5 %, net better for >= 3 outputs): "
+              f"{'PASS' if m['acceptance']['passed'] else 'FAIL'}")
+    for name, reason in m["skipped"].items():
+        print(f"skipped {name}: {reason}")
+    for w in m["warnings"]:
+        print(f"warning: {w}")
+    for path in written.values():
+        print(f"wrote {path}")
+    return 0
