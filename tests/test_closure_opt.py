@@ -212,14 +212,17 @@ def test_optimize_closure_cli_writes_law_front_and_a_verification_that_agrees(tm
     assert doc["mode"] == "head" and doc["limit"] == 0.5  # from [limits] of the file
     assert doc["law"]["max_speed_rise"] <= 0.5 and len(doc["verification"]) == 3
     assert doc["verification_max_abs_difference"] <= 1e-9  # hillsim run == batch (issue: 1e-9)
-    assert doc["extrapolated_cases"] == [] and all(c["beyond_nets_range"] is False for c in doc["cases"])
+    # every case leaves the digitized region once the vanes close below the lowest digitized opening (the
+    # simulator's extrapolation record says so, and the optimizer passes it on); none leaves the nets' training range
+    assert len(doc["extrapolated_cases"]) == 3 and all(c["beyond_nets_range"] is False for c in doc["cases"])
     worst = max(c["max_head_rise"] for c in doc["cases"])
     assert doc["law"]["max_head_rise"] == worst
     run_summary = json.loads((out / "verification" / "0" / "summary.json").read_text())
     assert run_summary["scenario"] == "closure-law"
     assert run_summary["max_speed_rise"] == doc["verification"][0]["max_speed_rise_batch"]
     plant = tomllib.loads((out / "optimum_plant.toml").read_text())
-    assert plant["scenario"]["break_opening"] == doc["law"]["break_opening"]
+    # optimum_plant.toml holds the law exactly; closure.json rounds to 12 significant digits like summary.json
+    assert plant["scenario"]["break_opening"] == pytest.approx(doc["law"]["break_opening"], rel=1e-11)
     for name in ("pareto.png", "law.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -177,7 +177,7 @@ def test_best_efficiency_table_gives_a_two_dimensional_fccm_map(tmp_path):
     (["--outputs", "efficiency,blade_angle_deg"], "both inputs and outputs"),
     (["--split", "0.5,0.5"], "--split must be three"),
     (["--split", "0.5,0.4,0.4"], "split must be three fractions in \\(0, 1\\) summing to 1"),
-    (["--hidden", "0"], "--hidden must be an integer >= 1"),
+    (["--hidden", "0"], "--hidden must be an integer within 1-100, got 0"),
     (["--restarts", "0"], "--restarts must be an integer >= 1"),
     (["--truth", "nowhere.csv"], "missing file"),
 ])

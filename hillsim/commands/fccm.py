@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 
 def register(subparsers) -> None:
@@ -18,7 +19,7 @@ def register(subparsers) -> None:
     parser.add_argument("table", metavar="TABLE_DIR", help="test-table folder (table.csv + table.toml)")
     parser.add_argument("--inputs", required=True, help="comma-separated input columns, e.g. "
                         "blade_angle_deg,guide_vane_deg")
-    parser.add_argument("--outputs", required=True, help="comma-separated output columns, e.g. "
+    parser.add_argument("--outputs", dest="output_columns", required=True, metavar="COLUMNS", help="comma-separated output columns, e.g. "
                         "efficiency,head_m,power_kw,flow_m3_s")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
@@ -59,18 +60,19 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.fccm import (FCCMNet, analyse_fccm, format_grey_relational_table, load_test_table,
                                 read_truth_csv)
 
-    inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.outputs)
-    if args.hidden is not None and args.hidden < 1:
-        raise InputError(f"--hidden must be an integer >= 1, got {args.hidden}")
+    inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.output_columns)
+    if args.hidden is not None and not 1 <= args.hidden <= 100:
+        raise InputError(f"--hidden must be an integer within 1-100, got {args.hidden}")
     for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1)):
         if value < low:
             raise InputError(f"{option} must be an integer >= {low}, got {value}")
     net = FCCMNet(hidden=args.hidden, seed=args.seed, restarts=args.restarts, split=_split(args.split))
     net._validate_params()  # bad --split before any file is read
+    out = args.outputs.folder("--out", args.out)  # checked (and locked) before the work; in place at the end
     table = load_test_table(args.table)
     truth = read_truth_csv(args.truth) if args.truth else None
     report = analyse_fccm(table, inputs, outputs, net=net, truth=truth)
-    written = report.write(args.out, plots=not args.no_plots)
+    written = report.write(out, plots=not args.no_plots)
     m = report.metrics
     rule = f"C = {m['c']} of eq. (3)" if m["c"] is not None else "fixed"
     print(f"table {table.info.name!r}: {table.n_rows} points; net {len(inputs)}-{m['hidden']}-{len(outputs)} "
@@ -99,5 +101,5 @@ def run(args: argparse.Namespace) -> int:
     for w in m["warnings"]:
         print(f"warning: {w}")
     for path in written.values():
-        print(f"wrote {path}")
+        print(f"wrote {Path(args.out) / Path(path).relative_to(out)}")
     return 0

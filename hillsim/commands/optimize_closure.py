@@ -148,9 +148,7 @@ def optimize_command(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and 0.0 < value <= 5.0):
             raise InputError(f"--{name.replace('_', '-')} must be a fraction in (0, 5], got {value!r}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {str(out)!r} exists and is not a directory")
+    out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
     if args.max_speed_rise is not None:
         mode, limit = "head", args.max_speed_rise
@@ -211,7 +209,10 @@ def optimize_command(args: argparse.Namespace) -> int:
                                             "break_time_s": opt.bounds[2]},
         "differential_evolution": opt.de_message,
     }
-    (out / "closure.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    from hillchart.tidy import tidy_floats
+
+    # 12 significant digits like every summary.json, so the verification runs' files match these numbers exactly
+    (out / "closure.json").write_text(json.dumps(tidy_floats(doc), indent=2) + "\n", encoding="utf-8")
     from simulate.batch import variant_overrides
     worst = max(range(len(study.load_cases)), key=lambda i: getattr(law.cases[i], doc["objective"]))
     (out / "optimum_plant.toml").write_text(
@@ -224,7 +225,7 @@ def optimize_command(args: argparse.Namespace) -> int:
           f"T2 {lw.break_time_s:.4g} s: max speed rise {law.max_speed_rise:.4f}, max head rise "
           f"{law.max_head_rise:.4f}; best linear T1 {opt.best_linear.law.closing_time_s:.4g} s: "
           f"{opt.best_linear.max_speed_rise:.4f}, {opt.best_linear.max_head_rise:.4f}; verification by hillsim run "
-          f"max |diff| {worst_diff:.3g}; wrote {out}")
+          f"max |diff| {worst_diff:.3g}; wrote {args.out}")
     if extrapolated:
         print(f"optimize-closure: warning: with the optimum the run leaves the characteristics' trusted domain in "
               f"{', '.join(extrapolated)}: figures there are extrapolated (closure.json extrapolated_cases)")

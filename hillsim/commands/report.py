@@ -21,10 +21,6 @@ from hillchart.errors import InputError
 from hillsim.report import Report, Value
 
 #: Names under which the simulator's result may carry the head envelope along the penstock (core branch).
-ENVELOPE_FIELDS = {"position": ("position_m", "distance_m", "x_m", "chainage_m"),
-                   "max_head": ("max_head_m", "head_max_m"), "min_head": ("min_head_m", "head_min_m"),
-                   "min_pressure_head": ("min_pressure_head_m", "pressure_head_min_m")}
-
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
@@ -53,28 +49,18 @@ class Verdict(Value):
         return f"<td style='color:#fff;background:{colour};font-weight:600;text-align:center'{key}>{self.value}</td>"
 
 
-def _get(obj, names):
-    for name in names:
-        value = obj.get(name) if isinstance(obj, dict) else getattr(obj, name, None)
-        if value is not None:
-            return value
-    return None
-
-
 def read_envelope(result) -> dict | None:
-    """The head envelope of a run as ``{position_m, max_head_m, min_head_m[, min_pressure_head_m]}`` lists, read
-    from ``result.envelope`` (object or dict with one of the :data:`ENVELOPE_FIELDS` names), or None."""
-    env = getattr(result, "envelope", None)
-    if env is None:
+    """The head envelope of a run as ``{position_m, max_head_m, min_head_m[, min_pressure_head_m]}`` lists (from
+    :func:`simulate.envelope.envelope_table`), or None when the run has no envelope (a lumped or rigid penstock)."""
+    if getattr(result, "envelope_max_m", None) is None:
         return None
-    pos, hmax, hmin = (_get(env, ENVELOPE_FIELDS[k]) for k in ("position", "max_head", "min_head"))
-    if pos is None or hmax is None or hmin is None:
-        return None
-    out = {"position_m": [float(v) for v in np.ravel(pos)], "max_head_m": [float(v) for v in np.ravel(hmax)],
-           "min_head_m": [float(v) for v in np.ravel(hmin)]}
-    pmin = _get(env, ENVELOPE_FIELDS["min_pressure_head"])
-    if pmin is not None and np.ndim(pmin) == 1:
-        out["min_pressure_head_m"] = [float(v) for v in np.ravel(pmin)]
+    from simulate.envelope import envelope_table
+
+    table = envelope_table(result)
+    out = {"position_m": [float(v) for v in table["x_m"]], "max_head_m": [float(v) for v in table["head_max_m"]],
+           "min_head_m": [float(v) for v in table["head_min_m"]]}
+    if "pressure_head_min_m" in table:
+        out["min_pressure_head_m"] = [float(v) for v in table["pressure_head_min_m"]]
     return out
 
 
@@ -266,9 +252,7 @@ def build_report(args) -> tuple[dict, Path]:
     from simulate.engine import run_simulation
     from simulate.studies import load_study
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {str(out)!r} exists and is not a directory")
+    out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
     closure_doc = sweep_doc = None
     if args.closure is not None:
@@ -491,7 +475,10 @@ def _esc(text: str) -> str:
 
 
 def report_command(args: argparse.Namespace) -> int:
+    from hillchart.tidy import tidy_floats
+
     report, out = build_report(args)
+    report = tidy_floats(report)  # the same rounding as each run's summary.json, so the numbers match exactly
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     path = write_html(report, out, args.closure, args.sweep)
     print(f"report: {len(report['cases'])} load case(s), overall {report['overall_verdict']}, "

@@ -74,9 +74,7 @@ def sweep_command(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if value is not None and value < 1:
             raise InputError(f"--{name.replace('_', '-')} must be an integer >= 1, got {value}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {str(out)!r} exists and is not a directory")
+    out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
     variants = build_variants(plant, args.vary, args.cases)
