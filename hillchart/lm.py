@@ -26,11 +26,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
 from hillchart.errors import NumericalError
+
+# torch is imported inside the training functions: evaluating exported nets (hillchart.nets) never needs it.
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    import torch
 
 
 def n_parameters(hidden: int) -> int:
@@ -56,6 +60,8 @@ def forward(theta: torch.Tensor, xn: torch.Tensor, hidden: int) -> torch.Tensor:
     eq. (11), BP hill-chart paper (004): ``yn = sum_i W2_i f(W1_i . xn + b1_i) + b2`` with the log-sigmoid
     ``f(z) = 1 / (1 + exp(-z))`` of eq. (10).
     """
+    import torch
+
     w1, b1, w2, b2 = unpack(theta, hidden)
     return torch.sigmoid(xn @ w1.T + b1) @ w2 + b2  # eqs. (10)-(11), paper 004
 
@@ -66,6 +72,8 @@ def residual_jacobian(theta: torch.Tensor, xn: torch.Tensor, hidden: int) -> tup
     With ``f = sigmoid(z)``, ``z = W1 xn + b1`` and ``d = W2 f (1 - f)``:
     ``dyn/dW1_ij = d_i xn_j``, ``dyn/db1_i = d_i``, ``dyn/dW2_i = f_i``, ``dyn/db2 = 1``.
     """
+    import torch
+
     w1, b1, w2, b2 = unpack(theta, hidden)
     f = torch.sigmoid(xn @ w1.T + b1)
     yn = f @ w2 + b2
@@ -172,6 +180,8 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     >>> res.train_mse < 1e-5
     True
     """
+    import torch
+
     dtype = torch.float64
     xt = torch.as_tensor(np.asarray(xn_train, dtype=float), dtype=dtype)
     yt = torch.as_tensor(np.asarray(yn_train, dtype=float), dtype=dtype)

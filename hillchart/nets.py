@@ -50,7 +50,6 @@ from pathlib import Path
 
 import numba
 import numpy as np
-import torch
 
 from hillchart import lm
 from hillchart.errors import InputError
@@ -486,6 +485,8 @@ class HillNet:
         yn = 2.0 * (y - y_min) / (y_max - y_min) - 1.0
         rng = np.random.default_rng(self.seed)
         train_index, val_index = stratified_split(groups, self.validation_fraction, rng)
+        import torch  # training only: loading and evaluating nets never imports torch
+
         start = time.perf_counter()
         previous_threads = torch.get_num_threads()
         torch.set_num_threads(self.n_threads)
