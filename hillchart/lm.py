@@ -145,7 +145,8 @@ class LMResult:
 
 def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: int, goal: float = 1e-5,
                         max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
-                        mu_inc: float = 10.0, mu_max: float = 1e10, min_grad: float = 1e-15) -> LMResult:
+                        mu_inc: float = 10.0, mu_max: float = 1e10, min_grad: float = 1e-15,
+                        sample_weight=None, regularization: float = 0.0) -> LMResult:
     """Train one net by ``trainlm``'s Levenberg-Marquardt with validation early stopping.
 
     Parameters
@@ -162,6 +163,12 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         Hidden neurons H.
     goal, max_epochs, max_fail, mu, mu_dec, mu_inc, mu_max, min_grad
         As ``net.trainParam`` of ``trainlm``.
+    sample_weight : ndarray (n,), optional
+        Weights of the training residuals (weighted least squares: ``perf = mean(w e^2)``); None: all 1, the
+        unweighted ``trainlm``. hillsim gives boundary samples a weight < 1 (soft constraints, issue 9).
+    regularization : float >= 0
+        lambda of a weight-decay term: ``perf = mean(w e^2) + lambda mean(theta^2)`` (as MATLAB's ``msereg``
+        mixes the MSE with the mean squared weights). 0: none.
 
     Returns
     -------
@@ -189,6 +196,16 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     yv = torch.as_tensor(np.asarray(yn_val, dtype=float), dtype=dtype)
     theta = torch.as_tensor(np.array(theta0, dtype=float), dtype=dtype)
     eye = torch.eye(theta.shape[0], dtype=dtype)
+    n_train, n_par = xt.shape[0], theta.shape[0]
+    weights = None if sample_weight is None else torch.as_tensor(np.asarray(sample_weight, dtype=float), dtype=dtype)
+    decay = n_train * float(regularization) / n_par  # the penalty in the sum form used by J^T J and J^T e
+
+    def train_perf(th, err):
+        sq = err * err if weights is None else weights * err * err
+        perf_ = torch.mean(sq)
+        if decay:
+            perf_ = perf_ + float(regularization) * torch.mean(th * th)
+        return float(perf_)
 
     def val_mse(th):
         return float(torch.mean((forward(th, xv, hidden) - yv) ** 2))
@@ -200,11 +217,15 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     for epoch in range(max_epochs + 1):
         yn, jac = residual_jacobian(theta, xt, hidden)
         err = yn - yt
-        perf = float(torch.mean(err * err))
+        perf = train_perf(theta, err)
         if not np.isfinite(perf):
             raise NumericalError(f"Levenberg-Marquardt: training MSE is {perf} at epoch {epoch}")
-        jte = jac.T @ err
-        jtj = jac.T @ jac
+        wjac = jac if weights is None else weights[:, None] * jac
+        jte = wjac.T @ err
+        jtj = wjac.T @ jac
+        if decay:
+            jte = jte + decay * theta
+            jtj = jtj + decay * eye
         gradient = 2.0 * float(torch.linalg.vector_norm(jte))
         # stopping tests in trainlm's order
         if perf <= goal:
@@ -227,7 +248,7 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
             step, info = torch.linalg.solve_ex(jtj + mu * eye, -jte)
             if int(info) == 0:  # a singular system (saturated neurons, tiny mu) counts as a failed step
                 trial = theta + step
-                perf2 = float(torch.mean((forward(trial, xt, hidden) - yt) ** 2))
+                perf2 = train_perf(trial, forward(trial, xt, hidden) - yt)
             else:
                 perf2 = math.inf
             if perf2 < perf:  # NaN compares False: also a failed step
@@ -242,6 +263,6 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         elif vperf > best_vperf:
             val_fail += 1
     # trainlm returns the weights with the best validation performance, whatever stopped it
-    train_mse = float(torch.mean((forward(best_theta, xt, hidden) - yt) ** 2))
+    train_mse = train_perf(best_theta, forward(best_theta, xt, hidden) - yt)
     return LMResult(theta=best_theta.numpy().copy(), train_mse=train_mse, val_mse=best_vperf,
                     best_epoch=best_epoch, epochs=epoch, stop_reason=stop_reason)

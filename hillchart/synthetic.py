@@ -221,6 +221,8 @@ class ChartLayout:
         Openings of the runaway curve points, mm.
     name : str
         The ``name`` written into ``chart.toml``.
+    axis_full_scale : (float, float)
+        Full scale of the chart's N11 (r/min) and Q11 (m^3/s) axes: digitization noise is a percentage of it.
     """
 
     n11_range: tuple[float, float]
@@ -228,6 +230,7 @@ class ChartLayout:
     efficiencies: tuple[float, ...]
     runaway_openings_mm: tuple[float, ...]
     name: str
+    axis_full_scale: tuple[float, float] = (100.0, 1.0)
 
     @property
     def efficiency_floor(self) -> float:
@@ -268,6 +271,7 @@ FAMILY = {
             efficiencies=(0.80, 0.84, 0.87, 0.89, 0.91, 0.92, 0.93, 0.935, 0.94),
             runaway_openings_mm=tuple(4.5 + 1.5 * i for i in range(14)),
             name="hillsim synthetic Francis, slow (low specific speed, 1-D Euler model)",
+            axis_full_scale=(100.0, 0.5),
         ),
         description="low specific speed: narrow runner (B1/D1 0.12, D2/D1 0.70), best eta 0.942 at N11 60, Q11 0.23",
     ),
@@ -291,6 +295,7 @@ FAMILY = {
             efficiencies=(0.78, 0.82, 0.85, 0.87, 0.88, 0.89, 0.90, 0.905, 0.91),
             runaway_openings_mm=tuple(10.0 + 2.5 * i for i in range(13)),
             name="hillsim synthetic Francis, fast (high specific speed, 1-D Euler model)",
+            axis_full_scale=(120.0, 1.2),
         ),
         description="high specific speed: wide runner (B1/D1 0.30, beta2 24 deg), best eta 0.913 at N11 70, Q11 0.90",
     ),
@@ -308,8 +313,9 @@ def family_turbine(name: str) -> FamilyTurbine:
 # The chart an engineer digitizes
 # ---------------------------------------------------------------------------------------------------------------
 
-#: Digitization noise (one standard deviation) at the default noise level 0.15 %: reading a printed chart by
-#: eye/mouse. A noise level p % scales both: sigma N11 = p % of 100 r/min, sigma Q11 = p % of 1 m^3/s.
+#: Digitization noise (one standard deviation) at the default noise level 0.15 % on the medium chart (axes 0-100
+#: r/min, 0-1 m^3/s): reading a printed chart by eye/mouse. A noise level p % is p % of each axis' full scale
+#: (:attr:`ChartLayout.axis_full_scale`).
 NOISE_N11_RPM = 0.15
 NOISE_Q11_M3_S = 0.0015
 DEFAULT_NOISE_PCT = 0.15
@@ -333,7 +339,8 @@ class DigitizationOptions:
     spacing : {"even", "uneven"}
         Even spacing in N11, or random gaps (Dirichlet(2) fractions of the line, seeded from ``seed``).
     noise_pct : float in [0, 5]
-        Digitization noise level: sigma N11 = noise_pct % of 100 r/min, sigma Q11 = noise_pct % of 1 m^3/s.
+        Digitization noise level: sigma N11 and sigma Q11 = noise_pct % of the chart's axis full scale (medium
+        chart: 100 r/min and 1 m^3/s; slow: 100 r/min, 0.5 m^3/s; fast: 120 r/min, 1.2 m^3/s).
     opening_unit : {"mm", "deg", "%"}
         Openings in mm (the model's unit), guide-vane degrees (full stroke = 30 deg) or % of full stroke.
     q11_unit : {"m3/s", "l/s"}
@@ -389,12 +396,13 @@ def _csv_text(header, rows) -> str:
 class _Digitizer:
     """Turns exact points into exported rows: label and values in the chart's units, noise, rounding."""
 
-    def __init__(self, options: DigitizationOptions, opening_max_mm: float, rng: np.random.Generator):
+    def __init__(self, options: DigitizationOptions, opening_max_mm: float, rng: np.random.Generator,
+                 axis_full_scale: tuple[float, float] = (100.0, 1.0)):
         self.options = options
         self.rng = rng
         scale = options.noise_pct / DEFAULT_NOISE_PCT  # exactly 1.0 at the default level
-        self.sigma_n11 = NOISE_N11_RPM * scale
-        self.sigma_q11 = NOISE_Q11_M3_S * scale
+        self.sigma_n11 = NOISE_N11_RPM * scale * (axis_full_scale[0] / 100.0)  # exact on the medium chart's axes
+        self.sigma_q11 = NOISE_Q11_M3_S * scale * (axis_full_scale[1] / 1.0)
         self.opening_factor = {"mm": 1.0, "%": 100.0 / opening_max_mm,
                                "deg": FULL_STROKE_DEG / opening_max_mm}[options.opening_unit]
         self.q11_factor, self.q11_digits = (1.0, DIGITS["q11"]) if options.q11_unit == "m3/s" else (1000.0, 1)
@@ -520,7 +528,7 @@ def synthetic_chart_texts(*, seed: int = 0, turbine: str | SyntheticFrancis | No
         raise InputError(f"turbine must be a family name ({', '.join(FAMILY)}) or a SyntheticFrancis, got {turbine!r}")
     rng = np.random.default_rng(seed)
     spacing_rng = np.random.default_rng([seed, 1])  # uneven spacing never disturbs the noise stream
-    digitizer = _Digitizer(options, exact.opening_max, rng)
+    digitizer = _Digitizer(options, exact.opening_max, rng, layout.axis_full_scale)
     opening_max = digitizer.opening(float(exact.opening_max))
     texts = {
         "chart.toml": CHART_TOML.format(name=layout.name, opening_unit=options.opening_unit,

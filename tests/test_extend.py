@@ -101,10 +101,13 @@ def test_non_positive_k_is_reported(tmp_path):
     with pytest.warns(UserWarning):
         chart = load_chart(tmp_path)
     with pytest.raises(NumericalError, match=r"K = -?[0-9.e+-]+ N\*m/\(r/min\)\^2 .* set zero_opening_k"):
-        extend_samples(chart, ExtensionOptions(zero_speed=False))
+        extend_samples(chart, ExtensionOptions(zero_speed=False, boundaries="polynomial"))
     # the user's K makes it go through, as the paper's hand adjustment does
-    ext = extend_samples(chart, ExtensionOptions(zero_speed=False, zero_opening_k=0.003))
+    ext = extend_samples(chart, ExtensionOptions(zero_speed=False, zero_opening_k=0.003, boundaries="polynomial"))
     assert ext.k_zero_opening == 0.003
+    # the default physical-model boundaries refuse this chart (no turbine has it), saying what to provide
+    with pytest.raises(InputError, match=r"no physically valid boundary .*runaway.csv.*--zero-opening-k"):
+        extend_samples(chart, ExtensionOptions(zero_speed=False))
 
 
 @pytest.mark.parametrize(

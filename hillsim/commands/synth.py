@@ -39,7 +39,7 @@ def register(subparsers) -> None:
     parser.add_argument("--points-per-line", type=int, default=7, help="points per opening line, 3-12 (default 7)")
     parser.add_argument("--spacing", default="even", help="'even' or 'uneven' spacing along the lines")
     parser.add_argument("--noise", type=float, default=0.15,
-                        help="digitization noise, percent (sigma N11 = p %% of 100 r/min, Q11 = p %% of 1 m^3/s; "
+                        help="digitization noise, percent of the chart axes' full scale (medium chart: 100 r/min, 1 m^3/s; "
                              "default 0.15, allowed 0-5)")
     parser.add_argument("--opening-unit", default="mm", help="mm, deg or %% (default mm)")
     parser.add_argument("--q11-unit", default="m3/s", help="m3/s or l/s (default m3/s)")
