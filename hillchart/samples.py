@@ -237,7 +237,9 @@ def load_chart(folder) -> ChartSamples:
         path = folder / name
         if not path.is_file():
             if name == "runaway.csv":
-                warnings.warn(f"{path} is absent: the runaway boundary (M11 = 0) will not be added", UserWarning, stacklevel=2)
+                warnings.warn(f"{path} is absent: the runaway boundary (M11 = 0) comes from the fitted turbine model "
+                              "(extension boundaries='model', the default) or is not added ('polynomial')",
+                              UserWarning, stacklevel=2)
                 tables[name] = {c: np.empty(0) for c in columns}
                 line_numbers[name] = np.zeros(0, int)
                 continue

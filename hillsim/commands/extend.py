@@ -36,15 +36,21 @@ def extension_options(args: argparse.Namespace):
     )
 
 
-def load_chart_reporting_warnings(folder):
-    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``."""
+def load_chart_reporting_warnings(folder, boundaries: str = "polynomial"):
+    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``.
+
+    With ``boundaries="model"`` a missing runaway.csv is no warning: the fitted turbine model gives the runaway
+    samples (a note says so)."""
     from hillchart.samples import load_chart
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         chart = load_chart(folder)
     for w in caught:
-        print(f"warning: {w.message}")
+        if boundaries == "model" and "runaway.csv is absent" in str(w.message):
+            print("note: no runaway.csv: the runaway samples come from the turbine model fitted to the chart")
+        else:
+            print(f"warning: {w.message}")
     return chart
 
 
@@ -67,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.plausibility import check_chart
 
     options = extension_options(args)
-    chart = load_chart_reporting_warnings(args.chart)
+    chart = load_chart_reporting_warnings(args.chart, options.boundaries)
     check_chart(chart)
     extended = extend_samples(chart, options)
     extended.to_csv(args.out)

@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--out {args.out} is a folder; give the nets.json file to write")
     if not out.parent.exists():
         raise InputError(f"--out {args.out}: folder {out.parent} does not exist")
-    chart = load_chart_reporting_warnings(args.chart)
+    chart = load_chart_reporting_warnings(args.chart, extension.boundaries)
     check_chart(chart)  # plausibility before training: units, crossing lines, contours outside the lines' hull
     extended = extend_samples(chart, extension)
 
