@@ -163,8 +163,8 @@ def format_training_table(nets) -> str:
         est = getattr(nets, "estimators", {}).get(key)
         seconds = f"{est.fit_time_s_:6.2f}" if est is not None else "     -"
         cv = sel.get("cv_mse_best")
-        lines.append(f"{key:<7} {sel.get('hidden', '-'):>2} {sel.get('boundary_weight', '-'):>6} "
-                     f"{sel.get('regularization', '-'):>7} {cv if cv is None else format(cv, '.3g'):>9} "
+        lines.append(f"{key:<7} {str(sel.get('hidden', '-')):>2} {str(sel.get('boundary_weight', '-')):>6} "
+                     f"{str(sel.get('regularization', '-')):>7} {'-' if cv is None else format(cv, '.3g'):>9} "
                      f"{rec.get('measured_rms_error', float('nan')):>10.4g} "
                      f"{rec.get('measured_max_abs_error', float('nan')):>10.4g} {units[key]:<6} "
                      f"{len(nets.ensemble):>7} {seconds}")
