@@ -38,6 +38,10 @@ class GeneralizationResult:
     coefficient_errors : dict
         Point name -> max |nets - exact| over the six coefficients.
     nets : HillNets
+    truth : dict of ndarray
+        The exact truth grid (:func:`hillchart.nets.read_truth_csv`).
+    inside : ndarray of bool
+        Measured-region mask of the truth grid.
     """
 
     errors: dict
@@ -45,6 +49,8 @@ class GeneralizationResult:
     k_ratio: float | None
     coefficient_errors: dict
     nets: object
+    truth: dict | None = None
+    inside: np.ndarray | None = None
 
 
 def best_efficiency_n11(turbine) -> float:
@@ -108,4 +114,34 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
         got = six_coefficients(nets, n11=n11, opening=a_mm * scale)
         coefficient_errors[name] = max(abs(getattr(got, c) - getattr(want, c)) for c in COEFFICIENT_NAMES)
     return GeneralizationResult(errors=truth_errors(nets, truth, inside), baseline=base, k_ratio=k_ratio,
-                                coefficient_errors=coefficient_errors, nets=nets)
+                                coefficient_errors=coefficient_errors, nets=nets, truth=truth, inside=inside)
+
+
+#: Acceptance bounds of issue 9 (percent of the measured-region range; coefficient differences absolute).
+ACCEPTANCE = {"q11_rms_pct": 0.5, "q11_max_pct": 2.0, "m11_rms_pct": 1.0, "baseline_factor": 1.2,
+              "coefficient_abs": 0.05}
+
+
+def acceptance_failures(result: GeneralizationResult) -> list[str]:
+    """The issue's acceptance criteria that ``result`` misses (empty when it passes them all).
+
+    Measured-region Q11 RMS <= 0.5 %, max <= 2 %, M11 RMS <= 1 % of the range; Q11 and M11 RMS at most 1.2 x those
+    of nets fitted to the measured samples alone (when ``result.baseline`` is there); six coefficients within 0.05
+    of the exact ones at every :data:`COEFFICIENT_POINTS` point.
+    """
+    e, out = result.errors, []
+    checks = (("Q11 RMS", e["q11"]["rms_measured_pct"], ACCEPTANCE["q11_rms_pct"]),
+              ("Q11 max", e["q11"]["max_measured_pct"], ACCEPTANCE["q11_max_pct"]),
+              ("M11 RMS", e["m11"]["rms_measured_pct"], ACCEPTANCE["m11_rms_pct"]))
+    for label, value, bound in checks:
+        if not value <= bound:
+            out.append(f"{label} {value:.3f} % > {bound} %")
+    if result.baseline is not None:
+        for t in ("q11", "m11"):
+            ours, base = e[t]["rms_measured_pct"], result.baseline[t]["rms_measured_pct"]
+            if not ours <= ACCEPTANCE["baseline_factor"] * base:
+                out.append(f"{t.upper()} RMS {ours:.3f} % > {ACCEPTANCE['baseline_factor']} x measured-only {base:.3f} %")
+    for name, value in result.coefficient_errors.items():
+        if not value <= ACCEPTANCE["coefficient_abs"]:
+            out.append(f"six coefficients at {name}: max |error| {value:.3f} > {ACCEPTANCE['coefficient_abs']}")
+    return out
