@@ -120,6 +120,11 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
     y = np.asarray(efficiency, float)
     if len(y) < 10:
         raise InputError(f"efficiency.csv: need at least 10 points to fit the efficiency surface, got {len(y)}")
+    if np.unique(y).size < 2:
+        raise InputError(f"efficiency.csv: all {len(y)} points are at efficiency {y[0]!r}; the surface needs "
+                         "contours at two or more levels")
+    if np.unique(x, axis=0).shape[0] < 6:
+        raise InputError("efficiency.csv: fewer than 6 distinct (n11, q11) points; a quadratic surface needs 6")
 
     def make(d):
         return make_pipeline(StandardScaler(), PolynomialFeatures(d), LinearRegression())
@@ -131,6 +136,10 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
             if (d + 1) * (d + 2) // 2 >= 0.8 * len(y):  # more coefficients than a training fold can determine
                 break
             scores[d] = -cross_val_score(make(d), x, y, cv=folds, scoring="neg_root_mean_squared_error").mean()
+        scores = {d: v for d, v in scores.items() if np.isfinite(v)}
+        if not scores:
+            raise InputError(f"efficiency.csv: {len(y)} points leave no degree of the efficiency surface that "
+                             "cross-validation can score; digitize more contour points")
         best = min(scores.values())
         # parsimony: the lowest degree within 5 % of the best cross-validated error (exact data ties at ~1e-16)
         degree = min(d for d, rmse in scores.items() if rmse <= 1.05 * best + 1e-12)
@@ -315,7 +324,10 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
     >>> ext.k_zero_opening > 0
     True
     """
+    from hillchart.plausibility import check_chart
+
     options = options or ExtensionOptions()
+    check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit (issue 9 section 5)
     rows: list[tuple[str, str, float, float, float]] = []
 
     # (d) torque on the flow lines from the efficiency surface, eqs. (4)-(5)

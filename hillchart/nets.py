@@ -133,12 +133,23 @@ def _evaluate(packed: np.ndarray, n11, opening):
 # ----------------------------------------------------------------------------------------------------------------
 # weights of one net
 # ----------------------------------------------------------------------------------------------------------------
+#: Largest magnitude accepted for any number of a NET block: trained nets stay orders of magnitude below it, and
+#: beyond it the evaluation overflows (e.g. y_max - y_min of 2e300 times a weight gives inf, then NaN).
+MAX_ABS_NET_VALUE = 1e9
+
+
 def _finite_float(value, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InputError(f"{key} must be a number, got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer with hundreds of digits
+        raise InputError(f"{key} must be a number of magnitude <= {MAX_ABS_NET_VALUE:g}, got an integer of "
+                         f"{len(str(abs(value)))} digits") from None
     if not math.isfinite(value):
         raise InputError(f"{key} must be finite, got {value!r}")
+    if abs(value) > MAX_ABS_NET_VALUE:
+        raise InputError(f"{key} must have magnitude <= {MAX_ABS_NET_VALUE:g}, got {value!r}")
     return value
 
 
@@ -794,6 +805,10 @@ class HillNets:
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"nets.json: not valid JSON ({exc})") from None
+        except RecursionError:
+            raise InputError("nets.json: nested too deeply to be a nets file (a NET block is 2 levels deep)") from None
+        except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
+            raise InputError(f"nets.json: not a valid nets file ({exc})") from None
         return cls.from_dict(doc)
 
 
@@ -825,7 +840,13 @@ def load_nets(path) -> HillNets:
     0.93
     """
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a nets.json file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); nets.json is JSON "
+                         "text") from None
     try:
         return HillNets.from_json(text)
     except InputError as exc:

@@ -37,6 +37,12 @@ FILES = {
 }
 #: Fewest points an equal-opening line needs (a quadratic through it must be determined).
 MIN_POINTS_PER_LINE = 3
+#: Most points a chart file may hold (a digitized chart has hundreds; training time grows with the count).
+MAX_POINTS_PER_FILE = 20000
+#: Upper limits of plausible values in the file's units (N11 of any turbine chart is below 1000 r/min; Q11 below
+#: 100 m^3/s = 100 000 l/s); far beyond them the numerics overflow.
+N11_MAX_RPM = 1000.0
+Q11_MAX = {"m3/s": 100.0, "l/s": 100000.0}
 
 
 @dataclass(frozen=True)
@@ -118,7 +124,7 @@ def read_chart_info(path) -> ChartInfo:
     if not path.is_file():
         raise InputError(f"{path}: missing file (a chart folder needs chart.toml)")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
     unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
@@ -147,12 +153,15 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> tuple[dict[str, np.ndarra
     """Read a numeric CSV with exactly ``columns`` (any order); errors name file, line and column. Returns the
     columns and the line number of every data row."""
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
+        with path.open(newline="", encoding="utf-8-sig") as handle:  # -sig: a byte-order mark is no column
             rows = list(csv.reader(handle))
     except UnicodeDecodeError as exc:
         raise InputError(f"{path}: not a UTF-8 text file ({exc})") from None
     if not rows:
         raise InputError(f"{path}: empty file; expected a header {','.join(columns)}")
+    if len(rows) - 1 > MAX_POINTS_PER_FILE:
+        raise InputError(f"{path}: {len(rows) - 1} rows; a digitized chart file has at most {MAX_POINTS_PER_FILE} "
+                         "points (thin the export)")
     header = [name.strip() for name in rows[0]]
     missing = [c for c in columns if c not in header]
     if missing:
@@ -202,8 +211,11 @@ def _check_duplicates(path: Path, table: dict[str, np.ndarray], rows=None) -> No
 
 
 def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo, rows=None) -> None:
-    _check_range(path, "n11", table["n11"], table["n11"] >= 0, "n11 >= 0 r/min", rows)
-    _check_range(path, "q11", table["q11"], table["q11"] >= 0, f"q11 >= 0 {info.q11_unit}", rows)
+    _check_range(path, "n11", table["n11"], (table["n11"] >= 0) & (table["n11"] <= N11_MAX_RPM),
+                 f"0 <= n11 <= {N11_MAX_RPM:g} r/min", rows)
+    q_max = Q11_MAX[info.q11_unit]
+    _check_range(path, "q11", table["q11"], (table["q11"] >= 0) & (table["q11"] <= q_max),
+                 f"0 <= q11 <= {q_max:g} {info.q11_unit}", rows)
     if "opening" in table:
         op = table["opening"]
         _check_range(path, "opening", op, (op >= 0) & (op <= info.opening_max), f"0 <= opening <= {info.opening_max}",

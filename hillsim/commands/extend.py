@@ -36,6 +36,19 @@ def extension_options(args: argparse.Namespace):
     )
 
 
+def check_output_path(option: str, path) -> None:
+    """An output file path that can be written: not a folder, parent folder exists (checked before any work)."""
+    from pathlib import Path
+
+    from hillchart.errors import InputError
+
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{option} {path} is a folder; give a file name")
+    if not path.parent.is_dir():
+        raise InputError(f"{option} {path}: folder {path.parent} does not exist")
+
+
 def load_chart_reporting_warnings(folder, boundaries: str = "polynomial"):
     """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``.
 
@@ -70,11 +83,11 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.extend import extend_samples
 
-    from hillchart.plausibility import check_chart
-
     options = extension_options(args)
+    check_output_path("--out", args.out)
+    if args.plot:
+        check_output_path("--plot", args.plot)
     chart = load_chart_reporting_warnings(args.chart, options.boundaries)
-    check_chart(chart)
     extended = extend_samples(chart, options)
     extended.to_csv(args.out)
     print(f"wrote {args.out}: {len(extended.value)} samples")

@@ -6,7 +6,8 @@ import argparse
 import sys
 import time
 
-from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
+from hillsim.commands.extend import (add_extension_arguments, check_output_path, extension_options,
+                                     load_chart_reporting_warnings)
 
 #: Allowed ``--hidden`` values (the selection itself tries 3-10).
 HIDDEN_RANGE = (1, 30)
@@ -101,17 +102,13 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
     from hillchart.extend import extend_samples
     from hillchart.nets import train_nets
-    from hillchart.plausibility import check_chart, efficiency_plausibility
+    from hillchart.plausibility import efficiency_plausibility
 
     options = parse_options(args)
     extension = extension_options(args)
     out = Path(args.out)
-    if out.is_dir():
-        raise InputError(f"--out {args.out} is a folder; give the nets.json file to write")
-    if not out.parent.exists():
-        raise InputError(f"--out {args.out}: folder {out.parent} does not exist")
+    check_output_path("--out", out)
     chart = load_chart_reporting_warnings(args.chart, extension.boundaries)
-    check_chart(chart)  # plausibility before training: units, crossing lines, contours outside the lines' hull
     extended = extend_samples(chart, extension)
 
     def progress(message: str) -> None:
