@@ -121,7 +121,7 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
     if len(y) < 10:
         raise InputError(f"efficiency.csv: need at least 10 points to fit the efficiency surface, got {len(y)}")
     if np.unique(y).size < 2:
-        raise InputError(f"efficiency.csv: all {len(y)} points are at efficiency {y[0]!r}; the surface needs "
+        raise InputError(f"efficiency.csv: all {len(y)} points are at efficiency {float(y[0])!r}; the surface needs "
                          "contours at two or more levels")
     if np.unique(x, axis=0).shape[0] < 6:
         raise InputError("efficiency.csv: fewer than 6 distinct (n11, q11) points; a quadratic surface needs 6")

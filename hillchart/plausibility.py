@@ -61,34 +61,38 @@ def check_lines(chart) -> None:
     """Speed range, outliers/zigzags on each opening line, crossing lines."""
     path = chart.folder / "flow.csv"
     if np.ptp(chart.flow_n11) <= 0:
-        raise InputError(f"{path}: every point sits at N11 = {chart.flow_n11[0]!r} r/min; the nets need the "
+        raise InputError(f"{path}: every point sits at N11 = {float(chart.flow_n11[0])!r} r/min; the nets need the "
                          "opening lines over a range of N11 (digitize several points along each line)")
     q_range = float(np.ptp(chart.flow_q11))
     if q_range <= 0:
-        raise InputError(f"{path}: every point has Q11 = {chart.flow_q11[0]!r}; the lines need a range of flow")
+        raise InputError(f"{path}: every point has Q11 = {float(chart.flow_q11[0])!r}; the lines need a range of flow")
     lines = {}
     for a in chart.openings:
         idx = np.flatnonzero(chart.flow_opening == a)
         idx = idx[np.argsort(chart.flow_n11[idx], kind="stable")]
         n, q = chart.flow_n11[idx], chart.flow_q11[idx]
         if np.unique(n).size < 2:
-            raise InputError(f"{path}: the opening line a = {a:g} has all its points at N11 = {n[0]!r} "
+            raise InputError(f"{path}: the opening line a = {a:g} has all its points at N11 = {float(n[0])!r} "
                              f"({_row(chart, 'flow', int(idx[0]))}); a line needs a range of N11")
         if n.size >= 5:
-            for j in range(n.size):  # leave-one-out quadratic: a misclicked point stands out against the others
+            # leave-one-out quadratic: a misclicked point stands out against the others; the worst one is reported
+            # (an end point is checked against an extrapolation: allowed 2.5 x as much)
+            worst, worst_ratio, worst_miss, worst_allowed = None, 1.0, 0.0, 0.0
+            for j in range(n.size):
                 keep = np.arange(n.size) != j
                 if np.unique(n[keep]).size < 3:
                     continue
-                coef = np.polyfit(n[keep], q[keep], 2)
-                miss = abs(float(np.polyval(coef, n[j])) - q[j])
-                # an end point is checked against an extrapolation: allow 2.5 x as much
+                miss = abs(float(np.polyval(np.polyfit(n[keep], q[keep], 2), n[j])) - q[j])
                 allowed = OUTLIER_FRACTION * (2.5 if j in (0, n.size - 1) else 1.0)
-                if miss > allowed * q_range:
-                    raise InputError(
-                        f"{path}: {_row(chart, 'flow', int(idx[j]))} (opening {a:g}, N11 {n[j]:g}, Q11 {q[j]:.4g} "
-                        f"m^3/s) is {miss:.3g} m^3/s ({100 * miss / q_range:.1f} % of the Q11 range) off the "
-                        f"smooth curve through the line's other points (allowed {100 * allowed:g} %): "
-                        "an outlier or a zigzag; check the digitized point")
+                if miss / (allowed * q_range) > worst_ratio:
+                    worst, worst_ratio, worst_miss, worst_allowed = j, miss / (allowed * q_range), miss, allowed
+            if worst is not None:
+                j = worst
+                raise InputError(
+                    f"{path}: {_row(chart, 'flow', int(idx[j]))} (opening {a:g}, N11 {n[j]:g}, Q11 {q[j]:.4g} "
+                    f"m^3/s) is {worst_miss:.3g} m^3/s ({100 * worst_miss / q_range:.1f} % of the Q11 range) off "
+                    f"the smooth curve through the line's other points (allowed {100 * worst_allowed:g} %): an "
+                    "outlier or a zigzag; check the digitized point")
         lines[float(a)] = (n, q, idx)
     openings = sorted(lines)
     for low, high in zip(openings[:-1], openings[1:]):

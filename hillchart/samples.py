@@ -39,10 +39,10 @@ FILES = {
 MIN_POINTS_PER_LINE = 3
 #: Most points a chart file may hold (a digitized chart has hundreds; training time grows with the count).
 MAX_POINTS_PER_FILE = 20000
-#: Upper limits of plausible values in the file's units (N11 of any turbine chart is below 1000 r/min; Q11 below
-#: 100 m^3/s = 100 000 l/s); far beyond them the numerics overflow.
+#: Upper limits of values in the file's units (N11 of any turbine chart is below 1000 r/min; Q11 below 100 000 in
+#: either unit); far beyond them the numerics overflow.
 N11_MAX_RPM = 1000.0
-Q11_MAX = {"m3/s": 100.0, "l/s": 100000.0}
+Q11_MAX = {"m3/s": 100000.0, "l/s": 100000.0}  # m3/s as l/s too: the plausibility check names the unit mix-up
 
 
 @dataclass(frozen=True)
