@@ -834,8 +834,8 @@ def load_nets(path) -> HillNets:
     --------
     >>> from importlib.resources import files
     >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # the shipped synthetic-Francis nets
-    >>> nets.opening_unit, nets.flow.hidden
-    ('mm', 5)
+    >>> nets.opening_unit, nets.flow.hidden, len(nets.ensemble)  # hidden size chosen by cross-validation
+    ('mm', 8, 10)
     >>> round(float(nets.efficiency(65.0, 18.0)), 2)  # best efficiency of the synthetic turbine: 0.935
     0.93
     """
