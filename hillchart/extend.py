@@ -66,6 +66,9 @@ class ExtensionOptions:
         Where the zero-opening, zero-speed (and, for a chart without runaway curve, runaway) samples come from:
         ``"model"`` (default) a low-order physical turbine model fitted to the chart
         (:mod:`hillchart.turbine_model`), ``"polynomial"`` the paper's per-line polynomial extrapolations.
+    check_chart : bool
+        Run :func:`hillchart.plausibility.check_chart` first (default). Off only for contrived test charts that
+        exercise a later step.
     """
 
     runaway: bool = True
@@ -76,6 +79,7 @@ class ExtensionOptions:
     zero_opening_k: float | None = None
     efficiency_degree: int | None = None
     boundaries: str = "model"
+    check_chart: bool = True
 
     def __post_init__(self):
         if self.boundaries not in BOUNDARY_METHODS:
@@ -328,7 +332,8 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
     from hillchart.plausibility import check_chart
 
     options = options or ExtensionOptions()
-    check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit (issue 9 section 5)
+    if options.check_chart:
+        check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit (issue 9 section 5)
     rows: list[tuple[str, str, float, float, float]] = []
 
     # (d) torque on the flow lines from the efficiency surface, eqs. (4)-(5)

@@ -212,10 +212,10 @@ def _check_duplicates(path: Path, table: dict[str, np.ndarray], rows=None) -> No
 
 def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo, rows=None) -> None:
     _check_range(path, "n11", table["n11"], (table["n11"] >= 0) & (table["n11"] <= N11_MAX_RPM),
-                 f"0 <= n11 <= {N11_MAX_RPM:g} r/min", rows)
+                 f"n11 >= 0 and n11 <= {N11_MAX_RPM:g} r/min", rows)
     q_max = Q11_MAX[info.q11_unit]
     _check_range(path, "q11", table["q11"], (table["q11"] >= 0) & (table["q11"] <= q_max),
-                 f"0 <= q11 <= {q_max:g} {info.q11_unit}", rows)
+                 f"q11 >= 0 and q11 <= {q_max:g} {info.q11_unit}", rows)
     if "opening" in table:
         op = table["opening"]
         _check_range(path, "opening", op, (op >= 0) & (op <= info.opening_max), f"0 <= opening <= {info.opening_max}",
