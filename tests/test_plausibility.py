@@ -140,7 +140,7 @@ def test_contours_outside_the_lines(chart_dir):
 
 def test_values_near_1e308_are_range_errors(chart_dir):
     _edit(chart_dir, "flow.csv", lambda ls: ls[:5] + ["20.00,1e308,0.5"] + ls[6:])
-    with pytest.raises(InputError, match=r"flow.csv: row 6, column 'n11': 1e\+308 is out of range; allowed 0 <= n11"):
+    with pytest.raises(InputError, match=r"flow.csv: row 6, column 'n11': 1e\+308 is out of range; allowed n11 >= 0 and n11 <= 1000"):
         load_chart(chart_dir)
 
 
