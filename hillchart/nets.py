@@ -21,7 +21,9 @@ Pieces
     The flow and torque nets together; implements the :class:`hillchart.characteristics.Characteristics`
     protocol and ``numba_kernel()`` for the simulator, ``to_json()``/``save()``; :func:`load_nets` reads it back.
 :func:`train_nets`
-    Both nets from the extended-samples table of :mod:`hillchart.extend`.
+    Both nets from the extended-samples table of :mod:`hillchart.extend`: derived boundary samples weighted as soft
+    constraints, boundary weight / hidden size / weight decay chosen by cross-validation on the measured samples,
+    optionally an ensemble whose mean is distilled into the point nets (issue 9).
 
 There is exactly one implementation of eq. (11) and its analytic gradient at evaluation time, the numba function
 ``_net_value_grad``; the vectorized methods loop over it in compiled code. Torch is used only for training.
@@ -32,7 +34,8 @@ There is exactly one implementation of eq. (11) and its analytic gradient at eva
 
     {"format": "hillsim.nets", "version": 1,
      "units": {"n11": "r/min", "opening": "<chart unit>", "q11": "m^3/s", "m11": "N*m"},
-     "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...}}
+     "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...},
+     "ensemble": [{"flow": NET, "torque": NET}, ...]}    # optional (issue 9): the members of the band
     NET = {"inputs": ["n11", "opening"], "output": "q11" | "m11",
            "x_min": [n11_min, opening_min], "x_max": [n11_max, opening_max], "y_min": float, "y_max": float,
            "W1": [[w_n11, w_opening], ... H rows], "b1": [... H], "W2": [... H], "b2": float}
