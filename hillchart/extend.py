@@ -170,9 +170,10 @@ class ExtendedSamples:
     k_zero_opening_fitted : float or None  K from the data before any user override
     efficiency_surface : EfficiencySurface or None
     derived : ndarray of bool (S,) or None
-        True for samples the extension derived by extrapolation or from the model (zero-opening torque, zero speed,
-        runaway from the model); they are soft constraints in training. Q11 = 0 at zero opening is exact (eq. 6)
-        and is not derived. None: the zero-opening and zero-speed origins.
+        True for samples the extension derived by extrapolation or from the model (zero speed, runaway from the
+        model); they are soft constraints in training. The zero-opening family keeps weight 1: Q11 = 0 is exact
+        (eq. 6) and M11 = -K N11^2 sets the simulator's no-load opening and braking. None: the zero-opening and
+        zero-speed origins.
     boundary_model : FittedTurbineModel or None
         The physical model the boundaries came from (``boundaries="model"``).
     """
@@ -412,7 +413,9 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         n11_max = max(chart.flow_n11.max(), chart.runaway_n11.max() if chart.has_runaway else 0.0)
         for n in np.linspace(0.0, n11_max, options.zero_opening_points):
             add("q11", "zero-opening", n, 0.0, 0.0, False)  # exact, not derived: closed vanes pass no flow (eq. 6)
-            add("m11", "zero-opening", n, 0.0, 0.0 - k_used * n * n, True)  # 0.0 - ...: no -0.0
+            # weight 1 like the measured samples: the zero-opening torque decides the no-load opening and the
+            # braking after closure in the simulator, and it lies far (a = 0) from the digitized lines
+            add("m11", "zero-opening", n, 0.0, 0.0 - k_used * n * n, False)  # 0.0 - ...: no -0.0
 
     target, origin, n11, opening, value = zip(*rows)
     return ExtendedSamples(
