@@ -25,7 +25,8 @@ def result(request):
 def test_default_pipeline_meets_the_acceptance_bounds(result):
     name, res = result
     # bounds of issue 9 (Q11 RMS 0.5 %, max 2 %, M11 RMS 1 %, <= 1.2 x measured-only, coefficients 0.05);
-    # measured at seed 0: Q11 RMS 0.38 / 0.33 / 0.24 %, M11 RMS 0.17 / 0.23 / 0.37 % (slow / medium / fast)
+    # measured at seed 0: Q11 RMS 0.43 / 0.36 / 0.19 %, M11 RMS 0.22 / 0.22 / 0.33 % (slow / medium / fast);
+    # measured-only nets: Q11 0.47 / 0.34 / 0.31 %, M11 0.28 / 0.32 / 0.33 %
     assert acceptance_failures(res) == [], (name, acceptance_failures(res))
 
 
