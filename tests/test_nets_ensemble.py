@@ -105,3 +105,20 @@ def test_folder_and_byte_order_mark(tmp_path):
         load_nets(tmp_path)
     nets = load_nets(_write(tmp_path, b"\xef\xbb\xbf" + SHIPPED.to_json().encode("utf-8")))
     assert nets.flow == SHIPPED.flow
+
+
+def test_trust_map_is_wider_outside_the_digitized_region(tmp_path):
+    from hillchart import chartplot
+    from hillchart.nets import measured_region_mask
+    from hillchart.samples import load_chart
+
+    chart = load_chart(FRANCIS_DIR)
+    N, A, width = chartplot.trust_map(SHIPPED, grid=41)
+    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, N, A)
+    # measured: median band width 0.24 % of the range inside, 0.91 % outside: the map shows where data end
+    assert np.all(width >= 0) and np.median(width[~inside]) > 2 * np.median(width[inside])
+    fig = chartplot.chart_figure(SHIPPED, samples=chart, path=tmp_path / "c.png")
+    assert any("trust map" in ax.get_title() for ax in fig.axes)
+    single = HillNets(flow=SHIPPED.flow, torque=SHIPPED.torque, opening_unit="mm")
+    fig2 = chartplot.chart_figure(single, samples=chart)
+    assert not any("trust map" in ax.get_title() for ax in fig2.axes)  # no ensemble, no map
