@@ -394,8 +394,53 @@ def _symlog_norm():
     return SymLogNorm(linthresh=0.5, vmin=-25, vmax=25)
 
 
+def trust_map(nets, *, grid: int = 81, percentiles=(5.0, 95.0)):
+    """Width of the ensemble's band over (N11, a): ``(N, A, width_pct)``.
+
+    ``width_pct`` is the larger of the Q11 and M11 band widths (``percentiles``), each in percent of the nets'
+    output range (``y_max - y_min`` of the point nets): where it is large the nets are not to be trusted.
+    """
+    (n_lo, n_hi), (a_lo, a_hi) = _domain(nets)
+    N, A = np.meshgrid(np.linspace(n_lo, n_hi, grid), np.linspace(a_lo, a_hi, grid))
+    widths = []
+    for name, weights in (("q11", nets.flow), ("m11", nets.torque)):
+        band = nets.band(name, N, A, percentiles=percentiles)
+        widths.append(100.0 * (band["high"] - band["low"]) / (weights.y_max - weights.y_min))
+    return N, A, np.maximum(*widths)
+
+
+def plot_trust_map(nets, ax=None, *, samples=None, grid: int = 81):
+    """The trust map (issue 9 section 4): shaded width of the 5-95 % ensemble band over (N11, a), with the
+    digitized region (hull of the opening-line points) outlined. Returns the Axes."""
+    plt = _pyplot()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 5))
+    N, A, width = trust_map(nets, grid=grid)
+    levels = [0, 0.5, 1, 2, 5, 10, 20, 50]
+    top = float(np.nanmax(width))
+    cf = ax.contourf(N, A, np.clip(width, 0, 50), levels=[v for v in levels if v < max(top, 0.5)] + [max(top, 50)],
+                     cmap="Reds")
+    plt.colorbar(cf, ax=ax, label="5-95 % band width, % of range (max of Q11, M11)")
+    if samples is not None:
+        from scipy.spatial import ConvexHull, QhullError
+
+        points = np.column_stack([samples.flow_n11, samples.flow_opening])
+        try:
+            hull = ConvexHull(points)
+            loop = np.append(hull.vertices, hull.vertices[0])
+            ax.plot(points[loop, 0], points[loop, 1], "k-", lw=1.5, label="digitized region")
+            ax.legend(loc="upper right", fontsize=8)
+        except QhullError:
+            pass
+    ax.set_xlabel("N11 (r/min)")
+    ax.set_ylabel(f"opening a ({getattr(nets, 'opening_unit', '')})")
+    ax.set_title(f"trust map: ensemble of {len(nets.ensemble)} (light = trust)")
+    return ax
+
+
 def chart_figure(nets, *, samples=None, extended=None, path=None, title: str | None = None):
-    """One page: hill chart, Q11 and M11 surfaces, and (with ``extended``) the sample error plots.
+    """One page: hill chart, Q11 and M11 surfaces, (with ``extended``) the sample error plots and (when the nets
+    have an ensemble) the trust map.
 
     Parameters
     ----------
@@ -410,7 +455,8 @@ def chart_figure(nets, *, samples=None, extended=None, path=None, title: str | N
     matplotlib Figure
     """
     plt = _pyplot()
-    ncols = 3 if extended is not None else 2
+    has_band = bool(getattr(nets, "ensemble", None))
+    ncols = 2 + (extended is not None) + has_band
     fig = plt.figure(figsize=(7.5 * ncols, 10.5))
     gs = fig.add_gridspec(2, ncols, width_ratios=[1.5] + [1.0] * (ncols - 1))
     ax_chart = fig.add_subplot(gs[:, 0])
@@ -418,6 +464,8 @@ def chart_figure(nets, *, samples=None, extended=None, path=None, title: str | N
     plot_surfaces(nets, (fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, 1])), extended=extended)
     if extended is not None:
         plot_sample_errors(nets, extended, (fig.add_subplot(gs[0, 2]), fig.add_subplot(gs[1, 2])))
+    if has_band:
+        plot_trust_map(nets, fig.add_subplot(gs[0, ncols - 1]), samples=samples)
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=100)

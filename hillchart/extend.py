@@ -41,6 +41,7 @@ ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed")
 ORIGIN_COLOURS = {"measured": "tab:blue", "runaway": "tab:red", "zero-opening": "tab:green", "zero-speed": "tab:orange"}
 TARGETS = ("q11", "m11")
 CSV_COLUMNS = ("target", "origin", "n11", "opening", "value")
+BOUNDARY_METHODS = ("model", "polynomial")
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,13 @@ class ExtensionOptions:
         None fits it from the data.
     efficiency_degree : int or None
         Degree of the efficiency surface; None chooses it by cross-validation among 2..6.
+    boundaries : {"model", "polynomial"}
+        Where the zero-opening, zero-speed (and, for a chart without runaway curve, runaway) samples come from:
+        ``"model"`` (default) a low-order physical turbine model fitted to the chart
+        (:mod:`hillchart.turbine_model`), ``"polynomial"`` the paper's per-line polynomial extrapolations.
+    check_chart : bool
+        Run :func:`hillchart.plausibility.check_chart` first (default). Off only for contrived test charts that
+        exercise a later step.
     """
 
     runaway: bool = True
@@ -70,8 +78,12 @@ class ExtensionOptions:
     zero_opening_points: int = 15
     zero_opening_k: float | None = None
     efficiency_degree: int | None = None
+    boundaries: str = "model"
+    check_chart: bool = True
 
     def __post_init__(self):
+        if self.boundaries not in BOUNDARY_METHODS:
+            raise InputError(f"boundaries must be one of {BOUNDARY_METHODS}, got {self.boundaries!r}")
         if not isinstance(self.extrapolation_degree, int) or not 1 <= self.extrapolation_degree <= 4:
             raise InputError(f"extrapolation_degree must be an integer in [1, 4], got {self.extrapolation_degree!r}")
         if not isinstance(self.zero_opening_points, int) or self.zero_opening_points < 2:
@@ -112,6 +124,11 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
     y = np.asarray(efficiency, float)
     if len(y) < 10:
         raise InputError(f"efficiency.csv: need at least 10 points to fit the efficiency surface, got {len(y)}")
+    if np.unique(y).size < 2:
+        raise InputError(f"efficiency.csv: all {len(y)} points are at efficiency {float(y[0])!r}; the surface needs "
+                         "contours at two or more levels")
+    if np.unique(x, axis=0).shape[0] < 6:
+        raise InputError("efficiency.csv: fewer than 6 distinct (n11, q11) points; a quadratic surface needs 6")
 
     def make(d):
         return make_pipeline(StandardScaler(), PolynomialFeatures(d), LinearRegression())
@@ -123,6 +140,10 @@ def fit_efficiency_surface(n11, q11, efficiency, *, degree: int | None = None, s
             if (d + 1) * (d + 2) // 2 >= 0.8 * len(y):  # more coefficients than a training fold can determine
                 break
             scores[d] = -cross_val_score(make(d), x, y, cv=folds, scoring="neg_root_mean_squared_error").mean()
+        scores = {d: v for d, v in scores.items() if np.isfinite(v)}
+        if not scores:
+            raise InputError(f"efficiency.csv: {len(y)} points leave no degree of the efficiency surface that "
+                             "cross-validation can score; digitize more contour points")
         best = min(scores.values())
         # parsimony: the lowest degree within 5 % of the best cross-validated error (exact data ties at ~1e-16)
         degree = min(d for d, rmse in scores.items() if rmse <= 1.05 * best + 1e-12)
@@ -148,6 +169,13 @@ class ExtendedSamples:
     k_zero_opening : float or None     K of eq. (8) used, N*m/(r/min)^2
     k_zero_opening_fitted : float or None  K from the data before any user override
     efficiency_surface : EfficiencySurface or None
+    derived : ndarray of bool (S,) or None
+        True for samples the extension derived by extrapolation or from the model (zero speed, runaway from the
+        model); they are soft constraints in training. The zero-opening family keeps weight 1: Q11 = 0 is exact
+        (eq. 6) and M11 = -K N11^2 sets the simulator's no-load opening and braking. None: the zero-opening and
+        zero-speed origins.
+    boundary_model : FittedTurbineModel or None
+        The physical model the boundaries came from (``boundaries="model"``).
     """
 
     target: np.ndarray
@@ -160,6 +188,8 @@ class ExtendedSamples:
     k_zero_opening: float | None = None
     k_zero_opening_fitted: float | None = None
     efficiency_surface: EfficiencySurface | None = field(default=None, repr=False)
+    derived: np.ndarray | None = field(default=None, repr=False)
+    boundary_model: object | None = field(default=None, repr=False)
 
     def select(self, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(X, y, origin)`` of one target: X (S, 2) columns N11 and opening."""
@@ -300,7 +330,11 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
     >>> ext.k_zero_opening > 0
     True
     """
+    from hillchart.plausibility import check_chart
+
     options = options or ExtensionOptions()
+    if options.check_chart:
+        check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit (issue 9 section 5)
     rows: list[tuple[str, str, float, float, float]] = []
 
     # (d) torque on the flow lines from the efficiency surface, eqs. (4)-(5)
@@ -315,32 +349,60 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         rows.append(("q11", "measured", n, a, q))
         rows.append(("m11", "measured", n, a, m))
 
+    derived_rows = [False] * len(rows)
+    model = None
+    needs_model = (options.zero_speed or (options.zero_opening and options.zero_opening_k is None)
+                   or (options.runaway and not chart.has_runaway))
+    if options.boundaries == "model" and needs_model:
+        from hillchart.turbine_model import fit_turbine_model
+
+        model = fit_turbine_model(chart, torque)
+
+    def add(target, origin, n, a, v, derived):
+        rows.append((target, origin, n, a, v))
+        derived_rows.append(derived)
+
     # (e)-(f), 2.6 (1): runaway points are flow samples and zero-torque samples
     if options.runaway and chart.has_runaway:
         for a, n, q in zip(chart.runaway_opening, chart.runaway_n11, chart.runaway_q11):
-            rows.append(("q11", "runaway", n, a, q))
-            rows.append(("m11", "runaway", n, a, 0.0))
+            add("q11", "runaway", n, a, q, False)
+            add("m11", "runaway", n, a, 0.0, False)
+    elif options.runaway and model is not None:  # no runaway curve digitized: the model's, at the line openings
+        for a in chart.openings:
+            n = model.runaway_n11(float(a))
+            if np.isfinite(n):
+                add("q11", "runaway", n, a, float(model.q11(n, a)), True)
+                add("m11", "runaway", n, a, 0.0, True)
 
-    # 2.6 (4): zero speed, per opening, extrapolating each line (with its runaway point when there is one)
+    # 2.6 (4): zero speed, per opening
     if options.zero_speed:
         for a in chart.openings:
-            on_line = chart.flow_opening == a
-            run = (chart.runaway_opening == a) if (options.runaway and chart.has_runaway) else np.zeros(0, bool)
-            n_sets = [chart.flow_n11[on_line], chart.runaway_n11[run]]
-            q0 = _zero_speed(n_sets, [chart.flow_q11[on_line], chart.runaway_q11[run]], options.extrapolation_degree)
-            m0 = _zero_speed(n_sets, [torque[on_line], np.zeros(int(run.sum()))], options.extrapolation_degree)
+            if model is not None:  # the physical model at N11 = 0
+                q0, m0 = float(model.q11(0.0, a)), float(model.m11(0.0, a))
+            else:  # the paper's polynomial extrapolation of each line (with its runaway point when there is one)
+                on_line = chart.flow_opening == a
+                run = (chart.runaway_opening == a) if (options.runaway and chart.has_runaway) else np.zeros(0, bool)
+                n_sets = [chart.flow_n11[on_line], chart.runaway_n11[run]]
+                q0 = _zero_speed(n_sets, [chart.flow_q11[on_line], chart.runaway_q11[run]],
+                                 options.extrapolation_degree)
+                m0 = _zero_speed(n_sets, [torque[on_line], np.zeros(int(run.sum()))], options.extrapolation_degree)
             if not np.isfinite(q0) or q0 < 0:
                 raise NumericalError(
                     f"zero-speed extrapolation of the opening line a = {a} gives Q11(N11=0) = {q0:.4g} m^3/s "
                     f"(must be >= 0); lower extrapolation_degree or switch the zero-speed boundary off"
                 )
-            rows.append(("q11", "zero-speed", 0.0, a, q0))
-            rows.append(("m11", "zero-speed", 0.0, a, m0))
+            add("q11", "zero-speed", 0.0, a, q0, True)
+            add("m11", "zero-speed", 0.0, a, m0, True)
 
     # (e)-(f), 2.6 (2)-(3): zero opening, Q11 = 0 (eq. 6) and M11 = -K N11^2 (eqs. 8-9)
     k_used = k_fitted = None
     if options.zero_opening:
-        _, _, k_fitted = zero_opening_torque(chart, torque, options.extrapolation_degree)
+        if model is not None:
+            k_fitted = model.k_zero_opening  # the model's disc friction: M11(N11, 0) = -K N11^2 exactly
+        elif options.boundaries == "model":
+            k_fitted = None  # the user's K, no model needed
+        else:
+            _, _, k_fitted = zero_opening_torque(chart, torque, options.extrapolation_degree)
         k_used = options.zero_opening_k if options.zero_opening_k is not None else k_fitted
         if k_used <= 0:
             raise NumericalError(
@@ -350,8 +412,10 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
             )
         n11_max = max(chart.flow_n11.max(), chart.runaway_n11.max() if chart.has_runaway else 0.0)
         for n in np.linspace(0.0, n11_max, options.zero_opening_points):
-            rows.append(("q11", "zero-opening", n, 0.0, 0.0))
-            rows.append(("m11", "zero-opening", n, 0.0, 0.0 - k_used * n * n))  # 0.0 - ...: no -0.0
+            add("q11", "zero-opening", n, 0.0, 0.0, False)  # exact, not derived: closed vanes pass no flow (eq. 6)
+            # weight 1 like the measured samples: the zero-opening torque decides the no-load opening and the
+            # braking after closure in the simulator, and it lies far (a = 0) from the digitized lines
+            add("m11", "zero-opening", n, 0.0, 0.0 - k_used * n * n, False)  # 0.0 - ...: no -0.0
 
     target, origin, n11, opening, value = zip(*rows)
     return ExtendedSamples(
@@ -365,6 +429,8 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         k_zero_opening=k_used,
         k_zero_opening_fitted=k_fitted,
         efficiency_surface=surface,
+        derived=np.array(derived_rows, bool),
+        boundary_model=model,
     )
 
 

@@ -207,6 +207,38 @@ def six_coefficients_at(
     return six_coefficients(characteristics, n11=n11, opening=opening)
 
 
+def six_coefficients_band(nets, *, n11: float, opening: float, percentiles=(5.0, 95.0)) -> dict:
+    """Mean and percentile band of the six coefficients over the ensemble members of ``nets`` (issue 9 section 4).
+
+    Parameters
+    ----------
+    nets : HillNets
+        Nets with an ensemble (``hillsim train --ensemble N``).
+    n11 : float, r/min
+    opening : float, chart units
+    percentiles : (low, high), percent
+
+    Returns
+    -------
+    dict
+        Coefficient name -> ``{"mean", "low", "high"}`` (dimensionless).
+
+    Raises
+    ------
+    InputError
+        No ensemble, or bad percentiles.
+    """
+    members = nets.members() if hasattr(nets, "members") else []
+    if not members:
+        raise InputError("these characteristics have no ensemble (train with --ensemble N)")
+    low_p, high_p = percentiles
+    if not (0 <= low_p < high_p <= 100):
+        raise InputError(f"percentiles must satisfy 0 <= low < high <= 100, got {percentiles!r}")
+    values = np.array([six_coefficients(m, n11=n11, opening=opening).as_tuple() for m in members])
+    return {name: {"mean": float(np.mean(values[:, j])), "low": float(np.percentile(values[:, j], low_p)),
+                   "high": float(np.percentile(values[:, j], high_p))} for j, name in enumerate(COEFFICIENT_NAMES)}
+
+
 def coefficient_maps(characteristics, n11, opening) -> dict[str, np.ndarray]:
     """The six coefficients on a grid of unit speeds and openings.
 

@@ -34,11 +34,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
 from hillchart.errors import NumericalError
+
+# torch is imported inside the training functions: evaluating exported nets (hillchart.nets) never needs it.
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    import torch
 
 
 def n_parameters(hidden: int, n_inputs: int = 2, n_outputs: int = 1) -> int:
@@ -71,6 +75,8 @@ def forward(theta: torch.Tensor, xn: torch.Tensor, hidden: int, n_outputs: int =
     eq. (11), BP hill-chart paper (004): ``yn = sum_i W2_i f(W1_i . xn + b1_i) + b2`` with the log-sigmoid
     ``f(z) = 1 / (1 + exp(-z))`` of eq. (10).
     """
+    import torch
+
     w1, b1, w2, b2 = unpack(theta, hidden, xn.shape[1], n_outputs)
     return torch.sigmoid(xn @ w1.T + b1) @ (w2 if n_outputs == 1 else w2.T) + b2  # eqs. (10)-(11), paper 004
 
@@ -83,6 +89,8 @@ def residual_jacobian(theta: torch.Tensor, xn: torch.Tensor, hidden: int,
     With ``f = sigmoid(z)``, ``z = W1 xn + b1`` and ``d_k = W2_k f (1 - f)`` for output k:
     ``dyn_k/dW1_ij = d_ki xn_j``, ``dyn_k/db1_i = d_ki``, ``dyn_k/dW2_ki = f_i``, ``dyn_k/db2_k = 1``.
     """
+    import torch
+
     n_in = xn.shape[1]
     w1, b1, w2, b2 = unpack(theta, hidden, n_in, n_outputs)
     f = torch.sigmoid(xn @ w1.T + b1)
@@ -170,7 +178,8 @@ class LMResult:
 
 def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: int, goal: float = 1e-5,
                         max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
-                        mu_inc: float = 10.0, mu_max: float = 1e10, min_grad: float = 1e-15) -> LMResult:
+                        mu_inc: float = 10.0, mu_max: float = 1e10, min_grad: float = 1e-15,
+                        sample_weight=None, regularization: float = 0.0) -> LMResult:
     """Train one net by ``trainlm``'s Levenberg-Marquardt with validation early stopping.
 
     Parameters
@@ -187,6 +196,12 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         Hidden neurons H.
     goal, max_epochs, max_fail, mu, mu_dec, mu_inc, mu_max, min_grad
         As ``net.trainParam`` of ``trainlm``.
+    sample_weight : ndarray (n,), optional
+        Weights of the training residuals (weighted least squares: ``perf = mean(w e^2)``); None: all 1, the
+        unweighted ``trainlm``. hillsim gives boundary samples a weight < 1 (soft constraints, issue 9).
+    regularization : float >= 0
+        lambda of a weight-decay term: ``perf = mean(w e^2) + lambda mean(theta^2)`` (as MATLAB's ``msereg``
+        mixes the MSE with the mean squared weights). 0: none.
 
     Returns
     -------
@@ -205,6 +220,8 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     >>> res.train_mse < 1e-5
     True
     """
+    import torch
+
     dtype = torch.float64
     xt = torch.as_tensor(np.asarray(xn_train, dtype=float), dtype=dtype)
     yt = torch.as_tensor(np.asarray(yn_train, dtype=float), dtype=dtype)
@@ -214,6 +231,18 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     eye = torch.eye(theta.shape[0], dtype=dtype)
     n_out = 1 if yt.ndim == 1 else yt.shape[1]  # a 2-D target array: n_in-H-n_out net
     yt_flat = yt.reshape(-1)
+    n_par = theta.shape[0]
+    weights = None if sample_weight is None else torch.as_tensor(np.asarray(sample_weight, dtype=float), dtype=dtype)
+    if weights is not None and n_out > 1:
+        weights = weights.repeat_interleave(n_out)  # a sample's weight holds for each of its outputs (row-major)
+    decay = yt_flat.shape[0] * float(regularization) / n_par  # the penalty in the sum form used by J^T J and J^T e
+
+    def train_perf(th, err):
+        sq = err * err if weights is None else weights * err * err
+        perf_ = torch.mean(sq)
+        if decay:
+            perf_ = perf_ + float(regularization) * torch.mean(th * th)
+        return float(perf_)
 
     def val_mse(th):
         return float(torch.mean((forward(th, xv, hidden, n_out) - yv) ** 2))
@@ -225,11 +254,15 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     for epoch in range(max_epochs + 1):
         yn, jac = residual_jacobian(theta, xt, hidden, n_out)
         err = yn - yt_flat
-        perf = float(torch.mean(err * err))
+        perf = train_perf(theta, err)
         if not np.isfinite(perf):
             raise NumericalError(f"Levenberg-Marquardt: training MSE is {perf} at epoch {epoch}")
-        jte = jac.T @ err
-        jtj = jac.T @ jac
+        wjac = jac if weights is None else weights[:, None] * jac
+        jte = wjac.T @ err
+        jtj = wjac.T @ jac
+        if decay:
+            jte = jte + decay * theta
+            jtj = jtj + decay * eye
         gradient = 2.0 * float(torch.linalg.vector_norm(jte))
         # stopping tests in trainlm's order
         if perf <= goal:
@@ -252,7 +285,7 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
             step, info = torch.linalg.solve_ex(jtj + mu * eye, -jte)
             if int(info) == 0:  # a singular system (saturated neurons, tiny mu) counts as a failed step
                 trial = theta + step
-                perf2 = float(torch.mean((forward(trial, xt, hidden, n_out) - yt) ** 2))
+                perf2 = train_perf(trial, (forward(trial, xt, hidden, n_out) - yt).reshape(-1))
             else:
                 perf2 = math.inf
             if perf2 < perf:  # NaN compares False: also a failed step
@@ -267,6 +300,6 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         elif vperf > best_vperf:
             val_fail += 1
     # trainlm returns the weights with the best validation performance, whatever stopped it
-    train_mse = float(torch.mean((forward(best_theta, xt, hidden, n_out) - yt) ** 2))
+    train_mse = train_perf(best_theta, (forward(best_theta, xt, hidden, n_out) - yt).reshape(-1))
     return LMResult(theta=best_theta.numpy().copy(), train_mse=train_mse, val_mse=best_vperf,
                     best_epoch=best_epoch, epochs=epoch, stop_reason=stop_reason)

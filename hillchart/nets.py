@@ -21,7 +21,9 @@ Pieces
     The flow and torque nets together; implements the :class:`hillchart.characteristics.Characteristics`
     protocol and ``numba_kernel()`` for the simulator, ``to_json()``/``save()``; :func:`load_nets` reads it back.
 :func:`train_nets`
-    Both nets from the extended-samples table of :mod:`hillchart.extend`.
+    Both nets from the extended-samples table of :mod:`hillchart.extend`: derived boundary samples weighted as soft
+    constraints, boundary weight / hidden size / weight decay chosen by cross-validation on the measured samples,
+    optionally an ensemble whose mean is distilled into the point nets (issue 9).
 
 There is exactly one implementation of eq. (11) and its analytic gradient at evaluation time, the numba function
 ``_net_value_grad``; the vectorized methods loop over it in compiled code. Torch is used only for training.
@@ -32,7 +34,8 @@ There is exactly one implementation of eq. (11) and its analytic gradient at eva
 
     {"format": "hillsim.nets", "version": 1,
      "units": {"n11": "r/min", "opening": "<chart unit>", "q11": "m^3/s", "m11": "N*m"},
-     "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...}}
+     "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...},
+     "ensemble": [{"flow": NET, "torque": NET}, ...]}    # optional (issue 9): the members of the band
     NET = {"inputs": ["n11", "opening"], "output": "q11" | "m11",
            "x_min": [n11_min, opening_min], "x_max": [n11_max, opening_max], "y_min": float, "y_max": float,
            "W1": [[w_n11, w_opening], ... H rows], "b1": [... H], "W2": [... H], "b2": float}
@@ -50,7 +53,6 @@ from pathlib import Path
 
 import numba
 import numpy as np
-import torch
 
 from hillchart import lm
 from hillchart.errors import InputError
@@ -134,12 +136,23 @@ def _evaluate(packed: np.ndarray, n11, opening):
 # ----------------------------------------------------------------------------------------------------------------
 # weights of one net
 # ----------------------------------------------------------------------------------------------------------------
+#: Largest magnitude accepted for any number of a NET block: trained nets stay orders of magnitude below it, and
+#: beyond it the evaluation overflows (e.g. y_max - y_min of 2e300 times a weight gives inf, then NaN).
+MAX_ABS_NET_VALUE = 1e9
+
+
 def _finite_float(value, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InputError(f"{key} must be a number, got {value!r}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer with hundreds of digits
+        raise InputError(f"{key} must be a number of magnitude <= {MAX_ABS_NET_VALUE:g}, got an integer of "
+                         f"{len(str(abs(value)))} digits") from None
     if not math.isfinite(value):
         raise InputError(f"{key} must be finite, got {value!r}")
+    if abs(value) > MAX_ABS_NET_VALUE:
+        raise InputError(f"{key} must have magnitude <= {MAX_ABS_NET_VALUE:g}, got {value!r}")
     return value
 
 
@@ -329,6 +342,42 @@ def stratified_split(groups, validation_fraction: float, rng: np.random.Generato
     return np.sort(np.concatenate(train)), np.sort(np.concatenate(val))
 
 
+def _split(groups, validation_fraction, validation_groups, rng):
+    """Train/validation split: stratified over all groups, or validating on ``validation_groups`` only (every
+    other sample trains)."""
+    groups = np.asarray(groups)
+    if validation_groups is None:
+        return stratified_split(groups, validation_fraction, rng)
+    chosen = np.isin(groups.astype(str), [str(g) for g in validation_groups])
+    if chosen.sum() < 2:
+        raise InputError(f"groups: the validation groups {list(validation_groups)} have {int(chosen.sum())} "
+                         f"sample(s); need >= 2")
+    members = np.flatnonzero(chosen)
+    tr, va = stratified_split(groups[members], validation_fraction, rng)
+    train = np.sort(np.concatenate([members[tr], np.flatnonzero(~chosen)]))
+    return train, np.sort(members[va])
+
+
+def _lm_runs(xn, yn, train_index, val_index, weight, hidden, regularization, rng, restarts, n_threads, lm_params):
+    """``restarts`` Levenberg-Marquardt runs from Nguyen-Widrow initialisations ("loop control", section 2.3 of
+    paper 004); returns the list of :class:`hillchart.lm.LMResult`."""
+    import torch  # training only: loading and evaluating nets never imports torch
+
+    previous_threads = torch.get_num_threads()
+    torch.set_num_threads(n_threads)
+    sample_weight = None if np.all(weight[train_index] == 1.0) else weight[train_index]
+    try:
+        results = []
+        for _ in range(restarts):
+            theta0 = lm.nguyen_widrow_init(hidden, rng)
+            results.append(lm.levenberg_marquardt(
+                xn[train_index], yn[train_index], xn[val_index], yn[val_index], theta0, hidden=hidden,
+                sample_weight=sample_weight, regularization=regularization, **lm_params))
+    finally:
+        torch.set_num_threads(previous_threads)
+    return results
+
+
 class HillNet:
     """One 2-H-1 logsig BP net y(N11, a), trained by Levenberg-Marquardt as MATLAB ``trainlm``.
 
@@ -382,7 +431,8 @@ class HillNet:
     def __init__(self, *, hidden: int = 5, restarts: int = 10, seed: int = 0, goal: float = 1e-5,
                  max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
                  mu_inc: float = 10.0, mu_max: float = 1e10, validation_fraction: float = 0.2,
-                 n_threads: int = 1):
+                 n_threads: int = 1, boundary_weight: float = 1.0, regularization: float = 0.0,
+                 validation_groups: tuple | None = None):
         self.hidden = hidden
         self.restarts = restarts
         self.seed = seed
@@ -395,12 +445,16 @@ class HillNet:
         self.mu_max = mu_max
         self.validation_fraction = validation_fraction
         self.n_threads = n_threads
+        self.boundary_weight = boundary_weight
+        self.regularization = regularization
+        self.validation_groups = validation_groups
 
     def get_params(self, deep: bool = True) -> dict:
         """Hyperparameters (scikit-learn contract)."""
         return {name: getattr(self, name) for name in
                 ("hidden", "restarts", "seed", "goal", "max_epochs", "max_fail", "mu", "mu_dec", "mu_inc",
-                 "mu_max", "validation_fraction", "n_threads")}
+                 "mu_max", "validation_fraction", "n_threads", "boundary_weight", "regularization",
+                 "validation_groups")}
 
     def set_params(self, **params) -> "HillNet":
         valid = self.get_params()
@@ -434,8 +488,18 @@ class HillNet:
             raise InputError(f"HillNet.mu_inc must be > 1, got {self.mu_inc!r}")
         if not 0 < self.validation_fraction < 1:
             raise InputError(f"HillNet.validation_fraction must be in (0, 1), got {self.validation_fraction!r}")
+        for name, low, high in (("boundary_weight", 0.0, 1.0), ("regularization", 0.0, 1.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not (
+                    low <= value <= high) or (name == "boundary_weight" and value == 0):
+                bound = "(0, 1]" if name == "boundary_weight" else "[0, 1]"
+                raise InputError(f"HillNet.{name} must be a number in {bound}, got {value!r}")
+        if self.validation_groups is not None and (
+                not isinstance(self.validation_groups, (tuple, list)) or not self.validation_groups):
+            raise InputError(f"HillNet.validation_groups must be None or a non-empty tuple of group labels, got "
+                             f"{self.validation_groups!r}")
 
-    def fit(self, X, y, groups=None) -> "HillNet":
+    def fit(self, X, y, groups=None, derived=None) -> "HillNet":
         """Train on samples ``X = [[N11, a], ...]`` (n, 2) and targets ``y`` (n,).
 
         Parameters
@@ -445,7 +509,11 @@ class HillNet:
         y : array_like (n,)
             Targets in physical units (Q11 m^3/s or M11 N*m).
         groups : array_like (n,), optional
-            Origin label per sample; the split puts every label in both parts. ``None``: one group.
+            Origin label per sample; the split puts every label in both parts (or, with ``validation_groups``,
+            validates on those labels only and trains on every other sample). ``None``: one group.
+        derived : array_like of bool (n,), optional
+            True for boundary samples derived by the extension (not read from the chart): their residuals carry
+            ``boundary_weight``. ``None``: no derived samples.
 
         Returns
         -------
@@ -485,20 +553,14 @@ class HillNet:
         xn = 2.0 * (X - x_min) / (x_max - x_min) - 1.0  # mapminmax, section 2.6 of paper 004
         yn = 2.0 * (y - y_min) / (y_max - y_min) - 1.0
         rng = np.random.default_rng(self.seed)
-        train_index, val_index = stratified_split(groups, self.validation_fraction, rng)
+        train_index, val_index = _split(groups, self.validation_fraction, self.validation_groups, rng)
+        derived = np.zeros(X.shape[0], bool) if derived is None else np.asarray(derived, bool)
+        if derived.shape != (X.shape[0],):
+            raise InputError(f"derived must have shape ({X.shape[0]},) matching X, got {derived.shape}")
+        weight = np.where(derived, float(self.boundary_weight), 1.0)
         start = time.perf_counter()
-        previous_threads = torch.get_num_threads()
-        torch.set_num_threads(self.n_threads)
-        try:
-            results = []
-            for _ in range(self.restarts):  # "loop control", section 2.3 of paper 004
-                theta0 = lm.nguyen_widrow_init(self.hidden, rng)
-                results.append(lm.levenberg_marquardt(
-                    xn[train_index], yn[train_index], xn[val_index], yn[val_index], theta0, hidden=self.hidden,
-                    goal=self.goal, max_epochs=self.max_epochs, max_fail=self.max_fail, mu=self.mu,
-                    mu_dec=self.mu_dec, mu_inc=self.mu_inc, mu_max=self.mu_max))
-        finally:
-            torch.set_num_threads(previous_threads)
+        results = _lm_runs(xn, yn, train_index, val_index, weight, self.hidden, float(self.regularization), rng,
+                           self.restarts, self.n_threads, self._lm_params())
         self.fit_time_s_ = time.perf_counter() - start
         best = int(np.argmin([r.val_mse for r in results]))
         res = results[best]
@@ -515,6 +577,10 @@ class HillNet:
         self.train_index_ = train_index
         self.val_index_ = val_index
         return self
+
+    def _lm_params(self) -> dict:
+        return {"goal": self.goal, "max_epochs": self.max_epochs, "max_fail": self.max_fail, "mu": self.mu,
+                "mu_dec": self.mu_dec, "mu_inc": self.mu_inc, "mu_max": self.mu_max}
 
     def _check_fitted(self):
         if not hasattr(self, "weights_"):
@@ -536,6 +602,16 @@ class HillNet:
         self._check_fitted()
         _, d_n, d_a = self.weights_.evaluate(*self._split_X(X))
         return np.column_stack([d_n, d_a])
+
+
+def _check_percentiles(percentiles) -> tuple[float, float]:
+    try:
+        low, high = (float(p) for p in percentiles)
+    except (TypeError, ValueError):
+        raise InputError(f"percentiles must be a pair (low, high) of numbers, got {percentiles!r}") from None
+    if not (0 <= low < high <= 100):
+        raise InputError(f"percentiles must satisfy 0 <= low < high <= 100, got {percentiles!r}")
+    return low, high
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -567,7 +643,8 @@ class HillNets:
     True
     """
 
-    def __init__(self, flow: NetWeights, torque: NetWeights, opening_unit: str, training: dict | None = None):
+    def __init__(self, flow: NetWeights, torque: NetWeights, opening_unit: str, training: dict | None = None,
+                 ensemble=None):
         if not isinstance(flow, NetWeights) or not isinstance(torque, NetWeights):
             raise InputError("HillNets.flow and HillNets.torque must be NetWeights")
         if not isinstance(opening_unit, str) or not opening_unit:
@@ -576,6 +653,46 @@ class HillNets:
         self.torque = torque
         self.opening_unit = opening_unit
         self.training = dict(training or {})
+        pairs = list(ensemble or [])
+        for i, pair in enumerate(pairs):
+            if not (isinstance(pair, (tuple, list)) and len(pair) == 2
+                    and all(isinstance(w, NetWeights) for w in pair)):
+                raise InputError(f"HillNets.ensemble[{i}] must be a (flow, torque) pair of NetWeights")
+        self.ensemble = [tuple(p) for p in pairs]
+
+    # ensemble: uncertainty band ------------------------------------------------------------------------------------
+    def members(self) -> list["HillNets"]:
+        """The ensemble members as HillNets (empty when the file has no ensemble)."""
+        return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit) for f, t in self.ensemble]
+
+    def band(self, quantity: str, n11, opening, *, percentiles=(5.0, 95.0)) -> dict:
+        """Mean and percentile band of ``quantity`` over the ensemble members (issue 9 section 4).
+
+        Parameters
+        ----------
+        quantity : {"q11", "m11", "efficiency"}
+        n11, opening : array_like (broadcast), r/min and chart units
+        percentiles : (low, high), percent
+
+        Returns
+        -------
+        dict
+            ``mean``, ``low``, ``high`` (arrays of the broadcast shape; Q11 m^3/s, M11 N*m, efficiency fraction)
+            and ``point`` (the point-estimate nets).
+
+        Raises
+        ------
+        InputError
+            Unknown quantity, bad percentiles, or no ensemble in these nets.
+        """
+        if quantity not in ("q11", "m11", "efficiency"):
+            raise InputError(f"quantity must be 'q11', 'm11' or 'efficiency', got {quantity!r}")
+        low_p, high_p = _check_percentiles(percentiles)
+        if not self.ensemble:
+            raise InputError("these nets have no ensemble (train with --ensemble N)")
+        values = np.array([getattr(m, quantity)(n11, opening) for m in self.members()])
+        return {"mean": np.nanmean(values, axis=0), "low": np.nanpercentile(values, low_p, axis=0),
+                "high": np.nanpercentile(values, high_p, axis=0), "point": getattr(self, quantity)(n11, opening)}
 
     # Characteristics protocol -----------------------------------------------------------------------------------
     def q11(self, n11, opening) -> np.ndarray:
@@ -609,11 +726,14 @@ class HillNets:
 
     # nets.json --------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        return {"format": FORMAT, "version": VERSION,
-                "units": {"n11": FIXED_UNITS["n11"], "opening": self.opening_unit, "q11": FIXED_UNITS["q11"],
-                          "m11": FIXED_UNITS["m11"]},
-                "flow": self.flow.to_dict("q11"), "torque": self.torque.to_dict("m11"),
-                "training": self.training}
+        doc = {"format": FORMAT, "version": VERSION,
+               "units": {"n11": FIXED_UNITS["n11"], "opening": self.opening_unit, "q11": FIXED_UNITS["q11"],
+                         "m11": FIXED_UNITS["m11"]},
+               "flow": self.flow.to_dict("q11"), "torque": self.torque.to_dict("m11"),
+               "training": self.training}
+        if self.ensemble:
+            doc["ensemble"] = [{"flow": f.to_dict("q11"), "torque": t.to_dict("m11")} for f, t in self.ensemble]
+        return doc
 
     def to_json(self) -> str:
         """``nets.json`` text (floats in shortest round-trip form, so loading is bit-exact)."""
@@ -623,6 +743,11 @@ class HillNets:
             if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
                 inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
                 lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
+            elif key == "ensemble":  # one line per member NET
+                members = ",\n".join(
+                    "  {" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in m.items()) + "}"
+                    for m in value)
+                lines.append(f" {json.dumps(key)}: [\n{members}\n ]")
             else:
                 text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
                 lines.append(f" {json.dumps(key)}: {text}")
@@ -661,7 +786,19 @@ class HillNets:
         training = doc["training"] if "training" in doc else {}
         if not isinstance(training, dict):
             raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
-        return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training)
+        ensemble = []
+        if "ensemble" in doc:  # optional (issue 9 section 4); a file without it is the version-1 file of before
+            members = doc["ensemble"]
+            if not isinstance(members, list):
+                raise InputError(f"nets.json: ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
+                                 f"{type(members).__name__}")
+            for i, member in enumerate(members):
+                if not isinstance(member, dict) or set(member) != {"flow", "torque"}:
+                    raise InputError(f"nets.json: ensemble[{i}] must be an object with exactly the keys flow and "
+                                     f"torque, got {member if not isinstance(member, dict) else sorted(member)!r}")
+                ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
+                                 NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
+        return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training, ensemble=ensemble)
 
     @classmethod
     def from_json(cls, text: str) -> "HillNets":
@@ -671,6 +808,10 @@ class HillNets:
             doc = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InputError(f"nets.json: not valid JSON ({exc})") from None
+        except RecursionError:
+            raise InputError("nets.json: nested too deeply to be a nets file (a NET block is 2 levels deep)") from None
+        except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
+            raise InputError(f"nets.json: not a valid nets file ({exc})") from None
         return cls.from_dict(doc)
 
 
@@ -696,13 +837,19 @@ def load_nets(path) -> HillNets:
     --------
     >>> from importlib.resources import files
     >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # the shipped synthetic-Francis nets
-    >>> nets.opening_unit, nets.flow.hidden
-    ('mm', 5)
-    >>> round(float(nets.efficiency(65.0, 18.0)), 2)  # best efficiency of the synthetic turbine: 0.935
-    0.93
+    >>> nets.opening_unit, nets.flow.hidden, len(nets.ensemble)  # hidden size chosen by cross-validation
+    ('mm', 8, 10)
+    >>> abs(float(nets.efficiency(65.0, 18.0)) - 0.935) < 0.005  # best efficiency of the synthetic turbine: 0.935
+    True
     """
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a nets.json file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); nets.json is JSON "
+                         "text") from None
     try:
         return HillNets.from_json(text)
     except InputError as exc:
@@ -723,25 +870,117 @@ def _column(table, name):
     raise InputError(f"extended samples: column {name!r} is missing (need target, origin, n11, opening, value)")
 
 
-def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, restarts: int = 10, seed: int = 0,
-               record_time: bool = False, **net_params) -> HillNets:
+#: Candidates of the model selection (issue 9 section 3), each scored by the validation MSE on measured samples.
+BOUNDARY_WEIGHTS = (0.03, 0.1, 0.3, 1.0)
+HIDDEN_SIZES = (3, 4, 5, 6, 8, 10)
+REGULARIZATIONS = (0.0, 1e-5, 1e-4)
+#: A candidate is "as good" as the best when its validation MSE is within this factor; among those the selection
+#: takes the largest boundary weight, the smallest net, the strongest regularization (Occam, as the 1-SE rule).
+SELECTION_TOLERANCE = 1.1
+#: Restarts per candidate during the selection, and per ensemble member.
+SELECTION_RESTARTS = 3
+SELECTION_FOLDS = 5
+ENSEMBLE_RESTARTS = 2
+DISTILL_RESTARTS = 3
+#: Derived (not digitized) origins; the runaway samples are derived when the extension made them from the model.
+DERIVED_ORIGINS = ("zero-opening", "zero-speed")
+
+
+def _derived_mask(extended, origin: np.ndarray) -> np.ndarray:
+    derived = getattr(extended, "derived", None)
+    if derived is not None:
+        derived = np.asarray(derived, bool)
+    else:
+        try:
+            derived = np.asarray(extended["derived"], bool)
+        except (KeyError, IndexError, TypeError, ValueError):
+            derived = None
+    if derived is None:
+        derived = np.isin(origin, DERIVED_ORIGINS)
+    return derived
+
+
+def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, boundary_weight, regularization, seed, n_threads,
+            lm_params, progress, label):
+    """Choose boundary weight, hidden size and regularization by validation MSE on the measured samples."""
+    table = []
+    # K-fold cross-validation over the validated (measured) samples; every other sample always trains. A single
+    # 20 % split holds about 17 measured samples: too few to rank candidates whose errors differ by < 10 %.
+    checked = np.flatnonzero(validated)
+    always = np.setdiff1d(np.arange(xn.shape[0]), checked)
+    folds = np.array_split(np.random.default_rng([seed, 31]).permutation(checked), SELECTION_FOLDS)
+
+    def score(weight, h, lam, index):
+        rng = np.random.default_rng([seed, 7919, index])
+        errors = []
+        for fold in folds:
+            train = np.sort(np.concatenate([always, np.setdiff1d(checked, fold)]))
+            results = _lm_runs(xn, yn, train, np.sort(fold), np.where(derived, weight, 1.0), h, lam, rng,
+                               1, n_threads, lm_params)
+            errors.append(results[0].val_mse * fold.size)
+        value = float(np.sum(errors) / checked.size)
+        table.append({"boundary_weight": weight, "hidden": h, "regularization": lam, "cv_mse": value})
+        return value
+
+    def pick(candidates, prefer_last: bool, evaluate):
+        scores = [evaluate(c, i) for i, c in enumerate(candidates)]
+        good = [c for c, v in zip(candidates, scores) if v <= SELECTION_TOLERANCE * min(scores) + 1e-15]
+        return good[-1] if prefer_last else good[0]
+
+    weight = boundary_weight
+    h = hidden if hidden is not None else 5
+    lam = regularization if regularization is not None else 0.0
+    if weight is None:
+        weight = pick(BOUNDARY_WEIGHTS, True, lambda w, i: score(w, h, lam, i)) if derived.any() else 1.0
+        if progress:
+            progress(f"{label}: boundary weight {weight}")
+    if hidden is None:
+        h = pick(HIDDEN_SIZES, False, lambda c, i: score(weight, c, lam, 100 + i))
+        if progress:
+            progress(f"{label}: hidden size {h}")
+    if regularization is None:
+        lam = pick(REGULARIZATIONS, True, lambda c, i: score(weight, h, c, 200 + i))
+        if progress:
+            progress(f"{label}: regularization {lam}")
+    return weight, h, lam, table
+
+
+def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None = None, restarts: int = 10,
+               seed: int = 0, boundary_weight: float | None = None, regularization: float | None = None,
+               ensemble: int = 0, record_time: bool = False, progress=None, **net_params) -> HillNets:
     """Train the flow and torque nets on the extended samples (paper 004, eq. (12) and section 2.6 steps (5)-(6)).
+
+    The measured (digitized) samples carry the fit; derived boundary samples are soft constraints whose weight, the
+    hidden size (3-10) and a weight-decay regularization are chosen by the validation error on measured samples
+    (issue 9, sections 2-3). Give ``hidden``, ``boundary_weight`` or ``regularization`` to fix them instead.
 
     Parameters
     ----------
     extended : table
         Extended samples with columns ``target`` ('q11' | 'm11'), ``origin`` ('measured' | 'runaway' |
         'zero-opening' | 'zero-speed'), ``n11`` (r/min), ``opening`` (chart units), ``value`` (m^3/s or N*m);
-        anything indexable by column name or with those attributes.
+        anything indexable by column name or with those attributes; an optional boolean ``derived`` marks the
+        samples the extension made up (default: the zero-opening and zero-speed origins).
     opening_unit : str, optional
         The chart's opening unit; default ``extended.opening_unit``.
-    hidden, restarts : int
-        Net size and multi-start count (both nets).
+    hidden : int in [1, 50] or None
+        Hidden neurons of both nets; None selects among :data:`HIDDEN_SIZES`. The paper's net: 5.
+    restarts : int
+        Multi-start count of the final fit of each net.
     seed : int
         The flow net uses ``seed``, the torque net ``seed + 1``.
+    boundary_weight : float in (0, 1] or None
+        Weight of the derived samples' residuals; None selects among :data:`BOUNDARY_WEIGHTS`.
+    regularization : float in [0, 1] or None
+        Weight decay lambda; None selects among :data:`REGULARIZATIONS`.
+    ensemble : int >= 0
+        Extra members trained on bootstrap resamples of the training samples with other seeds (the uncertainty
+        band); 0: none.
     record_time : bool
         Put training times (``time_s``) into the training record; off by default so that ``nets.json`` is
         byte-reproducible.
+    progress : callable(str), optional
+        Called with a short message after each stage (long trainings report progress).
     **net_params
         Further :class:`HillNet` hyperparameters.
 
@@ -749,12 +988,23 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, re
     -------
     HillNets
         With ``training`` holding per-net sample counts, split, errors (normalized MSE and physical max/RMS),
-        epochs and stop reasons; the fitted estimators are kept in ``nets.estimators``.
+        epochs, stop reasons and the selection; the fitted estimators are kept in ``nets.estimators``.
     """
     if opening_unit is None:
         opening_unit = getattr(extended, "opening_unit", None)
         if opening_unit is None:
             raise InputError("train_nets: opening_unit is required when the table does not carry it")
+    for name, value, low, high in (("hidden", hidden, 1, 50), ("ensemble", ensemble, 0, 200),
+                                   ("restarts", restarts, 1, 1000), ("seed", seed, 0, 2**63 - 1)):
+        if value is None and name == "hidden":
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+            raise InputError(f"train_nets: {name} must be an integer in [{low}, {high}], got {value!r}")
+    if boundary_weight is not None and not (isinstance(boundary_weight, (int, float)) and 0 < boundary_weight <= 1):
+        raise InputError(f"train_nets: boundary_weight must be in (0, 1], got {boundary_weight!r}")
+    if regularization is not None and not (isinstance(regularization, (int, float))
+                                           and 0 <= regularization <= 1):
+        raise InputError(f"train_nets: regularization must be in [0, 1], got {regularization!r}")
     target = _column(extended, "target").astype(str)
     origin = _column(extended, "origin").astype(str)
     n11 = _column(extended, "n11").astype(float)
@@ -766,8 +1016,10 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, re
     bad_origins = sorted(set(origin.tolist()) - set(ORIGINS))
     if bad_origins:
         raise InputError(f"extended samples: origin must be one of {', '.join(ORIGINS)}, got {bad_origins}")
-    record = {"seed": seed, "hidden": hidden, "restarts": restarts}
-    weights, estimators = {}, {}
+    derived_all = _derived_mask(extended, origin)
+    record = {"seed": seed, "hidden": hidden if hidden is not None else "selected", "restarts": restarts,
+              "validation": "measured samples", "ensemble": int(ensemble)}
+    weights, estimators, members = {}, {}, {"flow": [], "torque": []}
     for offset, (key, tgt) in enumerate((("flow", "q11"), ("torque", "m11"))):
         sel = target == tgt
         if not np.any(sel):
@@ -775,19 +1027,83 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int = 5, re
         X = np.column_stack([n11[sel], opening[sel]])
         y = value[sel]
         groups = origin[sel]
-        est = HillNet(hidden=hidden, restarts=restarts, seed=seed + offset, **net_params).fit(X, y, groups)
+        derived = derived_all[sel]
+        net_seed = seed + offset
+        validation_groups = ("measured",) if np.sum(groups == "measured") >= 10 else None
+        probe = HillNet(hidden=hidden or 5, restarts=restarts, seed=net_seed, validation_groups=validation_groups,
+                        **net_params)
+        probe._validate_params()
+        x_min, x_max = X.min(axis=0), X.max(axis=0)
+        y_min, y_max = float(y.min()), float(y.max())
+        if not (np.all(x_max > x_min) and y_max > y_min) or X.shape[0] < 10 or not np.all(np.isfinite(X)) or \
+                not np.all(np.isfinite(y)):
+            probe.fit(X, y, groups, derived)  # raises the estimator's own, precise error
+        xn = 2.0 * (X - x_min) / (x_max - x_min) - 1.0  # mapminmax, section 2.6 of paper 004
+        yn = 2.0 * (y - y_min) / (y_max - y_min) - 1.0
+        train_index, val_index = _split(groups, probe.validation_fraction, validation_groups,
+                                        np.random.default_rng(net_seed))
+        start = time.perf_counter()
+        validated = np.isin(groups, validation_groups) if validation_groups else np.ones(groups.size, bool)
+        weight, h, lam, table = _select(xn, yn, train_index, val_index, derived, validated, hidden=hidden,
+                                        boundary_weight=boundary_weight, regularization=regularization,
+                                        seed=net_seed, n_threads=probe.n_threads, lm_params=probe._lm_params(),
+                                        progress=progress, label=key)
+        for i in range(ensemble):
+            # member i: its own random 80/20 split of the validated samples (early stopping on its held-out part),
+            # every derived sample in training, its own initialisations
+            rng = np.random.default_rng([net_seed, 104729, i])
+            tr_i, va_i = _split(groups, probe.validation_fraction, validation_groups, rng)
+            results = _lm_runs(xn, yn, tr_i, va_i, np.where(derived, weight, 1.0), h, lam, rng,
+                               ENSEMBLE_RESTARTS, probe.n_threads, probe._lm_params())
+            res = min(results, key=lambda r: r.val_mse)
+            w1, b1, w2, b2 = lm.unpack(res.theta, h)
+            members[key].append(NetWeights(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, W1=w1, b1=b1,
+                                           W2=w2, b2=float(b2)))
+        if ensemble:
+            # point estimate: one 2-h-1 net fitted to the ensemble mean (the average of nets trained on different
+            # splits has a fraction of a single net's variance; "distilling" it keeps the paper's small net).
+            # Targets: the mean at the samples and on a 21 x 21 grid over the input box.
+            grid = np.stack(np.meshgrid(np.linspace(x_min[0], x_max[0], 21), np.linspace(x_min[1], x_max[1], 21)),
+                            axis=-1).reshape(-1, 2)
+            X_d = np.vstack([X, grid])
+            y_d = np.mean([m.evaluate(X_d[:, 0], X_d[:, 1])[0] for m in members[key]], axis=0)
+            est = HillNet(hidden=h, restarts=DISTILL_RESTARTS, seed=net_seed, goal=1e-8, **net_params).fit(X_d, y_d)
+            if progress:
+                progress(f"{key}: {ensemble} ensemble members, point net 2-{h}-1 fitted to their mean")
+        else:
+            est = HillNet(hidden=h, restarts=restarts, seed=net_seed, boundary_weight=weight, regularization=lam,
+                          validation_groups=validation_groups, **net_params).fit(X, y, groups, derived)
+            if progress:
+                progress(f"{key}: final fit 2-{h}-1, validation MSE {est.val_mse_:.3g}")
+        est.fit_time_s_ = time.perf_counter() - start  # selection + ensemble + final fit
         estimators[key] = est
         weights[key] = est.weights_
-        record[key] = _training_record(est, X, y, groups, record_time)
-    nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record)
+        rec = _training_record(est, X, y, groups, record_time, point_of_ensemble=bool(ensemble))
+        err = est.predict(X) - y
+        measured = groups == "measured"
+        if measured.any():
+            rec["measured_rms_error"] = float(np.sqrt(np.mean(err[measured] ** 2)))
+            rec["measured_max_abs_error"] = float(np.max(np.abs(err[measured])))
+        best_cv = min(c["cv_mse"] for c in table) if table else None
+        rec["selection"] = {"boundary_weight": weight, "hidden": h, "regularization": lam,
+                            "cv_mse_best": best_cv,
+                            "rule": f"{SELECTION_FOLDS}-fold CV MSE on measured samples within {SELECTION_TOLERANCE} "
+                                    "x the best: largest boundary weight, smallest net, strongest regularization",
+                            "candidates": table}
+        record[key] = rec
+    ensemble_pairs = list(zip(members["flow"], members["torque"])) if ensemble else None
+    nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
+                    ensemble=ensemble_pairs)
     nets.estimators = estimators
     return nets
 
 
-def _training_record(est: HillNet, X, y, groups, record_time: bool) -> dict:
+def _training_record(est: HillNet, X, y, groups, record_time: bool, point_of_ensemble: bool = False) -> dict:
     pred = est.predict(X)
     err = pred - y
     tr, va = est.train_index_, est.val_index_
+    if point_of_ensemble:  # the point net was fitted to the ensemble mean: report its errors at the samples
+        tr, va = np.arange(X.shape[0]), np.zeros(0, int)
     counts = {}
     for g in sorted(set(groups.tolist())):
         counts[g] = {"train": int(np.sum(groups[tr] == g)), "validation": int(np.sum(groups[va] == g))}
@@ -795,8 +1111,8 @@ def _training_record(est: HillNet, X, y, groups, record_time: bool) -> dict:
            "train_mse_normalized": est.train_mse_, "validation_mse_normalized": est.val_mse_,
            "train_rms_error": float(np.sqrt(np.mean(err[tr] ** 2))),
            "train_max_abs_error": float(np.max(np.abs(err[tr]))),
-           "validation_rms_error": float(np.sqrt(np.mean(err[va] ** 2))),
-           "validation_max_abs_error": float(np.max(np.abs(err[va]))),
+           "validation_rms_error": float(np.sqrt(np.mean(err[va] ** 2))) if va.size else None,
+           "validation_max_abs_error": float(np.max(np.abs(err[va]))) if va.size else None,
            "epochs": est.epochs_, "best_epoch": est.best_epoch_, "stop_reason": est.stop_reason_,
            "best_restart": est.best_restart_, "restart_validation_mse": est.restart_val_mse_}
     if record_time:

@@ -36,6 +36,12 @@ FILES = {
 }
 #: Fewest points an equal-opening line needs (a quadratic through it must be determined).
 MIN_POINTS_PER_LINE = 3
+#: Most points a chart file may hold (a digitized chart has hundreds; training time grows with the count).
+MAX_POINTS_PER_FILE = 20000
+#: Upper limits of values in the file's units (N11 of any turbine chart is below 1000 r/min; Q11 below 100 000 in
+#: either unit); far beyond them the numerics overflow.
+N11_MAX_RPM = 1000.0
+Q11_MAX = {"m3/s": 100000.0, "l/s": 100000.0}  # m3/s as l/s too: the plausibility check names the unit mix-up
 
 
 @dataclass(frozen=True)
@@ -84,6 +90,8 @@ class ChartSamples:
     runaway_opening, runaway_n11, runaway_q11 : ndarray (R,)
         Runaway curve points (R = 0 when the chart has no runaway file).
     folder : Path
+    rows : dict or None
+        ``{"flow": ..., "eff": ..., "runaway": ...}``: the line number in its file of every point (for messages).
     """
 
     info: ChartInfo
@@ -97,6 +105,7 @@ class ChartSamples:
     runaway_n11: np.ndarray
     runaway_q11: np.ndarray
     folder: Path
+    rows: dict | None = None
 
     @property
     def has_runaway(self) -> bool:
@@ -139,56 +148,62 @@ def parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
     return value
 
 
-def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
+def _read_csv(path: Path, columns: tuple[str, ...]) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Read a numeric CSV with exactly ``columns`` (any order); errors name file, row (line number) and column.
-    A byte-order mark, semicolon/tab delimiters and decimal commas are handled by :func:`hillchart.tabular.read_table`
-    (how an unusual file was read is a UserWarning)."""
+    Returns the columns and the line number of every data row. A byte-order mark, semicolon/tab delimiters and
+    decimal commas are handled by :func:`hillchart.tabular.read_table` (how an unusual file was read is a
+    UserWarning)."""
     from hillchart.tabular import read_table
 
     table = read_table(path, columns)
     if table.note:
         warnings.warn(table.note, UserWarning, stacklevel=3)
-    columns_read = _Columns(table.columns)
-    columns_read.lines = table.lines  # file line of each row, for messages about rows below blank lines
-    return columns_read
+    if len(table.lines) > MAX_POINTS_PER_FILE:
+        raise InputError(f"{path}: {len(table.lines)} rows; a digitized chart file has at most "
+                         f"{MAX_POINTS_PER_FILE} points (thin the export)")
+    return dict(table.columns), np.asarray(table.lines, dtype=int)
 
 
-class _Columns(dict):
-    """``{column: values}`` with ``.lines``, the file line number of each row (header = 1, blank lines counted)."""
-
-    lines: np.ndarray
-
-
-def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allowed: str) -> None:
+def _check_range(path: Path, name: str, values: np.ndarray, ok: np.ndarray, allowed: str,
+                 rows: np.ndarray | None = None) -> None:
     bad = np.flatnonzero(~ok)
     if bad.size:
         i = bad[0]
+        row = int(rows[i]) if rows is not None else i + 2
+        hint = ""
+        if name == "efficiency" and "fraction" in allowed and np.all((values > 1) & (values <= 100)):
+            hint = " (the values look like percent: set efficiency_unit = \"percent\" in chart.toml)"
         raise InputError(
-            f"{path}: row {i + 2}, column {name!r}: {float(values[i])!r} is out of range; allowed {allowed}"
+            f"{path}: row {row}, column {name!r}: {float(values[i])!r} is out of range; allowed {allowed}{hint}"
         )
 
 
-def _check_duplicates(path: Path, table: dict[str, np.ndarray]) -> None:
+def _check_duplicates(path: Path, table: dict[str, np.ndarray], rows=None) -> None:
     stacked = np.column_stack(list(table.values()))
     _, first, counts = np.unique(stacked, axis=0, return_index=True, return_counts=True)
     if np.any(counts > 1):
         row = stacked[first[counts > 1][0]]
-        where = np.flatnonzero(np.all(stacked == row, axis=1)) + 2
+        where = np.flatnonzero(np.all(stacked == row, axis=1))
+        where = rows[where] if rows is not None else where + 2
         raise InputError(f"{path}: duplicate point {dict(zip(table, row.tolist()))} at rows {where.tolist()}")
 
 
-def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo) -> None:
-    _check_range(path, "n11", table["n11"], table["n11"] >= 0, "n11 >= 0 r/min")
-    _check_range(path, "q11", table["q11"], table["q11"] >= 0, f"q11 >= 0 {info.q11_unit}")
+def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo, rows=None) -> None:
+    _check_range(path, "n11", table["n11"], (table["n11"] >= 0) & (table["n11"] <= N11_MAX_RPM),
+                 f"n11 >= 0 and n11 <= {N11_MAX_RPM:g} r/min", rows)
+    q_max = Q11_MAX[info.q11_unit]
+    _check_range(path, "q11", table["q11"], (table["q11"] >= 0) & (table["q11"] <= q_max),
+                 f"q11 >= 0 and q11 <= {q_max:g} {info.q11_unit}", rows)
     if "opening" in table:
         op = table["opening"]
-        _check_range(path, "opening", op, (op >= 0) & (op <= info.opening_max), f"0 <= opening <= {info.opening_max}")
+        _check_range(path, "opening", op, (op >= 0) & (op <= info.opening_max), f"0 <= opening <= {info.opening_max}",
+                     rows)
     if "efficiency" in table:
         eta = table["efficiency"] * EFFICIENCY_UNITS[info.efficiency_unit]
         full = "1" if info.efficiency_unit == "fraction" else "100"
         allowed = f"(0, {full}] ({info.efficiency_unit})"
-        _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), allowed)
-    _check_duplicates(path, table)
+        _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), allowed, rows)
+    _check_duplicates(path, table, rows)
 
 
 def load_chart(folder) -> ChartSamples:
@@ -207,17 +222,20 @@ def load_chart(folder) -> ChartSamples:
     if not folder.is_dir():
         raise InputError(f"{folder}: not a chart folder (no such directory)")
     info = read_chart_info(folder / "chart.toml")
-    tables = {}
+    tables, line_numbers = {}, {}
     for name, columns in FILES.items():
         path = folder / name
         if not path.is_file():
             if name == "runaway.csv":
-                warnings.warn(f"{path} is absent: the runaway boundary (M11 = 0) will not be added", UserWarning, stacklevel=2)
+                warnings.warn(f"{path} is absent: the runaway boundary (M11 = 0) comes from the fitted turbine model "
+                              "(extension boundaries='model', the default) or is not added ('polynomial')",
+                              UserWarning, stacklevel=2)
                 tables[name] = {c: np.empty(0) for c in columns}
+                line_numbers[name] = np.zeros(0, int)
                 continue
             raise InputError(f"{path}: missing file (a chart folder needs {', '.join(n for n in FILES if n != 'runaway.csv')})")
-        table = _read_csv(path, columns)
-        _validate_points(path, table, info)
+        table, line_numbers[name] = _read_csv(path, columns)
+        _validate_points(path, table, info, line_numbers[name])
         tables[name] = table
     flow = tables["flow.csv"]
     lines, counts = np.unique(flow["opening"], return_counts=True)
@@ -242,4 +260,6 @@ def load_chart(folder) -> ChartSamples:
         runaway_n11=run["n11"],
         runaway_q11=run["q11"] * q_scale,
         folder=folder,
+        rows={"flow": line_numbers["flow.csv"], "eff": line_numbers["efficiency.csv"],
+              "runaway": line_numbers["runaway.csv"]},
     )

@@ -203,21 +203,182 @@ class SyntheticFrancis:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# The chart an engineer digitizes
+# The family: three geometries spanning specific speed
 # ---------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ChartLayout:
+    """What a manufacturer's model chart of one turbine shows (model units: N11 r/min, openings mm).
 
-#: Window of the manufacturer's model chart: only the high-efficiency, mid-to-large opening region.
+    Attributes
+    ----------
+    n11_range : (float, float)
+        N11 window of the chart, r/min.
+    openings_mm : tuple of float
+        Equal-opening lines drawn, mm.
+    efficiencies : tuple of float
+        Iso-efficiency contour levels drawn (fractions, ascending).
+    runaway_openings_mm : tuple of float
+        Openings of the runaway curve points, mm.
+    name : str
+        The ``name`` written into ``chart.toml``.
+    axis_full_scale : (float, float)
+        Full scale of the chart's N11 (r/min) and Q11 (m^3/s) axes: digitization noise is a percentage of it.
+    """
+
+    n11_range: tuple[float, float]
+    openings_mm: tuple[float, ...]
+    efficiencies: tuple[float, ...]
+    runaway_openings_mm: tuple[float, ...]
+    name: str
+    axis_full_scale: tuple[float, float] = (100.0, 1.0)
+
+    @property
+    def efficiency_floor(self) -> float:
+        """Lowest efficiency drawn: the opening lines stop where the contours stop."""
+        return self.efficiencies[0]
+
+
+@dataclass(frozen=True)
+class FamilyTurbine:
+    """One member of the synthetic Francis family: geometry (the exact turbine) and the chart drawn of it."""
+
+    params: FrancisParameters
+    layout: ChartLayout
+    description: str
+
+    def turbine(self) -> SyntheticFrancis:
+        return SyntheticFrancis(self.params)
+
+
+#: Window of the manufacturer's model chart of the medium turbine: only the high-efficiency, mid-to-large opening
+#: region.
 CHART_N11_RANGE = (44.0, 92.0)
 CHART_OPENINGS_MM = (10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 24.0, 26.0, 28.0, 30.0, 32.0)
 CHART_EFFICIENCIES = (0.80, 0.84, 0.87, 0.89, 0.91, 0.92, 0.93, 0.935, 0.938)
 RUNAWAY_OPENINGS_MM = (6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 24.0, 26.0, 28.0, 30.0, 32.0)
-#: Lowest efficiency still drawn on the chart (the opening lines stop where the contours stop).
+#: Lowest efficiency still drawn on the medium chart (the opening lines stop where the contours stop).
 CHART_EFFICIENCY_FLOOR = 0.80
-#: Digitization noise (one standard deviation): reading a printed chart by eye/mouse.
+
+#: The family (``hillsim synth --turbine NAME``). Specific speed n_s ~ N11_best sqrt(Q11_best eta_best): slow 28,
+#: medium 43 (the shipped turbine), fast 64. Best efficiency and runaway/best N11 ratios are held by
+#: ``tests/test_synthetic_family.py``: slow 0.942 / 1.6-1.8, medium 0.936 / 1.6-1.9, fast 0.913 / 1.5-2.0.
+FAMILY = {
+    "slow": FamilyTurbine(
+        params=FrancisParameters(d2=0.70, b1=0.12, beta1_deg=70.0, beta2_deg=15.0, opening_max=24.0),
+        layout=ChartLayout(
+            n11_range=(40.0, 86.0),
+            openings_mm=tuple(7.5 + 1.5 * i for i in range(12)),
+            efficiencies=(0.80, 0.84, 0.87, 0.89, 0.91, 0.92, 0.93, 0.935, 0.94),
+            runaway_openings_mm=tuple(4.5 + 1.5 * i for i in range(14)),
+            name="hillsim synthetic Francis, slow (low specific speed, 1-D Euler model)",
+            axis_full_scale=(100.0, 0.5),
+        ),
+        description="low specific speed: narrow runner (B1/D1 0.12, D2/D1 0.70), best eta 0.942 at N11 60, Q11 0.23",
+    ),
+    "medium": FamilyTurbine(
+        params=FrancisParameters(),
+        layout=ChartLayout(
+            n11_range=CHART_N11_RANGE,
+            openings_mm=CHART_OPENINGS_MM,
+            efficiencies=CHART_EFFICIENCIES,
+            runaway_openings_mm=RUNAWAY_OPENINGS_MM,
+            name="hillsim synthetic Francis (HLA339-like, 1-D Euler model)",
+        ),
+        description="HLA339-like medium head (the shipped chart): best eta 0.936 at N11 65, Q11 0.46",
+    ),
+    "fast": FamilyTurbine(
+        params=FrancisParameters(d2=0.90, b1=0.30, beta1_deg=35.0, beta2_deg=24.0, guide_vane_pitch_mm=90.0,
+                                 opening_max=40.0),
+        layout=ChartLayout(
+            n11_range=(48.0, 100.0),
+            openings_mm=tuple(12.5 + 2.5 * i for i in range(12)),
+            efficiencies=(0.78, 0.82, 0.85, 0.87, 0.88, 0.89, 0.90, 0.905, 0.91),
+            runaway_openings_mm=tuple(10.0 + 2.5 * i for i in range(13)),
+            name="hillsim synthetic Francis, fast (high specific speed, 1-D Euler model)",
+            axis_full_scale=(120.0, 1.2),
+        ),
+        description="high specific speed: wide runner (B1/D1 0.30, beta2 24 deg), best eta 0.913 at N11 70, Q11 0.90",
+    ),
+}
+
+
+def family_turbine(name: str) -> FamilyTurbine:
+    """The family member called ``name`` (one of :data:`FAMILY`); InputError names the allowed ones."""
+    if name not in FAMILY:
+        raise InputError(f"turbine must be one of {', '.join(FAMILY)}, got {name!r}")
+    return FAMILY[name]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The chart an engineer digitizes
+# ---------------------------------------------------------------------------------------------------------------
+
+#: Digitization noise (one standard deviation) at the default noise level 0.15 % on the medium chart (axes 0-100
+#: r/min, 0-1 m^3/s): reading a printed chart by eye/mouse. A noise level p % is p % of each axis' full scale
+#: (:attr:`ChartLayout.axis_full_scale`).
 NOISE_N11_RPM = 0.15
 NOISE_Q11_M3_S = 0.0015
-#: Rounding of digitized values (what a digitizer's export keeps).
+DEFAULT_NOISE_PCT = 0.15
+#: Rounding of digitized values (what a digitizer's export keeps), in the default units.
 DIGITS = {"n11": 2, "q11": 4, "opening": 2, "efficiency": 3}
+#: Guide-vane angle at full stroke when a chart gives openings in degrees (the opening maps linearly to the angle).
+FULL_STROKE_DEG = 30.0
+OPENING_UNITS = ("mm", "deg", "%")
+Q11_UNITS = ("m3/s", "l/s")
+EFFICIENCY_UNITS = ("fraction", "percent")
+
+
+@dataclass(frozen=True)
+class DigitizationOptions:
+    """How the chart is digitized (defaults: the shipped chart).
+
+    Attributes
+    ----------
+    points_per_line : int in [3, 12]
+        Points read along each equal-opening line.
+    spacing : {"even", "uneven"}
+        Even spacing in N11, or random gaps (Dirichlet(2) fractions of the line, seeded from ``seed``).
+    noise_pct : float in [0, 5]
+        Digitization noise level: sigma N11 and sigma Q11 = noise_pct % of the chart's axis full scale (medium
+        chart: 100 r/min and 1 m^3/s; slow: 100 r/min, 0.5 m^3/s; fast: 120 r/min, 1.2 m^3/s).
+    opening_unit : {"mm", "deg", "%"}
+        Openings in mm (the model's unit), guide-vane degrees (full stroke = 30 deg) or % of full stroke.
+    q11_unit : {"m3/s", "l/s"}
+    efficiency_unit : {"fraction", "percent"}
+    runaway : bool
+        Write ``runaway.csv``.
+    opening_lines : int or None
+        Use only this many of the layout's opening lines (evenly chosen, >= 3); None: all.
+    """
+
+    points_per_line: int = 7
+    spacing: str = "even"
+    noise_pct: float = DEFAULT_NOISE_PCT
+    opening_unit: str = "mm"
+    q11_unit: str = "m3/s"
+    efficiency_unit: str = "fraction"
+    runaway: bool = True
+    opening_lines: int | None = None
+
+    def __post_init__(self):
+        if isinstance(self.points_per_line, bool) or not isinstance(self.points_per_line, int) or not (
+                3 <= self.points_per_line <= 12):
+            raise InputError(f"points_per_line must be an integer in [3, 12], got {self.points_per_line!r}")
+        if self.spacing not in ("even", "uneven"):
+            raise InputError(f"spacing must be 'even' or 'uneven', got {self.spacing!r}")
+        if isinstance(self.noise_pct, bool) or not isinstance(self.noise_pct, (int, float)) or not (
+                0 <= self.noise_pct <= 5):
+            raise InputError(f"noise_pct must be a number in [0, 5] (percent), got {self.noise_pct!r}")
+        for name, allowed in (("opening_unit", OPENING_UNITS), ("q11_unit", Q11_UNITS),
+                              ("efficiency_unit", EFFICIENCY_UNITS)):
+            if getattr(self, name) not in allowed:
+                raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
+        if not isinstance(self.runaway, bool):
+            raise InputError(f"runaway must be True or False, got {self.runaway!r}")
+        if self.opening_lines is not None and (
+                isinstance(self.opening_lines, bool) or not isinstance(self.opening_lines, int)
+                or self.opening_lines < 3):
+            raise InputError(f"opening_lines must be an integer >= 3 or None, got {self.opening_lines!r}")
 
 
 def _fmt(value: float, digits: int) -> str:
@@ -232,53 +393,97 @@ def _csv_text(header, rows) -> str:
     return buffer.getvalue()
 
 
-def _digitized_row(label: float, label_digits: int, n11: float, q11: float, rng: np.random.Generator):
-    """A point as a digitizer exports it: exact label, N11 and Q11 with reading noise, rounded."""
-    return (
-        _fmt(label, label_digits),
-        _fmt(n11 + rng.normal(0, NOISE_N11_RPM), DIGITS["n11"]),
-        _fmt(q11 + rng.normal(0, NOISE_Q11_M3_S), DIGITS["q11"]),
-    )
+class _Digitizer:
+    """Turns exact points into exported rows: label and values in the chart's units, noise, rounding."""
+
+    def __init__(self, options: DigitizationOptions, opening_max_mm: float, rng: np.random.Generator,
+                 axis_full_scale: tuple[float, float] = (100.0, 1.0)):
+        self.options = options
+        self.rng = rng
+        scale = options.noise_pct / DEFAULT_NOISE_PCT  # exactly 1.0 at the default level
+        self.sigma_n11 = NOISE_N11_RPM * scale * (axis_full_scale[0] / 100.0)  # exact on the medium chart's axes
+        self.sigma_q11 = NOISE_Q11_M3_S * scale * (axis_full_scale[1] / 1.0)
+        self.opening_factor = {"mm": 1.0, "%": 100.0 / opening_max_mm,
+                               "deg": FULL_STROKE_DEG / opening_max_mm}[options.opening_unit]
+        self.q11_factor, self.q11_digits = (1.0, DIGITS["q11"]) if options.q11_unit == "m3/s" else (1000.0, 1)
+        self.eff_factor, self.eff_digits = ((1.0, DIGITS["efficiency"]) if options.efficiency_unit == "fraction"
+                                            else (100.0, 1))
+
+    def opening(self, opening_mm: float) -> float:
+        return opening_mm * self.opening_factor if self.opening_factor != 1.0 else opening_mm
+
+    def row(self, label: float, label_digits: int, n11: float, q11: float):
+        """A point as a digitizer exports it: exact label, N11 and Q11 with reading noise, rounded."""
+        n = n11 + self.rng.normal(0, self.sigma_n11)  # N11 drawn first, then Q11 (the shipped chart's order)
+        q = q11 + self.rng.normal(0, self.sigma_q11)
+        return (_fmt(label, label_digits), _fmt(n, DIGITS["n11"]),
+                _fmt(q * self.q11_factor if self.q11_factor != 1.0 else q, self.q11_digits))
 
 
-def _flow_lines(turbine: SyntheticFrancis, rng: np.random.Generator):
+def _line_positions(options: DigitizationOptions, rng: np.random.Generator) -> np.ndarray:
+    """Fractions in [0, 1] of a line's visible N11 span where points are read (both ends included)."""
+    k = options.points_per_line
+    if options.spacing == "even":
+        return np.linspace(0.0, 1.0, k)
+    gaps = rng.dirichlet(np.full(k - 1, 2.0))
+    return np.concatenate([[0.0], np.cumsum(gaps)[:-1], [1.0]])
+
+
+def _chosen_openings(layout: ChartLayout, options: DigitizationOptions) -> tuple[float, ...]:
+    openings = layout.openings_mm
+    if options.opening_lines is None or options.opening_lines >= len(openings):
+        return openings
+    index = np.round(np.linspace(0, len(openings) - 1, options.opening_lines)).astype(int)
+    return tuple(openings[i] for i in index)
+
+
+def _flow_lines(turbine: SyntheticFrancis, layout: ChartLayout, options: DigitizationOptions,
+                digitizer: _Digitizer, spacing_rng: np.random.Generator):
     rows = []
-    n11_grid = np.linspace(*CHART_N11_RANGE, 321)
-    for opening in CHART_OPENINGS_MM:
+    n11_grid = np.linspace(*layout.n11_range, 321)
+    for opening in _chosen_openings(layout, options):
         eta = turbine.efficiency(n11_grid, opening)
-        inside = n11_grid[eta >= CHART_EFFICIENCY_FLOOR]
+        inside = n11_grid[eta >= layout.efficiency_floor]
         if inside.size < 2:
             continue
-        for n11 in np.linspace(inside[0], inside[-1], 7):
-            rows.append(_digitized_row(opening, DIGITS["opening"], n11, float(turbine.q11(n11, opening)), rng))
+        if options.spacing == "even":
+            points = np.linspace(inside[0], inside[-1], options.points_per_line)  # the shipped chart's arithmetic
+        else:
+            points = inside[0] + (inside[-1] - inside[0]) * _line_positions(options, spacing_rng)
+        for n11 in points:
+            rows.append(digitizer.row(digitizer.opening(opening), DIGITS["opening"], n11,
+                                      float(turbine.q11(n11, opening))))
     return rows
 
 
-def _efficiency_contours(turbine: SyntheticFrancis, rng: np.random.Generator, points_per_contour: int = 16):
+def _efficiency_contours(turbine: SyntheticFrancis, layout: ChartLayout, digitizer: _Digitizer,
+                         points_per_contour: int = 16):
     import contourpy
 
-    n11 = np.linspace(*CHART_N11_RANGE, 161)
-    opening = np.linspace(CHART_OPENINGS_MM[0], CHART_OPENINGS_MM[-1], 121)
+    n11 = np.linspace(*layout.n11_range, 161)
+    opening = np.linspace(layout.openings_mm[0], layout.openings_mm[-1], 121)
     nn, aa = np.meshgrid(n11, opening)
     eta = turbine.efficiency(nn, aa)
     generator = contourpy.contour_generator(nn, aa, eta)
     rows = []
-    for level in CHART_EFFICIENCIES:
+    for level in layout.efficiencies:
         for line in generator.lines(level):
             if len(line) < 4:
                 continue
             arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line / [30.0, 20.0], axis=0).T))])
             for s in np.linspace(0.0, arc[-1], points_per_contour, endpoint=not np.allclose(line[0], line[-1])):
                 n, a = np.interp(s, arc, line[:, 0]), np.interp(s, arc, line[:, 1])
-                rows.append(_digitized_row(level, DIGITS["efficiency"], n, float(turbine.q11(n, a)), rng))
+                rows.append(digitizer.row(level * digitizer.eff_factor if digitizer.eff_factor != 1.0 else level,
+                                          digitizer.eff_digits, n, float(turbine.q11(n, a))))
     return rows
 
 
-def _runaway_curve(turbine: SyntheticFrancis, rng: np.random.Generator):
+def _runaway_curve(turbine: SyntheticFrancis, layout: ChartLayout, digitizer: _Digitizer):
     rows = []
-    for opening in RUNAWAY_OPENINGS_MM:
+    for opening in layout.runaway_openings_mm:
         n11 = turbine.runaway_n11(opening)
-        rows.append(_digitized_row(opening, DIGITS["opening"], n11, float(turbine.q11(n11, opening)), rng))
+        rows.append(digitizer.row(digitizer.opening(opening), DIGITS["opening"], n11,
+                                  float(turbine.q11(n11, opening))))
     return rows
 
 
@@ -287,49 +492,94 @@ def truth_n11_max(turbine: SyntheticFrancis) -> float:
     return float(np.ceil(1.15 * turbine.runaway_n11(turbine.opening_max) / 5.0) * 5.0)
 
 
-def _truth_grid(turbine: SyntheticFrancis):
+def _truth_grid(turbine: SyntheticFrancis, opening_factor: float = 1.0):
     n11 = np.arange(0.0, truth_n11_max(turbine) + 1e-9, 2.5)
     opening = np.arange(0.0, turbine.opening_max + 1e-9, 1.0)
     nn, aa = (g.ravel() for g in np.meshgrid(n11, opening))
     q11, m11, eta = turbine.q11(nn, aa), turbine.m11(nn, aa), turbine.efficiency(nn, aa)
+    chart_a = aa * opening_factor if opening_factor != 1.0 else aa
     return [
-        tuple(f"{v:.10g}" for v in row) for row in zip(nn, aa, q11, m11, eta)
+        tuple(f"{v:.10g}" for v in row) for row in zip(nn, chart_a, q11, m11, eta)
     ]
 
 
 CHART_TOML = """\
-name = "hillsim synthetic Francis (HLA339-like, 1-D Euler model)"
-opening_unit = "mm"
+name = "{name}"
+opening_unit = "{opening_unit}"
 opening_max = {opening_max}
-q11_unit = "m3/s"
-efficiency_unit = "fraction"
+q11_unit = "{q11_unit}"
+efficiency_unit = "{efficiency_unit}"
 runner_diameter_m = 0.35
 """
 
 
-def write_synthetic_chart(out_dir, *, seed: int = 0, turbine: SyntheticFrancis | None = None) -> dict[str, Path]:
-    """Write the digitized chart of the synthetic turbine (and its exact truth grid) into ``out_dir``.
+def synthetic_chart_texts(*, seed: int = 0, turbine: str | SyntheticFrancis | None = None,
+                          options: DigitizationOptions | None = None) -> dict[str, str]:
+    """The chart files of a synthetic turbine as text (see :func:`write_synthetic_chart`)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+    options = options or DigitizationOptions()
+    if turbine is None or isinstance(turbine, str):
+        member = family_turbine("medium" if turbine is None else turbine)
+        exact, layout = member.turbine(), member.layout
+    elif isinstance(turbine, SyntheticFrancis):
+        exact, layout = turbine, FAMILY["medium"].layout
+    else:
+        raise InputError(f"turbine must be a family name ({', '.join(FAMILY)}) or a SyntheticFrancis, got {turbine!r}")
+    rng = np.random.default_rng(seed)
+    spacing_rng = np.random.default_rng([seed, 1])  # uneven spacing never disturbs the noise stream
+    digitizer = _Digitizer(options, exact.opening_max, rng, layout.axis_full_scale)
+    opening_max = digitizer.opening(float(exact.opening_max))
+    texts = {
+        "chart.toml": CHART_TOML.format(name=layout.name, opening_unit=options.opening_unit,
+                                        opening_max=repr(float(opening_max)), q11_unit=options.q11_unit,
+                                        efficiency_unit=options.efficiency_unit),
+        "flow.csv": _csv_text(("opening", "n11", "q11"), _flow_lines(exact, layout, options, digitizer, spacing_rng)),
+        "efficiency.csv": _csv_text(("efficiency", "n11", "q11"), _efficiency_contours(exact, layout, digitizer)),
+    }
+    runaway_rows = _runaway_curve(exact, layout, digitizer)  # drawn always: the noise stream stays the same
+    if options.runaway:
+        texts["runaway.csv"] = _csv_text(("opening", "n11", "q11"), runaway_rows)
+    texts["truth.csv"] = _csv_text(("n11", "opening", "q11", "m11", "efficiency"),
+                                   _truth_grid(exact, digitizer.opening_factor))
+    return texts
+
+
+def write_synthetic_chart(out_dir, *, seed: int = 0, turbine: str | SyntheticFrancis | None = None,
+                          options: DigitizationOptions | None = None) -> dict[str, Path]:
+    """Write the digitized chart of a synthetic turbine (and its exact truth grid) into ``out_dir``.
 
     Files: ``chart.toml``, ``flow.csv`` (opening,n11,q11), ``efficiency.csv`` (efficiency,n11,q11),
-    ``runaway.csv`` (opening,n11,q11) and ``truth.csv`` (n11,opening,q11,m11,efficiency; exact, for evaluation).
-    Digitization noise: Gaussian, sigma 0.15 r/min on N11 and 0.0015 m^3/s on Q11, drawn from
-    ``numpy.random.default_rng(seed)``; values are rounded to what a digitizer exports. The same seed gives
-    byte-identical files. All files are built in memory first, so a failure leaves nothing behind.
+    ``runaway.csv`` (opening,n11,q11; unless ``options.runaway`` is False) and ``truth.csv``
+    (n11,opening,q11,m11,efficiency; exact, for evaluation: Q11 in m^3/s, efficiency a fraction, opening in the
+    chart's unit). Digitization noise: Gaussian, sigma 0.15 r/min on N11 and 0.0015 m^3/s on Q11 at the default
+    level, drawn from ``numpy.random.default_rng(seed)``; values are rounded to what a digitizer exports. The same
+    seed and options give byte-identical files; the medium turbine with default options is the shipped chart. All
+    files are built in memory first, so a failure leaves nothing behind.
+
+    Parameters
+    ----------
+    out_dir : path
+    seed : int >= 0
+    turbine : str or SyntheticFrancis, optional
+        A family name (``"slow"``, ``"medium"``, ``"fast"``; default medium) or a turbine drawn with the medium
+        chart's layout.
+    options : DigitizationOptions, optional
 
     Returns
     -------
     dict
         File name -> written path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     files = write_synthetic_chart(d, turbine="fast", options=DigitizationOptions(runaway=False))
+    ...     sorted(files)
+    ['chart.toml', 'efficiency.csv', 'flow.csv', 'truth.csv']
     """
-    turbine = turbine or SyntheticFrancis()
-    rng = np.random.default_rng(seed)
-    texts = {
-        "chart.toml": CHART_TOML.format(opening_max=repr(float(turbine.opening_max))),
-        "flow.csv": _csv_text(("opening", "n11", "q11"), _flow_lines(turbine, rng)),
-        "efficiency.csv": _csv_text(("efficiency", "n11", "q11"), _efficiency_contours(turbine, rng)),
-        "runaway.csv": _csv_text(("opening", "n11", "q11"), _runaway_curve(turbine, rng)),
-        "truth.csv": _csv_text(("n11", "opening", "q11", "m11", "efficiency"), _truth_grid(turbine)),
-    }
+    texts = synthetic_chart_texts(seed=seed, turbine=turbine, options=options)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = {}

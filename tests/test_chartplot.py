@@ -87,7 +87,7 @@ def test_cli_chart_rejects_bad_nets_file(tmp_path, capsys):
 
 def test_cli_train_rejects_bad_hidden(tmp_path, capsys):
     assert main(["train", str(CHART), "--out", str(tmp_path / "n.json"), "--hidden", "0"]) == 2
-    assert "--hidden must be an integer >= 1, got 0" in capsys.readouterr().err
+    assert "--hidden must be an integer in [1, 30], got '0'" in capsys.readouterr().err
 
 
 def test_cli_chart_rejects_mismatched_opening_unit(tmp_path, capsys, synthetic):

@@ -59,16 +59,24 @@ def test_unknown_option_is_an_argparse_error(capsys):
     assert "--colour" in capsys.readouterr().err
 
 
-def test_train_warns_when_nets_imply_efficiency_above_the_chart(tmp_path, capsys):
-    """Sayano-Shushenskaya: its opening lines start at N11 = 56, so the zero-speed extrapolation is poor and the
-    default nets reach eta 1.12 inside the digitized region (measured); without that boundary they peak at 0.94."""
+def test_train_refuses_nets_whose_efficiency_exceeds_the_chart(tmp_path, capsys):
+    """Sayano-Shushenskaya: its opening lines start at N11 = 56, so the paper's polynomial zero-speed extrapolation
+    is poor and those nets reach eta 1.04 inside the digitized region: an error by default (issue 9 section 5),
+    nothing written; --allow-implausible writes them with a warning. The default (physical-model boundaries,
+    weighted by cross-validation) trains this chart without error or warning."""
     from tests.external_charts import write_sayano_chart
 
     folder = write_sayano_chart(tmp_path / "sayano")
-    assert main(["train", str(folder), "--out", str(tmp_path / "a.json")]) == 0
-    assert "the nets' efficiency reaches 1.1" in capsys.readouterr().out
-    assert main(["train", str(folder), "--out", str(tmp_path / "b.json"), "--no-zero-speed"]) == 0
-    assert "the nets' efficiency reaches" not in capsys.readouterr().out
+    poly = ["--boundaries", "polynomial", "--ensemble", "0", "--hidden", "5", "--boundary-weight", "1",
+            "--regularization", "0", "--quiet"]
+    assert main(["train", str(folder), "--out", str(tmp_path / "a.json")] + poly) == 2
+    assert "the nets' efficiency reaches 1.0" in capsys.readouterr().err  # measured 1.041
+    assert not (tmp_path / "a.json").exists()
+    assert main(["train", str(folder), "--out", str(tmp_path / "a.json"), "--allow-implausible"] + poly) == 0
+    assert "warning: the nets' efficiency reaches 1.0" in capsys.readouterr().out
+    assert main(["train", str(folder), "--out", str(tmp_path / "b.json"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "efficiency reaches" not in out and "warning" not in out
 
 
 def test_train_synthetic_chart_gives_no_efficiency_warning(tmp_path, capsys):

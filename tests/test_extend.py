@@ -101,10 +101,17 @@ def test_non_positive_k_is_reported(tmp_path):
     with pytest.warns(UserWarning):
         chart = load_chart(tmp_path)
     with pytest.raises(NumericalError, match=r"K = -?[0-9.e+-]+ N\*m/\(r/min\)\^2 .* set zero_opening_k"):
-        extend_samples(chart, ExtensionOptions(zero_speed=False))
+        extend_samples(chart, ExtensionOptions(zero_speed=False, boundaries="polynomial", check_chart=False))
     # the user's K makes it go through, as the paper's hand adjustment does
-    ext = extend_samples(chart, ExtensionOptions(zero_speed=False, zero_opening_k=0.003))
+    ext = extend_samples(chart, ExtensionOptions(zero_speed=False, zero_opening_k=0.003, boundaries="polynomial",
+                                                 check_chart=False))
     assert ext.k_zero_opening == 0.003
+    # the default physical-model boundaries refuse this chart (no turbine has it), saying what to provide
+    with pytest.raises(InputError, match=r"no physically valid boundary .*runaway.csv.*--zero-opening-k"):
+        extend_samples(chart, ExtensionOptions(zero_speed=False, check_chart=False))
+    # and the plausibility check (on by default) names what is wrong with it first: its lines cross
+    with pytest.raises(InputError, match="cross"):
+        extend_samples(chart)
 
 
 @pytest.mark.parametrize(
@@ -168,4 +175,8 @@ def test_sayano_shushenskaya_chart_extends(tmp_path):
     assert z.sum() >= 2 and np.all(q11[z] == 0.0)
     zm = (xm[:, 1] == 0) & (xm[:, 0] > 0)
     assert zm.sum() >= 2 and np.all(m11[zm] < 0)
-    assert ext.counts()["m11"]["runaway"] == 0
+    # no runaway.csv: the default takes the runaway samples from the fitted model (derived, soft constraints); the
+    # paper's polynomial extension has none
+    run = ext.origin == "runaway"
+    assert run.sum() >= 2 and np.all(ext.derived[run])
+    assert extend_samples(chart, ExtensionOptions(boundaries="polynomial")).counts()["m11"]["runaway"] == 0

@@ -76,7 +76,7 @@ def test_shipped_nets_regenerate_byte_identical(tmp_path, capsys):
     assert main(["train", str(CHART), "--out", str(out)]) == 0
     assert out.read_bytes() == (CHART / "nets.json").read_bytes()
     text = capsys.readouterr().out
-    assert "flow" in text and "torque" in text and "val MSE" in text
+    assert "flow" in text and "torque" in text and "CV MSE" in text
 
 
 def test_runaway_curve_of_the_nets_matches_the_turbine():

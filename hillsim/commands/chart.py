@@ -62,5 +62,7 @@ def _recorded_options(nets):
     if "extension" not in nets.training:
         return ExtensionOptions()
     rec = nets.training["extension"]
-    keys = ("runaway", "zero_opening", "zero_speed", "extrapolation_degree", "zero_opening_k")
-    return ExtensionOptions(**{k: rec[k] for k in keys if k in rec})
+    keys = ("runaway", "zero_opening", "zero_speed", "extrapolation_degree", "zero_opening_k", "boundaries")
+    options = {k: rec[k] for k in keys if k in rec}
+    options.setdefault("boundaries", "polynomial")  # files trained before the model boundaries existed
+    return ExtensionOptions(**options)

@@ -12,7 +12,11 @@ def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--no-runaway", action="store_true", help="do not add the runaway boundary")
     group.add_argument("--no-zero-opening", action="store_true", help="do not add the zero-opening boundary")
     group.add_argument("--no-zero-speed", action="store_true", help="do not add the zero-speed boundary")
-    group.add_argument("--degree", type=int, default=2, help="degree of the boundary extrapolations (default 2)")
+    group.add_argument("--boundaries", choices=("model", "polynomial"), default="model",
+                       help="where the zero-opening / zero-speed (and missing runaway) samples come from: a physical "
+                            "turbine model fitted to the chart (default) or the paper's polynomial extrapolations")
+    group.add_argument("--degree", type=int, default=2,
+                       help="degree of the polynomial boundary extrapolations, 1-4 (default 2)")
     group.add_argument(
         "--zero-opening-k", type=float, default=None,
         help="K of M11 = -K N11^2 at zero opening, N*m/(r/min)^2 (default: fitted from the data)",
@@ -28,18 +32,25 @@ def extension_options(args: argparse.Namespace):
         zero_speed=not args.no_zero_speed,
         extrapolation_degree=args.degree,
         zero_opening_k=args.zero_opening_k,
+        boundaries=args.boundaries,
     )
 
 
-def load_chart_reporting_warnings(folder):
-    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``."""
+def load_chart_reporting_warnings(folder, boundaries: str = "polynomial"):
+    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``.
+
+    With ``boundaries="model"`` a missing runaway.csv is no warning: the fitted turbine model gives the runaway
+    samples (a note says so)."""
     from hillchart.samples import load_chart
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         chart = load_chart(folder)
     for w in caught:
-        print(f"warning: {w.message}")
+        if boundaries == "model" and "runaway.csv is absent" in str(w.message):
+            print("note: no runaway.csv: the runaway samples come from the turbine model fitted to the chart")
+        else:
+            print(f"warning: {w.message}")
     return chart
 
 
@@ -61,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
 
     out, plot = args.outputs.file("--out", args.out), args.outputs.file("--plot", args.plot)  # checked first
     options = extension_options(args)
-    chart = load_chart_reporting_warnings(args.chart)
+    chart = load_chart_reporting_warnings(args.chart, options.boundaries)
     extended = extend_samples(chart, options)
     extended.to_csv(out)
     print(f"wrote {args.out}: {len(extended.value)} samples")
@@ -69,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {target}: " + ", ".join(f"{o} {n}" for o, n in per_origin.items()))
     if extended.k_zero_opening is not None:
         print(f"  zero opening: M11 = -K N11^2 with K = {extended.k_zero_opening:.6g} N*m/(r/min)^2")
+    if extended.boundary_model is not None:
+        model = extended.boundary_model
+        print(f"  boundaries from the physical turbine model fitted to the chart: misfit Q11 RMS "
+              f"{model.q11_rms_pct:.2f} %, M11 RMS {model.m11_rms_pct:.2f} % of the measured range")
     print(f"  efficiency surface: polynomial of degree {extended.efficiency_surface.degree}, "
           f"cross-validated RMSE {extended.efficiency_surface.cv_rmse:.4f}")
     if args.plot:

@@ -113,6 +113,13 @@ def run(args: argparse.Namespace) -> int:
         "e": coeffs.e,  # paper 002: e = eqy eh / ey - eqh
         "warnings": warnings,
     }
+    if getattr(characteristics, "ensemble", None):  # uncertainty band of the ensemble (issue 9 section 4)
+        from hillchart.linearize import six_coefficients_band
+
+        band = six_coefficients_band(characteristics, n11=coeffs.n11_rpm, opening=args.opening)
+        out["band_5_95"] = {k: [v["low"], v["high"]] for k, v in band.items()}
+        out["ensemble_mean"] = {k: v["mean"] for k, v in band.items()}
+        out["ensemble_members"] = len(characteristics.ensemble)
     if args.map is not None:
         if args.grid < 2 or args.grid > 1000:
             raise InputError(f"--grid must be in [2, 1000], got {args.grid}")

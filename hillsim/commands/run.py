@@ -12,7 +12,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from hillchart.errors import InputError
 from hillsim import progress
 
 
@@ -27,6 +26,9 @@ def register(subparsers) -> None:
                         help="override a plant-file key; the value is parsed as TOML (repeatable), "
                              "e.g. --set penstock.model=\"rigid\" --set scenario.t_end_s=30")
     parser.add_argument("--no-plot", action="store_true", help="do not write transient.png and envelope.png")
+    parser.add_argument("--uncertainty", action="store_true",
+                        help="also run the scenario once per ensemble member of the nets and add the 5-95 %% band "
+                             "of max speed rise and max/min head to summary.json (issue 9)")
     parser.set_defaults(func=run_command)
 
 
@@ -70,9 +72,29 @@ def run_command(args: argparse.Namespace) -> int:
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
+    if getattr(args, "uncertainty", False) and result.success:
+        _add_uncertainty(plant, out / "summary.json")
     if not result.success:
         args.outputs.commit()  # the series up to the failure are a result too
         raise_message = f"{result.message} (series up to the failure written to {args.out})"
         from hillchart.errors import NumericalError
         raise NumericalError(raise_message)
     return 0
+
+
+def _add_uncertainty(plant, summary_path: Path) -> None:
+    """Minimal hook: the band from :func:`simulate.uncertainty.run_members` goes into summary.json."""
+    import json
+
+    from simulate.uncertainty import run_members
+
+    band = run_members(plant)
+    summary = json.loads(summary_path.read_text(encoding="utf-8"))
+    from hillchart.tidy import tidy_floats
+
+    summary["uncertainty"] = tidy_floats(band)
+    summary_path.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    print(f"ensemble of {band['members']} ({len(band['failed'])} failed): max speed rise "
+          f"{100 * band['max_speed_rise']['low']:.2f}-{100 * band['max_speed_rise']['high']:.2f} %, max head rise "
+          f"{100 * band['max_head_rise']['low']:.2f}-{100 * band['max_head_rise']['high']:.2f} %, min head drop "
+          f"{100 * band['min_head_drop']['low']:.2f}-{100 * band['min_head_drop']['high']:.2f} % (5-95 %)")

@@ -3,28 +3,50 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
-from hillsim import progress
+from hillsim.commands.extend import (add_extension_arguments, extension_options,
+                                     load_chart_reporting_warnings)
 
-from hillsim.commands.extend import add_extension_arguments, extension_options, load_chart_reporting_warnings
+#: Allowed ``--hidden`` values (the selection itself tries 3-10).
+HIDDEN_RANGE = (1, 30)
+#: Allowed ``--ensemble`` sizes.
+ENSEMBLE_RANGE = (0, 100)
+DEFAULT_ENSEMBLE = 10
 
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "train",
         help="train the Q11 and M11 nets (2-H-1 logsig, Levenberg-Marquardt) and write nets.json",
-        description="Load a chart folder, extend its samples (torque from efficiency, runaway, zero opening, zero "
-                    "speed) and train the flow net Q11(N11, a) and the torque net M11(N11, a) as in the BP "
-                    "hill-chart paper (Levenberg-Marquardt, 80/20 split stratified by origin, best of N restarts).",
+        description="Load a chart folder, check it, extend its samples (torque from efficiency; runaway, zero "
+                    "opening, zero speed from a physical model fitted to the chart) and train the flow net "
+                    "Q11(N11, a) and the torque net M11(N11, a) as in the BP hill-chart paper (Levenberg-Marquardt). "
+                    "The boundary samples' weight, the hidden size and the regularization are chosen by "
+                    "cross-validation on the measured samples; an ensemble gives the uncertainty band. Every check "
+                    "runs before anything is written.",
     )
     parser.add_argument("chart", metavar="CHART_DIR", help="chart folder (chart.toml, flow.csv, efficiency.csv, ...)")
     parser.add_argument("--out", required=True, help="nets.json to write")
-    parser.add_argument("--hidden", type=int, default=5, help="hidden logsig neurons per net (default 5)")
+    parser.add_argument("--hidden", default="auto",
+                        help=f"hidden logsig neurons per net, an integer in [{HIDDEN_RANGE[0]}, {HIDDEN_RANGE[1]}] "
+                             "(5 = the paper's 2-5-1 net), or 'auto' (default): chosen among 3-10 by cross-validation")
+    parser.add_argument("--boundary-weight", default="auto",
+                        help="weight of the derived boundary samples in (0, 1], or 'auto' (default: chosen by "
+                             "cross-validation on the measured samples)")
+    parser.add_argument("--regularization", default="auto",
+                        help="weight decay lambda in [0, 1], or 'auto' (default: chosen by cross-validation)")
+    parser.add_argument("--ensemble", type=int, default=DEFAULT_ENSEMBLE,
+                        help=f"ensemble members for the uncertainty band, {ENSEMBLE_RANGE[0]}-{ENSEMBLE_RANGE[1]} "
+                             f"(default {DEFAULT_ENSEMBLE}; 0: a single net, no band)")
     parser.add_argument("--restarts", type=int, default=10,
-                        help="random initialisations per net; the best validation error is kept (default 10)")
+                        help="random initialisations of the final net when --ensemble 0 (default 10)")
     parser.add_argument("--seed", type=int, default=0,
-                        help="seed of the split and initialisations (flow net: seed, torque net: seed + 1)")
+                        help="seed of the splits and initialisations (flow net: seed, torque net: seed + 1)")
+    parser.add_argument("--allow-implausible", action="store_true",
+                        help="report the efficiency plausibility check as a warning instead of an error")
+    parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     parser.add_argument("--record-time", action="store_true",
                         help="store training times in nets.json (off by default: the file is then byte-for-byte "
                              "reproducible)")
@@ -32,44 +54,91 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def _check_int(option: str, value: int, low: int) -> None:
+def _int_in(option: str, value, low: int, high: int) -> int:
     from hillchart.errors import InputError
 
-    if value < low:
-        raise InputError(f"{option} must be an integer >= {low}, got {value}")
+    try:
+        number = int(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{option} must be an integer in [{low}, {high}] or 'auto', got {value!r}") from None
+    if str(number) != str(value).strip() or not low <= number <= high:
+        raise InputError(f"{option} must be an integer in [{low}, {high}], got {value!r}")
+    return number
+
+
+def _auto_float(option: str, value: str, low: float, high: float, *, open_low: bool):
+    import math
+
+    from hillchart.errors import InputError
+
+    if value == "auto":
+        return None
+    bounds = f"{'(' if open_low else '['}{low}, {high}]"
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{option} must be a number in {bounds} or 'auto', got {value!r}") from None
+    if not math.isfinite(number) or number > high or number < low or (open_low and number == low):
+        raise InputError(f"{option} must be a number in {bounds} or 'auto', got {value!r}")
+    return number
+
+
+def parse_options(args: argparse.Namespace) -> dict:
+    """Validated training options (raises InputError naming the option)."""
+    hidden = None if args.hidden == "auto" else _int_in("--hidden", args.hidden, *HIDDEN_RANGE)
+    return {
+        "hidden": hidden,
+        "boundary_weight": _auto_float("--boundary-weight", args.boundary_weight, 0.0, 1.0, open_low=True),
+        "regularization": _auto_float("--regularization", args.regularization, 0.0, 1.0, open_low=False),
+        "ensemble": _int_in("--ensemble", args.ensemble, *ENSEMBLE_RANGE),
+        "restarts": _int_in("--restarts", args.restarts, 1, 1000),
+        "seed": _int_in("--seed", args.seed, 0, 2**31 - 1),
+    }
 
 
 def run(args: argparse.Namespace) -> int:
+    from hillchart.errors import InputError
     from hillchart.extend import extend_samples
     from hillchart.nets import train_nets
+    from hillchart.plausibility import efficiency_plausibility
 
-    _check_int("--hidden", args.hidden, 1)
-    _check_int("--restarts", args.restarts, 1)
-    _check_int("--seed", args.seed, 0)
+    options = parse_options(args)
+    extension = extension_options(args)
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
-    options = extension_options(args)
-    chart = load_chart_reporting_warnings(args.chart)
-    extended = extend_samples(chart, options)
+    chart = load_chart_reporting_warnings(args.chart, extension.boundaries)
+    extended = extend_samples(chart, extension)
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"  [{time.perf_counter() - start:5.1f} s] {message}", file=sys.stderr, flush=True)
+
     start = time.perf_counter()
-    progress.start(f"training both nets ({args.restarts} restarts each)")
-    nets = train_nets(extended, hidden=args.hidden, restarts=args.restarts, seed=args.seed,
-                      record_time=args.record_time)
+    nets = train_nets(extended, hidden=options["hidden"], boundary_weight=options["boundary_weight"],
+                      regularization=options["regularization"], ensemble=options["ensemble"],
+                      restarts=options["restarts"], seed=options["seed"], record_time=args.record_time,
+                      progress=progress)
     elapsed = time.perf_counter() - start
-    progress.done()
     nets.training["chart"] = chart.info.name
     nets.training["extension"] = {
-        "runaway": options.runaway, "zero_opening": options.zero_opening, "zero_speed": options.zero_speed,
-        "extrapolation_degree": options.extrapolation_degree, "zero_opening_k": options.zero_opening_k,
-        "k_zero_opening_used": extended.k_zero_opening,
+        "runaway": extension.runaway, "zero_opening": extension.zero_opening, "zero_speed": extension.zero_speed,
+        "extrapolation_degree": extension.extrapolation_degree, "zero_opening_k": extension.zero_opening_k,
+        "boundaries": extension.boundaries, "k_zero_opening_used": extended.k_zero_opening,
     }
+    if extended.boundary_model is not None:
+        nets.training["extension"]["model_misfit_pct"] = {"q11": round(extended.boundary_model.q11_rms_pct, 4),
+                                                          "m11": round(extended.boundary_model.m11_rms_pct, 4)}
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
+    problem = efficiency_plausibility(nets, chart)  # checked before anything is written
+    if problem and not args.allow_implausible:
+        raise InputError(f"{problem} (--allow-implausible writes the nets anyway)")
     nets.save(out)
-    warning = efficiency_plausibility_warning(nets, chart)
-    if warning:
-        print(f"warning: {warning}")
-    print(f"chart {chart.info.name!r}: {len(extended.value)} extended samples; 2-{args.hidden}-1 logsig nets, "
-          f"best of {args.restarts} Levenberg-Marquardt runs each (seed {args.seed})")
+    if problem:
+        print(f"warning: {problem}")
+    hidden = "selected" if options["hidden"] is None else options["hidden"]
+    print(f"chart {chart.info.name!r}: {len(extended.value)} extended samples ({extension.boundaries} boundaries); "
+          f"2-H-1 logsig nets (H {hidden}), Levenberg-Marquardt, ensemble of {options['ensemble']} (seed "
+          f"{options['seed']})")
     print(format_training_table(nets))
     print(f"training time (both nets): {elapsed:.2f} s")
     print(f"wrote {args.out}")
@@ -77,38 +146,22 @@ def run(args: argparse.Namespace) -> int:
 
 
 def format_training_table(nets) -> str:
-    """Text table of the training record: one row per net."""
-    header = (f"{'net':<7} {'n_train':>7} {'n_val':>5} {'train MSE':>10} {'val MSE':>10} {'train max|e|':>13} "
-              f"{'val max|e|':>12} {'unit':<6} {'epochs':>6} {'stop':<10} {'time s':>6}")
+    """Text table of the training record: one row per net, with what the selection chose."""
+    header = (f"{'net':<7} {'H':>2} {'bnd w':>6} {'lambda':>7} {'CV MSE':>9} {'meas. RMS':>10} {'meas. max':>10} "
+              f"{'unit':<6} {'members':>7} {'time s':>6}")
     lines = [header, "-" * len(header)]
     units = {"flow": "m^3/s", "torque": "N*m"}
     for key in ("flow", "torque"):
         rec = nets.training[key]
+        sel = rec.get("selection", {})
         est = getattr(nets, "estimators", {}).get(key)
         seconds = f"{est.fit_time_s_:6.2f}" if est is not None else "     -"
-        lines.append(f"{key:<7} {rec['n_train']:>7} {rec['n_validation']:>5} {rec['train_mse_normalized']:>10.3g} "
-                     f"{rec['validation_mse_normalized']:>10.3g} {rec['train_max_abs_error']:>13.4g} "
-                     f"{rec['validation_max_abs_error']:>12.4g} {units[key]:<6} {rec['epochs']:>6} "
-                     f"{rec['stop_reason']:<10} {seconds}")
-    lines.append("(MSE on outputs mapped to [-1, 1], as trainlm's goal; max |e| in physical units)")
+        cv = sel.get("cv_mse_best")
+        lines.append(f"{key:<7} {str(sel.get('hidden', '-')):>2} {str(sel.get('boundary_weight', '-')):>6} "
+                     f"{str(sel.get('regularization', '-')):>7} {'-' if cv is None else format(cv, '.3g'):>9} "
+                     f"{rec.get('measured_rms_error', float('nan')):>10.4g} "
+                     f"{rec.get('measured_max_abs_error', float('nan')):>10.4g} {units[key]:<6} "
+                     f"{len(nets.ensemble):>7} {seconds}")
+    lines.append("(H, boundary weight, lambda: chosen by 5-fold CV on the measured samples unless given; CV MSE on "
+                 "outputs mapped to [-1, 1]; errors of the point net at the measured samples in physical units)")
     return "\n".join(lines)
-
-
-def efficiency_plausibility_warning(nets, chart, *, margin: float = 0.03) -> str | None:
-    """A warning when the nets' efficiency inside the digitized region exceeds the chart's best contour by more
-    than ``margin`` (the flow and torque nets then disagree: usually a poor boundary extrapolation), else None."""
-    import numpy as np
-
-    from hillchart.chartplot import efficiency_from_characteristics
-    from hillchart.nets import measured_region_mask
-
-    n11, opening = np.meshgrid(np.linspace(chart.flow_n11.min(), chart.flow_n11.max(), 60),
-                               np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 60))
-    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, n11, opening)
-    eta = efficiency_from_characteristics(nets, n11[inside], opening[inside])
-    best_net, best_chart = float(np.nanmax(eta)), float(chart.eff_efficiency.max())
-    if best_net <= best_chart + margin:
-        return None
-    return (f"the nets' efficiency reaches {best_net:.3f} inside the digitized region, the chart's best contour is "
-            f"{best_chart:.3f}: the flow and torque nets disagree there; check the extended samples "
-            "(hillsim extend --plot), e.g. train with --no-zero-speed when the opening lines start far from N11 = 0")

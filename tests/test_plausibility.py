@@ -1,0 +1,161 @@
+"""Plausibility checks of a digitized chart (issue 9 section 5, issue 14): each mistake a digitizer makes gives an
+InputError naming the file, the row and what looks wrong; the clean charts of the family pass."""
+
+import shutil
+
+import pytest
+
+from data_synthetic import FRANCIS_DIR
+from hillchart.errors import InputError
+from hillchart.extend import extend_samples
+from hillchart.plausibility import check_chart
+from hillchart.samples import load_chart
+from hillchart.synthetic import FAMILY, DigitizationOptions, write_synthetic_chart
+from hillsim.cli import main
+
+
+@pytest.fixture()
+def chart_dir(tmp_path):
+    folder = tmp_path / "chart"
+    shutil.copytree(FRANCIS_DIR, folder)
+    (folder / "nets.json").unlink()
+    return folder
+
+
+def _edit(folder, name, edit):
+    lines = (folder / name).read_text().splitlines()
+    lines = edit(lines)
+    (folder / name).write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("name", list(FAMILY))
+def test_clean_family_charts_pass(tmp_path, name):
+    for i, options in enumerate((DigitizationOptions(), DigitizationOptions(
+            points_per_line=12, spacing="uneven", noise_pct=0.3, q11_unit="l/s", efficiency_unit="percent"))):
+        write_synthetic_chart(tmp_path / str(i), seed=1, turbine=name, options=options)
+        assert check_chart(load_chart(tmp_path / str(i))) is None
+    # the benchmark's digitization (8 lines of 6 uneven points, 0.3 % noise), several seeds: no false alarm
+    # (216 such charts, 3-12 points per line, seeds 0-5, were checked once: none flagged)
+    for seed in range(3):
+        folder = tmp_path / f"u{seed}"
+        write_synthetic_chart(folder, seed=seed, turbine=name, options=DigitizationOptions(
+            points_per_line=6, spacing="uneven", noise_pct=0.3, opening_lines=8, runaway=False))
+        with pytest.warns(UserWarning, match="runaway"):
+            chart = load_chart(folder)
+        assert check_chart(chart) is None
+
+
+def test_percent_efficiency_declared_fraction(chart_dir):
+    _edit(chart_dir, "efficiency.csv",
+          lambda ls: [ls[0]] + [f"{100 * float(r.split(',')[0]):.1f},{r.split(',', 1)[1]}" for r in ls[1:]])
+    with pytest.raises(InputError, match=r"efficiency.csv: row 2, column 'efficiency'.*look like percent"):
+        load_chart(chart_dir)
+
+
+def test_fraction_efficiency_declared_percent(chart_dir):
+    _edit(chart_dir, "chart.toml", lambda ls: [r.replace('"fraction"', '"percent"') for r in ls])
+    with pytest.raises(InputError, match=r"efficiency.csv: efficiency values up to 0.93\d look like fractions"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_litres_declared_cubic_metres(chart_dir):
+    for name in ("flow.csv", "efficiency.csv", "runaway.csv"):
+        _edit(chart_dir, name, lambda ls: [ls[0]] + [",".join(r.split(",")[:2] + [f"{1000 * float(r.split(',')[2]):.1f}"])
+                                                     for r in ls[1:]])
+    with pytest.raises(InputError, match=r"flow.csv: Q11 up to 601.8 looks like l/s.*set q11_unit = \"l/s\""):
+        check_chart(load_chart(chart_dir))
+
+
+def test_cubic_metres_declared_litres(chart_dir):
+    _edit(chart_dir, "chart.toml", lambda ls: [r.replace('"m3/s"', '"l/s"') for r in ls])
+    with pytest.raises(InputError, match=r"looks like m\^3/s, but chart.toml declares q11_unit = 'l/s'"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_crossing_opening_lines(chart_dir):
+    # relabel the 30 mm line as 12 mm and the 12 mm line as 30 mm: they cross every line between
+    def swap(ls):
+        out = [ls[0]]
+        for r in ls[1:]:
+            a, rest = r.split(",", 1)
+            a = {"30.00": "12.00", "12.00": "30.00"}.get(a, a)
+            out.append(f"{a},{rest}")
+        return out
+
+    _edit(chart_dir, "flow.csv", swap)
+    with pytest.raises(InputError, match=r"flow.csv: the opening lines a = \S+ and a = \S+ cross: at N11 .*row \d+"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_outlier_on_a_line_names_its_row(chart_dir):
+    # a misclick: the 4th point of the 20 mm line (file row 41) 0.03 m3/s (5 % of the Q11 range) too high
+    def bump(ls):
+        a, n, q = ls[40].split(",")
+        assert a == "20.00"
+        ls[40] = f"{a},{n},{float(q) + 0.03:.4f}"
+        return ls
+
+    _edit(chart_dir, "flow.csv", bump)
+    with pytest.raises(InputError, match=r"flow.csv: row 41 \(opening 20, .*off the smooth curve"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_zigzag_line(chart_dir):
+    def zigzag(ls):
+        for i in range(37, 44):  # 20 mm line: alternate +-0.02 m3/s
+            a, n, q = ls[i].split(",")
+            ls[i] = f"{a},{n},{float(q) + (0.02 if i % 2 else -0.02):.4f}"
+        return ls
+
+    _edit(chart_dir, "flow.csv", zigzag)
+    with pytest.raises(InputError, match=r"flow.csv: row \d+ \(opening 20,.*an outlier or a zigzag"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_all_points_at_one_n11(chart_dir):
+    _edit(chart_dir, "flow.csv", lambda ls: [ls[0]] + [f"{r.split(',')[0]},60.00,{r.split(',')[2]}" for r in ls[1:]])
+    with pytest.raises(InputError, match=r"flow.csv: every point sits at N11 = 60.0"):
+        check_chart(load_chart(chart_dir))
+    with pytest.raises(InputError, match="every point sits at N11"):  # the extension runs the same checks first
+        extend_samples(load_chart(chart_dir))
+
+
+def test_train_one_n11_writes_nothing(chart_dir, tmp_path, capsys):
+    _edit(chart_dir, "flow.csv", lambda ls: [ls[0]] + [f"{r.split(',')[0]},60.00,{r.split(',')[2]}" for r in ls[1:]])
+    out = tmp_path / "n.json"
+    assert main(["train", str(chart_dir), "--out", str(out), "--no-zero-speed", "--quiet"]) == 2
+    assert "every point sits at N11" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_contours_outside_the_lines(chart_dir):
+    # contours digitized with N11 scaled by 1.6 (another chart's axis)
+    _edit(chart_dir, "efficiency.csv",
+          lambda ls: [ls[0]] + [f"{r.split(',')[0]},{1.6 * float(r.split(',')[1]):.2f},{r.split(',')[2]}"
+                                for r in ls[1:]])
+    with pytest.raises(InputError, match=r"efficiency.csv: \d+ of 176 contour points lie outside"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_values_near_1e308_are_range_errors(chart_dir):
+    _edit(chart_dir, "flow.csv", lambda ls: ls[:5] + ["20.00,1e308,0.5"] + ls[6:])
+    with pytest.raises(InputError, match=r"flow.csv: row 6, column 'n11': 1e\+308 is out of range; allowed n11 >= 0 and n11 <= 1000"):
+        load_chart(chart_dir)
+
+
+def test_single_level_efficiency_file(chart_dir):
+    _edit(chart_dir, "efficiency.csv", lambda ls: ls[:12])  # 11 points, all on the 0.80 contour
+    with pytest.raises(InputError, match=r"efficiency.csv: all 11 points are at efficiency 0.8"):
+        extend_samples(load_chart(chart_dir))
+
+
+def test_byte_order_mark_is_not_a_column(chart_dir):
+    text = (chart_dir / "flow.csv").read_bytes()
+    (chart_dir / "flow.csv").write_bytes(b"\xef\xbb\xbf" + text)
+    assert load_chart(chart_dir).flow_n11.size == 84
+
+
+def test_rows_are_file_line_numbers_with_blank_lines(chart_dir):
+    _edit(chart_dir, "flow.csv", lambda ls: ls[:3] + ["", ""] + ls[3:5] + ["10.00,-5,0.3"] + ls[5:])
+    with pytest.raises(InputError, match=r"row 8, column 'n11'"):  # header 1, data 2-3, blank 4-5, data 6-7, bad 8
+        load_chart(chart_dir)

@@ -1,0 +1,74 @@
+"""``hillsim train`` options (issue 9 sections 3-4, issue 14): bounded options, selection reported, nothing written on
+any error, progress on stderr."""
+
+import json
+
+import pytest
+
+from data_synthetic import FRANCIS_DIR
+from hillsim.cli import main
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--hidden", "0"], "--hidden must be an integer in [1, 30], got '0'"),
+    (["--hidden", "10000"], "--hidden must be an integer in [1, 30], got '10000'"),
+    (["--hidden", "five"], "--hidden must be an integer in [1, 30] or 'auto', got 'five'"),
+    (["--boundary-weight", "0"], "--boundary-weight must be a number in (0.0, 1.0] or 'auto', got '0'"),
+    (["--boundary-weight", "nan"], "--boundary-weight must be a number in (0.0, 1.0]"),
+    (["--regularization", "-1"], "--regularization must be a number in [0.0, 1.0] or 'auto', got '-1'"),
+    (["--ensemble", "1000"], "--ensemble must be an integer in [0, 100], got 1000"),
+    (["--restarts", "0"], "--restarts must be an integer in [1, 1000], got 0"),
+    (["--seed", "-1"], "--seed must be an integer in [0, 2147483647], got -1"),
+    (["--boundaries", "spline"], None),
+])
+def test_bad_options_exit_2_and_write_nothing(tmp_path, capsys, argv, message):
+    out = tmp_path / "n.json"
+    if message is None:  # argparse choices
+        with pytest.raises(SystemExit):
+            main(["train", str(FRANCIS_DIR), "--out", str(out)] + argv)
+    else:
+        assert main(["train", str(FRANCIS_DIR), "--out", str(out)] + argv) == 2
+        assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_output_path_is_checked_before_training(tmp_path, capsys):
+    assert main(["train", str(FRANCIS_DIR), "--out", str(tmp_path / "missing" / "n.json")]) == 2
+    err = capsys.readouterr().err
+    assert "folder" in err and "does not exist" in err
+    assert main(["train", str(FRANCIS_DIR), "--out", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+
+
+def test_extend_checks_plot_path_before_writing_the_table(tmp_path, capsys):
+    out = tmp_path / "ext.csv"
+    assert main(["extend", str(FRANCIS_DIR), "--out", str(out), "--plot", str(tmp_path / "nope" / "p.png")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_paper_net_with_fixed_hyperparameters_reports_them(tmp_path, capsys):
+    out = tmp_path / "n.json"
+    assert main(["train", str(FRANCIS_DIR), "--out", str(out), "--hidden", "5", "--ensemble", "0",
+                 "--boundary-weight", "1", "--regularization", "0"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(out.read_text())
+    assert doc["flow"]["W1"] and len(doc["flow"]["W1"]) == 5 and "ensemble" not in doc  # the paper's 2-5-1 net
+    sel = doc["training"]["flow"]["selection"]
+    assert (sel["hidden"], sel["boundary_weight"], sel["regularization"], sel["candidates"]) == (5, 1.0, 0.0, [])
+    assert "flow     5    1.0     0.0" in captured.out
+    assert "final fit 2-5-1" in captured.err  # progress goes to stderr
+
+
+def test_default_selection_is_recorded_in_nets_json():
+    """The shipped file was trained with the defaults: what the selection chose and why is in "training"."""
+    doc = json.loads((FRANCIS_DIR / "nets.json").read_text())
+    for key in ("flow", "torque"):
+        sel = doc["training"][key]["selection"]
+        assert 3 <= sel["hidden"] <= 10 and sel["boundary_weight"] in (0.03, 0.1, 0.3, 1.0)
+        assert sel["regularization"] in (0.0, 1e-5, 1e-4) and "CV" in sel["rule"]
+        # 4 boundary weights + 6 hidden sizes + 3 regularizations, each scored by 5-fold CV
+        assert len(sel["candidates"]) == 13
+        assert sel["cv_mse_best"] == min(c["cv_mse"] for c in sel["candidates"])
+        assert len(doc["flow"]["W1"]) == doc["training"]["flow"]["selection"]["hidden"]
+    assert len(doc["ensemble"]) == 10 and doc["training"]["extension"]["boundaries"] == "model"

@@ -1,0 +1,59 @@
+"""``hillsim run --uncertainty``: the scenario once per ensemble member (issue 9 section 4)."""
+
+import json
+
+import pytest
+
+from data_synthetic import FRANCIS_DIR, PLANT_HLA339
+from hillchart.errors import InputError
+from hillchart.nets import HillNets, load_nets
+from hillsim.cli import main
+from simulate.config import load_plant
+from simulate import uncertainty
+
+SHORT = {"scenario.t_end_s": 8.0}  # the speed and head peaks of the load rejection come within 8 s
+
+
+def test_band_over_the_members_costs_one_run_each(monkeypatch):
+    import simulate.engine as engine
+
+    calls = []
+    real = engine.run_simulation
+
+    def counting(plant, characteristics=None, **kwargs):
+        calls.append(characteristics)
+        return real(plant, characteristics, **kwargs)
+
+    monkeypatch.setattr(engine, "run_simulation", counting)
+    plant = load_plant(PLANT_HLA339, SHORT)
+    band = uncertainty.run_members(plant)
+    assert band["members"] == 10 and band["failed"] == [] and len(calls) == 10  # N members: N runs
+    for name in uncertainty.BAND_FIGURES:
+        values = band[name]["values"]
+        assert len(values) == 10
+        assert min(values) <= band[name]["low"] <= band[name]["mean"] <= band[name]["high"] <= max(values)
+    # load rejection of the HLA339-like unit: about 45 % speed rise for every member (the nets agree near rated)
+    assert 0.40 < band["max_speed_rise"]["low"] <= band["max_speed_rise"]["high"] < 0.50
+
+
+def test_nets_without_ensemble_or_ideal_are_refused():
+    plant = load_plant(PLANT_HLA339, SHORT)
+    shipped = load_nets(FRANCIS_DIR / "nets.json")
+    single = HillNets(flow=shipped.flow, torque=shipped.torque, opening_unit="mm")
+    with pytest.raises(InputError, match="has none"):
+        uncertainty.run_members(plant, single)
+    with pytest.raises(InputError, match="ideal"):
+        uncertainty.run_members(load_plant(PLANT_HLA339, dict(SHORT, **{"turbine.characteristics": "ideal"})))
+    with pytest.raises(InputError, match="percentiles"):
+        uncertainty.run_members(plant, shipped, percentiles=(50, 10))
+
+
+def test_cli_writes_the_band_into_summary_json(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", str(PLANT_HLA339), "--out", str(out), "--set", "scenario.t_end_s=8.0", "--no-plot",
+                 "--uncertainty"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    band = summary["uncertainty"]
+    assert band["members"] == 10
+    assert band["max_speed_rise"]["low"] <= summary["max_speed_rise"] + 0.02  # the point run sits near the band
+    assert "ensemble of 10 (0 failed): max speed rise" in capsys.readouterr().out
