@@ -159,5 +159,5 @@ def test_cli_synth_bulb(tmp_path, capsys):
     assert "noise" in capsys.readouterr().err and not (tmp_path / "bad").exists()
     assert main(["synth", str(tmp_path / "francis")]) == 0  # the default is still the Francis chart
     assert (tmp_path / "francis" / "flow.csv").is_file()
-    with pytest.raises(SystemExit):
-        main(["synth", str(tmp_path / "z"), "--turbine", "pelton"])
+    assert main(["synth", str(tmp_path / "z"), "--turbine", "pelton"]) == 2
+    assert "--turbine must be one of slow, medium, fast, bulb" in capsys.readouterr().err
