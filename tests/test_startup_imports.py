@@ -1,0 +1,89 @@
+"""Start-up levers of issue 10, section 3: the CLI imports only the command it runs, a run imports no
+scipy.optimize. Each import check runs a fresh interpreter (``sys.modules`` of the test process holds whatever other
+tests imported)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from hillsim import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _modules_after(code: str, names, cwd) -> dict:
+    script = code + "\nimport json, sys\nprint(json.dumps({m: m in sys.modules for m in " + repr(tuple(names)) + "}))\n"
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, "-c", script], cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _help_texts(parser) -> dict:
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    return {name: p.format_help() for name, p in sub.choices.items()}
+
+
+def test_one_command_parser_equals_the_full_parsers_command():
+    """For every command, the parser ``main`` builds for it alone has the same options, metavars and help text as
+    that command in the full parser (``hillsim --help``)."""
+    full = _help_texts(cli.build_parser())
+    assert len(full) == len(cli.COMMAND_MODULES)
+    for name, text in full.items():
+        module = cli._command_module([name, "--help"])
+        assert module is not None, name
+        alone = _help_texts(cli.build_parser(only=module))
+        assert list(alone) == [name]
+        assert alone[name] == text, name
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["run", "plant.toml", "--out", "D"], "hillsim.commands.run"),
+    (["optimize-closure", "plant.toml"], "hillsim.commands.optimize_closure"),
+    (["--version"], None),  # no command: the full parser
+    (["-h"], None),
+    ([], None),
+    (["nope"], None),  # unknown: the full parser, whose error lists the commands
+    (["--quiet", "run"], None),  # an option before the command: left to the full parser
+    (["commands.run"], None),
+])
+def test_command_module_from_argv(argv, expected):
+    assert cli._command_module(argv) == expected
+
+
+def test_unknown_command_still_lists_every_command(capsys):
+    with pytest.raises(SystemExit) as info:
+        cli.main(["nope"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'nope'" in err and "'optimize-closure'" in err and "'run'" in err
+
+
+def test_run_help_imports_no_other_command_and_no_numpy(tmp_path):
+    loaded = _modules_after(
+        "import contextlib, io\nfrom hillsim import cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    try:\n        cli.main(['run', '--help'])\n    except SystemExit:\n        pass\n",
+        ["hillsim.commands.run", "hillsim.commands.train", "hillsim.commands.linearize", "numpy"], tmp_path)
+    assert loaded == {"hillsim.commands.run": True, "hillsim.commands.train": False,
+                      "hillsim.commands.linearize": False, "numpy": False}
+    # the check can fail: the full parser imports every command module
+    loaded = _modules_after("from hillsim import cli\ncli.build_parser()\n", ["hillsim.commands.train"], tmp_path)
+    assert loaded == {"hillsim.commands.train": True}
+
+
+def test_a_run_imports_no_scipy_optimize(tmp_path):
+    """The steady state uses simulate.steady.brentq (scipy's algorithm, ported), not scipy.optimize."""
+    code = ("from data_synthetic import PLANT_HLA339\n"
+            "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
+            "run_simulation(load_plant(PLANT_HLA339, {'turbine.characteristics': 'ideal', "
+            "'scenario.t_end_s': 3.0})).summary()\n")
+    assert _modules_after(code, ["scipy.optimize"], tmp_path) == {"scipy.optimize": False}
+    assert _modules_after("import scipy.optimize\n", ["scipy.optimize"], tmp_path) == {"scipy.optimize": True}
