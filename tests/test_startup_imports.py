@@ -87,3 +87,32 @@ def test_a_run_imports_no_scipy_optimize(tmp_path):
             "'scenario.t_end_s': 3.0})).summary()\n")
     assert _modules_after(code, ["scipy.optimize"], tmp_path) == {"scipy.optimize": False}
     assert _modules_after("import scipy.optimize\n", ["scipy.optimize"], tmp_path) == {"scipy.optimize": True}
+
+
+def test_few_point_net_evaluation_is_the_compiled_kernel_to_the_bit():
+    """``evaluate`` on up to ``_PYTHON_POINTS`` points runs the kernel's Python source; it gives the compiled
+    kernel's values exactly (same operations in the same order, libm's exp either way)."""
+    import numpy as np
+
+    from hillchart import nets
+    from hillchart.nets import load_nets
+
+    flow = load_nets(ROOT / "data_synthetic" / "francis" / "nets.json").flow
+    rng = np.random.default_rng(3)
+    n11, a = rng.uniform(30.0, 110.0, nets._PYTHON_POINTS), rng.uniform(0.5, 30.0, nets._PYTHON_POINTS)
+    few = flow.evaluate(n11, a)
+    many = flow.evaluate(np.concatenate([n11, n11]), np.concatenate([a, a]))  # above the limit: compiled
+    for small, large in zip(few, many):
+        assert np.array_equal(small, large[:n11.size])
+
+
+def test_linearizing_one_point_loads_nothing_compiled(tmp_path):
+    """numba's first cache load initialises its compiler (it imports numba.np.arraymath, about half a second);
+    ``hillsim linearize`` at one point does not need it."""
+    code = ("from hillchart.nets import load_nets\nfrom hillchart.linearize import six_coefficients\n"
+            f"nets = load_nets({str(ROOT / 'data_synthetic' / 'francis' / 'nets.json')!r})\n"
+            "six_coefficients(nets, n11=67.8, opening=23.46)\n")
+    assert _modules_after(code, ["numba.np.arraymath"], tmp_path) == {"numba.np.arraymath": False}
+    # the check can fail: a map (many points) loads the compiled kernel
+    code += "import numpy as np\nnets.flow.evaluate(np.linspace(40, 100, 500), np.full(500, 20.0))\n"
+    assert _modules_after(code, ["numba.np.arraymath"], tmp_path) == {"numba.np.arraymath": True}
