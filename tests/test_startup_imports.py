@@ -116,3 +116,57 @@ def test_linearizing_one_point_loads_nothing_compiled(tmp_path):
     # the check can fail: a map (many points) loads the compiled kernel
     code += "import numpy as np\nnets.flow.evaluate(np.linspace(40, 100, 500), np.full(500, 20.0))\n"
     assert _modules_after(code, ["numba.np.arraymath"], tmp_path) == {"numba.np.arraymath": True}
+
+
+# ---------------------------------------------------------------------------------- figures in a forked process
+@pytest.fixture(scope="module")
+def short_result():
+    from data_synthetic import PLANT_HLA339
+    from simulate.config import load_plant
+    from simulate.engine import run_simulation
+
+    return run_simulation(load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 4.0}))
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_figure_process_draws_the_same_pngs_as_this_process(tmp_path, short_result):
+    from hillsim.commands.run import FigureProcess
+    from simulate.envelope import plot_envelope
+
+    figures = FigureProcess()
+    assert figures.pid is not None
+    child = figures.pid
+    figures.draw(short_result, tmp_path / "t.png", tmp_path / "e.png")
+    assert figures.failure == "" and figures.pid is None
+    with pytest.raises(ChildProcessError):  # reaped: no zombie left
+        os.waitpid(child, 0)
+    short_result.plot(tmp_path / "t_here.png")
+    plot_envelope(short_result, tmp_path / "e_here.png")
+    # same code, same data, same matplotlib: the same bytes
+    assert (tmp_path / "t.png").read_bytes() == (tmp_path / "t_here.png").read_bytes()
+    assert (tmp_path / "e.png").read_bytes() == (tmp_path / "e_here.png").read_bytes()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_figure_process_failure_falls_back_to_this_process_and_raises_the_real_error(tmp_path, short_result):
+    from hillsim.commands.run import FigureProcess
+
+    figures = FigureProcess()
+    missing = tmp_path / "no" / "such" / "folder"
+    with pytest.raises(FileNotFoundError):
+        figures.draw(short_result, missing / "t.png", missing / "e.png")
+    assert "FileNotFoundError" in figures.failure  # the child failed the same way, and said so
+    assert not missing.exists()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_figure_process_closed_before_drawing_is_stopped_and_reaped(tmp_path):
+    from hillsim.commands.run import FigureProcess
+
+    figures = FigureProcess()
+    child = figures.pid
+    figures.close()
+    assert figures.pid is None
+    with pytest.raises(ChildProcessError):
+        os.waitpid(child, 0)
+    assert list(tmp_path.iterdir()) == []
