@@ -60,17 +60,9 @@ class FigureProcess:
                 signal.signal(signal.SIGTERM, signal.SIG_DFL)
                 os.close(job_w)
                 os.close(done_r)
-                # the work done ahead, while the parent simulates: matplotlib's import, and one small drawing that
-                # loads the font and fills matplotlib's caches (the first figure of a process is ~0.2 s slower)
-                from matplotlib.backends.backend_agg import FigureCanvasAgg
-                from matplotlib.figure import Figure
+                import matplotlib.backends.backend_agg  # noqa: F401  (the import is the work done ahead)
+                import matplotlib.figure  # noqa: F401
 
-                warm = Figure(figsize=(2, 2))
-                FigureCanvasAgg(warm)
-                ax = warm.subplots()
-                ax.plot([0.0, 1.0], [0.0, 1.0])
-                ax.set_xlabel("time (s)")
-                warm.canvas.draw()
                 with os.fdopen(job_r, "rb") as pipe:
                     job = pipe.read()
                 if job:
@@ -169,20 +161,19 @@ def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigurePr
 
 
 def run_command(args: argparse.Namespace) -> int:
+    from simulate.config import load_plant, parse_override
+    from simulate.engine import run_simulation
+
     out = args.outputs.folder("--out", args.out, stale=("transient.png", "envelope.png"))  # checked now, in place at the end
-    # forked first, before numpy and numba are imported here: the child imports matplotlib meanwhile
-    figures = None if args.no_plot else FigureProcess()
+    overrides = dict(parse_override(text) for text in args.overrides)
+    plant = load_plant(args.plant, overrides)
+    reached = [0.0]
+
+    def on_progress(step, n_steps):
+        reached[0] = step / n_steps
+
+    figures = None if args.no_plot else FigureProcess()  # imports matplotlib meanwhile (in a child process)
     try:
-        from simulate.config import load_plant, parse_override
-        from simulate.engine import run_simulation
-
-        overrides = dict(parse_override(text) for text in args.overrides)
-        plant = load_plant(args.plant, overrides)
-        reached = [0.0]
-
-        def on_progress(step, n_steps):
-            reached[0] = step / n_steps
-
         progress.start(f"simulating {plant.scenario.kind}, {plant.scenario.t_end_s:g} s")
         try:
             result = run_simulation(plant, raise_on_failure=False, progress=on_progress)
