@@ -121,6 +121,12 @@ def _nets_kernel(params, n11, opening):
     return q, dq_dn, dq_da, m, dm_dn, dm_da
 
 
+#: Up to this many points ``evaluate`` runs the kernel's Python source (``py_func``): a process evaluating a few
+#: points (``hillsim linearize``) need not load the compiled kernel from numba's cache, about half a second of
+#: start-up (numba's first cache load initialises its compiler), against about 10 us a point in Python.
+_PYTHON_POINTS = 64
+
+
 def _evaluate(packed: np.ndarray, n11, opening):
     n11 = np.asarray(n11, dtype=float)
     opening = np.asarray(opening, dtype=float)
@@ -129,7 +135,12 @@ def _evaluate(packed: np.ndarray, n11, opening):
     flat_n = np.ascontiguousarray(n11_b, dtype=float).ravel()
     flat_a = np.ascontiguousarray(opening_b, dtype=float).ravel()
     y, d_n, d_a = np.empty_like(flat_n), np.empty_like(flat_n), np.empty_like(flat_n)
-    _net_eval_many(packed, flat_n, flat_a, y, d_n, d_a)
+    if flat_n.size <= _PYTHON_POINTS:  # the same kernel's Python source: loading the compiled one costs more
+        point = _net_value_grad.py_func
+        for k in range(flat_n.size):
+            y[k], d_n[k], d_a[k] = point(packed, float(flat_n[k]), float(flat_a[k]))
+    else:
+        _net_eval_many(packed, flat_n, flat_a, y, d_n, d_a)
     return y.reshape(shape), d_n.reshape(shape), d_a.reshape(shape)
 
 

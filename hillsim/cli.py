@@ -77,7 +77,20 @@ def _version() -> str:
     return __version__
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _command_module(argv: list[str]) -> str | None:
+    """The module of the sub-command ``argv`` names (its first word not starting with ``-``), when it is one of
+    :data:`COMMAND_MODULES` (``optimize-closure`` -> ``hillsim.commands.optimize_closure``); else None."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    if word is None or argv.index(word) != 0:  # only ``hillsim COMMAND ...``; anything else parses in full
+        return None
+    module = "hillsim.commands." + word.replace("-", "_")
+    return module if module in COMMAND_MODULES else None
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The ``hillsim`` parser with every command, or with the one command module ``only`` (what ``main`` uses when
+    the command line names a command: importing every command module and its dependencies costs a third of a
+    second of start-up, issue 10 section 3)."""
     parser = argparse.ArgumentParser(
         prog="hillsim",
         description="Francis turbine hill chart -> BP nets -> nonlinear transient simulation.",
@@ -85,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"hillsim {_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMAND_MODULES:
+    for name in COMMAND_MODULES if only is None else (only,):
         importlib.import_module(name).register(subparsers)
     for name, sub in subparsers.choices.items():
         _harmonize(name, sub)
@@ -202,7 +215,8 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(only=_command_module(argv))
     args = parser.parse_args(argv)
     return run_command(args)
 

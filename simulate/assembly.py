@@ -34,7 +34,7 @@ import numba
 from simulate import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
-TEMPLATE_VERSION = 1
+TEMPLATE_VERSION = 2
 
 _LOOP = '''
 @_jit
@@ -120,7 +120,10 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
              "from simulate.boundary import turbine_signals"]
     modules = {"simulate.boundary"}
     if compiled:
-        lines += [f"_jit = numba.njit(cache={cache}, nogil=True)", f"_jit_inner = numba.njit(cache={cache})"]
+        # the templates (pressure loop, turbine step) inlined into time_loop at numba-IR level: one function, so
+        # numba's reference-count pruning sees the arrays they unpack (about 0.05 us a step less, issue 10)
+        lines += [f"_jit = numba.njit(cache={cache}, nogil=True)",
+                  f"_jit_inner = numba.njit(cache={cache}, inline='always')"]
     else:
         lines += ["def _jit(f):", "    return f", "_jit_inner = _jit"]
     for alias, (kind, role) in _ROLES.items():

@@ -94,7 +94,9 @@ def plot_envelope(result, path=None):
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(f"head envelope ({result.meta.get('penstock_model', '')})")
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.09, right=0.98, bottom=0.115, top=0.925)  # fixed: tight_layout draws once more
     if path is not None:
-        fig.savefig(path, dpi=120)
+        from simulate.result import save_png
+
+        save_png(fig, path)
     return fig

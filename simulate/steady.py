@@ -5,8 +5,14 @@ At speed n (rated by default) and stroke y the head H and flow Q satisfy
     penstock:  H = H_st - K Q|Q|                 (K = sum f L / (2 g D A^2))
     turbine:   Q = Q11(n D1 / sqrt(H), a) D1^2 sqrt(H),  a = y * opening_max
 
-solved by Brent's method (scipy.optimize.brentq) on H; for a power target the stroke is found by a second Brent
-search on P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_TOLERANCE` (relative).
+solved by Brent's method on H; for a power target the stroke is found by a second Brent search on
+P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_TOLERANCE` (relative).
+
+Brent's method is :func:`brentq`, a line-by-line port of scipy's ``brentq.c`` (scipy.optimize.brentq): importing
+scipy.optimize costs about a quarter of a second of start-up (it pulls in linprog, scipy.fft and scipy.special), an
+eighth of the 2 s budget of ``hillsim run`` (issue 10, section 3), for two scalar root searches. The port takes the
+same steps as scipy's, so it returns the same root to the bit (``tests/test_sim_steady_brent.py`` checks it against
+scipy.optimize.brentq).
 """
 
 from __future__ import annotations
@@ -19,6 +25,81 @@ from hillchart.errors import InputError, NumericalError
 
 #: Largest accepted relative residual of every steady-state equation.
 RESIDUAL_TOLERANCE = 1e-9
+
+
+def brentq(f, a: float, b: float, *, xtol: float = 2e-12, rtol: float = 4 * 2.220446049250313e-16,
+           maxiter: int = 100) -> float:
+    """Root of ``f`` in [a, b] (f(a) and f(b) of opposite signs) by Brent's method; scipy.optimize.brentq's
+    algorithm (scipy/optimize/Zeros/brentq.c), step for step, so the same root to the bit.
+
+    Converged when half the bracket is below ``(xtol + rtol |x|) / 2``.
+
+    Raises
+    ------
+    InputError
+        ``xtol``, ``rtol`` or ``maxiter`` out of range.
+    NumericalError
+        f(a) and f(b) have the same sign, f returns NaN, or no convergence in ``maxiter`` iterations.
+
+    Examples
+    --------
+    >>> round(brentq(lambda x: x * x - 2.0, 0.0, 2.0, xtol=1e-15), 15)
+    1.414213562373095
+    """
+    if not xtol > 0.0:
+        raise InputError(f"brentq: xtol must be > 0, got {xtol!r}")
+    if not rtol >= 4 * 2.220446049250313e-16:
+        raise InputError(f"brentq: rtol must be >= 4 eps (8.88e-16), got {rtol!r}")
+    if maxiter < 0:
+        raise InputError(f"brentq: maxiter must be >= 0, got {maxiter!r}")
+
+    def call(x):
+        value = float(f(x))
+        if math.isnan(value):
+            raise NumericalError(f"brentq: the function is NaN at {x!r}")
+        return value
+
+    xpre, xcur = float(a), float(b)
+    xblk = fblk = spre = scur = 0.0
+    fpre, fcur = call(xpre), call(xcur)
+    if fpre == 0.0:
+        return xpre
+    if fcur == 0.0:
+        return xcur
+    if math.copysign(1.0, fpre) == math.copysign(1.0, fcur):
+        raise NumericalError(f"brentq: f({xpre!r}) = {fpre!r} and f({xcur!r}) = {fcur!r} have the same sign; "
+                             f"no bracketed root")
+    for _ in range(maxiter):
+        if fpre != 0.0 and fcur != 0.0 and math.copysign(1.0, fpre) != math.copysign(1.0, fcur):
+            xblk, fblk = xpre, fpre
+            spre = scur = xcur - xpre
+        if abs(fblk) < abs(fcur):
+            xpre, xcur, xblk = xcur, xblk, xcur
+            fpre, fcur, fblk = fcur, fblk, fcur
+        delta = (xtol + rtol * abs(xcur)) / 2
+        sbis = (xblk - xcur) / 2
+        if fcur == 0.0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:  # interpolate (secant)
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)
+            else:  # extrapolate (inverse quadratic)
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):  # good short step
+                spre, scur = scur, stry
+            else:  # bisect
+                spre = scur = sbis
+        else:  # bisect
+            spre = scur = sbis
+        xpre, fpre = xcur, fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0 else -delta
+        fcur = call(xcur)
+    raise NumericalError(f"brentq: no convergence in {maxiter} iterations (last x {xcur!r}, f {fcur!r})")
 
 
 @dataclass(frozen=True)
@@ -84,8 +165,6 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
     if g_other * g_st > 0.0:
         raise NumericalError(f"steady state: no head between {static_head_m:.6g} and {other:.6g} m balances "
                              f"friction at opening {opening:.6g} (gaps {g_st:.3g} and {g_other:.3g} m)")
-    from scipy.optimize import brentq  # lazy: scipy.optimize is about a third of a second of start-up
-
     low, high = min(static_head_m, other), max(static_head_m, other)
     return float(brentq(gap, low, high, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
 
@@ -140,8 +219,6 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
                 f"{speed:.6g} r/min between governor.stroke_min and stroke_max: "
                 f"[{p_low + power_mw:.6g}, {p_high + power_mw:.6g}] MW")
         else:
-            from scipy.optimize import brentq
-
             stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, stroke_max, xtol=1e-15, rtol=1e-15,
                             maxiter=500)
     stroke = float(stroke)

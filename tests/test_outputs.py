@@ -2,6 +2,7 @@
 
 import argparse
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -238,7 +239,9 @@ def test_ctrl_c_during_a_real_run_exits_130_and_writes_nothing(tmp_path):
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130
-    assert "hillsim run: interrupted" in err and "no outputs written" in err and "Traceback" not in err
+    # interrupted while importing, or in the loop (then the line says how far it got: "after N % of the run")
+    assert re.search(r"hillsim run: interrupted( after \d+ % of the run)?; no outputs written", err), err
+    assert "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -9,6 +9,7 @@ extrapolation outside the characteristics' trusted domain, column separation) go
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -32,14 +33,130 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run_command)
 
 
-def write_run_outputs(result, out: Path, *, plot: bool = True) -> list[Path]:
-    """Every file of a run, in one place: timeseries.csv, envelope.csv, the figures, summary.json last."""
+class FigureProcess:
+    """Draws a run's two figures in a forked child process (POSIX), so that on a multi-core machine matplotlib's
+    import (about 0.5 s) runs while this process imports numba and simulates, and the drawing (about 0.5 s) while
+    it writes the data files (issue 10, section 3: ``hillsim run`` <= 2 s). Matplotlib is not thread-safe and its
+    work holds the GIL, hence a process; forked, it needs no second interpreter start-up and sees the same modules.
+
+    The child reads the result (pickled, without the characteristics object) from a pipe, writes the PNGs and
+    answers "ok" or its traceback; it ends with ``os._exit`` (never this process's clean-up, e.g. the output set).
+    :meth:`close` without a finished :meth:`draw` (an error, Ctrl-C) stops the child. Where fork is unavailable, or
+    the child is gone or failed (``failure`` keeps its traceback), the figures are drawn here.
+    """
+
+    def __init__(self):
+        self.pid = None
+        self.failure = ""
+        if not hasattr(os, "fork"):
+            return
+        import signal
+
+        job_r, job_w = os.pipe()
+        done_r, done_w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - runs in the child (its coverage is not collected)
+            answer = b""
+            try:
+                signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C / SIGTERM end the child quietly
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                os.close(job_w)
+                os.close(done_r)
+                import matplotlib.backends.backend_agg  # noqa: F401  (the import is the work done ahead)
+                import matplotlib.figure  # noqa: F401
+
+                with os.fdopen(job_r, "rb") as pipe:
+                    job = pipe.read()
+                if job:
+                    import pickle
+
+                    from simulate.envelope import plot_envelope
+
+                    result, transient_png, envelope_png = pickle.loads(job)
+                    result.plot(transient_png)
+                    plot_envelope(result, envelope_png)
+                    answer = b"ok"
+            except BaseException:  # noqa: BLE001 - reported to the parent, which raises it
+                import traceback
+
+                answer = traceback.format_exc().encode("utf-8", "replace")
+            finally:
+                try:
+                    os.write(done_w, answer)
+                finally:
+                    os._exit(0)
+        os.close(job_r)
+        os.close(done_w)
+        self.pid, self._job, self._done = pid, job_w, done_r
+
+    def draw(self, result, transient_png: Path, envelope_png: Path) -> None:
+        """Draw ``result``'s figures into the two paths (in the child when there is one) and wait for them."""
+        if self.pid is not None:
+            import dataclasses
+            import pickle
+
+            job = pickle.dumps((dataclasses.replace(result, characteristics=None), transient_png, envelope_png),
+                               protocol=pickle.HIGHEST_PROTOCOL)
+            try:
+                with os.fdopen(self._job, "wb") as pipe:
+                    self._job = None
+                    pipe.write(job)
+                answer = self._answer()
+            except BrokenPipeError:  # the child is gone (it could not start matplotlib): draw here
+                answer = None
+            self._reap()
+            if answer == b"ok":
+                return
+            # the child failed (its traceback is kept in ``failure``): draw here, so that the error, if it is one
+            # (e.g. an unwritable file), is raised with its own type for the CLI's message
+            self.failure = answer.decode("utf-8", "replace")
+        from simulate.envelope import plot_envelope
+
+        result.plot(transient_png)
+        plot_envelope(result, envelope_png)
+
+    def _answer(self) -> bytes:
+        chunks = []
+        while True:
+            chunk = os.read(self._done, 65536)
+            if not chunk:
+                return b"".join(chunks)
+            chunks.append(chunk)
+
+    def _reap(self) -> None:
+        for fd in (self._job, self._done):
+            if fd is not None:
+                os.close(fd)
+        self._job = self._done = None
+        os.waitpid(self.pid, 0)
+        self.pid = None
+
+    def close(self) -> None:
+        """Stop the child if it is still there (an error or an interrupt before :meth:`draw` finished)."""
+        if self.pid is None:
+            return
+        import signal
+
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        self._reap()
+
+
+def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigureProcess | None = None) -> list[Path]:
+    """Every file of a run, in one place: timeseries.csv, envelope.csv, the figures, summary.json last.
+
+    ``figures``: a :class:`FigureProcess` started earlier (the figures are then drawn there; default: here)."""
     from simulate.envelope import plot_envelope, write_envelope_csv
 
     written = [result.to_csv(out / "timeseries.csv"), write_envelope_csv(result, out / "envelope.csv")]
     if plot:
-        result.plot(out / "transient.png")
-        plot_envelope(result, out / "envelope.png")
+        if figures is not None:
+            figures.draw(result, out / "transient.png", out / "envelope.png")
+        else:
+            result.plot(out / "transient.png")
+            plot_envelope(result, out / "envelope.png")
         written += [out / "transient.png", out / "envelope.png"]
     written.append(result.to_json(out / "summary.json"))
     return written
@@ -57,14 +174,19 @@ def run_command(args: argparse.Namespace) -> int:
     def on_progress(step, n_steps):
         reached[0] = step / n_steps
 
-    progress.start(f"simulating {plant.scenario.kind}, {plant.scenario.t_end_s:g} s")
+    figures = None if args.no_plot else FigureProcess()  # imports matplotlib meanwhile (in a child process)
     try:
-        result = run_simulation(plant, raise_on_failure=False, progress=on_progress)
-    except KeyboardInterrupt:
-        # the CLI turns this into its one-line message and exit 130, discarding the output set
-        raise KeyboardInterrupt(f"after {100 * reached[0]:.0f} % of the run") from None
-    progress.done()
-    write_run_outputs(result, out, plot=not args.no_plot)
+        progress.start(f"simulating {plant.scenario.kind}, {plant.scenario.t_end_s:g} s")
+        try:
+            result = run_simulation(plant, raise_on_failure=False, progress=on_progress)
+        except KeyboardInterrupt:
+            # the CLI turns this into its one-line message and exit 130, discarding the output set
+            raise KeyboardInterrupt(f"after {100 * reached[0]:.0f} % of the run") from None
+        progress.done()
+        write_run_outputs(result, out, plot=not args.no_plot, figures=figures)
+    finally:
+        if figures is not None:
+            figures.close()
     summary = result.summary()
     for line in summary.get("warnings", []):
         print(f"hillsim run: warning: {line}", file=sys.stderr)

@@ -1,0 +1,43 @@
+"""Per-step cost of the assembled loop (issue 10: the component loop against the old monolithic one).
+
+    PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15]
+
+60 s load rejection of the shipped plant, 3147 steps, for the nets and the ideal turbine on the MOC penstock and the
+ideal turbine on the rigid one. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
+its chunk driver, nothing else), best and median of ``--repeat`` runs after one warm-up run, and ns per step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+from importlib import resources
+
+from simulate.config import load_plant
+from simulate.engine import run_simulation
+
+PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
+CASES = (("francis/nets.json", "moc"), ("ideal", "moc"), ("ideal", "rigid"))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=15)
+    args = parser.parse_args(argv)
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    print(f"load average {load[0]:.2f}; best / median of {args.repeat}")
+    print("| turbine | penstock | steps | loop wall best / median (ms) | ns per step (best) |")
+    print("|---|---|---|---|---|")
+    for turbine, penstock in CASES:
+        plant = load_plant(PLANT_FILE, {"turbine.characteristics": turbine, "penstock.model": penstock,
+                                        "scenario.t_end_s": 60.0})
+        steps = run_simulation(plant).time_s.size - 1  # warm-up: loads (or compiles) the loop
+        walls = [run_simulation(plant).wall_time_s for _ in range(args.repeat)]
+        best, median = min(walls), statistics.median(walls)
+        print(f"| {turbine} | {penstock} | {steps} | {1e3 * best:.3f} / {1e3 * median:.3f} | {1e9 * best / steps:.0f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
