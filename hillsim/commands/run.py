@@ -54,12 +54,16 @@ class FigureProcess:
 
         job_r, job_w = os.pipe()
         done_r, done_w = os.pipe()
+        # no Ctrl-C / SIGTERM may land while the process forks: a signal caught half-way (its Python handler
+        # pending in both processes) once ended the parent by SIGINT instead of the CLI's exit 130
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
         pid = os.fork()
         if pid == 0:  # pragma: no cover - runs in the child (its coverage is not collected)
             answer = b""
             try:
                 signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C / SIGTERM end the child quietly
                 signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
                 os.close(job_w)
                 os.close(done_r)
                 import matplotlib.backends.backend_agg  # noqa: F401  (the import is the work done ahead)
@@ -85,6 +89,7 @@ class FigureProcess:
                     os.write(done_w, answer)
                 finally:
                     os._exit(0)
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         os.close(job_r)
         os.close(done_w)
         self.pid, self._job, self._done = pid, job_w, done_r
