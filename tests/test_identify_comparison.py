@@ -9,14 +9,10 @@ import pytest
 
 from hillchart.errors import InputError
 from hillchart.linearize import COEFFICIENT_NAMES
-from simulate.comparison import (
-    ExperimentSettings,
-    OperatingPoint,
-    RelativeSeries,
-    identify_measured,
-    load_measured_series,
-    markdown_tables,
-)
+from simulate.experiment import ExperimentSettings
+from simulate.identification import identify_measured
+from simulate.identification_tables import markdown_tables
+from simulate.measured import OperatingPoint, RelativeSeries, load_measured_series
 from simulate.linear import LinearPlant
 
 OP = OperatingPoint(speed_rpm=200.0, head_m=176.0, flow_m3_s=140.0, torque_nm=1.07e7, opening=0.68)
@@ -148,9 +144,9 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
     path = write_csv(tmp_path / "series.csv", linear_measurement(SHORT))
     series = load_measured_series(path, sample_time_s=0.2, operating_point=OP)
     report = identify_measured(series, SHORT)
-    six = report.summary["six_coefficients"]["batch_ls"]
+    six = report.summary.six_coefficients.batch_ls
     # m and q are exact linear functions of (x, h, y): LS reproduces the coefficients to round-off
-    np.testing.assert_allclose([six[k] for k in COEFFICIENT_NAMES],
+    np.testing.assert_allclose([getattr(six, k) for k in COEFFICIENT_NAMES],
                                [getattr(PLANT, k) for k in COEFFICIENT_NAMES], atol=1e-9)
     # the samples at tau of an exact ZOH simulation at tau/4 are an exact ZOH simulation at tau: RLS finds the
     # plant's own ARX up to its ridge bias |theta| / (p0 lambda_min(phi^T phi)) (see test_identify)
@@ -160,9 +156,9 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
     phi, _ = arx_regressors(series.x, series.y, n_a=3, n_b=3, input_delay=0)
     bias = np.linalg.norm(arx_true.theta) / (SHORT.rls_p0 * np.linalg.eigvalsh(phi.T @ phi).min())
     assert bias < 0.01
-    np.testing.assert_allclose(report.summary["arx"]["rls"]["theta"], arx_true.theta, atol=2 * bias)
-    sim = report.summary["arx"]["rls"]["simulation_mode_final_theta"]
-    assert sim["relative_error"] < 1e-3  # only the small ridge bias of theta remains (measured 1.4e-4)
+    np.testing.assert_allclose(report.summary.arx.rls.theta, arx_true.theta, atol=2 * bias)
+    sim = report.summary.arx.rls.simulation_mode_final_theta
+    assert sim.relative_error < 1e-3  # only the small ridge bias of theta remains (measured 1.4e-4)
     paths = report.write(tmp_path / "out")
     data = json.loads(paths["json"].read_text())
     assert data["source"] == "measured" and "acceptance" not in data  # no nets reference given
