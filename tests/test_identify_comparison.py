@@ -197,3 +197,24 @@ def test_measured_csv_accepts_extra_columns_in_any_order(tmp_path):
     cols = ("power_mw", "flow_m3_s", "time_s", "opening", "speed_rpm", "torque_nm", "head_m")
     series = load_measured_series(write_csv(tmp_path / "s.csv", d, cols), sample_time_s=0.2, operating_point=OP)
     np.testing.assert_allclose(series.x[:50], (d["speed_rpm"][::4][:50] / OP.speed_rpm - 1), atol=1e-12)
+
+
+def test_summary_is_a_frozen_record_and_the_json_is_made_from_it(tmp_path):
+    import dataclasses
+
+    from simulate.identification_results import to_json_dict
+
+    path = write_csv(tmp_path / "series.csv", linear_measurement(SHORT))
+    report = identify_measured(load_measured_series(path, sample_time_s=0.2, operating_point=OP), SHORT)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        report.summary.samples = 3
+    data = json.loads(report.write(tmp_path / "out")["json"].read_text())
+    assert data == to_json_dict(report.summary) == report.to_dict()
+    # the file keeps its keys and order; sections that do not apply (no nets reference) are left out
+    assert list(data)[:5] == ["source", "operating_point", "experiment", "sample_time_s", "samples"]
+    assert "nets" not in data["six_coefficients"] and "nets_zoh" not in data["arx"]
+    assert "step_error_vs_nets" not in data["arx"]["rls"] and "arma_paper002" not in data
+    # a None that is a value (the automatic dead zone of the settings) is written as null
+    assert data["experiment"]["dead_zone_eps0"] is None
+    assert data["arx"]["rls"]["theta"] == list(report.summary.arx.rls.theta)
+    assert data["six_coefficients"]["batch_ls"]["eqh"] == report.summary.six_coefficients.batch_ls.eqh
