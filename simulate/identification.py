@@ -13,8 +13,8 @@ and identifies:
 - paper 002's (ey, e, eqh) by ARMA least squares (eqs. (9)-(12)) on the torque with the speed term removed.
 
 :func:`identify_measured` does the identification part on a measured series (:mod:`simulate.measured`). Both return
-an :class:`IdentificationReport`: the numbers as a typed :class:`~simulate.identification_results.IdentificationSummary`,
-the series and the traces for the figures (:mod:`simulate.identification_plots`); tables are
+an :class:`IdentificationReport`: the numbers as a typed
+:class:`~simulate.identification_results.IdentificationSummary`, the series and the traces for the figures (:mod:`simulate.identification_plots`); tables are
 :func:`simulate.identification_tables.markdown_tables`. Files are written only by :meth:`IdentificationReport.write`.
 """
 

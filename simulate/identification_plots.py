@@ -43,7 +43,8 @@ def plot_report(report, out_dir) -> dict[str, Path]:
     width = 0.8 / len(groups)
     pos = np.arange(6)
     for i, g in enumerate(groups):
-        ax.bar(pos + (i - (len(groups) - 1) / 2) * width, [getattr(getattr(six, g), k) for k in COEFFICIENT_NAMES], width,
+        values = getattr(six, g).values()  # in COEFFICIENT_NAMES order
+        ax.bar(pos + (i - (len(groups) - 1) / 2) * width, values, width,
                label={"exact": "exact turbine", "nets": "nets (analytic)", "batch_ls": "batch LS (eqs. 69-70)"}[g])
     ax.set_xticks(pos, COEFFICIENT_NAMES)
     ax.axhline(0, color="k", lw=0.5)
