@@ -20,6 +20,8 @@ from dataclasses import dataclass, field, fields, is_dataclass
 
 import numpy as np
 
+from simulate.experiment import ExperimentSettings
+from simulate.measured import OperatingPoint
 from simulate.result import json_default
 
 #: Acceptance bounds of issue 5 (checked and reported, never silently relaxed).
@@ -382,16 +384,16 @@ class IdentificationSummary:
     order).
 
     ``source`` is ``"simulation"`` or ``"measured"``; ``operating_point`` is an :class:`ExperimentOperatingPoint`
-    (simulated) or a :class:`simulate.measured.OperatingPoint` (measured); ``experiment`` the
-    :class:`simulate.experiment.ExperimentSettings`; ``warnings`` the review's notes (``hillsim identify``).
+    (simulated) or the measured series' :class:`simulate.measured.OperatingPoint`; ``warnings`` are the review's
+    notes (``hillsim identify``).
     """
 
     source: str
     penstock_model: str | None = optional()
     linear_model: str | None = optional()
-    operating_point: object
+    operating_point: ExperimentOperatingPoint | OperatingPoint
     linear_parameters: LinearParameters | None = optional()
-    experiment: object
+    experiment: ExperimentSettings
     simulation: SimulationInfo | None = optional()
     sample_time_s: float
     samples: int
