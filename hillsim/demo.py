@@ -108,6 +108,7 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     from hillchart.synthetic import SyntheticFrancis
     from simulate.config import ScenarioConfig, load_plant
     from simulate.identification import compare_identification
+    from simulate.identification_results import CoefficientSet, to_json_dict
     from simulate.linear_reference import plant_linearization
 
     from hillsim.progress import Stages
@@ -170,14 +171,14 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     bar.start(STEPS[6])
     linear = plant_linearization(plant, nets)
     exact_turbine = SyntheticFrancis()
-    op = linear["operating_point"]
-    exact = six_coefficients(exact_turbine, n11=op["n11_rpm"], opening=op["opening_chart"])
-    linear["coefficients_exact"] = {k: getattr(exact, k) for k in linear["coefficients"]}
-    _write_json(out / "linearization.json", linear)
+    op = linear.operating_point
+    exact = six_coefficients(exact_turbine, n11=op.n11_rpm, opening=op.opening_chart)
+    linear = replace(linear, coefficients_exact=CoefficientSet.of(exact))
+    _write_json(out / "linearization.json", to_json_dict(linear))
     n11_grid = np.linspace(20.0, 120.0, 101)
     a_grid = np.linspace(2.0, chart.info.opening_max, 61)
     plot_coefficient_maps(coefficient_maps(nets, n11_grid, a_grid), out / "coefficient_maps.png",
-                          operating_point=(op["n11_rpm"], op["opening_chart"]), opening_unit=chart.info.opening_unit)
+                          operating_point=(op.n11_rpm, op.opening_chart), opening_unit=chart.info.opening_unit)
     plt.close("all")
     bar.done()
 

@@ -12,9 +12,11 @@ The simulator's per-unit rotor ``Ta dx/dt = (M - M_g)/M_r - e_g x`` (torque base
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from hillchart.errors import InputError
-from hillchart.linearize import COEFFICIENT_NAMES, six_coefficients
+from hillchart.linearize import six_coefficients
+from simulate.identification_results import CoefficientSet, optional
 from simulate.linear import LinearPlant
 
 
@@ -49,9 +51,72 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
     return coeffs, linear
 
 
+@dataclass(frozen=True)
+class LinearizationPoint:
+    """The plant's verified initial operating point and its chart coordinates (opening in chart units)."""
+
+    speed_rpm: float
+    head_m: float
+    flow_m3_s: float
+    torque_nm: float
+    power_mw: float
+    stroke: float
+    opening_chart: float
+    n11_rpm: float
+
+
+@dataclass(frozen=True)
+class SpeedTransferFunction:
+    """x/y = N(s)/D(s), coefficients in descending powers of s (paper 000 eqs. 43-44, 51-52)."""
+
+    num: tuple[float, ...]
+    den: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ArxCoefficients:
+    """The ARX model of the zero-order hold at ``sample_time_s`` (paper 000 eqs. 32-36, 53)."""
+
+    a: tuple[float, ...]
+    b: tuple[float, ...]
+    input_delay: int
+    sample_time_s: float
+
+
+@dataclass(frozen=True)
+class LinearModel:
+    """The nets' linear plant: its parameters, the eigenvalues of A (1/s; ``[re, im]`` in JSON), open-loop
+    stability, the speed transfer function and the ARX at tau."""
+
+    kind: str
+    water_time_s: float
+    inertia_time_s: float
+    self_regulation: float
+    wave_time_s: float
+    alpha: float
+    friction_slope: float
+    eigenvalues: tuple[complex, ...]
+    open_loop_stable: bool
+    speed_tf: SpeedTransferFunction
+    arx: ArxCoefficients
+
+
+@dataclass(frozen=True)
+class PlantLinearization:
+    """:func:`plant_linearization`'s result (``hillsim linearize --plant``, the demo's ``linearization.json`` via
+    :func:`simulate.identification_results.to_json_dict`); ``coefficients_exact``: the exact turbine's, when the
+    caller adds them."""
+
+    operating_point: LinearizationPoint
+    coefficients: CoefficientSet
+    e: float
+    linear_model: LinearModel
+    coefficients_exact: CoefficientSet | None = optional()
+
+
 def plant_linearization(plant, characteristics=None, *, initial_opening: float | None = None,
-                        penstock_model: str | None = None, sample_time_s: float = 0.2) -> dict:
-    """The nets' linear model at a plant's verified initial operating point, as a JSON-ready dict.
+                        penstock_model: str | None = None, sample_time_s: float = 0.2) -> PlantLinearization:
+    """The nets' linear model at a plant's verified initial operating point.
 
     Operating point: ``initial_opening`` (stroke fraction) or the plant scenario's initial power/opening. Returns
     the operating point, the six coefficients, the linear-plant parameters (Tw, J, e_g, Te, alpha, r_f), the
@@ -72,18 +137,22 @@ def plant_linearization(plant, characteristics=None, *, initial_opening: float |
     coeffs, linear = linear_reference(plant, chars, steady, penstock_model=penstock_model)
     ss = linear.state_space()
     num, den = linear.speed_transfer_function()
-    return {
-        "operating_point": {"speed_rpm": steady.speed_rpm, "head_m": steady.head_m, "flow_m3_s": steady.flow_m3_s,
-                            "torque_nm": steady.torque_nm, "power_mw": steady.power_mw, "stroke": steady.stroke,
-                            "opening_chart": steady.opening_chart, "n11_rpm": coeffs.n11_rpm},
-        "coefficients": {k: getattr(coeffs, k) for k in COEFFICIENT_NAMES},
-        "e": coeffs.e,
-        "linear_model": {"kind": "elastic (lumped, eqs. 24-30)" if linear.elastic else "inelastic (eqs. 10-12)",
-                         "water_time_s": linear.water_time_s, "inertia_time_s": linear.inertia_time_s,
-                         "self_regulation": linear.self_regulation, "wave_time_s": linear.wave_time_s,
-                         "alpha": linear.alpha, "friction_slope": linear.friction_slope,
-                         "eigenvalues": [[float(v.real), float(v.imag)] for v in ss.eigenvalues()],
-                         "open_loop_stable": ss.is_stable(),
-                         "speed_tf": {"num": num.tolist(), "den": den.tolist()},
-                         "arx": linear.arx(sample_time_s).to_dict()},
-    }
+    arx = linear.arx(sample_time_s)
+    return PlantLinearization(
+        operating_point=LinearizationPoint(
+            speed_rpm=steady.speed_rpm, head_m=steady.head_m, flow_m3_s=steady.flow_m3_s, torque_nm=steady.torque_nm,
+            power_mw=steady.power_mw, stroke=steady.stroke, opening_chart=steady.opening_chart,
+            n11_rpm=coeffs.n11_rpm),
+        coefficients=CoefficientSet.of(coeffs),
+        e=coeffs.e,
+        linear_model=LinearModel(
+            kind="elastic (lumped, eqs. 24-30)" if linear.elastic else "inelastic (eqs. 10-12)",
+            water_time_s=linear.water_time_s, inertia_time_s=linear.inertia_time_s,
+            self_regulation=linear.self_regulation, wave_time_s=linear.wave_time_s, alpha=linear.alpha,
+            friction_slope=linear.friction_slope,
+            eigenvalues=tuple(complex(float(v.real), float(v.imag)) for v in ss.eigenvalues()),
+            open_loop_stable=ss.is_stable(),
+            speed_tf=SpeedTransferFunction(num=tuple(num.tolist()), den=tuple(den.tolist())),
+            arx=ArxCoefficients(a=tuple(float(v) for v in arx.a), b=tuple(float(v) for v in arx.b),
+                                input_delay=int(arx.input_delay), sample_time_s=float(arx.sample_time_s))),
+    )

@@ -142,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_plant(args) -> int:
     from simulate.config import load_plant
+    from simulate.identification_results import to_json_dict
     from simulate.linear_reference import plant_linearization
 
     if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
@@ -154,7 +155,7 @@ def _run_plant(args) -> int:
     plant = load_plant(args.plant)
     characteristics, label, opening_unit = load_characteristics(args.nets, plant)
     out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
-    out |= plant_linearization(plant, characteristics, initial_opening=args.stroke,
-                               penstock_model=args.penstock_model, sample_time_s=args.tau)
+    out |= to_json_dict(plant_linearization(plant, characteristics, initial_opening=args.stroke,
+                                            penstock_model=args.penstock_model, sample_time_s=args.tau))
     print(json.dumps(out, indent=2))
     return 0
