@@ -70,12 +70,13 @@ def register(subparsers) -> None:
 
 
 def _exact(choice: str, plant):
+    """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics."""
     if choice == "none":
         return None
-    from hillchart.synthetic import SyntheticFrancis
+    from simulate.components import resolve_characteristics
 
     if choice == "synthetic":
-        return SyntheticFrancis()
+        return resolve_characteristics("synthetic")
     chars = plant.turbine.characteristics
     if chars == "ideal":
         return None
@@ -85,7 +86,7 @@ def _exact(choice: str, plant):
         shipped = Path(str(files("data_synthetic.francis") / "nets.json")).resolve()
     except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - data package always ships
         return None
-    return SyntheticFrancis() if (Path(plant.base_dir) / chars).resolve() == shipped else None
+    return resolve_characteristics("synthetic") if (Path(plant.base_dir) / chars).resolve() == shipped else None
 
 
 def run(args: argparse.Namespace) -> int:
