@@ -14,14 +14,15 @@ and identifies:
 
 :func:`identify_measured` does the identification part on a measured series (:mod:`simulate.measured`). Both return
 an :class:`IdentificationReport`: the numbers as a typed
-:class:`~simulate.identification_results.IdentificationSummary`, the series and the traces for the figures (:mod:`simulate.identification_plots`); tables are
-:func:`simulate.identification_tables.markdown_tables`. Files are written only by :meth:`IdentificationReport.write`.
+:class:`~simulate.identification_results.IdentificationSummary`, the series, and the traces for the figures
+(:mod:`simulate.identification_plots`); tables are :func:`simulate.identification_tables.markdown_tables`. Files are
+written only by :meth:`IdentificationReport.write`.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -73,11 +74,22 @@ from simulate.measured import RelativeSeries
 
 @dataclass(frozen=True, eq=False)
 class StepResponses:
-    """Compared speed step responses per unit opening step on ``time_s`` (s): ``curves[label]`` has the shape of
-    ``time_s`` (``nets_zoh``, the estimators, ``simulated_first_step`` with NaN beyond the simulator's hold)."""
+    """Compared speed step responses per unit opening step, each with the shape of ``time_s`` (s): the ZOH of the
+    nets' linear plant, the identified ARX models (``estimates[name]``) and the simulator's own first step (NaN
+    beyond its hold)."""
 
     time_s: np.ndarray
-    curves: dict
+    nets_zoh: np.ndarray | None = None
+    estimates: dict = field(default_factory=dict)
+    simulated_first_step: np.ndarray | None = None
+
+    def curves(self) -> dict:
+        """``{label: response}`` in plotting order: ``nets_zoh``, the estimators, ``simulated_first_step``."""
+        out = {} if self.nets_zoh is None else {"nets_zoh": self.nets_zoh}
+        out.update(self.estimates)
+        if self.simulated_first_step is not None:
+            out["simulated_first_step"] = self.simulated_first_step
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,8 +251,6 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
     n_step = max(10, int(round(horizon_s / tau)))
     step_time_s = tau * np.arange(n_step + 1)
     curves: dict = {}
-    if nets_arx is not None:
-        curves["nets_zoh"] = nets_arx.step_response(n_step)
     for label, structure in (("", main), ("paper_eq53_", other) if settings.arx_structure == "zoh"
                              else ("zoh_", other)):
         shape = {"n_a": structure.n_a, "n_b": structure.n_b, "input_delay": structure.input_delay}
@@ -300,7 +310,9 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
                                  peak_abs_x=float(np.max(np.abs(x))), six_coefficients=six, arx=arx,
                                  step_response_horizon_s=float(n_step * tau), arma_paper002=arma,
                                  acceptance=acceptance, acceptance_note=note)
-    traces = IdentificationTraces(histories=histories, step_responses=StepResponses(time_s=step_time_s, curves=curves),
+    nets_step = nets_arx.step_response(n_step) if nets_arx is not None else None
+    steps = StepResponses(time_s=step_time_s, nets_zoh=nets_step, estimates=curves)
+    traces = IdentificationTraces(histories=histories, step_responses=steps,
                                   simulation_mode=SimulationModeTraces(start=k0, x_hat=x_hat))
     return found, traces
 
@@ -388,8 +400,8 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     if settings.step_amplitude > 0:
         steps = traces.step_responses
         simulated_step, first_step = _simulated_first_step(run.clean, settings, linear, steps.time_s.size)
-        steps.curves["simulated_first_step"] = first_step
-        sweep = arx_order_sweep(run.series, steps.curves["nets_zoh"], first_step)
+        sweep = arx_order_sweep(run.series, steps.nets_zoh, first_step)
+        traces = replace(traces, step_responses=replace(steps, simulated_first_step=first_step))
     summary = IdentificationSummary.build(
         found,
         source="simulation",

@@ -56,9 +56,9 @@ def plot_report(report, out_dir) -> dict[str, Path]:
     plt.close(fig)
 
     steps = report.traces.step_responses
-    if steps.curves:
+    if steps.curves():
         fig, ax = plt.subplots(figsize=(8, 4.5))
-        for label, values in steps.curves.items():
+        for label, values in steps.curves().items():
             ax.plot(steps.time_s, values, lw=2.4 if label == "nets_zoh" else 1.2,
                     ls="-" if label == "nets_zoh" else "--", label=label)
         ax.set_xlabel("time (s)")
