@@ -35,10 +35,10 @@ ENTRY_POINTS = {
     "six_coefficients": "hillchart.linearize",
     "load_plant": "simulate.config",
     "run_simulation": "simulate.engine",
-    "ExperimentSettings": "simulate.comparison",
-    "compare_identification": "simulate.comparison",
-    "identify_measured": "simulate.comparison",
-    "load_measured_series": "simulate.comparison",
+    "ExperimentSettings": "simulate.experiment",
+    "compare_identification": "simulate.identification",
+    "identify_measured": "simulate.identification",
+    "load_measured_series": "simulate.measured",
     "run_demo": "hillsim.demo",
 }
 

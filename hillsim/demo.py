@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import replace
+from dataclasses import fields, is_dataclass, replace
 from pathlib import Path
 
 from hillsim.report import Report, Value
@@ -106,8 +106,10 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     from hillchart.nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
     from hillchart.samples import load_chart
     from hillchart.synthetic import SyntheticFrancis
-    from simulate.comparison import compare_identification, plant_linearization
     from simulate.config import ScenarioConfig, load_plant
+    from simulate.identification import compare_identification
+    from simulate.identification_results import CoefficientSet, to_json_dict
+    from simulate.linear_reference import plant_linearization
 
     from hillsim.progress import Stages
 
@@ -169,14 +171,14 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     bar.start(STEPS[6])
     linear = plant_linearization(plant, nets)
     exact_turbine = SyntheticFrancis()
-    op = linear["operating_point"]
-    exact = six_coefficients(exact_turbine, n11=op["n11_rpm"], opening=op["opening_chart"])
-    linear["coefficients_exact"] = {k: getattr(exact, k) for k in linear["coefficients"]}
-    _write_json(out / "linearization.json", linear)
+    op = linear.operating_point
+    exact = six_coefficients(exact_turbine, n11=op.n11_rpm, opening=op.opening_chart)
+    linear = replace(linear, coefficients_exact=CoefficientSet.of(exact))
+    _write_json(out / "linearization.json", to_json_dict(linear))
     n11_grid = np.linspace(20.0, 120.0, 101)
     a_grid = np.linspace(2.0, chart.info.opening_max, 61)
     plot_coefficient_maps(coefficient_maps(nets, n11_grid, a_grid), out / "coefficient_maps.png",
-                          operating_point=(op["n11_rpm"], op["opening_chart"]), opening_unit=chart.info.opening_unit)
+                          operating_point=(op.n11_rpm, op.opening_chart), opening_unit=chart.info.opening_unit)
     plt.close("all")
     bar.done()
 
@@ -191,9 +193,10 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     for file in RESULT_FILES.values():  # the simulator's and identification's own JSON, tidied like the demo's
         _write_json(out / file, _read_json(out / file))
     results = _load_results(out)
-    summary = _summary(results)
+    ide = _tidy_record(identification.summary)  # the numbers exactly as identification.json has them
+    summary = _summary(results, ide)
     _write_json(out / "demo_summary.json", summary)
-    build_report(out, results, summary).write(out / "report.html")
+    build_report(out, results, summary, ide).write(out / "report.html")
     bar.done()
     return summary
 
@@ -214,12 +217,28 @@ def _load_results(out: Path) -> dict:
     return {name: _read_json(out / file) for name, file in RESULT_FILES.items()}
 
 
-def _summary(results: dict) -> dict:
-    """The key numbers, each taken from a step's JSON file."""
+def _tidy_record(record):
+    """A copy of a frozen record (:mod:`simulate.identification_results`) with every float tidied as
+    :func:`_write_json` tidies the files (:func:`hillchart.tidy.tidy_float`), so that what the report reads from
+    the record is what the JSON file says."""
+    from hillchart.tidy import tidy_float
+
+    if is_dataclass(record) and not isinstance(record, type):
+        return replace(record, **{f.name: _tidy_record(getattr(record, f.name)) for f in fields(record) if f.init})
+    if isinstance(record, tuple):
+        return tuple(_tidy_record(v) for v in record)
+    if isinstance(record, float):
+        return tidy_float(float(record))
+    return record
+
+
+def _summary(results: dict, ide) -> dict:
+    """The key numbers, each taken from a step's JSON file (``ide``: the identification summary as its file has
+    it, see :func:`_tidy_record`)."""
     fit = results["fit"]["truth_errors"]
     rej, clo, fre = results["load_rejection"], results["closure_law"], results["frequency_steps"]
-    lin, ide = results["linearization"], results["identification"]
-    six = ide["six_coefficients"]
+    lin = results["linearization"]
+    six = ide.six_coefficients
     return {
         "q11_rms_measured_pct": fit["q11"]["rms_measured_pct"],
         "q11_max_measured_pct": fit["q11"]["max_measured_pct"],
@@ -233,17 +252,18 @@ def _summary(results: dict) -> dict:
         "operating_point_power_mw": lin["operating_point"]["power_mw"],
         "ey_nets": lin["coefficients"]["ey"],
         "ey_exact": lin["coefficients_exact"]["ey"],
-        "six_max_abs_batch_ls_minus_nets": six["max_abs_batch_ls_minus_nets"],
-        "six_max_abs_nets_minus_exact": six.get("max_abs_nets_minus_exact"),
-        "rls_step_error_vs_nets": ide["arx"]["rls"].get("step_error_vs_nets"),
-        "rls_simulation_mode_max_speed_error": ide["arx"]["rls"]["simulation_mode_final_theta"]["max_abs_error"],
+        "six_max_abs_batch_ls_minus_nets": six.max_abs_batch_ls_minus_nets,
+        "six_max_abs_nets_minus_exact": six.max_abs_nets_minus_exact,
+        "rls_step_error_vs_nets": ide.arx.rls.step_error_vs_nets,
+        "rls_simulation_mode_max_speed_error": ide.arx.rls.simulation_mode_final_theta.max_abs_error,
     }
 
 
-def build_report(out: Path, results: dict, summary: dict) -> Report:
+def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
     """``report.html``: every figure of the demo (PNGs under ``out``) and the tables of key numbers, taken from the
-    JSON files (``results``, see :func:`_load_results`)."""
-    fit, lin, ide = results["fit"], results["linearization"], results["identification"]
+    JSON files (``results``, see :func:`_load_results`) and the identification summary as its file has it
+    (``ide``, see :func:`_tidy_record`)."""
+    fit, lin = results["fit"], results["linearization"]
     sims = {name: results[name] for name in ("load_rejection", "closure_law", "frequency_steps")}
     report = Report("hillsim demo: synthetic HLA339-like Francis unit")
     report.paragraph(
@@ -285,13 +305,14 @@ def build_report(out: Path, results: dict, summary: dict) -> Report:
         report.figure(out / name / "transient.png", caption)
 
     report.heading("4. Six coefficients: nets vs exact vs batch least squares")
-    six = ide["six_coefficients"]
+    six = ide.six_coefficients
     names = ("ex", "ey", "eh", "eqx", "eqy", "eqh")
     rows = [[k,
              Value(lin["coefficients"][k], "{:.4f}", f"linearization.json:coefficients.{k}"),
              Value(lin["coefficients_exact"][k], "{:.4f}", f"linearization.json:coefficients_exact.{k}"),
-             Value(six["nets"][k], "{:.4f}", f"identification/identification.json:six_coefficients.nets.{k}"),
-             Value(six["batch_ls"][k], "{:.4f}", f"identification/identification.json:six_coefficients.batch_ls.{k}")]
+             Value(getattr(six.nets, k), "{:.4f}", f"identification/identification.json:six_coefficients.nets.{k}"),
+             Value(getattr(six.batch_ls, k), "{:.4f}",
+                   f"identification/identification.json:six_coefficients.batch_ls.{k}")]
             for k in names]
     report.table(["coefficient", "nets, scenario point", "exact turbine, scenario point", "nets, identification point",
                   "batch LS (paper 000 eqs. 69-70)"], rows,
@@ -302,16 +323,15 @@ def build_report(out: Path, results: dict, summary: dict) -> Report:
     report.heading("5. Identification against the nets")
     rows = []
     for name in ("rls", "dead_zone_rls", "rls_forgetting"):
-        if name not in ide["arx"]:
-            continue
-        e = ide["arx"][name]
+        e = getattr(ide.arx, name)
         rows.append([name,
-                     Value(e.get("step_error_vs_nets"), "{:.4f}", f"identification/identification.json:arx.{name}.step_error_vs_nets"),
-                     Value(e["simulation_mode_final_theta"]["max_abs_error"], "{:.3g}",
+                     Value(e.step_error_vs_nets, "{:.4f}",
+                           f"identification/identification.json:arx.{name}.step_error_vs_nets"),
+                     Value(e.simulation_mode_final_theta.max_abs_error, "{:.3g}",
                            f"identification/identification.json:arx.{name}.simulation_mode_final_theta.max_abs_error")])
     report.table(["estimator", "step response error vs nets' ZOH model (fraction of peak)",
                   "simulation-mode max speed error (per unit)"], rows,
-                 f"ARX identification with the {ide['penstock_model']} penstock")
+                 f"ARX identification with the {ide.penstock_model} penstock")
     for png, caption in (("six_coefficients.png", "Six coefficients: nets vs batch LS vs exact"),
                          ("step_response.png", "Step responses: identified vs nets' ZOH model"),
                          ("theta_convergence.png", "theta(k) convergence of RLS and dead-zone RLS"),

@@ -147,8 +147,9 @@ def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics")
     if not path.is_absolute() and base_dir is not None:
         path = Path(base_dir) / path
     if not path.is_file():
+        where = " (relative to the plant file)" if base_dir is not None else ""
         raise InputError(f"{key} = {spec!r}: nets file {str(path)!r} does not exist; give \"ideal\", "
-                         f"\"synthetic\" or the path of a nets.json (relative to the plant file)")
+                         f"\"synthetic\" or the path of a nets.json{where}")
     from hillchart.nets import load_nets
 
     return load_nets(path)

@@ -9,14 +9,10 @@ import pytest
 
 from hillchart.errors import InputError
 from hillchart.linearize import COEFFICIENT_NAMES
-from simulate.comparison import (
-    ExperimentSettings,
-    OperatingPoint,
-    RelativeSeries,
-    identify_measured,
-    load_measured_series,
-    markdown_tables,
-)
+from simulate.experiment import ExperimentSettings
+from simulate.identification import identify_measured
+from simulate.identification_tables import markdown_tables
+from simulate.measured import OperatingPoint, RelativeSeries, load_measured_series
 from simulate.linear import LinearPlant
 
 OP = OperatingPoint(speed_rpm=200.0, head_m=176.0, flow_m3_s=140.0, torque_nm=1.07e7, opening=0.68)
@@ -148,9 +144,9 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
     path = write_csv(tmp_path / "series.csv", linear_measurement(SHORT))
     series = load_measured_series(path, sample_time_s=0.2, operating_point=OP)
     report = identify_measured(series, SHORT)
-    six = report.summary["six_coefficients"]["batch_ls"]
+    six = report.summary.six_coefficients.batch_ls
     # m and q are exact linear functions of (x, h, y): LS reproduces the coefficients to round-off
-    np.testing.assert_allclose([six[k] for k in COEFFICIENT_NAMES],
+    np.testing.assert_allclose([getattr(six, k) for k in COEFFICIENT_NAMES],
                                [getattr(PLANT, k) for k in COEFFICIENT_NAMES], atol=1e-9)
     # the samples at tau of an exact ZOH simulation at tau/4 are an exact ZOH simulation at tau: RLS finds the
     # plant's own ARX up to its ridge bias |theta| / (p0 lambda_min(phi^T phi)) (see test_identify)
@@ -160,9 +156,9 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
     phi, _ = arx_regressors(series.x, series.y, n_a=3, n_b=3, input_delay=0)
     bias = np.linalg.norm(arx_true.theta) / (SHORT.rls_p0 * np.linalg.eigvalsh(phi.T @ phi).min())
     assert bias < 0.01
-    np.testing.assert_allclose(report.summary["arx"]["rls"]["theta"], arx_true.theta, atol=2 * bias)
-    sim = report.summary["arx"]["rls"]["simulation_mode_final_theta"]
-    assert sim["relative_error"] < 1e-3  # only the small ridge bias of theta remains (measured 1.4e-4)
+    np.testing.assert_allclose(report.summary.arx.rls.theta, arx_true.theta, atol=2 * bias)
+    sim = report.summary.arx.rls.simulation_mode_final_theta
+    assert sim.relative_error < 1e-3  # only the small ridge bias of theta remains (measured 1.4e-4)
     paths = report.write(tmp_path / "out")
     data = json.loads(paths["json"].read_text())
     assert data["source"] == "measured" and "acceptance" not in data  # no nets reference given
@@ -201,3 +197,24 @@ def test_measured_csv_accepts_extra_columns_in_any_order(tmp_path):
     cols = ("power_mw", "flow_m3_s", "time_s", "opening", "speed_rpm", "torque_nm", "head_m")
     series = load_measured_series(write_csv(tmp_path / "s.csv", d, cols), sample_time_s=0.2, operating_point=OP)
     np.testing.assert_allclose(series.x[:50], (d["speed_rpm"][::4][:50] / OP.speed_rpm - 1), atol=1e-12)
+
+
+def test_summary_is_a_frozen_record_and_the_json_is_made_from_it(tmp_path):
+    import dataclasses
+
+    from simulate.identification_results import to_json_dict
+
+    path = write_csv(tmp_path / "series.csv", linear_measurement(SHORT))
+    report = identify_measured(load_measured_series(path, sample_time_s=0.2, operating_point=OP), SHORT)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        report.summary.samples = 3
+    data = json.loads(report.write(tmp_path / "out")["json"].read_text())
+    assert data == to_json_dict(report.summary) == report.to_dict()
+    # the file keeps its keys and order; sections that do not apply (no nets reference) are left out
+    assert list(data)[:5] == ["source", "operating_point", "experiment", "sample_time_s", "samples"]
+    assert "nets" not in data["six_coefficients"] and "nets_zoh" not in data["arx"]
+    assert "step_error_vs_nets" not in data["arx"]["rls"] and "arma_paper002" not in data
+    # a None that is a value (the automatic dead zone of the settings) is written as null
+    assert data["experiment"]["dead_zone_eps0"] is None
+    assert data["arx"]["rls"]["theta"] == list(report.summary.arx.rls.theta)
+    assert data["six_coefficients"]["batch_ls"]["eqh"] == report.summary.six_coefficients.batch_ls.eqh

@@ -16,8 +16,10 @@ pytest.importorskip("simulate.engine")
 from data_synthetic import FRANCIS_DIR  # noqa: E402
 from hillchart.synthetic import SyntheticFrancis  # noqa: E402
 from hillsim.cli import main  # noqa: E402
-from simulate.comparison import ExperimentSettings, compare_identification  # noqa: E402
+from simulate.experiment import ExperimentSettings  # noqa: E402
+from simulate.identification import compare_identification  # noqa: E402
 from simulate.config import load_plant  # noqa: E402
+from simulate.identification_results import ArmaSkipped  # noqa: E402
 
 PLANT_FILE = FRANCIS_DIR.parent / "plant_hla339.toml"
 SHORT = ExperimentSettings(step_hold_s=25.0, prbs_duration_s=60.0, quiet_s=40.0)
@@ -39,66 +41,76 @@ def reports(plant):
 @pytest.mark.parametrize("model", ["rigid", "lumped"])
 def test_acceptance_with_the_matching_penstock_model(reports, model):
     s = reports[model].summary
-    six = s["six_coefficients"]
+    six = s.six_coefficients
     # batch LS of the six coefficients within 0.02 of the nets' analytic values (measured ~0.004: the residual is
     # the nonlinearity of +-1 % steps, mostly in ex and eqx)
-    assert six["max_abs_batch_ls_minus_nets"] < 0.02
+    assert six.max_abs_batch_ls_minus_nets < 0.02
     # step response of the RLS-identified ARX vs the ZOH of the nets' linear plant: within 5 % of peak
     # (measured ~0.3 %)
-    assert s["arx"]["rls"]["step_error_vs_nets"] < 0.05
+    assert s.arx.rls.step_error_vs_nets < 0.05
     # simulation-mode speed error (eqs. 62-64) below 1 % (measured ~4e-5 absolute)
-    assert s["arx"]["rls"]["simulation_mode_final_theta"]["max_abs_error"] < 0.01
-    assert all(v is True for v in s["acceptance"].values())
+    assert s.arx.rls.simulation_mode_final_theta.max_abs_error < 0.01
+    assert all(check.passed is True for check in s.acceptance.checks())
+    # each check carries the number it judged and its bound: the same numbers as above
+    assert s.acceptance.batch_ls.value == six.max_abs_batch_ls_minus_nets and s.acceptance.batch_ls.bound == 0.02
+    assert s.acceptance.rls_step_response.value == s.arx.rls.step_error_vs_nets
+    assert s.acceptance.simulation_mode_speed_error.bound == 0.01
     # and the nets agree with the exact turbine the chart was drawn from (issue 5: within 0.05)
-    assert six["max_abs_nets_minus_exact"] < 0.05
+    assert six.max_abs_nets_minus_exact < 0.05
     # the linear model is the one that matches the simulator's penstock
-    assert s["linear_model"].startswith("inelastic" if model == "rigid" else "elastic")
+    assert s.linear_model.startswith("inelastic" if model == "rigid" else "elastic")
 
 
 def test_moc_difference_is_reported_and_static_coefficients_do_not_depend_on_it(reports):
     moc, lumped = reports["moc"].summary, reports["lumped"].summary
     # the six coefficients are static: batch LS agrees with the nets whatever the penstock model
-    assert moc["six_coefficients"]["max_abs_batch_ls_minus_nets"] < 0.02
+    assert moc.six_coefficients.max_abs_batch_ls_minus_nets < 0.02
     # MOC has the travelling waves the lumped model lumps into one mode: its own first step still follows the
     # lumped prediction closely (measured 2.6 % vs 1.4 % for lumped), the identified 3rd-order ARX less so
-    assert moc["simulated_step_vs_nets"]["max_error_frac_of_peak"] < 0.05
-    assert lumped["simulated_step_vs_nets"]["max_error_frac_of_peak"] < 0.03
-    assert np.isfinite(moc["arx"]["rls"]["step_error_vs_nets"])
-    assert moc["acceptance"]["rls_step_response_within_5pct"] is None  # reported, not judged, for moc
+    assert moc.simulated_step_vs_nets.max_error_frac_of_peak < 0.05
+    assert lumped.simulated_step_vs_nets.max_error_frac_of_peak < 0.03
+    assert np.isfinite(moc.arx.rls.step_error_vs_nets)
+    assert moc.acceptance.rls_step_response.passed is None  # reported, not judged, for moc
     # why: the travelling waves need more ARX order at tau = 0.2 s. Batch-LS ARX of order 6 follows the nets'
     # lumped model within 5 % (measured 2.2 %), order 3 does not (measured 11.5 %); for lumped data order 3 suffices
-    sweep = {row["order"]: row for row in moc["arx_order_sweep"]}
-    assert sweep[6]["step_error_vs_nets"] < 0.05 < sweep[3]["step_error_vs_nets"]
-    assert {row["order"]: row for row in lumped["arx_order_sweep"]}[3]["step_error_vs_nets"] < 0.01
+    sweep = {row.order: row for row in moc.arx_order_sweep}
+    assert sweep[6].step_error_vs_nets < 0.05 < sweep[3].step_error_vs_nets
+    assert {row.order: row for row in lumped.arx_order_sweep}[3].step_error_vs_nets < 0.01
 
 
 def test_paper_002_arma_on_the_rigid_run(reports):
-    arma = reports["rigid"].summary["arma_paper002"]
-    eff = arma["nets_with_friction"]
+    arma = reports["rigid"].summary.arma_paper002
+    eff = arma.nets_with_friction
     # backward-difference eq. (6) at Dt = 0.04 s is biased by ~Dt / (2 eqh Tw) ~ 3 %; eqx x is neglected:
     # measured differences 0.002 (ey), 0.04 (e), 0.004 (eqh)
-    assert abs(arma["ey"] - eff["ey"]) < 0.02
-    assert abs(arma["e"] - eff["e"]) < 0.1
-    assert abs(arma["eqh"] - eff["eqh"]) < 0.02
-    assert "skipped" in reports["lumped"].summary["arma_paper002"]  # paper 002 is a rigid-water model
+    assert abs(arma.ey - eff.ey) < 0.02
+    assert abs(arma.e - eff.e) < 0.1
+    assert abs(arma.eqh - eff.eqh) < 0.02
+    assert isinstance(reports["lumped"].summary.arma_paper002, ArmaSkipped)  # paper 002 is a rigid-water model
 
 
 def test_dead_zone_keeps_theta_bounded_where_forgetting_rls_drifts_on_the_simulator(plant):
     noisy = ExperimentSettings(step_hold_s=25.0, prbs_duration_s=60.0, quiet_s=80.0, noise_level=2e-5, seed=3)
     s = compare_identification(plant, settings=noisy, penstock_model="lumped", initial_opening=STROKE).summary
-    arx = s["arx"]
+    arx = s.arx
     # in the quiet tail only noise drives the estimators: forgetting RLS winds up and wanders (O(1) in theta),
     # the dead zone does not move (measured 0 vs ~2)
-    assert arx["rls_forgetting"]["theta_spread_quiet_tail"] > 0.3
-    assert arx["dead_zone_rls"]["theta_spread_quiet_tail"] < 0.1 * arx["rls_forgetting"]["theta_spread_quiet_tail"]
+    assert arx.rls_forgetting.theta_spread_quiet_tail > 0.3
+    assert arx.dead_zone_rls.theta_spread_quiet_tail < 0.1 * arx.rls_forgetting.theta_spread_quiet_tail
     # the noisy data still gives the six coefficients (batch LS is not an equation-error ARX fit)
-    assert s["six_coefficients"]["max_abs_batch_ls_minus_nets"] < 0.02
+    assert s.six_coefficients.max_abs_batch_ls_minus_nets < 0.02
 
 
 def test_report_writes_json_and_figures(reports, tmp_path):
     paths = reports["lumped"].write(tmp_path)
     data = json.loads(paths["json"].read_text())
-    assert data["penstock_model"] == "lumped" and data["acceptance"]["rls_step_response_within_5pct"] is True
+    check = data["acceptance"]["rls_step_response"]
+    assert data["penstock_model"] == "lumped" and check["name"] == "rls_step_response_within_5pct"
+    assert check["passed"] is True and check["bound"] == 0.05
+    # the file is the record: every number in it is the record's (to_json_dict of the summary)
+    assert check["value"] == reports["lumped"].summary.arx.rls.step_error_vs_nets
+    assert data["six_coefficients"]["batch_ls"]["ex"] == reports["lumped"].summary.six_coefficients.batch_ls.ex
+    assert [row["order"] for row in data["arx_order_sweep"]] == [2, 3, 4, 5, 6]
     for key in ("series_png", "six_png", "step_png", "theta_png", "simulation_mode_png"):
         assert paths[key].stat().st_size > 5_000
     series = np.loadtxt(paths["series"], delimiter=",", skiprows=1)
@@ -116,7 +128,7 @@ def test_identify_cli(tmp_path, capsys):
     assert data["experiment"]["step_hold_s"] == 20.0
     # the measured-data path on the simulator's own output gives the same batch-LS coefficients
     sim_csv = tmp_path / "run.csv"
-    from simulate.comparison import experiment_plant
+    from simulate.experiment import experiment_plant
     from simulate.engine import run_simulation
 
     plant = load_plant(PLANT_FILE)

@@ -53,7 +53,25 @@ def test_linearize_bad_options(argv, message, capsys, tmp_path, monkeypatch):
 def test_linearize_missing_nets_file(capsys, tmp_path):
     pytest.importorskip("hillchart.nets")
     assert main(["linearize", str(tmp_path / "none.json"), "--n11", "67.8", "--opening", "20"]) == 2
-    assert "hillsim linearize: error:" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    # the one resolver of characteristics (simulate.components.resolve_characteristics) names the argument
+    assert err.startswith("hillsim linearize: error: NETS = ") and "none.json' does not exist" in err
+    assert "relative to the plant file" not in err  # NETS is relative to the working folder
+
+
+def test_linearize_ideal_turbine_needs_a_plant_and_is_exact_with_one(capsys):
+    """NETS goes through the plant file's resolver: 'ideal' is the ideal turbine of the plant's rated values."""
+    from data_synthetic import PLANT_HLA339
+
+    assert main(["linearize", "ideal", "--n11", "67.8", "--opening", "20"]) == 2
+    assert "NETS = 'ideal' needs the plant's rated values" in capsys.readouterr().err
+    assert main(["linearize", "ideal", "--plant", str(PLANT_HLA339), "--stroke", "0.68"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["source"].startswith("ideal turbine")
+    # the ideal turbine's coefficients are exactly (-1, 1, 1.5, 0, 1, 0.5) (README, six coefficients); 1e-9 leaves
+    # room for the rounding of the analytic derivatives at the plant's operating point
+    got = [out["coefficients"][k] for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")]
+    np.testing.assert_allclose(got, [-1.0, 1.0, 1.5, 0.0, 1.0, 0.5], atol=1e-9)
 
 
 def test_linearize_shipped_nets_json(capsys, tmp_path):

@@ -35,6 +35,14 @@ def test_linearize_at_plant_operating_point(capsys, model, order):
     # Tw at O from the penstock geometry: sum L/(g A) * Q0 / H0 (two segments of the shipped plant)
     inertance = sum(length / (9.81 * np.pi * d**2 / 4) for length, d in ((320.0, 6.2), (180.0, 5.6)))
     assert lin["water_time_s"] == pytest.approx(inertance * op["flow_m3_s"] / op["head_m"], rel=1e-12)
+    # the printed JSON is the typed record plant_linearization returns (one JSON function for both)
+    from simulate.config import load_plant
+    from simulate.identification_results import to_json_dict
+    from simulate.linear_reference import plant_linearization
+
+    record = plant_linearization(load_plant(PLANT_FILE), load_nets(NETS), initial_opening=0.68, penstock_model=model)
+    assert record.linear_model.arx.a == tuple(lin["arx"]["a"]) and record.operating_point.stroke == 0.68
+    assert {k: v for k, v in out.items() if k not in ("source", "opening_unit", "plant")} == to_json_dict(record)
 
 
 @pytest.mark.parametrize(

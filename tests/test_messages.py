@@ -10,7 +10,7 @@ import pytest
 from hillchart.errors import InputError
 from hillchart.samples import load_chart
 from hillchart.tabular import read_table
-from simulate.comparison import MEASURED_COLUMNS, OperatingPoint, RelativeSeries, load_measured_series
+from simulate.measured import MEASURED_COLUMNS, OperatingPoint, RelativeSeries, load_measured_series
 from simulate.config import load_plant
 
 REPO = Path(__file__).resolve().parents[1]

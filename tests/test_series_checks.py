@@ -7,9 +7,14 @@ import numpy as np
 import pytest
 
 from hillchart.errors import InputError
-from hillsim.commands.identify import arx_pole_modulus, display_summary, has_quiet_tail, review_summary
-from simulate.comparison import MEASURED_COLUMNS, ExperimentSettings, OperatingPoint, load_measured_series
+from hillsim.commands.identify import has_quiet_tail, review_summary
 from simulate.config import load_plant
+from simulate.experiment import ExperimentSettings
+from simulate.identification_results import (ArxEstimate, ArxResults, ArxStructure, CoefficientSet,
+                                             IdentificationSummary, ResidualRms, SimulationModeError,
+                                             SixCoefficientResult, to_json_dict)
+from simulate.identification_tables import markdown_tables
+from simulate.measured import MEASURED_COLUMNS, OperatingPoint, load_measured_series
 from simulate.series_checks import (check_against_plant, check_measured_table, check_time, hampel_outliers,
                                     small_signal_warning)
 
@@ -147,24 +152,47 @@ def test_quiet_tail_is_reported_only_when_there_is_one():
     assert not has_quiet_tail(_Series(0.01, n=400), settings)  # shorter than the tail
 
 
-def _summary(theta):
-    entry = {"theta": theta, "n_a": 3, "n_b": 3, "step_error_vs_nets": 3.3e23, "theta_spread_quiet_tail": 0.1,
-             "simulation_mode_final_theta": {"max_abs_error": 332826844722642498355200.0}}
-    return {"arx": {"rls": entry, "dead_zone_eps0": 1e-7}, "experiment": {"quiet_s": 100.0}}
+def _summary(theta, *, quiet_s=100.0):
+    """A summary whose three recursive estimators found ``theta`` (ZOH structure, order 3) with huge errors."""
+    huge = SimulationModeError(max_abs_error=332826844722642498355200.0, peak_abs_output=0.005,
+                               relative_error=6.7e25)
+    entry = ArxEstimate(theta=tuple(theta), updates=590, n_a=3, n_b=3, input_delay=0,
+                        simulation_mode_final_theta=huge, simulation_mode_online=huge, theta_spread_quiet_tail=0.1,
+                        step_error_vs_nets=3.3e23)
+    ideal = CoefficientSet(ex=-1.0, ey=1.0, eh=1.5, eqx=0.0, eqy=1.0, eqh=0.5)
+    return IdentificationSummary(
+        source="measured", operating_point=_op(), experiment=ExperimentSettings(quiet_s=quiet_s), sample_time_s=0.2,
+        samples=600, arx_structure=ArxStructure(n_a=3, n_b=3, input_delay=0), peak_abs_x=0.005,
+        six_coefficients=SixCoefficientResult(batch_ls=ideal, condition_number=10.0, residual_rms=ResidualRms(0, 0)),
+        arx=ArxResults(dead_zone_eps0=1e-7, forgetting_factor=0.98, rls_p0=1e10, rls=entry, rls_forgetting=entry,
+                       dead_zone_rls=entry),
+        step_response_horizon_s=26.0)
 
 
 def test_unstable_model_is_said_not_printed_as_a_huge_number():
     """Issue 13: an unstable identified model printed 332826844722642498355200.0000."""
     unstable = [2.1, -1.05, 0.0, 0.01, 0.0, 0.0]  # z^3 - 2.1 z^2 + 1.05 z: poles (2.1 +- sqrt(0.21)) / 2 and 0
-    assert arx_pole_modulus({"theta": unstable, "n_a": 3}) == pytest.approx((2.1 + math.sqrt(0.21)) / 2, rel=1e-12)
-    summary = _summary(unstable)
-    notes = review_summary(summary, _Series(0.01), ExperimentSettings())
-    assert summary["arx"]["rls"]["stable"] is False and summary["arx"]["rls"]["max_pole_modulus"] > 1
+    assert _summary(unstable).arx.rls.pole_modulus() == pytest.approx((2.1 + math.sqrt(0.21)) / 2, rel=1e-12)
+    summary, notes = review_summary(_summary(unstable), _Series(0.01), ExperimentSettings())
+    assert summary.arx.rls.stable is False and summary.arx.rls.max_pole_modulus > 1
     assert any("identified by rls is unstable (largest pole |z| = 1.279129 >= 1)" in n for n in notes)
-    shown = display_summary(summary)["arx"]["rls"]
-    assert shown["step_error_vs_nets"] == "unstable"
-    assert shown["simulation_mode_final_theta"]["max_abs_error"] == "unstable"
-    stable = _summary([1.5, -0.56, 0.0, 0.01, 0.0, 0.0])  # poles 0.8 and 0.7
-    assert review_summary(stable, _Series(0.01), ExperimentSettings()) == []
-    assert stable["arx"]["rls"]["stable"] is True
-    assert display_summary(stable)["arx"]["rls"]["step_error_vs_nets"] == "3.300e+23"  # huge but stable: readable
+    table = markdown_tables(summary)
+    assert "| rls | unstable | unstable | 3.328e+23 | 0.1000 |" in table  # the on-line error is still a number
+    stable_summary, notes = review_summary(_summary([1.5, -0.56, 0.0, 0.01, 0.0, 0.0]), _Series(0.01),
+                                           ExperimentSettings())  # poles 0.8 and 0.7
+    assert notes == [] and stable_summary.arx.rls.stable is True
+    assert stable_summary.arx.rls.max_pole_modulus == pytest.approx(0.8, rel=1e-12)
+    assert "| rls | 3.300e+23 | 3.328e+23 |" in markdown_tables(stable_summary)  # huge but stable: readable
+    # the review is recorded in the JSON, next to the estimate it judged
+    entry = to_json_dict(summary)["arx"]["rls"]
+    assert entry["stable"] is False and list(entry)[-3:] == ["step_error_vs_nets", "max_pole_modulus", "stable"]
+
+
+def test_no_quiet_tail_is_recorded():
+    summary, notes = review_summary(_summary([1.5, -0.56, 0.0, 0.01, 0.0, 0.0]), _Series(0.01, quiet=False),
+                                    ExperimentSettings())
+    assert notes[-1].startswith("no quiet tail (the opening moves within the last 100 s")
+    assert summary.arx.rls.theta_spread_quiet_tail is None and summary.experiment.quiet_s == 0.0
+    data = to_json_dict(summary)
+    assert data["arx"]["rls"]["theta_spread_quiet_tail"] is None  # null, not left out: the field always exists
+    assert "| rls | 3.300e+23 | 3.328e+23 | 3.328e+23 | - |" in markdown_tables(summary)

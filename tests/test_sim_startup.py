@@ -44,7 +44,7 @@ def test_simulating_and_linearizing_with_the_shipped_nets_import_no_torch(tmp_pa
     loaded = _modules_after(
         "from data_synthetic import PLANT_HLA339\n"
         "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
-        "from simulate.comparison import plant_linearization\n"
+        "from simulate.linear_reference import plant_linearization\n"
         "plant = load_plant(PLANT_HLA339, {'scenario.t_end_s': 3.0})\n"
         "run_simulation(plant).summary()\nplant_linearization(plant)\n", tmp_path)
     assert not loaded["torch"] and not loaded["scipy.signal"], loaded
@@ -80,7 +80,7 @@ def test_second_run_loads_the_loop_from_the_disk_cache(tmp_path):
 
 def test_identification_imports_no_torch_scipy_signal_or_matplotlib(tmp_path):
     loaded = _modules_after(
-        "import numpy as np\nimport simulate.comparison\n"
+        "import numpy as np\nimport simulate.identification\n"
         "from simulate.identify import RecursiveLeastSquares, SixCoefficientLeastSquares\n"
         "rng = np.random.default_rng(0)\n"
         "RecursiveLeastSquares().fit(rng.normal(size=(50, 2)), rng.normal(size=50))\n"

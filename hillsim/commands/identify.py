@@ -3,16 +3,15 @@
 Runs the nonlinear simulator in open loop around the plant's operating point (opening steps and a seeded PRBS,
 sampled at tau), identifies the six coefficients (batch least squares) and the ARX speed model (RLS, RLS with
 forgetting, dead-zone RLS), and compares them with the nets' analytic coefficients and the zero-order hold of the
-linear model they imply (:mod:`simulate.comparison`). Writes ``identification.json``, ``identified_series.csv`` and
+linear model they imply (:mod:`simulate.identification`). Writes ``identification.json``, ``identified_series.csv`` and
 figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured series instead.
 """
 
 from __future__ import annotations
 
 import argparse
-import copy
-import math
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -71,12 +70,13 @@ def register(subparsers) -> None:
 
 
 def _exact(choice: str, plant):
+    """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics."""
     if choice == "none":
         return None
-    from hillchart.synthetic import SyntheticFrancis
+    from simulate.components import resolve_characteristics
 
     if choice == "synthetic":
-        return SyntheticFrancis()
+        return resolve_characteristics("synthetic")
     chars = plant.turbine.characteristics
     if chars == "ideal":
         return None
@@ -86,13 +86,15 @@ def _exact(choice: str, plant):
         shipped = Path(str(files("data_synthetic.francis") / "nets.json")).resolve()
     except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - data package always ships
         return None
-    return SyntheticFrancis() if (Path(plant.base_dir) / chars).resolve() == shipped else None
+    return resolve_characteristics("synthetic") if (Path(plant.base_dir) / chars).resolve() == shipped else None
 
 
 def run(args: argparse.Namespace) -> int:
-    from simulate.comparison import (ExperimentSettings, compare_identification, identify_measured,
-                                     load_measured_series, markdown_tables)
     from simulate.config import load_plant, parse_override
+    from simulate.experiment import ExperimentSettings
+    from simulate.identification import compare_identification, identify_measured
+    from simulate.identification_tables import markdown_tables
+    from simulate.measured import load_measured_series
 
     out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
     overrides = dict(parse_override(text) for text in args.set)
@@ -128,17 +130,18 @@ def run(args: argparse.Namespace) -> int:
         progress.start(f"simulating the experiment ({settings.duration_s:g} s) and identifying")
         report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
                                         initial_opening=args.initial_opening)
-    summary = report.summary
-    notes += review_summary(summary, report.series, settings)
+    summary, review_notes = review_summary(report.summary, report.series, settings)
+    notes += review_notes
     if notes:
-        summary["warnings"] = notes
+        summary = replace(summary, warnings=tuple(notes))
+    report = replace(report, summary=summary)
     progress.done()
     progress.start("writing identification.json, the series and the figures")
     paths = report.write(out)
     progress.done()
-    print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
-          f"{summary['samples']} samples)")
-    print(markdown_tables(display_summary(summary)))
+    print(f"identification ({summary.source}, penstock {summary.penstock_model or '-'}, tau = {args.tau} s, "
+          f"{summary.samples} samples)")
+    print(markdown_tables(summary))
     for note in notes:
         print(f"warning: {note}")
     print("wrote " + ", ".join(str(Path(args.out) / p.relative_to(out)) for p in paths.values()))
@@ -148,18 +151,6 @@ def run(args: argparse.Namespace) -> int:
 #: A measured opening moving less than this (relative to the operating opening) over the last ``quiet_s`` counts as
 #: a quiet tail (position sensors resolve about 0.1 % of the stroke).
 QUIET_TAIL_TOLERANCE = 1e-3
-#: Numbers printed plainly up to this magnitude; larger ones (a diverging response) in scientific notation.
-PLAIN_LIMIT = 1e6
-
-
-def arx_pole_modulus(entry: dict) -> float:
-    """Largest |pole| of an identified ARX model ``x(k+1) = sum a_i x(k+1-i) + ...`` (theta = a's then b's): the
-    roots of z^n - a1 z^(n-1) - ... - an. The model is unstable when it is >= 1."""
-    a = np.asarray(entry["theta"][: entry["n_a"]], dtype=float)
-    if not np.all(np.isfinite(a)):
-        return math.inf
-    roots = np.roots(np.r_[1.0, -a])
-    return float(np.max(np.abs(roots))) if roots.size else 0.0
 
 
 def has_quiet_tail(series, settings) -> bool:
@@ -171,10 +162,18 @@ def has_quiet_tail(series, settings) -> bool:
     return float(np.ptp(series.y[-n:])) <= QUIET_TAIL_TOLERANCE
 
 
-def review_summary(summary: dict, series, settings) -> list[str]:
-    """Adds ``max_pole_modulus`` and ``stable`` to each identified ARX model, removes the quiet-tail spread when the
-    series has no quiet tail, and returns the warnings (unstable models, no quiet tail, outside the small-signal
-    range); the caller records them in ``summary["warnings"]``."""
+def review_summary(summary, series, settings):
+    """``(reviewed summary, warnings)``: each identified ARX model gets ``max_pole_modulus`` and ``stable``; without
+    a quiet tail the quiet-tail spread is None and the recorded ``experiment.quiet_s`` 0 (nothing to shade in the
+    convergence plot). Warnings: unstable models, no quiet tail, outside the small-signal range; the caller records
+    them in ``summary.warnings``.
+
+    Parameters
+    ----------
+    summary : simulate.identification_results.IdentificationSummary
+    series : simulate.measured.RelativeSeries
+    settings : simulate.experiment.ExperimentSettings
+    """
     from simulate.series_checks import small_signal_warning
 
     notes = []
@@ -182,41 +181,19 @@ def review_summary(summary: dict, series, settings) -> list[str]:
     if signal:
         notes.append(signal)
     quiet = has_quiet_tail(series, settings)
-    for name, entry in summary["arx"].items():
-        if not isinstance(entry, dict) or "n_a" not in entry or "theta" not in entry:
-            continue
-        modulus = arx_pole_modulus(entry)
-        entry["max_pole_modulus"] = modulus
-        entry["stable"] = bool(modulus < 1.0)
-        if not entry["stable"]:
+    reviewed = {}
+    for name, estimate in summary.arx.estimates().items():
+        modulus = estimate.pole_modulus()
+        changes = {"max_pole_modulus": modulus, "stable": bool(modulus < 1.0)}
+        if not changes["stable"]:
             notes.append(f"the ARX model identified by {name} is unstable (largest pole |z| = {modulus:.6f} >= 1): "
                          "its step response and simulation-mode output diverge, so their errors are not shown")
-        if not quiet and "theta_spread_quiet_tail" in entry:
-            entry["theta_spread_quiet_tail"] = None
+        if not quiet:
+            changes["theta_spread_quiet_tail"] = None
+        reviewed[name] = replace(estimate, **changes)
+    summary = replace(summary, arx=replace(summary.arx, **reviewed))
     if not quiet:
-        summary.setdefault("experiment", {})["quiet_s"] = 0.0  # nothing to shade in the convergence plot
+        summary = replace(summary, experiment=replace(summary.experiment, quiet_s=0.0))
         notes.append(f"no quiet tail (the opening moves within the last {settings.quiet_s:g} s, or the series is "
                      "shorter): the theta spread in the quiet tail is not reported")
-    return notes
-
-
-def display_summary(summary: dict) -> dict:
-    """A copy of ``summary`` for the printed tables: an unstable model's step and simulation-mode errors read
-    "unstable", and numbers beyond :data:`PLAIN_LIMIT` are written in scientific notation."""
-    shown = copy.deepcopy(summary)
-    for entry in shown["arx"].values():
-        if isinstance(entry, dict) and entry.get("stable") is False:
-            if "step_error_vs_nets" in entry:
-                entry["step_error_vs_nets"] = "unstable"
-            entry["simulation_mode_final_theta"]["max_abs_error"] = "unstable"
-
-    def walk(node):
-        if isinstance(node, dict):
-            return {k: walk(v) for k, v in node.items()}
-        if isinstance(node, list):
-            return [walk(v) for v in node]
-        if isinstance(node, float) and math.isfinite(node) and abs(node) >= PLAIN_LIMIT:
-            return f"{node:.3e}"
-        return node
-
-    return walk(shown)
+    return summary, notes

@@ -1,8 +1,8 @@
 """``hillsim linearize NETS --n11 X --opening A [--map out.png]``: the six transfer coefficients from the nets.
 
 Prints one JSON object: the operating point, ``ex, ey, eh, eqx, eqy, eqh`` (analytic derivatives of the nets, see
-:mod:`hillchart.linearize`) and paper 002's ``e``. ``NETS`` is a ``nets.json`` or the word ``synthetic`` (the exact
-synthetic Francis turbine the shipped chart was drawn from, for comparison).
+:mod:`hillchart.linearize`) and paper 002's ``e``. ``NETS`` is a ``nets.json``, the word ``synthetic`` (the exact
+synthetic Francis turbine the shipped chart was drawn from, for comparison) or, with ``--plant``, ``ideal``.
 """
 
 from __future__ import annotations
@@ -16,16 +16,19 @@ from hillchart.errors import InputError
 from hillsim import progress
 
 
-def load_characteristics(source: str):
-    """``(characteristics, label, opening_unit)`` for a nets.json path or ``"synthetic"``."""
+def load_characteristics(source: str, plant=None):
+    """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
+    (:func:`simulate.components.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
+    ``--plant``: the ideal turbine from the plant's rated values)."""
+    from simulate.components import resolve_characteristics
+
+    characteristics = resolve_characteristics(source, turbine=plant.turbine if plant is not None else None,
+                                              key="NETS")
     if source == "synthetic":
-        from hillchart.synthetic import SyntheticFrancis
-
-        return SyntheticFrancis(), "synthetic Francis turbine (exact)", "mm"
-    from hillchart.nets import load_nets  # lazy: the nets module pulls in its own dependencies
-
-    nets = load_nets(source)
-    return nets, str(source), getattr(nets, "opening_unit", "chart units")
+        return characteristics, "synthetic Francis turbine (exact)", "mm"
+    if source == "ideal":
+        return characteristics, "ideal turbine (the plant's rated values)", "chart units"
+    return characteristics, str(source), getattr(characteristics, "opening_unit", "chart units")
 
 
 def _chart_ranges(characteristics):
@@ -47,7 +50,9 @@ def register(subparsers) -> None:
         description="Six coefficients of the linear turbine model from the nets' analytic derivatives (paper 000, "
                     "eqs. 4-7). Prints JSON; --map draws each coefficient over (N11, a).",
     )
-    parser.add_argument("nets", metavar="NETS", help="nets.json, or 'synthetic' for the exact synthetic turbine")
+    parser.add_argument("nets", metavar="NETS",
+                        help="nets.json, 'synthetic' for the exact synthetic turbine, or with --plant 'ideal' (the "
+                             "ideal turbine from the plant's rated values)")
     point = parser.add_argument_group("operating point (either N11 directly or speed, head and diameter)")
     point.add_argument("--n11", type=float, default=None, help="unit speed N11, r/min")
     point.add_argument("--opening", type=float, default=None, help="guide-vane opening, chart units (> 0)")
@@ -75,9 +80,9 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
 
     map_png = args.outputs.file("--map", args.map)  # checked now, renamed into place at the end
-    characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.plant is not None:
-        return _run_plant(args, characteristics, label, opening_unit)
+        return _run_plant(args)
+    characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.stroke is not None or args.penstock_model is not None:
         raise InputError("--stroke and --penstock-model need --plant")
     if args.opening is None:
@@ -142,9 +147,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_plant(args, characteristics, label, opening_unit) -> int:
-    from simulate.comparison import plant_linearization
+def _run_plant(args) -> int:
     from simulate.config import load_plant
+    from simulate.identification_results import to_json_dict
+    from simulate.linear_reference import plant_linearization
 
     if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
         raise InputError("with --plant the operating point comes from the plant (use --stroke to choose it); "
@@ -154,8 +160,9 @@ def _run_plant(args, characteristics, label, opening_unit) -> int:
     if not (np.isfinite(args.tau) and args.tau > 0):
         raise InputError(f"--tau must be > 0, got {args.tau}")
     plant = load_plant(args.plant)
+    characteristics, label, opening_unit = load_characteristics(args.nets, plant)
     out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
-    out |= plant_linearization(plant, characteristics, initial_opening=args.stroke,
-                               penstock_model=args.penstock_model, sample_time_s=args.tau)
+    out |= to_json_dict(plant_linearization(plant, characteristics, initial_opening=args.stroke,
+                                            penstock_model=args.penstock_model, sample_time_s=args.tau))
     print(json.dumps(out, indent=2))
     return 0
