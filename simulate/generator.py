@@ -720,6 +720,90 @@ def simulate_generator(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_
                                                            "substeps": int(math.ceil(dt_s / p[P_SUBSTEP] - 1e-9))})
 
 
+def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s: float, dt_s: float,
+                  steady: GeneratorSteadyState, inertia_time_s: float, excitation=None,
+                  torque_step: tuple[float, float] | None = None, load_step: tuple[float, float] | None = None,
+                  jit: bool = True) -> GeneratorRun:
+    """Generator + rotor with a prescribed mechanical torque: the swing equation of :mod:`simulate.rotor` with the
+    generator's air-gap torque as its load (how the plant loop couples the two; see the README).
+
+    The mechanical torque (turbine torque base P_r/omega_r) equals the steady electrical torque, then steps by
+    ``torque_step = (time_s, delta_pu)``. ``inertia_time_s`` Ta on the turbine base (``steady`` must have been built
+    with ``turbine_rated_power_mw``). Extra column ``speed_dev``.
+
+    Per step k: (1) :func:`network_solution` at (state_k, x_k) -> Te_k, V_k; (2) field voltage from
+    :func:`simulate.excitation.excitation_step` on V_k (or held); (3) ``x_k+1 = rotor_step(x_k, m_t, Te_k *
+    torque_base_ratio, 0, Ta, dt)`` (self-regulation 0: the load's frequency dependence is in the grid);
+    (4) :func:`generator_step` (state_k -> state_k+1 at x_k).
+    """
+    from simulate.excitation import excitation_parameters, excitation_step, initial_excitation_state
+    from simulate.rotor import rotor_step
+
+    check_number("run", "t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
+    check_number("run", "dt_s", dt_s, low=0.0, high=1.0, low_open=True)
+    check_number("generator", "inertia_time_s", inertia_time_s, low=0.0, high=100.0, low_open=True)
+    n = int(round(t_end_s / dt_s))
+    net, step = (network_solution, generator_step) if jit else (network_solution.py_func, generator_step.py_func)
+    exc_step = excitation_step if jit else excitation_step.py_func
+    rotor = rotor_step if jit else rotor_step.py_func
+    p = steady.params
+    ratio = p[P_TORQUE_RATIO]
+    state = steady.state.copy()
+    efd = steady.field_voltage_pu
+    if excitation is not None:
+        ep = excitation_parameters(excitation)
+        es = initial_excitation_state(excitation, efd)
+    m_mech0 = steady.outputs["electrical_torque_pu"] * ratio
+    names = ("time_s", "speed_dev", "electrical_torque_pu", "terminal_voltage_pu", "field_voltage_pu",
+             "delta_rad", "eq_t_pu", "eq_st_pu", "ed_st_pu")
+    cols = {name: np.zeros(n + 1) for name in names}
+    out, work = np.zeros(8), np.zeros(28)
+    x = 0.0
+    eps = 1e-9 * dt_s
+    breaker = 1.0 if steady.breaker_closed else 0.0
+    for k in range(n + 1):
+        t = k * dt_s
+        scale = load_step[1] if load_step is not None and t >= load_step[0] - eps else 1.0
+        m_mech = m_mech0 + (torque_step[1] if torque_step is not None and t >= torque_step[0] - eps else 0.0)
+        status = net(p, state, x, breaker, scale, 0.0, out)  # (1)
+        if status != 0:
+            raise NumericalError(f"generator network at t = {t:.6g} s: {STATUS_TEXT[status]}")
+        if excitation is not None:
+            efd = exc_step(ep, es, out[O_VT], dt_s)  # (2)
+        for name, value in (("time_s", t), ("speed_dev", x), ("electrical_torque_pu", out[O_TE]),
+                            ("terminal_voltage_pu", out[O_VT]), ("field_voltage_pu", efd),
+                            ("delta_rad", state[S_DELTA]), ("eq_t_pu", state[S_EQ_T]),
+                            ("eq_st_pu", state[S_EQ_ST]), ("ed_st_pu", state[S_ED_ST])):
+            cols[name][k] = value
+        if k == n:
+            break
+        x_next = rotor(x, m_mech, out[O_TE] * ratio, 0.0, inertia_time_s, dt_s)  # (3)
+        status = step(p, state, x_next, efd, breaker, scale, 0.0, dt_s, work)  # (4)
+        if status != 0:
+            raise NumericalError(f"generator step at t = {t:.6g} s: {STATUS_TEXT[status]}")
+        x = x_next
+    return GeneratorRun(columns=cols, steady=steady, meta={"dt_s": dt_s, "compiled": jit})
+
+
+def transient_synchronizing_torque(gen: SubtransientGeneratorConfig, grid: GridConfig,
+                                   steady: GeneratorSteadyState) -> float:
+    """dTe/d(delta) (machine base per rad) of a machine on an infinite bus with E'q held and the sub-transient
+    circuits settled (E''q = E'q - (X'd - X''d) Id, E''d = (Xq - X''q) Iq): the classical transient model, E'q
+    behind X'd on the d axis and Xq on the q axis::
+
+        Te = E'q Vb sin(d) / (X'd + x) + Vb^2 / 2 (1/(Xq + x) - 1/(X'd + x)) sin(2 d)
+
+    The electromechanical mode of the rotor is then omega_n = sqrt(omega_b K_s (S/P_r) / Ta) (rad/s).
+    """
+    if grid.kind != "infinite-bus":
+        raise InputError("transient_synchronizing_torque needs grid.kind = 'infinite-bus'")
+    x, vb = grid.x_line_pu, grid.bus_voltage_pu
+    d = steady.state[S_DELTA]
+    eq_t = steady.state[S_EQ_T]
+    return (eq_t * vb * math.cos(d) / (gen.xd_t + x)
+            + vb ** 2 * (1.0 / (gen.xq + x) - 1.0 / (gen.xd_t + x)) * math.cos(2.0 * d))
+
+
 def short_circuit_test(gen: SubtransientGeneratorConfig, *, voltage_pu: float = 1.0, event_time_s: float = 0.1,
                        t_end_s: float = 5.0, dt_s: float = 1e-3, frequency_hz: float = 50.0,
                        jit: bool = True) -> GeneratorRun:
@@ -747,5 +831,6 @@ def field_step_test(gen: SubtransientGeneratorConfig, *, field_step_pu: float = 
 __all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "GeneratorSteadyState", "GeneratorRun",
            "GEN_PARAMS", "GEN_STATE", "GEN_OUTPUTS", "RUN_COLUMNS", "STATUS_TEXT", "electrical_from_dict",
            "load_electrical", "network_solution", "generator_derivatives", "generator_step", "generator_parameters",
-           "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "short_circuit_test",
+           "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "simulate_unit",
+           "transient_synchronizing_torque", "short_circuit_test",
            "field_step_test"]
