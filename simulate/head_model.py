@@ -344,6 +344,59 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
     return out
 
 
-__all__ = ["HEAD_STRUCTURES", "head_regressors", "head_simulation_mode", "HeadModelReport", "head_model_report",
+def check_closed_loop_options(kp, ti_values) -> None:
+    """:class:`InputError` unless Kp (relative) and every TI (s) are finite numbers in (0, 1000]."""
+    if kp is None:
+        return
+    if isinstance(kp, bool) or not isinstance(kp, (int, float)) or not (math.isfinite(kp) and 0 < kp <= 1000):
+        raise InputError(f"--closed-loop-kp must be a number in (0, 1000], got {kp!r}")
+    for ti in ti_values:
+        if isinstance(ti, bool) or not isinstance(ti, (int, float)) or not (math.isfinite(ti) and 0 < ti <= 1000):
+            raise InputError(f"--closed-loop-ti values must be numbers in (0, 1000] s, got {ti!r}")
+
+
+def write_head_and_closed_loop(report, plant, out_dir, *, head_structure: str | None = None,
+                               closed_loop_kp: float | None = None, closed_loop_ti=(0.5, 0.15)) -> dict:
+    """``hillsim identify`` extras: the head model on the report's series (``head_model.json``, ``head_model.png``)
+    and closed-loop identification runs (``closed_loop.json``), one per integral time. Returns the paths."""
+    import json
+    from pathlib import Path
+
+    from simulate.result import json_default
+
+    out = Path(out_dir)
+    paths = {}
+    if head_structure is not None:
+        s = report.series
+        op = s.operating_point
+        tw = plant.penstock.inertance_s2_m2 * op.flow_m3_s / op.head_m  # Tw at O
+        head = head_model_report(s.time_s, s.x, s.h, s.y, s.q, s.m, water_time_s=tw,
+                                 sample_time_s=s.sample_time_s, structure=head_structure)
+        paths["head_model_json"] = out / "head_model.json"
+        paths["head_model_json"].write_text(json.dumps(head.summary, indent=2, default=json_default) + "\n",
+                                            encoding="utf-8")
+        paths["head_model_png"] = out / "head_model.png"
+        head.plot(paths["head_model_png"])
+        err = head.summary["errors_fraction_of_peak"]
+        print(f"head model ({head_structure}): simulation-mode errors, fraction of the largest deviation: speed "
+              f"{err['x']:.4f}, head {err['h']:.4f}, flow {err['q']:.4f}")
+    if closed_loop_kp is not None:
+        check_closed_loop_options(closed_loop_kp, closed_loop_ti)
+        runs = []
+        for ti in closed_loop_ti:
+            r = closed_loop_identification(plant, kp_relative=closed_loop_kp, ti_s=ti)
+            runs.append(r)
+            lin = r["linear_closed_loop"].get("reference_prbs", {})
+            print(f"closed loop Kp {closed_loop_kp}, TI {ti} s: {'stable' if r['closed_loop_stable'] else 'UNSTABLE'}"
+                  f" (max Re lambda {r['closed_loop_max_real_eigenvalue']:.3g} 1/s); load step only: step error "
+                  f"{r['simulator']['with_known_load']['step_error']:.3g}; reference PRBS (linear plant): "
+                  f"{lin.get('step_error', float('nan')):.3g}")
+        paths["closed_loop_json"] = out / "closed_loop.json"
+        paths["closed_loop_json"].write_text(json.dumps(runs, indent=2, default=json_default) + "\n",
+                                             encoding="utf-8")
+    return paths
+
+
+__all__ = ["HEAD_STRUCTURES", "write_head_and_closed_loop", "check_closed_loop_options", "head_regressors", "head_simulation_mode", "HeadModelReport", "head_model_report",
            "relative_series", "open_loop_head_study", "closed_loop_eigenvalues", "linear_closed_loop",
            "direct_arx_identification", "closed_loop_identification"]
