@@ -8,11 +8,12 @@ Two regressor structures (:func:`head_regressors`):
 
 ``"paper"``     ``[h(k), h(k-1), -Tw (q(k) - q(k-1))/tau]``: eq. (60) with dq/dt(k-1) as the difference over
                 [k-1, k] (the printed form gives no difference formula; the backward one over [k-2, k-1] fits worse).
-``"interval"``  ``[h(k), .., h(k-n_a+1), v(k), .., v(k-n_b+1)]`` with ``v(j) = -Tw (q(j+1) - q(j))/tau``, the mean
-                of -Tw dq/dt over [j tau, (j+1) tau]. For the lumped penstock alpha Te^2 h'' + h = -Tw q' (eq. (16))
-                and a flow that is linear between samples this is the exact discretization with n_a = n_b = 2; the
-                printed structure lacks v(k), the water hammer of the current interval, which is why it lags every
-                opening step (measured below). Default.
+``"interval"``  ``[h(k), .., h(k-n_a+1), v(k), .., v(k-n_b+1), q(k+1)]`` with ``v(j) = -Tw (q(j+1) - q(j))/tau``,
+                the mean of -Tw dq/dt over [j tau, (j+1) tau]. For the lumped penstock alpha Te^2 h'' + h = -Tw q'
+                (eq. (16)) and a flow that is linear between samples this is the exact discretization with n_a = n_b
+                = 2; q(k+1) carries the steady friction loss h = h_w - r_f q (an extension, as in
+                :mod:`simulate.linear`). The printed structure lacks v(k), the water hammer of the current interval,
+                which is why it lags every opening step (measured in the README). Default.
 
 Estimates in simulation mode (own past outputs fed back, measured inputs; eqs. (62)-(63) and (65)):
 
@@ -80,7 +81,8 @@ def head_regressors(h, q, *, water_time_s: float, sample_time_s: float, structur
             raise InputError(f"n_a and n_b must be integers >= 1, got {n_a!r}, {n_b!r}")
         k0 = max(n_a - 1, n_b - 1)
         ks = np.arange(k0, h.size - 1)
-        phi = np.column_stack([h[ks - i] for i in range(n_a)] + [v[ks - j] for j in range(n_b)])
+        # + q(k+1): the steady friction loss h = h_w - r_f q (the coefficient is -r_f (1 - sum a))
+        phi = np.column_stack([h[ks - i] for i in range(n_a)] + [v[ks - j] for j in range(n_b)] + [q[ks + 1]])
     if ks.size < 1:
         raise InputError(f"{h.size} samples are too few for the head structure {structure!r}")
     return phi, h[ks + 1], ks
@@ -280,7 +282,7 @@ def direct_arx_identification(x, y, reference_arx: ArxModel, *, order: int = 3, 
 def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float = 0.5, initial_opening: float = 0.68,
                                load_step: float = 0.01, t_end_s: float = 100.0, sample_time_s: float = 0.2,
                                prbs_amplitude: float = 0.002, seed: int = 0, noise_level: float = 0.0,
-                               characteristics=None) -> dict:
+                               characteristics=None, head_theta=None) -> dict:
     """Closed-loop identification, on the nonlinear simulator and on the nets' linear plant.
 
     1. Stability: eigenvalues of the linear closed loop with the PI (relative Kp, TI as paper 000 tests 5-6) and the
@@ -291,6 +293,9 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
     3. Linear closed loop at tau (:func:`linear_closed_loop`, eq. (37) servo) (a) with the same load step only,
        (b) with a seeded PRBS of +-``prbs_amplitude`` on the speed reference (external excitation), optional
        uniform measurement noise on x.
+    4. Head model (interval structure) on the simulator's closed-loop run: learned on that run by RLS, and, when
+       ``head_theta`` (e.g. learned open loop) is given, that model applied to it; simulation-mode errors (eq. (65))
+       as fractions of the largest head deviation.
 
     Identifiability under feedback (Ljung 1999, section 13.4; Soderstrom and Stoica 1989, chapter 10): with a
     linear time-invariant regulator and no external signal, u(k) is a fixed filter of x, so the regressors of an
@@ -324,6 +329,19 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
                         "stroke_saturated": bool(np.max(result.opening) >= plant.governor.stroke_max - 1e-9),
                         "without_load": direct_arx_identification(x, y, ref),
                         "with_known_load": direct_arx_identification(x, y, ref, extra=d)}
+    tw = run_plant.penstock.inertance_s2_m2 * result.flow_m3_s[0] / result.head_m[0]
+    phi_h, target_h, _ = head_regressors(h, q, water_time_s=tw, sample_time_s=sample_time_s)
+    learned = RecursiveLeastSquares(p0=1e10).fit(phi_h, target_h).theta_
+    head_out = {"theta_learned_closed_loop": learned.tolist()}
+    for label, theta in (("learned_closed_loop", learned), ("given", head_theta)):
+        if theta is None:
+            continue
+        try:
+            h_hat = head_simulation_mode(theta, h, q, water_time_s=tw, sample_time_s=sample_time_s)
+            head_out[f"error_{label}"] = _fraction(h - h_hat, h)
+        except NumericalError as exc:  # an unstable head model is a result
+            head_out[f"error_{label}"] = str(exc)
+    out["simulator"]["head_model"] = head_out
     n = int(round(t_end_s / sample_time_s))
     linear_out = {}
     if out["closed_loop_stable"]:
@@ -377,14 +395,17 @@ def write_head_and_closed_loop(report, plant, out_dir, *, head_structure: str | 
                                             encoding="utf-8")
         paths["head_model_png"] = out / "head_model.png"
         head.plot(paths["head_model_png"])
+        head_theta = head.summary["theta_head"] if head_structure == "interval" else None
         err = head.summary["errors_fraction_of_peak"]
         print(f"head model ({head_structure}): simulation-mode errors, fraction of the largest deviation: speed "
               f"{err['x']:.4f}, head {err['h']:.4f}, flow {err['q']:.4f}")
+    else:
+        head_theta = None
     if closed_loop_kp is not None:
         check_closed_loop_options(closed_loop_kp, closed_loop_ti)
         runs = []
         for ti in closed_loop_ti:
-            r = closed_loop_identification(plant, kp_relative=closed_loop_kp, ti_s=ti)
+            r = closed_loop_identification(plant, kp_relative=closed_loop_kp, ti_s=ti, head_theta=head_theta)
             runs.append(r)
             lin = r["linear_closed_loop"].get("reference_prbs", {})
             print(f"closed loop Kp {closed_loop_kp}, TI {ti} s: {'stable' if r['closed_loop_stable'] else 'UNSTABLE'}"
