@@ -723,13 +723,14 @@ def simulate_generator(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_
 def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s: float, dt_s: float,
                   steady: GeneratorSteadyState, inertia_time_s: float, excitation=None,
                   torque_step: tuple[float, float] | None = None, load_step: tuple[float, float] | None = None,
-                  jit: bool = True) -> GeneratorRun:
+                  fault_window: tuple[float, float] | None = None, jit: bool = True) -> GeneratorRun:
     """Generator + rotor with a prescribed mechanical torque: the swing equation of :mod:`simulate.rotor` with the
     generator's air-gap torque as its load (how the plant loop couples the two; see the README).
 
     The mechanical torque (turbine torque base P_r/omega_r) equals the steady electrical torque, then steps by
     ``torque_step = (time_s, delta_pu)``. ``inertia_time_s`` Ta on the turbine base (``steady`` must have been built
-    with ``turbine_rated_power_mw``). Extra column ``speed_dev``.
+    with ``turbine_rated_power_mw``). ``fault_window = (on_s, off_s)``: three-phase terminal fault, cleared at
+    ``off_s`` (the machine stays connected). Extra columns ``speed_dev``, ``current_d_pu``, ``current_q_pu``.
 
     Per step k: (1) :func:`network_solution` at (state_k, x_k) -> Te_k, V_k; (2) field voltage from
     :func:`simulate.excitation.excitation_step` on V_k (or held); (3) ``x_k+1 = rotor_step(x_k, m_t, Te_k *
@@ -755,7 +756,7 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
         es = initial_excitation_state(excitation, efd)
     m_mech0 = steady.outputs["electrical_torque_pu"] * ratio
     names = ("time_s", "speed_dev", "electrical_torque_pu", "terminal_voltage_pu", "field_voltage_pu",
-             "delta_rad", "eq_t_pu", "eq_st_pu", "ed_st_pu")
+             "delta_rad", "eq_t_pu", "eq_st_pu", "ed_st_pu", "current_d_pu", "current_q_pu")
     cols = {name: np.zeros(n + 1) for name in names}
     out, work = np.zeros(8), np.zeros(28)
     x = 0.0
@@ -765,7 +766,8 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
         t = k * dt_s
         scale = load_step[1] if load_step is not None and t >= load_step[0] - eps else 1.0
         m_mech = m_mech0 + (torque_step[1] if torque_step is not None and t >= torque_step[0] - eps else 0.0)
-        status = net(p, state, x, breaker, scale, 0.0, out)  # (1)
+        fault = 1.0 if fault_window is not None and fault_window[0] - eps <= t < fault_window[1] - eps else 0.0
+        status = net(p, state, x, breaker, scale, fault, out)  # (1)
         if status != 0:
             raise NumericalError(f"generator network at t = {t:.6g} s: {STATUS_TEXT[status]}")
         if excitation is not None:
@@ -773,12 +775,13 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
         for name, value in (("time_s", t), ("speed_dev", x), ("electrical_torque_pu", out[O_TE]),
                             ("terminal_voltage_pu", out[O_VT]), ("field_voltage_pu", efd),
                             ("delta_rad", state[S_DELTA]), ("eq_t_pu", state[S_EQ_T]),
-                            ("eq_st_pu", state[S_EQ_ST]), ("ed_st_pu", state[S_ED_ST])):
+                            ("eq_st_pu", state[S_EQ_ST]), ("ed_st_pu", state[S_ED_ST]),
+                            ("current_d_pu", out[O_ID]), ("current_q_pu", out[O_IQ])):
             cols[name][k] = value
         if k == n:
             break
         x_next = rotor(x, m_mech, out[O_TE] * ratio, 0.0, inertia_time_s, dt_s)  # (3)
-        status = step(p, state, x_next, efd, breaker, scale, 0.0, dt_s, work)  # (4)
+        status = step(p, state, x_next, efd, breaker, scale, fault, dt_s, work)  # (4)
         if status != 0:
             raise NumericalError(f"generator step at t = {t:.6g} s: {STATUS_TEXT[status]}")
         x = x_next

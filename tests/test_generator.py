@@ -375,3 +375,20 @@ def test_electromechanical_mode_on_an_infinite_bus():
     x = runs[0.002]["speed_dev"]
     assert abs(x[-1]) < 0.05 * np.max(np.abs(x))
     assert runs[0.002]["delta_rad"][-1] > steady.state[3]
+
+
+def test_terminal_fault_with_the_rotor_accelerates_it_by_the_whole_mechanical_torque():
+    from simulate.generator import simulate_unit
+
+    steady = initial_generator_state(GEN, BUS, airgap_power_pu=0.8, voltage_pu=1.0, turbine_rated_power_mw=250.0)
+    run = simulate_unit(GEN, BUS, t_end_s=1.2, dt_s=0.002, steady=steady, inertia_time_s=8.1,
+                        fault_window=(1.0, 1.1))
+    t, x = run["time_s"], run["speed_dev"]
+    during = (t >= 1.0 - 1e-9) & (t < 1.1 - 1e-9)
+    # V = 0 and Ra = 0: no electrical torque during the fault, so Ta dx/dt = m_t exactly (Euler is exact here)
+    assert np.max(np.abs(run["electrical_torque_pu"][during])) < 1e-12
+    k = int(round(1.1 / 0.002))
+    assert x[k] - x[int(round(1.0 / 0.002))] == pytest.approx(0.8 * 0.1 / 8.1, rel=1e-9)
+    # the fault current starts at |E''| / X'' of the loaded machine (about 5.5 pu; ANDES GENROU: 5.496)
+    i0 = math.hypot(run["current_d_pu"][int(round(1.0 / 0.002))], run["current_q_pu"][int(round(1.0 / 0.002))])
+    assert i0 == pytest.approx(math.hypot(steady.state[1] / GEN.xd_st, steady.state[2] / GEN.xq_st), rel=1e-12)
