@@ -587,6 +587,66 @@ def initial_generator_state(gen: SubtransientGeneratorConfig, grid: GridConfig, 
                                 breaker_closed=bool(breaker_closed), residuals={k: float(v) for k, v in residuals.items()})
 
 
+@dataclass(frozen=True, eq=False)
+class ElectricalArrays:
+    """Everything the plant loop needs from the electrical sections, compiled at a verified steady state.
+
+    ``generator_params`` (:data:`GEN_PARAMS`), ``generator_state`` (:data:`GEN_STATE`, mutated by the loop),
+    ``excitation_params`` / ``excitation_state`` (:mod:`simulate.excitation` layouts), ``field_voltage_pu`` (steady
+    field), ``outputs`` (8 floats, :data:`GEN_OUTPUTS`) and ``work`` (28 floats) scratch for the jitted steps,
+    ``breaker`` (1.0 / 0.0 initial), ``steady`` (the :class:`GeneratorSteadyState`).
+    """
+
+    generator_params: np.ndarray
+    generator_state: np.ndarray
+    excitation_params: np.ndarray
+    excitation_state: np.ndarray
+    field_voltage_pu: float
+    outputs: np.ndarray
+    work: np.ndarray
+    breaker: float
+    steady: GeneratorSteadyState
+
+
+def compile_electrical(electrical: ElectricalConfig, *, turbine_power_mw: float, turbine_rated_power_mw: float,
+                       breaker_closed: bool = True) -> ElectricalArrays:
+    """Compile ``[generator]``, ``[excitation]``, ``[grid]`` at the turbine's steady state for the plant loop.
+
+    The rotor is in equilibrium at rated speed, so the air-gap power equals the turbine power:
+    ``airgap_power_pu = turbine_power_mw / rated_mva``. ``breaker_closed=False`` (no-load kinds): open circuit at
+    the voltage set point. The terminal voltage is the excitation's set point.
+
+    Raises
+    ------
+    InputError
+        Turbine power above 1.5 x the machine rating, a field voltage outside the excitation limits, an infeasible
+        infinite-bus point.
+    NumericalError
+        A steady-state residual above 1e-9.
+
+    Examples
+    --------
+    >>> import importlib.resources as ir
+    >>> e = load_electrical(ir.files("data_synthetic") / "generator_table1.toml")
+    >>> arrays = compile_electrical(e, turbine_power_mw=225.0, turbine_rated_power_mw=225.0)
+    >>> round(float(arrays.steady.outputs["electrical_torque_pu"] * arrays.generator_params[P_TORQUE_RATIO]), 12)
+    1.0
+    """
+    from simulate.excitation import excitation_parameters, initial_excitation_state
+
+    gen, exc = electrical.generator, electrical.excitation
+    check_number("turbine", "rated_power_mw", turbine_rated_power_mw, low=0.0, high=5000.0, low_open=True)
+    check_number("initial point", "turbine_power_mw", turbine_power_mw, low=0.0, high=1.5 * gen.rated_mva)
+    steady = initial_generator_state(gen, electrical.grid, airgap_power_pu=turbine_power_mw / gen.rated_mva,
+                                     voltage_pu=exc.voltage_setpoint_pu, breaker_closed=breaker_closed,
+                                     turbine_rated_power_mw=turbine_rated_power_mw)
+    return ElectricalArrays(generator_params=steady.params, generator_state=steady.state.copy(),
+                            excitation_params=excitation_parameters(exc),
+                            excitation_state=initial_excitation_state(exc, steady.field_voltage_pu),
+                            field_voltage_pu=steady.field_voltage_pu, outputs=np.zeros(len(GEN_OUTPUTS)),
+                            work=np.zeros(28), breaker=1.0 if breaker_closed else 0.0, steady=steady)
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # classical short-circuit envelope
 # ----------------------------------------------------------------------------------------------------------------
@@ -831,7 +891,7 @@ def field_step_test(gen: SubtransientGeneratorConfig, *, field_step_pu: float = 
                               field_step=(event_time_s, field_step_pu), jit=jit)
 
 
-__all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "GeneratorSteadyState", "GeneratorRun",
+__all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "ElectricalArrays", "compile_electrical", "GeneratorSteadyState", "GeneratorRun",
            "GEN_PARAMS", "GEN_STATE", "GEN_OUTPUTS", "RUN_COLUMNS", "STATUS_TEXT", "electrical_from_dict",
            "load_electrical", "network_solution", "generator_derivatives", "generator_step", "generator_parameters",
            "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "simulate_unit",

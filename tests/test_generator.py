@@ -392,3 +392,23 @@ def test_terminal_fault_with_the_rotor_accelerates_it_by_the_whole_mechanical_to
     # the fault current starts at |E''| / X'' of the loaded machine (about 5.5 pu; ANDES GENROU: 5.496)
     i0 = math.hypot(run["current_d_pu"][int(round(1.0 / 0.002))], run["current_q_pu"][int(round(1.0 / 0.002))])
     assert i0 == pytest.approx(math.hypot(steady.state[1] / GEN.xd_st, steady.state[2] / GEN.xq_st), rel=1e-12)
+
+
+def test_compile_electrical_for_the_plant_loop():
+    from simulate.generator import compile_electrical, network_solution
+
+    arrays = compile_electrical(ELEC, turbine_power_mw=200.0, turbine_rated_power_mw=225.0)
+    # the air-gap torque on the turbine base equals the turbine's: 200 MW of P_r = 225 MW at rated speed
+    assert network_solution(arrays.generator_params, arrays.generator_state, 0.0, arrays.breaker, 1.0, 0.0,
+                            arrays.outputs) == 0
+    assert arrays.outputs[O_TE] * arrays.generator_params[21] == pytest.approx(200.0 / 225.0, rel=1e-12)
+    assert arrays.outputs[O_VT] == pytest.approx(EXC.voltage_setpoint_pu, abs=1e-12)
+    assert arrays.excitation_state[1] == arrays.field_voltage_pu  # the PI holds the steady field
+    no_load = compile_electrical(ELEC, turbine_power_mw=0.0, turbine_rated_power_mw=225.0, breaker_closed=False)
+    assert no_load.breaker == 0.0 and no_load.field_voltage_pu == pytest.approx(1.0)
+    with pytest.raises(InputError, match=r"initial point.turbine_power_mw must be in \[0.0, 375.0\]"):
+        compile_electrical(ELEC, turbine_power_mw=400.0, turbine_rated_power_mw=225.0)
+    tight = ExcitationConfig(**{**EXC.__dict__, "field_max_pu": 1.2})  # rated point needs 1.49 pu
+    with pytest.raises(InputError, match="outside \\[excitation.field_min_pu, excitation.field_max_pu\\]"):
+        compile_electrical(type(ELEC)(generator=GEN, excitation=tight, grid=ISLAND), turbine_power_mw=225.0,
+                           turbine_rated_power_mw=225.0)
