@@ -672,6 +672,35 @@ def classical_short_circuit_current(gen: SubtransientGeneratorConfig, voltage_pu
                          + (1.0 / gen.xd_st - 1.0 / gen.xd_t) * np.exp(-t / td_st))
 
 
+def frequency_recovery_time(time_s, frequency_hz, *, event_time_s: float, rated_frequency_hz: float = 50.0,
+                            band_hz: float = 0.05) -> float:
+    """Time after ``event_time_s`` from which the frequency stays within ``rated +- band_hz`` to the end of the
+    series (paper 001 section 4: "recovered within 9.6 s back to 50 Hz", band not stated). Default band: 50 mHz,
+    the standard frequency range of the European grid. ``nan`` when it never leaves the band; ``inf`` when it is
+    still outside at the end.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 60.0, 6001)
+    >>> f = 50.0 - 0.5 * np.exp(-(t - 10.0) / 4.0) * (t >= 10.0)       # -0.5 Hz, recovering with 4 s
+    >>> round(frequency_recovery_time(t, f, event_time_s=10.0), 2)     # 4 ln(0.5/0.05) = 9.21, next sample
+    9.22
+    """
+    t = np.asarray(time_s, dtype=float)
+    f = np.asarray(frequency_hz, dtype=float)
+    if t.shape != f.shape or t.ndim != 1 or t.size < 2:
+        raise InputError(f"time_s and frequency_hz must be 1-D of the same length >= 2, got {t.shape}, {f.shape}")
+    check_number("recovery", "band_hz", band_hz, low=0.0, high=10.0, low_open=True)
+    after = t >= event_time_s
+    outside = after & (np.abs(f - rated_frequency_hz) > band_hz)
+    if not np.any(outside):
+        return float("nan")
+    last = int(np.flatnonzero(outside)[-1])
+    if last == t.size - 1:
+        return float("inf")
+    return float(t[last + 1] - event_time_s)
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # standalone drivers (speed prescribed)
 # ----------------------------------------------------------------------------------------------------------------
@@ -895,5 +924,5 @@ __all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "Ele
            "GEN_PARAMS", "GEN_STATE", "GEN_OUTPUTS", "RUN_COLUMNS", "STATUS_TEXT", "electrical_from_dict",
            "load_electrical", "network_solution", "generator_derivatives", "generator_step", "generator_parameters",
            "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "simulate_unit",
-           "transient_synchronizing_torque", "short_circuit_test",
+           "transient_synchronizing_torque", "frequency_recovery_time", "short_circuit_test",
            "field_step_test"]

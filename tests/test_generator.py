@@ -412,3 +412,19 @@ def test_compile_electrical_for_the_plant_loop():
     with pytest.raises(InputError, match="outside \\[excitation.field_min_pu, excitation.field_max_pu\\]"):
         compile_electrical(type(ELEC)(generator=GEN, excitation=tight, grid=ISLAND), turbine_power_mw=225.0,
                            turbine_rated_power_mw=225.0)
+
+
+def test_frequency_recovery_time_band():
+    from simulate.generator import frequency_recovery_time
+
+    t = np.linspace(0.0, 60.0, 60001)
+    f = 50.0 - 0.5 * np.exp(-(t - 10.0) / 4.0) * np.cos(0.5 * (t - 10.0)) * (t >= 10.0)
+    rec = frequency_recovery_time(t, f, event_time_s=10.0, band_hz=0.05)
+    # the last exit from the band: after it |f - 50| <= 0.05 Hz for good, and just before it was outside
+    k = int(round((10.0 + rec) / 1e-3))
+    assert np.all(np.abs(f[k:] - 50.0) <= 0.05) and abs(f[k - 1] - 50.0) > 0.05
+    assert 4.0 * math.log(0.5 / 0.05) - 2.0 < rec < 4.0 * math.log(0.5 / 0.05) + 1e-3  # inside the envelope time
+    assert math.isinf(frequency_recovery_time(t, f - 0.1, event_time_s=10.0))  # never back in the band
+    assert math.isnan(frequency_recovery_time(t, np.full_like(t, 50.0), event_time_s=10.0))
+    with pytest.raises(InputError, match=r"recovery.band_hz must be in \(0.0, 10.0\]"):
+        frequency_recovery_time(t, f, event_time_s=10.0, band_hz=0.0)
