@@ -186,8 +186,9 @@ class GridConfig:
     ``kind = "island"``: a local load that takes the initial power at the initial voltage, ``load_model``
     ``"impedance"`` (P, Q proportional to V^2) or ``"power"`` (P, Q independent of V), power factor
     ``load_power_factor`` (lagging), frequency dependence P = P0 (1 + frequency_p x), Q = Q0 (1 + frequency_q x)
-    with x the per-unit speed deviation. The load torque P/omega then has the self-regulation frequency_p - 1 (the
-    swing model's e_g = 1 corresponds to frequency_p = 2).
+    with x the per-unit speed deviation. The rotor sees the flux-linkage torque psi_d Iq - psi_q Id, which with the
+    stator at rated speed is the air-gap power in per unit, so frequency_p is directly the load's torque
+    self-regulation (the swing model's e_g = 1 at the initial load is frequency_p = 1).
     ``kind = "infinite-bus"``: ``x_line_pu`` line reactance (machine base, > 0) to a bus of ``bus_voltage_pu`` at
     rated frequency. ``frequency_hz``: rated frequency (omega_b = 2 pi f_n).
     Keys of the other kind are rejected.

@@ -428,3 +428,20 @@ def test_frequency_recovery_time_band():
     assert math.isnan(frequency_recovery_time(t, np.full_like(t, 50.0), event_time_s=10.0))
     with pytest.raises(InputError, match=r"recovery.band_hz must be in \(0.0, 10.0\]"):
         frequency_recovery_time(t, f, event_time_s=10.0, band_hz=0.0)
+
+
+def test_island_load_step_with_rotor_and_voltage_control_settles_where_the_load_balances_the_turbine():
+    from simulate.generator import simulate_unit
+
+    p0, kpf = 0.8, ISLAND.island_frequency_p
+    steady = initial_generator_state(GEN, ISLAND, airgap_power_pu=p0, voltage_pu=1.0,
+                                     turbine_rated_power_mw=GEN.rated_mva)
+    run = simulate_unit(GEN, ISLAND, t_end_s=80.0, dt_s=0.01, steady=steady, inertia_time_s=8.1, excitation=EXC,
+                        load_step=(1.0, 1.1))
+    # constant mechanical torque p0; the voltage control brings V back to 1, so the electrical torque (air-gap
+    # power) is 1.1 p0 (1 + kpf x) and balances p0 at x = -0.1 / (1.1 kpf)
+    x_end = (p0 - 1.1 * p0) / (1.1 * p0 * kpf)
+    assert run["speed_dev"][-1] == pytest.approx(x_end, rel=1e-3)  # settled: e^-(79 s / 9 s), V within 1e-5
+    assert run["terminal_voltage_pu"][-1] == pytest.approx(1.0, abs=1e-5)
+    # the swing model with e_g = kpf (on the initial load, not scaled with it) settles at -0.1 / kpf: 10 % apart
+    assert x_end == pytest.approx(-0.1 / kpf, rel=0.1 + 1e-9)
