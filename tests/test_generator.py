@@ -445,3 +445,28 @@ def test_island_load_step_with_rotor_and_voltage_control_settles_where_the_load_
     assert run["terminal_voltage_pu"][-1] == pytest.approx(1.0, abs=1e-5)
     # the swing model with e_g = kpf (on the initial load, not scaled with it) settles at -0.1 / kpf: 10 % apart
     assert x_end == pytest.approx(-0.1 / kpf, rel=0.1 + 1e-9)
+
+
+def test_compiled_equals_pure_python_with_numba_disabled(tmp_path):
+    """``.py_func`` keeps the inner jitted calls compiled; with NUMBA_DISABLE_JIT=1 every function runs as Python."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = (
+        "import numpy as np, importlib.resources as ir, sys\n"
+        "from simulate.generator import load_electrical, initial_generator_state, simulate_generator\n"
+        "e = load_electrical(ir.files('data_synthetic') / 'generator_table1.toml')\n"
+        "st = initial_generator_state(e.generator, e.grid, airgap_power_pu=0.7, voltage_pu=1.0)\n"
+        "r = simulate_generator(e.generator, e.grid, t_end_s=1.0, dt_s=0.02, steady=st, excitation=e.excitation,\n"
+        "                       load_step=(0.3, 1.1), fault_time_s=0.8, speed_dev=0.001)\n"
+        "np.save(sys.argv[1], np.column_stack([r[c] for c in sorted(r.columns)]))\n")
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    for flag, name in (("1", "python.npy"), ("0", "compiled.npy")):
+        subprocess.run([sys.executable, "-c", script, str(tmp_path / name)], check=True, cwd=root,
+                       env={**env, "NUMBA_DISABLE_JIT": flag})
+    # same operations in the same order; LLVM may contract a multiply-add (1 ulp): 1e-12
+    np.testing.assert_allclose(np.load(tmp_path / "compiled.npy"), np.load(tmp_path / "python.npy"),
+                               rtol=1e-12, atol=1e-12)
