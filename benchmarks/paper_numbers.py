@@ -75,7 +75,8 @@ def paper_000() -> tuple[str, dict]:
         ("its DC gain x/u", _g(dc_arx)),
         ("its step response at 1, 5, 30 s (per unit opening)",
          f"{step[5]:.4f}, {step[25]:.4f}, {step[150]:.4f}"),
-        ("six coefficients (sect. 5.2), rigid water Tw = 0.0415, no grid damping: DC gain x/u = ey/(-ex) (the head returns to 0)",
+        ("six coefficients (sect. 5.2), rigid water Tw = 0.0415, no grid damping: DC gain x/u = ey/(-ex) "
+         "(the head returns to 0)",
          f"{dc_six:.4f} (vs {dc_arx:.4f} from theta: the two printed models disagree by "
          f"{abs(dc_six / dc_arx - 1):.0%})"),
         ("J that puts the six-coefficient model's slow pole on the ARX's", f"{j_fit:.4g} s"),

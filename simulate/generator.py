@@ -585,7 +585,8 @@ def initial_generator_state(gen: SubtransientGeneratorConfig, grid: GridConfig, 
                              f"(tolerance {tolerance:g})")
     outputs = dict(zip(GEN_OUTPUTS, (float(v) for v in out)))
     return GeneratorSteadyState(state=state, field_voltage_pu=float(efd), outputs=outputs, params=params,
-                                breaker_closed=bool(breaker_closed), residuals={k: float(v) for k, v in residuals.items()})
+                                breaker_closed=bool(breaker_closed),
+                                residuals={k: float(v) for k, v in residuals.items()})
 
 
 @dataclass(frozen=True, eq=False)
@@ -921,7 +922,8 @@ def field_step_test(gen: SubtransientGeneratorConfig, *, field_step_pu: float = 
                               field_step=(event_time_s, field_step_pu), jit=jit)
 
 
-__all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "ElectricalArrays", "compile_electrical", "GeneratorSteadyState", "GeneratorRun",
+__all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "ElectricalArrays", "compile_electrical",
+           "GeneratorSteadyState", "GeneratorRun",
            "GEN_PARAMS", "GEN_STATE", "GEN_OUTPUTS", "RUN_COLUMNS", "STATUS_TEXT", "electrical_from_dict",
            "load_electrical", "network_solution", "generator_derivatives", "generator_step", "generator_parameters",
            "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "simulate_unit",

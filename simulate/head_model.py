@@ -418,6 +418,7 @@ def write_head_and_closed_loop(report, plant, out_dir, *, head_structure: str | 
     return paths
 
 
-__all__ = ["HEAD_STRUCTURES", "write_head_and_closed_loop", "check_closed_loop_options", "head_regressors", "head_simulation_mode", "HeadModelReport", "head_model_report",
+__all__ = ["HEAD_STRUCTURES", "write_head_and_closed_loop", "check_closed_loop_options", "head_regressors",
+           "head_simulation_mode", "HeadModelReport", "head_model_report",
            "relative_series", "open_loop_head_study", "closed_loop_eigenvalues", "linear_closed_loop",
            "direct_arx_identification", "closed_loop_identification"]

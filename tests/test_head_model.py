@@ -64,7 +64,8 @@ def test_bad_head_model_inputs_are_rejected(kw, match):
 
 def test_unstable_head_model_is_reported():
     with pytest.raises(NumericalError, match="diverged"):
-        head_simulation_mode([3.0, 0.0, 0.0, 0.0, 0.0], np.r_[1.0, 1.0, np.zeros(998)], np.zeros(1000), water_time_s=1.0,
+        head_simulation_mode([3.0, 0.0, 0.0, 0.0, 0.0], np.r_[1.0, 1.0, np.zeros(998)], np.zeros(1000),
+                             water_time_s=1.0,
                              sample_time_s=0.2)
 
 
