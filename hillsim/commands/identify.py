@@ -53,6 +53,15 @@ def register(subparsers) -> None:
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
     est.add_argument("--arx", choices=("zoh", "paper"), default="zoh",
                      help="ARX structure: exact zero-order hold (default) or paper 000 eq. (53) as printed")
+    grid = parser.add_argument_group("paper 000 head model and closed loop (simulate.head_model)")
+    grid.add_argument("--head-model", choices=("interval", "paper"), default=None,
+                      help="also learn the head ARX (eqs. 60-61) and the speed/head/flow estimates (eqs. 62-68): "
+                           "head_model.json, head_model.png")
+    grid.add_argument("--closed-loop-kp", type=float, default=None, metavar="KP",
+                      help="closed-loop identification with the governor PI, Kp relative (paper tests 5-6: 7.5): "
+                           "closed_loop.json")
+    grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=[0.5, 0.15], metavar="TI_S",
+                      help="integral times of the closed-loop runs, s (default 0.5 0.15)")
     parser.add_argument("--exact", choices=("auto", "synthetic", "none"), default="auto",
                         help="also report the exact synthetic turbine's coefficients (auto: when the plant uses the "
                              "shipped synthetic nets)")
@@ -83,6 +92,9 @@ def run(args: argparse.Namespace) -> int:
                                      load_measured_series, markdown_tables)
     from simulate.config import load_plant, parse_override
 
+    from simulate.head_model import check_closed_loop_options
+
+    check_closed_loop_options(args.closed_loop_kp, args.closed_loop_ti)  # before anything is written
     overrides = dict(parse_override(text) for text in args.set)
     plant = load_plant(args.plant, overrides)
     settings = ExperimentSettings(
@@ -103,6 +115,11 @@ def run(args: argparse.Namespace) -> int:
         report = compare_identification(plant, settings=settings, exact=exact, penstock_model=args.penstock_model,
                                         initial_opening=args.initial_opening)
     paths = report.write(args.out)
+    if args.head_model is not None or args.closed_loop_kp is not None:
+        from simulate.head_model import write_head_and_closed_loop
+
+        paths.update(write_head_and_closed_loop(report, plant, args.out, head_structure=args.head_model,
+                                                closed_loop_kp=args.closed_loop_kp, closed_loop_ti=args.closed_loop_ti))
     summary = report.summary
     print(f"identification ({summary['source']}, penstock {summary.get('penstock_model', '-')}, tau = {args.tau} s, "
           f"{summary['samples']} samples)")

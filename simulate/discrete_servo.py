@@ -1,0 +1,112 @@
+"""Second-order discrete hydraulic servo of paper 000 eq. (37) (the NTNU rig's servo, sampled at tau = 0.2 s).
+
+    u(k) / u_s(k) = b0 / (1 - a1 z^-1 - a2 z^-2),  printed: 0.5 / (1 - z^-1 + 0.5 z^-2)      eq. (37)
+
+i.e. ``u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k)`` with a1 = 1, a2 = -0.5, b0 = 0.5 (the text lost the minus signs;
+this reading has DC gain b0 / (1 - a1 - a2) = 1, as a servo must, and poles 0.5 +- 0.5j, |z| = 0.707: stable,
+damping ratio 0.40, natural frequency 4.3 rad/s at tau = 0.2 s; the other sign patterns give DC gains 0.2 or
+1/3 or an unstable pair). u is the guide-vane stroke, u_s the governor's command; the paper writes both as
+relative increments, and with DC gain 1 the same recursion holds for absolute strokes started at rest (u = u_s =
+y0).
+
+The servo is a sampled device: it updates every ``sample_time_s`` and holds its output in between, so it can sit in
+a loop whose step dt divides tau (:func:`check_servo_step`). Pure numba step (``cache=True``):
+``discrete_servo_step(params, state, command, dt_s) -> stroke``; layouts :data:`SERVO_PARAMS`, :data:`SERVO_STATE`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from hillchart.errors import InputError
+from simulate.generator import check_number
+
+#: Layout of the parameter vector.
+SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max")
+#: Layout of the state vector: the last two outputs and the time left to the next sample (s).
+SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
+
+
+@dataclass(frozen=True)
+class DiscreteServoConfig:
+    """Coefficients of eq. (37) (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2)) and the sampling time (s).
+
+    Validated: finite coefficients, DC gain b0 / (1 - a1 - a2) within 1e-9 of 1, poles inside the unit circle.
+    """
+
+    b0: float = 0.5
+    a1: float = 1.0
+    a2: float = -0.5
+    sample_time_s: float = 0.2
+    stroke_min: float = 0.0
+    stroke_max: float = 1.0
+
+    def __post_init__(self):
+        for key in ("b0", "a1", "a2"):
+            check_number("servo", key, getattr(self, key), low=-10.0, high=10.0)
+        check_number("servo", "sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
+        check_number("servo", "stroke_min", self.stroke_min, low=0.0, high=1.0)
+        check_number("servo", "stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+        if self.stroke_min >= self.stroke_max:
+            raise InputError(f"servo.stroke_min must be < servo.stroke_max = {self.stroke_max!r}, "
+                             f"got {self.stroke_min!r}")
+        denominator = 1.0 - self.a1 - self.a2
+        if denominator == 0.0 or abs(self.b0 / denominator - 1.0) > 1e-9:
+            raise InputError(f"servo: DC gain b0 / (1 - a1 - a2) must be 1 (a servo follows its command), got "
+                             f"{self.b0!r} / {denominator!r}")
+        poles = np.roots([1.0, -self.a1, -self.a2])
+        if np.max(np.abs(poles)) >= 1.0:
+            raise InputError(f"servo: poles of 1 - a1 z^-1 - a2 z^-2 must be inside the unit circle, got "
+                             f"|z| = {np.max(np.abs(poles)):.4g} for a1 = {self.a1!r}, a2 = {self.a2!r}")
+
+    def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(num, den)`` in powers of z (highest first) for :class:`scipy.signal.dlti`: b0 z^2 / (z^2 - a1 z - a2)."""
+        return np.array([self.b0, 0.0, 0.0]), np.array([1.0, -self.a1, -self.a2])
+
+
+def discrete_servo_parameters(config: DiscreteServoConfig) -> np.ndarray:
+    """The float vector (:data:`SERVO_PARAMS`)."""
+    return np.array([config.b0, config.a1, config.a2, config.sample_time_s, config.stroke_min, config.stroke_max])
+
+
+def initial_servo_state(stroke: float) -> np.ndarray:
+    """At rest at ``stroke``; the first call samples at once."""
+    return np.array([float(stroke), float(stroke), 0.0])
+
+
+def check_servo_step(config: DiscreteServoConfig, dt_s: float) -> int:
+    """Loop steps per servo sample; :class:`InputError` unless ``dt_s`` divides ``sample_time_s``."""
+    ratio = config.sample_time_s / dt_s
+    if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+        raise InputError(f"servo.sample_time_s = {config.sample_time_s!r} must be a whole multiple of the time step "
+                         f"{dt_s!r} s (the servo samples every tau and holds in between)")
+    return int(round(ratio))
+
+
+@numba.njit(cache=True)
+def discrete_servo_step(params, state, command, dt_s):
+    """Stroke held over the coming step; at a sampling instant ``u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k)``
+    (eq. (37)), clipped to the stroke limits. Updates ``state`` in place.
+
+    Examples
+    --------
+    >>> p = np.array([0.5, 1.0, -0.5, 0.2, 0.0, 1.0]); s = np.array([0.0, 0.0, 0.0])
+    >>> [round(float(discrete_servo_step(p, s, 0.1, 0.1)), 4) for _ in range(6)]   # step: 0.05 held, 0.1 held, ...
+    [0.05, 0.05, 0.1, 0.1, 0.125, 0.125]
+    """
+    b0, a1, a2, tau = params[0], params[1], params[2], params[3]
+    if state[2] <= 1e-9 * tau:
+        u = a1 * state[0] + a2 * state[1] + b0 * command  # eq. (37)
+        u = min(max(u, params[4]), params[5])
+        state[1] = state[0]
+        state[0] = u
+        state[2] += tau
+    state[2] -= dt_s
+    return state[0]
+
+
+__all__ = ["DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
+           "check_servo_step", "discrete_servo_step"]
