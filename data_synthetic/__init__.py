@@ -9,3 +9,5 @@ from pathlib import Path
 FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
 #: The shipped example plant.
 PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"
+#: The example plant with paper 001's sub-transient generator, voltage control and island load (eq. (14) load step).
+PLANT_HLA339_GRID = Path(__file__).resolve().parent / "plant_hla339_grid.toml"
