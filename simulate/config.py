@@ -690,8 +690,8 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         if name in raw:
             cls = _section_class(name)
             optional[name] = cls(**_build(name, cls, raw[name]))
-    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor, surge_tank=surge_tank,
-                       scenario=scenario, solver=solver, base_dir=Path(base_dir), **optional)
+    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor,
+                       surge_tank=surge_tank, scenario=scenario, solver=solver, base_dir=Path(base_dir), **optional)
 
 
 def to_dict(plant: PlantConfig) -> dict[str, Any]:

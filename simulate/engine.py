@@ -228,8 +228,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         from simulate.governor import piecewise_constant
 
         # py_func: a one-off call from Python need not load the compiled version from the disk cache
-        ref_end = float(piecewise_constant.py_func(schedules.ref_times_s, schedules.ref_values,
-                                                   time_s[-1] + 1e-9 * dt, 0.0))
+        ref_end = float(getattr(piecewise_constant, "py_func", piecewise_constant)(
+            schedules.ref_times_s, schedules.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
     tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
             "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "water_time_s": tw,

@@ -147,12 +147,13 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     misc = np.zeros(3)
     state = (np.array([steady.speed_rpm]), arrays.generator_state, arrays.excitation_state, arrays.outputs,
              arrays.work, misc)
-    status = _network_and_field.py_func(scal, *params[1:], arrays.generator_state, arrays.excitation_state,
+    python = lambda f: getattr(f, "py_func", f)  # noqa: E731  (one-off calls; plain functions with NUMBA_DISABLE_JIT)
+    status = python(_network_and_field)(scal, *params[1:], arrays.generator_state, arrays.excitation_state,
                                         arrays.outputs, misc, 0.0, 0.0, dt_s)
     if status != 0:
         raise InputError(f"generator network at t = 0: {STATUS_TEXT[status]}")
     first = np.zeros(len(SIGNALS))
-    subtransient_record.py_func(params, state, first)
+    python(subtransient_record)(params, state, first)
 
     def failure():
         if misc[M_STATUS] == 0.0:
