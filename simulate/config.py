@@ -299,6 +299,13 @@ class GovernorConfig:
     ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
     ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
     ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
+
+    ``servo_model``: ``"first-order"`` (default: T_y, rate limits, stroke limits) or ``"discrete"``: paper 000's
+    second-order sampled servo, eq. (37), u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every ``servo_sample_time_s``
+    (held in between; a whole multiple of the time step), keys ``servo_b0``, ``servo_a1``, ``servo_a2``,
+    ``servo_sample_time_s`` (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2) at 0.2 s; DC gain 1 and stable poles
+    required); it is the paper's linear servo: stroke limits, no rate limits (``closing_time_s``,
+    ``opening_time_s`` and ``servo_time_s`` then act only through the time-step guards).
     """
 
     kp: float
@@ -311,8 +318,16 @@ class GovernorConfig:
     opening_time_s: float
     stroke_min: float = 0.0
     stroke_max: float = 1.0
+    servo_model: str = "first-order"
+    servo_b0: float | None = None
+    servo_a1: float | None = None
+    servo_a2: float | None = None
+    servo_sample_time_s: float | None = None
+
+    DISCRETE_KEYS: ClassVar[tuple[str, ...]] = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
     def __post_init__(self):
+        _check_choice("governor", "servo_model", self.servo_model, ("first-order", "discrete"))
         _check_number("governor", "kp", self.kp, low=0.0, high=1000.0)
         _check_number("governor", "ki", self.ki, low=0.0, high=1000.0)
         _check_number("governor", "kd", self.kd, low=0.0, high=1000.0)
@@ -326,6 +341,24 @@ class GovernorConfig:
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
+        given = [k for k in self.DISCRETE_KEYS if getattr(self, k) is not None]
+        if self.servo_model != "discrete" and given:
+            raise InputError(f"governor.{given[0]} is a key of governor.servo_model = \"discrete\" (eq. (37)); got "
+                             f"servo_model = {self.servo_model!r}")
+        if self.servo_model == "discrete":
+            self.discrete_servo  # validates eq. (37)'s coefficients
+
+    @property
+    def discrete_servo(self):
+        """:class:`simulate.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys (servo_model "discrete")."""
+        from simulate.discrete_servo import DiscreteServoConfig
+
+        keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
+        try:
+            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max)
+        except InputError as exc:
+            raise InputError(f"governor (servo_model = \"discrete\", eq. (37)): "
+                             + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
 
 
 @dataclass(frozen=True)
@@ -706,7 +739,7 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
             value = getattr(obj, f.name)
             if name == "scenario" and value == f.default and f.name not in ("kind", "t_end_s"):
                 continue
-            if name in ("solver", "surge_tank", "generator", "grid") and value is None:
+            if name in ("solver", "surge_tank", "generator", "grid", "governor") and value is None:
                 continue
             if f.name == "segments":
                 value = [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None} for s in value]

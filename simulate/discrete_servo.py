@@ -23,6 +23,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.generator import check_number
+from simulate.governor import governor_step, piecewise_constant
 
 #: Layout of the parameter vector.
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max")
@@ -108,5 +109,43 @@ def discrete_servo_step(params, state, command, dt_s):
     return state[0]
 
 
+# ---------------------------------------------------------------------------------------------------------------
+# Component for the time loop (registry kind "control", chosen by governor.servo_model = "discrete")
+# ---------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def governor_discrete_servo_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """Governor PID on the speed at t (:func:`simulate.governor.governor_step`), then the eq. (37) servo: the
+    controls at t_next."""
+    gov, ref_times, ref_values, scal, servo = p
+    state, controls, servo_state = s
+    x = speed_rpm / scal[0] - 1.0
+    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
+    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
+    controls[0] = discrete_servo_step(servo, servo_state, command, dt_s)
+    return controls
+
+
+def build_discrete_governor(plant, steady, dt_s: float, schedules):
+    """The governor of :func:`simulate.governor.build_governor` with paper 000's discrete servo (eq. (37)) in place
+    of the first-order one; ``dt_s`` must divide ``governor.servo_sample_time_s``."""
+    from simulate.components import CompiledPart
+    from simulate.governor import governor_parameters
+
+    config = plant.governor.discrete_servo
+    try:
+        check_servo_step(config, dt_s)
+    except InputError as exc:
+        raise InputError(str(exc).replace("servo.sample_time_s", "governor.servo_sample_time_s")
+                         + "; set solver.dt_s (or penstock.reaches) or governor.servo_sample_time_s") from None
+    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
+    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
+              scal, discrete_servo_parameters(config))
+    state = (np.zeros(3), np.array([steady.stroke]), initial_servo_state(steady.stroke))
+    return CompiledPart(kind="control", name="governor", functions={"step": governor_discrete_servo_step},
+                        params=params, state=state, signals=(),
+                        meta={"summary": {"servo_model": "discrete (paper 000 eq. (37))",
+                                          "servo_sample_time_s": config.sample_time_s}})
+
+
 __all__ = ["DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
-           "check_servo_step", "discrete_servo_step"]
+           "check_servo_step", "discrete_servo_step", "governor_discrete_servo_step", "build_discrete_governor"]

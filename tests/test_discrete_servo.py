@@ -61,3 +61,65 @@ def test_loop_step_must_divide_the_servo_sampling():
     assert check_servo_step(DiscreteServoConfig(), 0.02) == 10
     with pytest.raises(InputError, match="must be a whole multiple of the time step 0.03"):
         check_servo_step(DiscreteServoConfig(), 0.03)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the servo option of the governor in the plant loop (governor.servo_model = "discrete")
+# ---------------------------------------------------------------------------------------------------------------
+
+LOOP = {"turbine.characteristics": "ideal", "penstock.model": "rigid", "solver.dt_s": 0.02,
+        "scenario.kind": "load-step", "scenario.initial_power_mw": 180.0, "scenario.event_time_s": 1.0,
+        "scenario.t_end_s": 60.0}
+
+
+def _plant(**overrides):
+    from data_synthetic import PLANT_HLA339
+    from simulate.config import load_plant
+
+    return load_plant(PLANT_HLA339, {**LOOP, **overrides})
+
+
+def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_order_servo_does():
+    from simulate.engine import run_simulation
+
+    first = run_simulation(_plant())
+    plant = _plant(**{"governor.servo_model": "discrete"})
+    assert plant.governor.discrete_servo == DiscreteServoConfig()  # the printed eq. (37) at 0.2 s by default
+    disc = run_simulation(plant)
+    assert disc.summary()["servo_model"].startswith("discrete")
+    # the stroke moves only at the servo's sampling instants: every 10th step (tau 0.2 s / dt 0.02 s); row k + 1
+    # holds the stroke the step from t_k commands, so the rows are 1 mod 10 (rounding-level moves, ~1e-15, allowed
+    # elsewhere: the recursion a1 y0 + a2 y0 + b0 y0 = y0 is exact only up to rounding)
+    moved = np.flatnonzero(np.abs(np.diff(disc.opening)) > 1e-12) + 1
+    assert moved.size > 20 and np.all(moved % 10 == 1)
+    # same governor, same load: the same final stroke (integral action); the servo's dynamics differ on the way
+    assert disc.opening[-1] == pytest.approx(first.opening[-1], abs=1e-6)
+    assert np.max(np.abs(disc.opening - first.opening)) > 1e-3
+    slow = run_simulation(plant, jit=False)  # compiled loop = Python loop with the discrete servo
+    np.testing.assert_allclose(slow.opening, disc.opening, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("overrides,match", [
+    ({"governor.servo_model": "second-order"}, r"governor\.servo_model must be one of first-order, discrete; "
+                                               r"got 'second-order'"),
+    ({"governor.servo_b0": 0.5}, r"governor\.servo_b0 is a key of governor\.servo_model = \"discrete\""),
+    ({"governor.servo_model": "discrete", "governor.servo_b0": 0.4},
+     r"governor \(servo_model = \"discrete\", eq\. \(37\)\): DC gain b0 / \(1 - a1 - a2\) must be 1"),
+    ({"governor.servo_model": "discrete", "governor.servo_a2": -1.0, "governor.servo_b0": 1.0},
+     r"poles of 1 - a1 z\^-1 - a2 z\^-2 must be inside the unit circle"),
+    ({"governor.servo_model": "discrete", "governor.servo_sample_time_s": -0.2},
+     r"governor\.servo_sample_time_s must be in \(0\.0, 10\.0\], got -0\.2"),
+    ({"governor.servo_model": "discrete", "governor.servo_a1": "one"},
+     r"governor\.servo_a1 must be a number in \[-10\.0, 10\.0\], got 'one'"),
+])
+def test_bad_discrete_servo_keys_are_named(overrides, match):
+    with pytest.raises(InputError, match=match):
+        _plant(**overrides)
+
+
+def test_servo_sampling_must_be_a_multiple_of_the_time_step_in_the_loop():
+    from simulate.engine import run_simulation
+
+    with pytest.raises(InputError, match=r"governor\.servo_sample_time_s = 0\.21 must be a whole multiple of the time "
+                                         r"step 0\.02 s .*set solver\.dt_s"):
+        run_simulation(_plant(**{"governor.servo_model": "discrete", "governor.servo_sample_time_s": 0.21}))
