@@ -304,8 +304,8 @@ class GovernorConfig:
     second-order sampled servo, eq. (37), u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every ``servo_sample_time_s``
     (held in between; a whole multiple of the time step), keys ``servo_b0``, ``servo_a1``, ``servo_a2``,
     ``servo_sample_time_s`` (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2) at 0.2 s; DC gain 1 and stable poles
-    required); it is the paper's linear servo: stroke limits, no rate limits (``closing_time_s``,
-    ``opening_time_s`` and ``servo_time_s`` then act only through the time-step guards).
+    required), with the stroke limits and the rate limits ``closing_time_s``/``opening_time_s`` applied at each sample
+    (``servo_time_s`` then acts only through the time-step guards).
     """
 
     kp: float
@@ -355,7 +355,8 @@ class GovernorConfig:
 
         keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
         try:
-            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max)
+            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max,
+                                       closing_time_s=self.closing_time_s, opening_time_s=self.opening_time_s)
         except InputError as exc:
             raise InputError(f"governor (servo_model = \"discrete\", eq. (37)): "
                              + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None

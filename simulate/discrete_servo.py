@@ -25,8 +25,8 @@ from hillchart.errors import InputError
 from simulate.generator import check_number
 from simulate.governor import governor_step, piecewise_constant
 
-#: Layout of the parameter vector.
-SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max")
+#: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
+SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
 #: Layout of the state vector: the last two outputs and the time left to the next sample (s).
 SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
 
@@ -35,7 +35,10 @@ SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
 class DiscreteServoConfig:
     """Coefficients of eq. (37) (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2)) and the sampling time (s).
 
-    Validated: finite coefficients, DC gain b0 / (1 - a1 - a2) within 1e-9 of 1, poles inside the unit circle.
+    ``closing_time_s``/``opening_time_s`` (optional): rate limits, a full stroke in that time (the plant loop passes
+    the governor's; eq. (37) is a small-signal model, and without them a load rejection shuts the vanes within a
+    few samples). Validated: finite coefficients, DC gain b0 / (1 - a1 - a2) within 1e-9 of 1, poles inside the
+    unit circle.
     """
 
     b0: float = 0.5
@@ -44,8 +47,13 @@ class DiscreteServoConfig:
     sample_time_s: float = 0.2
     stroke_min: float = 0.0
     stroke_max: float = 1.0
+    closing_time_s: float | None = None
+    opening_time_s: float | None = None
 
     def __post_init__(self):
+        for key in ("closing_time_s", "opening_time_s"):
+            if getattr(self, key) is not None:
+                check_number("servo", key, getattr(self, key), low=0.0, high=1000.0, low_open=True)
         for key in ("b0", "a1", "a2"):
             check_number("servo", key, getattr(self, key), low=-10.0, high=10.0)
         check_number("servo", "sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
@@ -70,7 +78,10 @@ class DiscreteServoConfig:
 
 def discrete_servo_parameters(config: DiscreteServoConfig) -> np.ndarray:
     """The float vector (:data:`SERVO_PARAMS`)."""
-    return np.array([config.b0, config.a1, config.a2, config.sample_time_s, config.stroke_min, config.stroke_max])
+    tau = config.sample_time_s
+    close = np.inf if config.closing_time_s is None else tau / config.closing_time_s
+    opening = np.inf if config.opening_time_s is None else tau / config.opening_time_s
+    return np.array([config.b0, config.a1, config.a2, tau, config.stroke_min, config.stroke_max, close, opening])
 
 
 def initial_servo_state(stroke: float) -> np.ndarray:
@@ -90,17 +101,19 @@ def check_servo_step(config: DiscreteServoConfig, dt_s: float) -> int:
 @numba.njit(cache=True)
 def discrete_servo_step(params, state, command, dt_s):
     """Stroke held over the coming step; at a sampling instant ``u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k)``
-    (eq. (37)), clipped to the stroke limits. Updates ``state`` in place.
+    (eq. (37)), rate limited (at most ``close_step``/``open_step`` per sample) and clipped to the stroke limits; the
+    recursion continues from the limited stroke (the stroke the vanes have). Updates ``state`` in place.
 
     Examples
     --------
-    >>> p = np.array([0.5, 1.0, -0.5, 0.2, 0.0, 1.0]); s = np.array([0.0, 0.0, 0.0])
+    >>> p = np.array([0.5, 1.0, -0.5, 0.2, 0.0, 1.0, np.inf, np.inf]); s = np.array([0.0, 0.0, 0.0])
     >>> [round(float(discrete_servo_step(p, s, 0.1, 0.1)), 4) for _ in range(6)]   # step: 0.05 held, 0.1 held, ...
     [0.05, 0.05, 0.1, 0.1, 0.125, 0.125]
     """
     b0, a1, a2, tau = params[0], params[1], params[2], params[3]
     if state[2] <= 1e-9 * tau:
         u = a1 * state[0] + a2 * state[1] + b0 * command  # eq. (37)
+        u = min(max(u, state[0] - params[6]), state[0] + params[7])
         u = min(max(u, params[4]), params[5])
         state[1] = state[0]
         state[0] = u

@@ -84,7 +84,8 @@ def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_ord
 
     first = run_simulation(_plant())
     plant = _plant(**{"governor.servo_model": "discrete"})
-    assert plant.governor.discrete_servo == DiscreteServoConfig()  # the printed eq. (37) at 0.2 s by default
+    # the printed eq. (37) at 0.2 s by default, with the governor's rate limits
+    assert plant.governor.discrete_servo == DiscreteServoConfig(closing_time_s=12.0, opening_time_s=20.0)
     disc = run_simulation(plant)
     assert disc.summary()["servo_model"].startswith("discrete")
     # the stroke moves only at the servo's sampling instants: every 10th step (tau 0.2 s / dt 0.02 s); row k + 1
