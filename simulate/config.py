@@ -10,7 +10,7 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  opening_max, characteristics            # "ideal" or a nets.json path relative to the file
     [penstock]   model, static_head_m, reaches, [lumped_alpha], [zdomain_feedback]
     [[penstock.segments]]  length_m, diameter_m, wave_speed_m_s, darcy_friction   (upstream first)
-    [generator]  inertia_time_s, self_regulation
+    [generator]  inertia_time_s, self_regulation, [model]   # swing (default) | subtransient
     [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
                  opening_time_s, stroke_min, stroke_max
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
@@ -18,6 +18,8 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  [max_node_steps], [max_output_mb]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
+    [excitation], [grid]  with generator.model = "subtransient" (simulate.excitation.ExcitationConfig,
+                 simulate.generator.GridConfig); [generator] then also takes the machine keys SUBTRANSIENT_KEYS
 """
 
 from __future__ import annotations
@@ -376,7 +378,8 @@ class ScenarioConfig:
     ``opening_steps`` (0.02,) at ``step_times_s`` (1,) for opening-steps. Exactly one of ``initial_power_mw`` /
     ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
     ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
-    vanes move at the slower rate of a full stroke per ``break_time_s``.
+    vanes move at the slower rate of a full stroke per ``break_time_s``. ``field_step_pu`` (field-step, default 0.1):
+    the field-voltage step, pu.
     """
 
     kind: str
