@@ -86,6 +86,7 @@ def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_ord
     plant = _plant(**{"governor.servo_model": "discrete"})
     # the printed eq. (37) at 0.2 s by default, with the governor's rate limits
     assert plant.governor.discrete_servo == DiscreteServoConfig(closing_time_s=12.0, opening_time_s=20.0)
+    assert plant.with_overrides({"scenario.t_end_s": 30.0}).governor == plant.governor  # round trip keeps the keys
     disc = run_simulation(plant)
     assert disc.summary()["servo_model"].startswith("discrete")
     # the stroke moves only at the servo's sampling instants: every 10th step (tau 0.2 s / dt 0.02 s); row k + 1

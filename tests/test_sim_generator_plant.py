@@ -317,3 +317,22 @@ def test_paper001_eq14_load_step_through_the_cli(tmp_path, capsys):
     assert col["frequency_hz"].min() < 50.0 - 0.5 and 5.0 < summary["frequency_recovery_time_s"] < 40.0
     assert abs(col["frequency_hz"][-1] - 50.0) < 0.05 and abs(col["terminal_voltage_pu"][-1] - 1.0) < 1e-3
     assert (out / "transient.png").stat().st_size > 10_000
+    assert f"within +-0.05 Hz of rated {summary['frequency_recovery_time_s']:.2f} s after" in capsys.readouterr().out
+
+
+def test_surge_tank_and_generator_columns_side_by_side():
+    # two recording components: the surge tank's columns first, then the generator's; row 0 of each is its own
+    # steady state (a swapped or missing block would differ from row 1, taken before the event, by O(1))
+    import tomllib
+    from pathlib import Path
+
+    grid = tomllib.loads(Path(PLANT_HLA339_GRID).read_text(encoding="utf-8"))
+    raw = tomllib.loads((Path(PLANT_HLA339).parent / "plant_hla339_surge_tank.toml").read_text(encoding="utf-8"))
+    raw.update({k: grid[k] for k in ("generator", "excitation", "grid", "scenario")})
+    raw["turbine"]["characteristics"] = "ideal"
+    raw["scenario"].update(t_end_s=3.0, event_time_s=2.0)
+    r = run_simulation(plant_from_dict(raw, base_dir=Path(PLANT_HLA339).parent))
+    assert list(r.signals) == ["surge_level_m", "tunnel_flow_m3_s", *COLUMNS]
+    for name, values in r.signals.items():  # undisturbed until 2 s: rows 0 and 1 agree to the steady residual
+        assert values[1] == pytest.approx(values[0], rel=1e-9, abs=1e-9), name
+    assert r.summary()["frequency_event_time_s"] == 2.0

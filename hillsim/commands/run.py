@@ -70,6 +70,10 @@ def run_command(args: argparse.Namespace) -> int:
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {out}")
+    if summary.get("frequency_recovery_time_s") is not None:  # the sub-transient generator after a load change
+        print(f"frequency back within +-{summary['frequency_recovery_band_hz']} Hz of rated "
+              f"{summary['frequency_recovery_time_s']:.2f} s after the load change at "
+              f"{summary['frequency_event_time_s']:g} s (nadir {summary['min_frequency_hz']:.3f} Hz)")
     if not result.success:
         raise_message = f"{result.message} (series up to the failure written to {out})"
         from hillchart.errors import NumericalError
