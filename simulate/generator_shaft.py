@@ -138,6 +138,7 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     arrays = compile_electrical(electrical, turbine_power_mw=max(load0, 0.0) * t.rated_power_mw,
                                 turbine_rated_power_mw=t.rated_power_mw, breaker_closed=load0 > 0.0)
     grid = electrical.grid
+    warnings = electromechanical_step_check(plant, arrays, dt_s, schedules)
     scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s, load0,
                      1.0 if schedules.speed_held else 0.0, schedules.fault_time_s,
                      1.0 if schedules.field_held else 0.0, schedules.field_step_time_s, schedules.field_step_pu,
@@ -189,4 +190,40 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
                                    "record": subtransient_record},
                         params=params, state=state, signals=SIGNALS,
                         meta={"summary": summary, "initial_signals": first, "failure": failure,
-                              "error_after": error_after, "summary_after": summary_after})
+                              "error_after": error_after, "summary_after": summary_after,
+                              "warnings_after": lambda signals: list(warnings)})
+
+
+#: omega_n dt of the electromechanical mode above which the run is refused / warned (the rotor-angle pair is
+#: semi-implicit Euler: stable up to omega_n dt = 2; its frequency error is about (omega_n dt)^2 / 24, 4 % at 1)
+OMEGA_DT_REFUSE, OMEGA_DT_WARN = 1.0, 0.3
+
+
+def electromechanical_step_check(plant, arrays, dt_s: float, schedules) -> list[str]:
+    """On an infinite bus with the breaker closed: the electromechanical mode omega_n = sqrt(omega_b K_s (S/P_r) /
+    Ta) (K_s of the classical E'q-behind-X'd model, :func:`simulate.generator.transient_synchronizing_torque`)
+    against the step. Refuses omega_n dt > :data:`OMEGA_DT_REFUSE` (InputError naming the keys), warns above
+    :data:`OMEGA_DT_WARN`; returns the warnings."""
+    from hillchart.errors import InputError
+    from simulate.generator import P_OMEGA_B, transient_synchronizing_torque
+
+    grid = plant.grid
+    if grid.kind != "infinite-bus" or arrays.breaker == 0.0 or schedules.speed_held:
+        return []
+    gen = plant.generator.subtransient
+    k_s = transient_synchronizing_torque(gen, grid, arrays.steady)
+    if k_s <= 0.0:
+        raise InputError(f"the initial point on the infinite bus is beyond the transient stability limit "
+                         f"(synchronizing torque {k_s:.3g} pu/rad <= 0): lower the power or grid.x_line_pu")
+    omega_n = math.sqrt(arrays.generator_params[P_OMEGA_B] * k_s * arrays.generator_params[P_TORQUE_RATIO]
+                        / plant.generator.inertia_time_s)
+    product = omega_n * dt_s
+    text = (f"time step dt = {dt_s:.4g} s against the electromechanical mode on the infinite bus (omega_n = "
+            f"{omega_n:.3g} rad/s, period {2 * math.pi / omega_n:.3g} s): omega_n dt = {product:.3g}")
+    if product > OMEGA_DT_REFUSE:
+        raise InputError(f"{text} > {OMEGA_DT_REFUSE} (allowed dt <= {OMEGA_DT_REFUSE / omega_n:.3g} s); set "
+                         f"solver.dt_s (or penstock.reaches) smaller, or check grid.x_line_pu and "
+                         f"generator.inertia_time_s")
+    if product > OMEGA_DT_WARN:
+        return [f"{text} > {OMEGA_DT_WARN}: the mode's frequency is off by about {100 * product ** 2 / 24:.2g} %"]
+    return []

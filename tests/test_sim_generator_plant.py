@@ -336,3 +336,20 @@ def test_surge_tank_and_generator_columns_side_by_side():
     for name, values in r.signals.items():  # undisturbed until 2 s: rows 0 and 1 agree to the steady residual
         assert values[1] == pytest.approx(values[0], rel=1e-9, abs=1e-9), name
     assert r.summary()["frequency_event_time_s"] == 2.0
+
+
+def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_bus():
+    bus = {"grid.kind": "infinite-bus", "grid.load_model": None, "grid.load_power_factor": None,
+           "grid.frequency_p": None, "grid.frequency_q": None, "grid.x_line_pu": 0.3, "grid.bus_voltage_pu": 1.0,
+           "scenario.kind": "opening-steps", "scenario.t_end_s": 2.0, "penstock.model": "rigid"}
+    # omega_n = 7.15 rad/s here (1.14 Hz, the mode measured in tests/test_generator.py at P 0.8: 1.145 Hz)
+    assert run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.02})).summary()["warnings"] == []
+    warned = run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.05})).summary()["warnings"]
+    assert len(warned) == 1 and "omega_n = 7.15 rad/s" in warned[0] and "omega_n dt = 0.358 > 0.3" in warned[0]
+    with pytest.raises(InputError, match=r"omega_n dt = 1\.43 > 1\.0 \(allowed dt <= 0\.14 s\); set solver\.dt_s"):
+        run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.2}))
+    # the island has no such mode (one machine, its own load): no warning at a dt the bus warns about
+    assert "omega_n dt = 0.715" in run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.1})).summary()["warnings"][0]
+    island = run_simulation(grid_plant(**{"penstock.model": "rigid", "solver.dt_s": 0.1, "scenario.t_end_s": 2.0,
+                                          "scenario.event_time_s": 1.0}))
+    assert not any("electromechanical" in w for w in island.summary()["warnings"])
