@@ -597,6 +597,19 @@ class PlantConfig:
 
         return ElectricalConfig(generator=self.generator.subtransient, excitation=self.excitation, grid=self.grid)
 
+    def rotor_self_regulation(self, load_pu: float) -> float:
+        """e_g of the rotor's load (per unit of rated torque per unit speed) at a load of ``load_pu`` (rated torque
+        units), for the linear models: ``generator.self_regulation`` with the swing model; with the sub-transient
+        generator on an island ``grid.frequency_p * load_pu`` (the air-gap power P0 (1 + frequency_p x) with the
+        voltage held at its set point by the excitation, which settles much faster than the rotor). On an infinite
+        bus the rotor sees a synchronizing torque, which the linear models do not have: :class:`InputError`."""
+        if self.generator.model != "subtransient":
+            return self.generator.self_regulation
+        if self.grid.kind != "island":
+            raise InputError(f"grid.kind = {self.grid.kind!r}: the linear turbine models have no synchronizing torque; "
+                             f"linearize with grid.kind = 'island' or generator.model = 'swing'")
+        return self.grid.island_frequency_p * float(load_pu)
+
     def with_overrides(self, overrides: dict[str, Any]) -> "PlantConfig":
         """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`)."""
         raw = to_dict(self)

@@ -353,3 +353,25 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
     island = run_simulation(grid_plant(**{"penstock.model": "rigid", "solver.dt_s": 0.1, "scenario.t_end_s": 2.0,
                                           "scenario.event_time_s": 1.0}))
     assert not any("electromechanical" in w for w in island.summary()["warnings"])
+
+
+def test_linear_models_take_the_islands_self_regulation_and_refuse_the_infinite_bus():
+    from simulate.comparison import linear_reference
+    from simulate.config import load_characteristics
+    from simulate.engine import initial_state
+
+    sub = grid_plant(**{"grid.frequency_p": 1.5})
+    chars = load_characteristics(sub.turbine)
+    steady = initial_state(sub, chars)
+    load0 = steady.torque_nm / sub.turbine.rated_torque_nm  # 0.8 at 180 MW
+    # the island's air-gap power P0 (1 + 1.5 x) at the set-point voltage is the swing model's e_g = 1.5 P0
+    swing = swing_plant(**{"scenario.kind": "load-step", "scenario.initial_power_mw": 180.0,
+                           "scenario.event_time_s": 2.0, "generator.self_regulation": 1.5 * load0})
+    a, b = linear_reference(sub, chars, steady)[1], linear_reference(swing, chars, initial_state(swing, chars))[1]
+    assert a.self_regulation == pytest.approx(b.self_regulation, rel=1e-12) and a.self_regulation > 1.0
+    bus = grid_plant(**{"grid.kind": "infinite-bus", "grid.load_model": None, "grid.load_power_factor": None,
+                        "grid.frequency_p": None, "grid.frequency_q": None, "grid.x_line_pu": 0.3,
+                        "grid.bus_voltage_pu": 1.0, "scenario.kind": "opening-steps"})
+    with pytest.raises(InputError, match=r"grid\.kind = 'infinite-bus': the linear turbine models have no "
+                                         r"synchronizing torque"):
+        linear_reference(bus, chars, initial_state(bus, chars))
