@@ -11,3 +11,5 @@ FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
 PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"
 #: The example plant with [limits] and [[load_cases]] for the design studies (hillsim optimize-closure, report).
 PLANT_HLA339_GUARANTEE = Path(__file__).resolve().parent / "plant_hla339_guarantee.toml"
+#: The example plant with paper 001's sub-transient generator, voltage control and island load (eq. (14) load step).
+PLANT_HLA339_GRID = Path(__file__).resolve().parent / "plant_hla339_grid.toml"

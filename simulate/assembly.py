@@ -155,7 +155,8 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
         else:
             lines += ["kernel = _characteristics_kernel"]
     solver = boundary.SOLVERS[pressure_loop]
-    lines.append(_template(solver.py_func, drop_first=True).replace(f"def {solver.__name__}(", "def pressure_loop("))
+    solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
+    lines.append(solver_source.replace(f"def {solver.__name__}(", "def pressure_loop("))
     lines.append(_template(boundary.turbine_step, drop_first=False))
     lines.append(_LOOP.replace("{records}", "\n".join(records)))
     return "\n".join(lines) + "\n", sorted(modules)

@@ -14,7 +14,8 @@ penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); updat
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
                                          (optional: the component's extra timeseries columns)
 control    scenario's control            step(p, s, speed_rpm, t, t_next, dt) -> controls (fractions of stroke)
-shaft      ``[generator]``               speed(p, s) -> rpm; step(p, s, turbine_torque_nm, t, dt) -> rpm
+shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_torque_nm, t, dt) -> rpm;
+                                         record(p, s, out) (optional)
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, control/shaft
@@ -89,8 +90,9 @@ CONTROLS = Registry("control", "control", {
     "governor": "simulate.governor:build_governor",
     "prescribed": "simulate.governor:build_prescribed",
 })
-SHAFTS = Registry("shaft", "shaft", {
-    "rotor": "simulate.rotor:build_rotor",
+SHAFTS = Registry("shaft", "generator.model", {
+    "swing": "simulate.rotor:build_rotor",
+    "subtransient": "simulate.generator_shaft:build_subtransient",
 })
 #: Turbine characteristics by the word in ``turbine.characteristics`` (anything else is a nets.json path).
 CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
@@ -120,8 +122,9 @@ def upstream_section(plant):
 
 
 def shaft_section(plant):
-    """``(name, config)`` of the plant's shaft component (``("rotor", None)``: the ``[generator]`` swing equation)."""
-    return section_component(SHAFTS, plant, "rotor")
+    """``(name, config)`` of the plant's shaft component: ``generator.model`` (``"swing"``, the swing equation, or
+    ``"subtransient"``, paper 001's machine with ``[excitation]`` and ``[grid]``) and the ``[generator]`` section."""
+    return plant.generator.model, plant.generator
 
 
 def ideal_from_rated(turbine, base_dir=None):

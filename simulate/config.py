@@ -10,7 +10,7 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  opening_max, characteristics            # "ideal" or a nets.json path relative to the file
     [penstock]   model, static_head_m, reaches, [lumped_alpha], [zdomain_feedback]
     [[penstock.segments]]  length_m, diameter_m, wave_speed_m_s, darcy_friction   (upstream first)
-    [generator]  inertia_time_s, self_regulation
+    [generator]  inertia_time_s, self_regulation, [model]   # swing (default) | subtransient
     [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
                  opening_time_s, stroke_min, stroke_max
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
@@ -18,6 +18,8 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  [max_node_steps], [max_output_mb]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
+    [excitation], [grid]  with generator.model = "subtransient" (simulate.excitation.ExcitationConfig,
+                 simulate.generator.GridConfig); [generator] then also takes the machine keys SUBTRANSIENT_KEYS
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ from simulate.components import PENSTOCKS  # noqa: E402  (light: no numba)
 
 PENSTOCK_MODELS = PENSTOCKS.names()  # the penstock registry's names
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
-SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps")
+SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps", "short-circuit",
+                  "field-step")
 
 #: Keys each scenario kind accepts beyond ``kind`` and ``t_end_s`` (required ones first in the docs).
 SCENARIO_KEYS = {
@@ -44,6 +47,8 @@ SCENARIO_KEYS = {
     "frequency-steps": ("speed_steps", "step_times_s"),
     "load-step": ("initial_power_mw", "initial_opening", "event_time_s", "load_step"),
     "opening-steps": ("initial_power_mw", "initial_opening", "opening_steps", "step_times_s"),
+    "short-circuit": ("event_time_s",),
+    "field-step": ("event_time_s", "field_step_pu"),
 }
 
 
@@ -225,17 +230,68 @@ class PenstockConfig:
         return min(s.travel_time_s for s in self.segments) / self.reaches
 
 
+#: Keys of ``[generator]`` that only ``model = "subtransient"`` takes (paper 001 eq. (10), Table 1).
+SUBTRANSIENT_KEYS = ("xd", "xd_t", "xd_st", "xq", "xq_st", "td0_t_s", "td0_st_s", "tq0_st_s", "rated_mva",
+                     "power_factor", "ra")
+
+
 @dataclass(frozen=True)
 class GeneratorConfig:
     """Rotor and load: ``inertia_time_s`` Ta = J w_r^2 / P_r; ``self_regulation`` e_g (per unit torque per unit
-    speed) of the connected load, active only while the breaker is closed."""
+    speed) of the connected load, active only while the breaker is closed.
+
+    ``model``: the shaft component (registry :data:`simulate.components.SHAFTS`): ``"swing"`` (default, the swing
+    equation with load self-regulation) or ``"subtransient"`` (paper 001's machine, eq. (10), with ``[excitation]``
+    and ``[grid]``; its keys :data:`SUBTRANSIENT_KEYS` are required then (``ra`` optional) and rejected otherwise;
+    the load's frequency dependence is ``grid.frequency_p``, so ``self_regulation`` must be 0).
+    """
 
     inertia_time_s: float
     self_regulation: float = 0.0
+    model: str = "swing"
+    xd: float | None = None
+    xd_t: float | None = None
+    xd_st: float | None = None
+    xq: float | None = None
+    xq_st: float | None = None
+    td0_t_s: float | None = None
+    td0_st_s: float | None = None
+    tq0_st_s: float | None = None
+    rated_mva: float | None = None
+    power_factor: float | None = None
+    ra: float | None = None
 
     def __post_init__(self):
+        from simulate.components import SHAFTS
+
+        _check_choice("generator", "model", self.model, SHAFTS.names())
         _check_number("generator", "inertia_time_s", self.inertia_time_s, low=0.0, high=100.0, low_open=True)
         _check_number("generator", "self_regulation", self.self_regulation, low=0.0, high=20.0)
+        given = [k for k in SUBTRANSIENT_KEYS if getattr(self, k) is not None]
+        if self.model != "subtransient":
+            if given:
+                raise InputError(f"generator.{given[0]} is a key of generator.model = \"subtransient\"; with model = "
+                                 f"{self.model!r} the [generator] keys are inertia_time_s, self_regulation, model")
+            return
+        missing = [k for k in SUBTRANSIENT_KEYS if k != "ra" and getattr(self, k) is None]
+        if missing:
+            raise InputError(f"missing required key generator.{missing[0]} for generator.model = \"subtransient\"; "
+                             f"it needs {', '.join(k for k in SUBTRANSIENT_KEYS if k != 'ra')} (ra optional)")
+        if self.self_regulation != 0.0:
+            raise InputError(f"generator.self_regulation = {self.self_regulation!r}: with generator.model = "
+                             f"\"subtransient\" the load's frequency dependence is grid.frequency_p (island) and the "
+                             f"rotor takes the air-gap torque; set self_regulation = 0 or leave it out")
+        self.subtransient  # validates the machine (ordering X''d < X'd < Xd, ...)
+
+    @property
+    def subtransient(self):
+        """:class:`simulate.generator.SubtransientGeneratorConfig` of the sub-transient keys (model "subtransient")."""
+        from simulate.generator import SubtransientGeneratorConfig
+
+        if self.model != "subtransient":
+            raise InputError(f"generator.model = {self.model!r} has no sub-transient machine")
+        keys = {k: getattr(self, k) for k in SUBTRANSIENT_KEYS if getattr(self, k) is not None}
+        return SubtransientGeneratorConfig(**keys)
 
 
 @dataclass(frozen=True)
@@ -245,6 +301,13 @@ class GovernorConfig:
     ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
     ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
     ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
+
+    ``servo_model``: ``"first-order"`` (default: T_y, rate limits, stroke limits) or ``"discrete"``: paper 000's
+    second-order sampled servo, eq. (37), u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every ``servo_sample_time_s``
+    (held in between; a whole multiple of the time step), keys ``servo_b0``, ``servo_a1``, ``servo_a2``,
+    ``servo_sample_time_s`` (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2) at 0.2 s; DC gain 1 and stable poles
+    required), with the stroke limits and the rate limits ``closing_time_s``/``opening_time_s`` applied at each sample
+    (``servo_time_s`` then acts only through the time-step guards).
     """
 
     kp: float
@@ -257,8 +320,16 @@ class GovernorConfig:
     opening_time_s: float
     stroke_min: float = 0.0
     stroke_max: float = 1.0
+    servo_model: str = "first-order"
+    servo_b0: float | None = None
+    servo_a1: float | None = None
+    servo_a2: float | None = None
+    servo_sample_time_s: float | None = None
+
+    DISCRETE_KEYS: ClassVar[tuple[str, ...]] = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
     def __post_init__(self):
+        _check_choice("governor", "servo_model", self.servo_model, ("first-order", "discrete"))
         _check_number("governor", "kp", self.kp, low=0.0, high=1000.0)
         _check_number("governor", "ki", self.ki, low=0.0, high=1000.0)
         _check_number("governor", "kd", self.kd, low=0.0, high=1000.0)
@@ -272,6 +343,25 @@ class GovernorConfig:
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
+        given = [k for k in self.DISCRETE_KEYS if getattr(self, k) is not None]
+        if self.servo_model != "discrete" and given:
+            raise InputError(f"governor.{given[0]} is a key of governor.servo_model = \"discrete\" (eq. (37)); got "
+                             f"servo_model = {self.servo_model!r}")
+        if self.servo_model == "discrete":
+            self.discrete_servo  # validates eq. (37)'s coefficients
+
+    @property
+    def discrete_servo(self):
+        """:class:`simulate.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys (servo_model "discrete")."""
+        from simulate.discrete_servo import DiscreteServoConfig
+
+        keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
+        try:
+            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max,
+                                       closing_time_s=self.closing_time_s, opening_time_s=self.opening_time_s)
+        except InputError as exc:
+            raise InputError(f"governor (servo_model = \"discrete\", eq. (37)): "
+                             + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
 
 
 @dataclass(frozen=True)
@@ -288,7 +378,8 @@ class ScenarioConfig:
     ``opening_steps`` (0.02,) at ``step_times_s`` (1,) for opening-steps. Exactly one of ``initial_power_mw`` /
     ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
     ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
-    vanes move at the slower rate of a full stroke per ``break_time_s``.
+    vanes move at the slower rate of a full stroke per ``break_time_s``. ``field_step_pu`` (field-step, default 0.1):
+    the field-voltage step, pu.
     """
 
     kind: str
@@ -303,6 +394,7 @@ class ScenarioConfig:
     speed_steps: tuple[float, ...] | None = None
     opening_steps: tuple[float, ...] | None = None
     step_times_s: tuple[float, ...] | None = None
+    field_step_pu: float = 0.1
 
     #: keys of this kind beyond ``kind`` and ``t_end_s`` (set by each kind's class)
     KEYS: ClassVar[tuple[str, ...]] = ()
@@ -342,6 +434,10 @@ class ScenarioConfig:
 
     def validate(self) -> None:
         """The kind's own checks (overridden per kind)."""
+
+    def check_plant(self, plant) -> None:
+        """Checks of the kind against the rest of the plant (e.g. a kind that needs the sub-transient generator);
+        overridden per kind."""
 
     def initial_target(self) -> dict:
         """Keyword for :func:`simulate.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``."""
@@ -453,9 +549,21 @@ class PlantConfig:
     solver: SolverConfig = field(default_factory=SolverConfig)
     base_dir: Path = Path(".")
     surge_tank: SurgeTankConfig | None = None
+    excitation: Any = None  # simulate.excitation.ExcitationConfig (generator.model = "subtransient")
+    grid: Any = None  # simulate.generator.GridConfig (generator.model = "subtransient")
 
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
+        electrical = [name for name in ("excitation", "grid") if getattr(self, name) is not None]
+        if self.generator.model == "subtransient":
+            for name in ("excitation", "grid"):
+                if getattr(self, name) is None:
+                    raise InputError(f"missing section [{name}]: generator.model = \"subtransient\" needs [excitation] "
+                                     f"and [grid]")
+        elif electrical:
+            raise InputError(f"section [{electrical[0]}] is used only by generator.model = \"subtransient\" (got "
+                             f"generator.model = {self.generator.model!r})")
+        sc.check_plant(self)
         if sc.initial_opening is not None and not (gov.stroke_min <= sc.initial_opening <= gov.stroke_max):
             raise InputError(f"scenario.initial_opening must be in [governor.stroke_min, governor.stroke_max] = "
                              f"[{gov.stroke_min!r}, {gov.stroke_max!r}], got {sc.initial_opening!r}")
@@ -479,6 +587,29 @@ class PlantConfig:
                 f"{moc_dt!r} s; omit solver.dt_s or change penstock.reaches")
         return self.solver.dt_s
 
+    @property
+    def electrical(self):
+        """:class:`simulate.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``, ``[grid]`` (model
+        "subtransient"; None for the swing model)."""
+        if self.generator.model != "subtransient":
+            return None
+        from simulate.generator import ElectricalConfig
+
+        return ElectricalConfig(generator=self.generator.subtransient, excitation=self.excitation, grid=self.grid)
+
+    def rotor_self_regulation(self, load_pu: float) -> float:
+        """e_g of the rotor's load (per unit of rated torque per unit speed) at a load of ``load_pu`` (rated torque
+        units), for the linear models: ``generator.self_regulation`` with the swing model; with the sub-transient
+        generator on an island ``grid.frequency_p * load_pu`` (the air-gap power P0 (1 + frequency_p x) with the
+        voltage held at its set point by the excitation, which settles much faster than the rotor). On an infinite
+        bus the rotor sees a synchronizing torque, which the linear models do not have: :class:`InputError`."""
+        if self.generator.model != "subtransient":
+            return self.generator.self_regulation
+        if self.grid.kind != "island":
+            raise InputError(f"grid.kind = {self.grid.kind!r}: the linear turbine models have no synchronizing torque; "
+                             f"linearize with grid.kind = 'island' or generator.model = 'swing'")
+        return self.grid.island_frequency_p * float(load_pu)
+
     def with_overrides(self, overrides: dict[str, Any]) -> "PlantConfig":
         """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`)."""
         raw = to_dict(self)
@@ -494,7 +625,19 @@ _SECTIONS = {
     "scenario": ScenarioConfig,
     "solver": SolverConfig,
     "surge_tank": SurgeTankConfig,
+    "excitation": "simulate.excitation:ExcitationConfig",  # imported only when the section is present
+    "grid": "simulate.generator:GridConfig",
 }
+
+
+def _section_class(name: str):
+    cls = _SECTIONS[name]
+    if isinstance(cls, str):
+        import importlib
+
+        module, attr = cls.split(":")
+        cls = getattr(importlib.import_module(module), attr)
+    return cls
 _SEGMENT_KEYS = tuple(f.name for f in fields(PenstockSegment))
 _SEGMENT_REQUIRED = tuple(f.name for f in fields(PenstockSegment) if f.default is MISSING)
 
@@ -546,8 +689,9 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}")
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:
-            raise InputError(f"missing section [{name}]; a plant file needs {', '.join(_SECTIONS)} "
-                             f"([solver] and [surge_tank] are optional)")
+            raise InputError(f"missing section [{name}]; a plant file needs turbine, penstock, generator, governor, "
+                             f"scenario ([solver] and [surge_tank] are optional; [excitation] and [grid] go with "
+                             f"generator.model = \"subtransient\")")
     turbine = TurbineConfig(**_build("turbine", TurbineConfig, raw["turbine"]))
     pen_raw = dict(_build("penstock", PenstockConfig, raw["penstock"]))
     segs = pen_raw.get("segments")
@@ -591,8 +735,13 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
     solver = SolverConfig(**_build("solver", SolverConfig, raw.get("solver", {})))
     surge_tank = (SurgeTankConfig(**_build("surge_tank", SurgeTankConfig, raw["surge_tank"]))
                   if "surge_tank" in raw else None)
-    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor, surge_tank=surge_tank,
-                       scenario=scenario, solver=solver, base_dir=Path(base_dir))
+    optional = {}
+    for name in ("excitation", "grid"):
+        if name in raw:
+            cls = _section_class(name)
+            optional[name] = cls(**_build(name, cls, raw[name]))
+    return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor,
+                       surge_tank=surge_tank, scenario=scenario, solver=solver, base_dir=Path(base_dir), **optional)
 
 
 def to_dict(plant: PlantConfig) -> dict[str, Any]:
@@ -607,7 +756,7 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
             value = getattr(obj, f.name)
             if name == "scenario" and value == f.default and f.name not in ("kind", "t_end_s"):
                 continue
-            if name in ("solver", "surge_tank") and value is None:
+            if name in ("solver", "surge_tank", "generator", "grid", "governor") and value is None:
                 continue
             if f.name == "segments":
                 value = [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None} for s in value]

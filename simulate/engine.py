@@ -156,8 +156,11 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     out["torque"][0] = steady.torque_nm
     out_controls[0, 0] = steady.stroke
     pen_part, up_part = parts["penstock"], parts["upstream"]
-    if up_part.signals:
-        out_signals[0, :len(up_part.signals)] = up_part.meta["initial_signals"]
+    column = 0
+    for kind in ("upstream", "shaft", "control"):  # row 0: each recording component's initial signals
+        if parts[kind].signals:
+            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].meta["initial_signals"]
+            column += len(parts[kind].signals)
     nodes = np.zeros(pen_part.n_nodes)
     node_heads = pen_part.functions["node_heads"]
     getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state, up_part.meta.get(
@@ -207,6 +210,11 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                    f"(chart units), head guess {diag[3]:.6g} m, penstock relation H = {diag[4]:.6g} + "
                    f"({diag[5]:.6g}) Q, last head residual {diag[6]:.3g} m (tolerance {tp[0][2]:.3g} m, "
                    f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation})")
+        for part in parts.values():  # a component that failed first (e.g. the generator's network) says why
+            why = part.meta.get("failure", lambda: "")()
+            if why:
+                message = f"{why} (the pressure loop then stopped: {STATUS_TEXT[int(status)]})"
+                break
         if raise_on_failure:
             raise NumericalError(message)
     else:
@@ -220,8 +228,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         from simulate.governor import piecewise_constant
 
         # py_func: a one-off call from Python need not load the compiled version from the disk cache
-        ref_end = float(piecewise_constant.py_func(schedules.ref_times_s, schedules.ref_values,
-                                                   time_s[-1] + 1e-9 * dt, 0.0))
+        ref_end = float(getattr(piecewise_constant, "py_func", piecewise_constant)(
+            schedules.ref_times_s, schedules.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
     tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
             "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "water_time_s": tw,
@@ -231,6 +239,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         meta["output_dt_s"] = dt * stride
     for part in parts.values():
         meta.update(part.meta.get("summary", {}))
+        meta.update(part.meta.get("summary_after", lambda time_s, signals: {})(
+            time_s, {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)}))
     meta.update(pen_part.meta)
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))

@@ -180,8 +180,14 @@ def prescribed_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 
 
 def build_governor(plant, steady, dt_s: float, schedules):
-    """Governor + servo on the guide vane; the speed reference follows the scenario's schedule."""
+    """Governor + servo on the guide vane; the speed reference follows the scenario's schedule. The servo is the
+    first-order one, or paper 000's discrete eq. (37) with ``governor.servo_model = "discrete"``."""
     from simulate.components import CompiledPart
+
+    if plant.governor.servo_model == "discrete":
+        from simulate.discrete_servo import build_discrete_governor
+
+        return build_discrete_governor(plant, steady, dt_s, schedules)
 
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
     params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,

@@ -408,6 +408,9 @@ class DeadZoneRLS(_RecursiveBase):
         Normalization constant (paper: "typically less than 0.05"); default 0.01.
     theta0, p0
         As for :class:`RecursiveLeastSquares`.
+    normalization : {"m2", "m"}
+        ``"m2"`` (default): the gain of eq. (5) divided by m(k)^2, as above. ``"m"``: eq. (5) as printed, divided by
+        m(k) (P still by m^2, eq. (7)); kept to compare the two readings on the same data.
 
     Attributes
     ----------
@@ -420,15 +423,19 @@ class DeadZoneRLS(_RecursiveBase):
     ([False, True], [0.0])
     """
 
-    def __init__(self, *, eps0, delta=0.01, theta0=None, p0=1.0):
+    def __init__(self, *, eps0, delta=0.01, theta0=None, p0=1.0, normalization="m2"):
         self.eps0 = eps0
         self.delta = delta
         self.theta0 = theta0
         self.p0 = p0
+        self.normalization = normalization
 
     def _validate_hyperparameters(self):
         self._eps0 = _positive_float("eps0", self.eps0, allow_zero=True)
         self._delta = _positive_float("delta", self.delta)
+        if self.normalization not in ("m2", "m"):
+            raise InputError(f"normalization must be 'm2' or 'm' (eq. (5) divided by m(k)^2 or, as printed, by "
+                             f"m(k)), got {self.normalization!r}")
 
     def _update(self, theta, P, phi, target):
         eps = target - theta @ phi  # eq. (6)
@@ -436,7 +443,8 @@ class DeadZoneRLS(_RecursiveBase):
         m2 = self._delta + phi @ p_phi  # eq. (8), m(k)^2
         updated = abs(eps) > self._eps0
         if updated:
-            theta = theta + p_phi * (eps / m2)  # eq. (5) (divided by m^2, see class docstring)
+            gain = m2 if self.normalization == "m2" else np.sqrt(m2)
+            theta = theta + p_phi * (eps / gain)  # eq. (5) (divided by m^2 by default, see class docstring)
         P = P - np.outer(p_phi, p_phi) / m2  # eq. (7)
         P = 0.5 * (P + P.T)
         return theta, P, eps, updated

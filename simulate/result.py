@@ -168,11 +168,15 @@ class SimulationResult:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(8, 9))
-        FigureCanvasAgg(fig)
-        axes = fig.subplots(4, 1, sharex=True)
         series = ((self.speed_rpm, "speed (r/min)"), (self.head_m, "head at turbine (m)"),
                   (self.flow_m3_s, "flow (m$^3$/s)"), (self.opening, "opening (stroke)"))
+        if "frequency_hz" in self.signals:  # the sub-transient generator: frequency for speed, plus V and v_f
+            series = (((self.signals["frequency_hz"], "frequency (Hz)"),) + series[1:]
+                      + ((self.signals["terminal_voltage_pu"], "terminal voltage (pu)"),
+                         (self.signals["field_voltage_pu"], "field voltage (pu)")))
+        fig = Figure(figsize=(8, 9 if len(series) == 4 else 12))
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(len(series), 1, sharex=True)
         intervals = (self.meta.get("extrapolation") or {}).get("intervals_s", [])
         for ax, (values, label) in zip(axes, series):
             ax.plot(self.time_s, values, lw=1.2)

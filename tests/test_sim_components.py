@@ -66,7 +66,7 @@ def test_the_loop_template_names_no_model():
 def test_registries_name_their_entries_and_reject_unknown_names():
     assert PENSTOCKS.names() == ("moc", "zdomain", "lumped", "rigid")
     assert UPSTREAM.names() == ("reservoir", "surge_tank")
-    assert CONTROLS.names() == ("governor", "prescribed") and SHAFTS.names() == ("rotor",)
+    assert CONTROLS.names() == ("governor", "prescribed") and SHAFTS.names() == ("swing", "subtransient")
     assert set(CHARACTERISTICS.names()) == {"ideal", "synthetic", "nets"}
     with pytest.raises(InputError, match=r"penstock\.model must be one of moc, zdomain, lumped, rigid; got 'elastic'"):
         PENSTOCKS.builder("elastic")

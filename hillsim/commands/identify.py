@@ -63,6 +63,15 @@ def register(subparsers) -> None:
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
     est.add_argument("--arx", choices=("zoh", "paper"), default="zoh",
                      help="ARX structure: exact zero-order hold (default) or paper 000 eq. (53) as printed")
+    grid = parser.add_argument_group("paper 000 head model and closed loop (simulate.head_model)")
+    grid.add_argument("--head-model", choices=("interval", "paper"), default=None,
+                      help="also learn the head ARX (eqs. 60-61) and the speed/head/flow estimates (eqs. 62-68): "
+                           "head_model.json, head_model.png")
+    grid.add_argument("--closed-loop-kp", type=float, default=None, metavar="KP",
+                      help="closed-loop identification with the governor PI, Kp relative (paper tests 5-6: 7.5): "
+                           "closed_loop.json")
+    grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=[0.5, 0.15], metavar="TI_S",
+                      help="integral times of the closed-loop runs, s (default 0.5 0.15)")
     parser.add_argument("--exact", choices=("auto", "synthetic", "none"), default="auto",
                         help="also report the exact synthetic turbine's coefficients (auto: when the plant uses the "
                              "shipped synthetic nets)")
@@ -96,6 +105,9 @@ def run(args: argparse.Namespace) -> int:
     from simulate.identification_tables import markdown_tables
     from simulate.measured import load_measured_series
 
+    from simulate.head_model import check_closed_loop_options
+
+    check_closed_loop_options(args.closed_loop_kp, args.closed_loop_ti)  # before anything is written
     out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
     overrides = dict(parse_override(text) for text in args.set)
     plant = load_plant(args.plant, overrides)
@@ -138,6 +150,11 @@ def run(args: argparse.Namespace) -> int:
     progress.done()
     progress.start("writing identification.json, the series and the figures")
     paths = report.write(out)
+    if args.head_model is not None or args.closed_loop_kp is not None:
+        from simulate.head_model import write_head_and_closed_loop
+
+        paths.update(write_head_and_closed_loop(report, plant, out, head_structure=args.head_model,
+                                                closed_loop_kp=args.closed_loop_kp, closed_loop_ti=args.closed_loop_ti))
     progress.done()
     print(f"identification ({summary.source}, penstock {summary.penstock_model or '-'}, tau = {args.tau} s, "
           f"{summary.samples} samples)")

@@ -201,6 +201,10 @@ def run_command(args: argparse.Namespace) -> int:
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
     if getattr(args, "uncertainty", False) and result.success:
         _add_uncertainty(plant, out / "summary.json")
+    if summary.get("frequency_recovery_time_s") is not None:  # the sub-transient generator after a load change
+        print(f"frequency back within +-{summary['frequency_recovery_band_hz']} Hz of rated "
+              f"{summary['frequency_recovery_time_s']:.2f} s after the load change at "
+              f"{summary['frequency_event_time_s']:g} s (nadir {summary['min_frequency_hz']:.3f} Hz)")
     if not result.success:
         args.outputs.commit()  # the series up to the failure are a result too
         raise_message = f"{result.message} (series up to the failure written to {args.out})"

@@ -11,6 +11,10 @@
                      initial load at ``event_time_s`` (paper 001 eq. (14)).
 ``opening-steps``    open loop: the vanes step by ``opening_steps`` (stroke fraction, cumulative) at ``step_times_s``;
                      the load torque stays at its initial value with self-regulation e_g (paper 000 section 5).
+``short-circuit``    sub-transient generator at open circuit, rated speed and voltage; three-phase terminal fault at
+                     ``event_time_s``; speed and field voltage held (the standard short-circuit test).
+``field-step``       sub-transient generator at open circuit and rated speed; the field voltage steps by
+                     ``field_step_pu`` at ``event_time_s`` (speed held, no voltage control).
 """
 
 from __future__ import annotations
@@ -32,6 +36,9 @@ class Schedules:
     ``ref_times_s``/``ref_values``: piecewise-constant speed reference x_ref (0 before the first time).
     ``load_times_s``/``load_values``/``self_regulation_values``: piecewise-constant load torque and e_g
     (``initial_load``/``initial_self_regulation`` before the first time).
+    Electrical events (the sub-transient shaft reads them; the swing rotor has none): ``speed_held`` (the shaft
+    stays at rated speed), ``fault_time_s`` (three-phase terminal fault from then on), ``field_held`` (no voltage
+    control: the field voltage stays at its steady value) plus ``field_step_pu`` from ``field_step_time_s``.
     """
 
     mode: int
@@ -44,6 +51,11 @@ class Schedules:
     self_regulation_values: np.ndarray
     initial_load: float
     initial_self_regulation: float
+    speed_held: bool = False
+    fault_time_s: float = float("inf")
+    field_held: bool = False
+    field_step_time_s: float = float("inf")
+    field_step_pu: float = 0.0
 
 
 def initial_target(scenario) -> dict:
@@ -111,6 +123,9 @@ from simulate.scenarios.closure_law import ClosureLaw  # noqa: E402
 from simulate.scenarios.frequency_steps import FrequencySteps  # noqa: E402
 from simulate.scenarios.load_step import LoadStep  # noqa: E402
 from simulate.scenarios.opening_steps import OpeningSteps  # noqa: E402
+from simulate.scenarios.short_circuit import ShortCircuit  # noqa: E402
+from simulate.scenarios.field_step import FieldStep  # noqa: E402
 
 #: The scenario registry: TOML ``scenario.kind`` -> its config dataclass (which builds its schedules).
-SCENARIO_CLASSES = {cls.KIND: cls for cls in (LoadRejection, ClosureLaw, FrequencySteps, LoadStep, OpeningSteps)}
+SCENARIO_CLASSES = {cls.KIND: cls for cls in (LoadRejection, ClosureLaw, FrequencySteps, LoadStep, OpeningSteps,
+                                              ShortCircuit, FieldStep)}

@@ -8,6 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from hillchart.errors import InputError
 from simulate.config import ScenarioConfig, _check_number
 from simulate.scenarios import GOVERNOR, PRESCRIBED, Schedules, steady_schedules
 
@@ -19,6 +20,12 @@ class LoadStep(ScenarioConfig):
 
     def validate(self) -> None:
         _check_number("scenario", "load_step", self.load_step, low=-1.0, high=1.0)
+
+    def check_plant(self, plant) -> None:
+        grid = getattr(plant, "grid", None)
+        if grid is not None and grid.kind == "infinite-bus":
+            raise InputError("scenario.kind = 'load-step' steps the island load; with grid.kind = 'infinite-bus' the "
+                             "bus takes any power and there is no load to step (use grid.kind = 'island')")
 
     def schedules(self, plant, initial_stroke: float, initial_load_pu: float) -> Schedules:
         return steady_schedules(plant, initial_stroke, initial_load_pu, load_times_s=np.array([self.event_time_s]),
