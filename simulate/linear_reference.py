@@ -43,7 +43,8 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
         coeffs,
         water_time_s=pen.inertance_s2_m2 * steady.flow_m3_s / steady.head_m,  # Tw = L Q0 / (g A H0), eq. (9)
         inertia_time_s=gen.inertia_time_s * torque_ratio * steady.speed_rpm / turbine.rated_speed_rpm,
-        self_regulation=gen.self_regulation * torque_ratio * steady.speed_rpm / turbine.rated_speed_rpm,
+        self_regulation=(plant.rotor_self_regulation(steady.torque_nm / turbine.rated_torque_nm) * torque_ratio
+                         * steady.speed_rpm / turbine.rated_speed_rpm),
         wave_time_s=0.0 if model == "rigid" else pen.travel_time_s,
         alpha=pen.lumped_alpha,
         friction_slope=2.0 * pen.friction_coefficient_s2_m5 * steady.flow_m3_s**2 / steady.head_m,
