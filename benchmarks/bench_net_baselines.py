@@ -33,6 +33,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
+from tests.torch_reference import torch_forward  # noqa: E402  (the Adam baseline needs autograd)
+
 from hillchart import lm  # noqa: E402
 from hillchart.extend import extend_samples  # noqa: E402
 from hillchart.nets import HillNet, measured_region_mask, read_truth_csv  # noqa: E402
@@ -103,19 +105,19 @@ def fit_methods(X, y, groups, seed):
         best_run = (np.inf, None)
         for epoch in range(3000):
             opt.zero_grad()
-            loss = torch.mean((lm.forward(theta, xt, 5) - yt) ** 2)
+            loss = torch.mean((torch_forward(theta, xt, 5) - yt) ** 2)
             loss.backward()
             opt.step()
             if epoch % 25 == 0:
                 with torch.no_grad():
-                    v = float(torch.mean((lm.forward(theta, xv, 5) - yv) ** 2))
+                    v = float(torch.mean((torch_forward(theta, xv, 5) - yv) ** 2))
                 if v < best_run[0]:
                     best_run = (v, theta.detach().clone())
         if best is None or best_run[0] < best[0]:
             best = best_run
     theta_adam = best[1]
     methods["2-5-1 Adam (torch)"] = (
-        wrap(lambda z: lm.forward(theta_adam, torch.as_tensor(z), 5).numpy()), time.perf_counter() - t)
+        wrap(lambda z: lm.forward(theta_adam.numpy(), z, 5)), time.perf_counter() - t)
 
     # RBF (thin-plate spline), exact and smoothed
     from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator, RBFInterpolator

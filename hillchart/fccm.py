@@ -616,7 +616,7 @@ class FCCMNet:
     goal, max_epochs, max_fail, mu, mu_dec, mu_inc, mu_max
         ``trainlm`` parameters (goal on the mean squared normalized error of all outputs).
     n_threads : int, default 1
-        torch threads during ``fit``.
+        Threads running the restarts side by side during ``fit`` (the result does not depend on it).
 
     Attributes
     ----------
@@ -727,8 +727,6 @@ class FCCMNet:
         """
         import time
 
-        import torch
-
         from hillchart import lm
 
         self._validate_params()
@@ -774,26 +772,19 @@ class FCCMNet:
                     seen.add(h)
                     candidates.append((int(c), h))
         start = time.perf_counter()
-        previous_threads = torch.get_num_threads()
-        torch.set_num_threads(self.n_threads)
         selection, best = [], None
-        try:
-            for c, h in candidates:
-                rng = np.random.default_rng([self.seed, h])  # the starts of size h do not depend on the others
-                runs = []
-                for _ in range(self.restarts):
-                    theta0 = lm.nguyen_widrow_init(h, rng, n_in, n_out)
-                    runs.append(lm.levenberg_marquardt(  # one output: 1-D targets (lm's 2-H-1 path)
-                        xn[tr], yn_lm[tr], xn[va], yn_lm[va], theta0, hidden=h, goal=self.goal,
-                        max_epochs=self.max_epochs, max_fail=self.max_fail, mu=self.mu, mu_dec=self.mu_dec,
-                        mu_inc=self.mu_inc, mu_max=self.mu_max))
-                k = int(np.argmin([r.val_mse for r in runs]))
-                selection.append({"c": c, "hidden": h, "validation_mse": runs[k].val_mse,
-                                  "train_mse": runs[k].train_mse, "best_restart": k})
-                if best is None or runs[k].val_mse < best[2].val_mse:
-                    best = (c, h, runs[k])
-        finally:
-            torch.set_num_threads(previous_threads)
+        for c, h in candidates:
+            rng = np.random.default_rng([self.seed, h])  # the starts of size h do not depend on the others
+            thetas0 = [lm.nguyen_widrow_init(h, rng, n_in, n_out) for _ in range(self.restarts)]
+            runs = lm.levenberg_marquardt_many(  # one output: 1-D targets (lm's 2-H-1 path)
+                xn[tr], yn_lm[tr], xn[va], yn_lm[va], thetas0, n_threads=self.n_threads, hidden=h, goal=self.goal,
+                max_epochs=self.max_epochs, max_fail=self.max_fail, mu=self.mu, mu_dec=self.mu_dec,
+                mu_inc=self.mu_inc, mu_max=self.mu_max)
+            k = int(np.argmin([r.val_mse for r in runs]))
+            selection.append({"c": c, "hidden": h, "validation_mse": runs[k].val_mse,
+                              "train_mse": runs[k].train_mse, "best_restart": k})
+            if best is None or runs[k].val_mse < best[2].val_mse:
+                best = (c, h, runs[k])
         self.fit_time_s_ = time.perf_counter() - start
         c, h, res = best
         if not np.all(np.isfinite(res.theta)):

@@ -1,8 +1,8 @@
 """Levenberg-Marquardt training of a 2-H-1 logsig/purelin net, as MATLAB's ``trainlm`` does it.
 
 The BP hill-chart paper (004, section 2.4) trains its nets with ``newff(minmax(p), [5 1], {'logsig' 'purelin'})``
-and ``train``; the default training function of ``newff`` is ``trainlm``. This module reproduces that algorithm in
-torch (float64):
+and ``train``; the default training function of ``newff`` is ``trainlm``. This module reproduces that algorithm
+(float64) as one numba-compiled loop:
 
 * residuals ``e = yn_net(theta; xn) - yn_target`` on inputs and targets already mapped to [-1, 1];
 * performance ``mse = mean(e^2)``; goal, epoch limit and ``min_grad`` stop as in ``trainlm``;
@@ -15,7 +15,11 @@ torch (float64):
 The Jacobian of the residuals is analytic (the net has only ``4 H + 1`` parameters, 21 for H = 5); a test checks it
 against ``torch.func.jacrev``. Hand-written rather than a library optimizer because neither torch nor scipy offers
 LM with validation early stopping (``scipy.optimize.least_squares(method="lm")`` is MINPACK without a validation
-set or per-epoch control); the algorithm is the published one and is short.
+set or per-epoch control); the algorithm is the published one and is short. Compiled rather than written with
+torch tensors: with 21 parameters and ~150 residuals an epoch is a few microseconds of arithmetic, and torch's
+per-operation overhead (about 0.7 ms an epoch over its ~15 tensor calls) made training 10-20 x slower
+(``benchmarks/bench_lm.py``). The loop releases the GIL, so independent starts run on several threads
+(:func:`levenberg_marquardt_many`).
 
 Parameter vector layout (``theta``, length ``4 H + 1``)::
 
@@ -34,15 +38,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 
 from hillchart.errors import NumericalError
-
-# torch is imported inside the training functions: evaluating exported nets (hillchart.nets) never needs it.
-if TYPE_CHECKING:  # pragma: no cover - annotations only
-    import torch
 
 
 def n_parameters(hidden: int, n_inputs: int = 2, n_outputs: int = 1) -> int:
@@ -68,51 +69,72 @@ def unpack(theta, hidden: int, n_inputs: int = 2, n_outputs: int = 1):
     return w1, b1, theta[k + h: k + h + n_outputs * h].reshape(n_outputs, h), theta[k + h + n_outputs * h:]
 
 
-def forward(theta: torch.Tensor, xn: torch.Tensor, hidden: int, n_outputs: int = 1) -> torch.Tensor:
+@numba.njit(cache=True, nogil=True)
+def _outputs(theta, xn, hidden, n_outputs, want_jacobian):
+    """Net outputs (n n_out,) flattened row-major and, when ``want_jacobian``, their Jacobian (n n_out, n_par);
+    else a (0, n_par) array. The one implementation behind :func:`forward`, :func:`residual_jacobian` and the
+    training kernel."""
+    n, n_in = xn.shape
+    h, k = hidden, n_in * hidden
+    n_par = h * (n_in + 1 + n_outputs) + n_outputs
+    y = np.empty(n * n_outputs)
+    jac = np.zeros((n * n_outputs if want_jacobian else 0, n_par))
+    f = np.empty(h)
+    for i in range(n):
+        for j in range(h):
+            z = theta[k + j]
+            for m in range(n_in):
+                z += theta[j * n_in + m] * xn[i, m]
+            # eq. (10), paper 004: logsig, evaluated without overflow for either sign of z
+            if z >= 0.0:
+                f[j] = 1.0 / (1.0 + math.exp(-z))
+            else:
+                ez = math.exp(z)
+                f[j] = ez / (1.0 + ez)
+        for o in range(n_outputs):
+            r = i * n_outputs + o
+            w2 = k + h + o * h
+            s = theta[k + h + n_outputs * h + o]
+            for j in range(h):
+                s += theta[w2 + j] * f[j]  # eq. (11), paper 004
+            y[r] = s
+            if want_jacobian:
+                for j in range(h):
+                    d = theta[w2 + j] * f[j] * (1.0 - f[j])
+                    for m in range(n_in):
+                        jac[r, j * n_in + m] = d * xn[i, m]
+                    jac[r, k + j] = d
+                    jac[r, w2 + j] = f[j]
+                jac[r, k + h + n_outputs * h + o] = 1.0
+    return y, jac
+
+
+def _as_inputs(theta, xn):
+    return (np.ascontiguousarray(theta, dtype=np.float64).ravel(),
+            np.ascontiguousarray(np.atleast_2d(np.asarray(xn, dtype=np.float64))))
+
+
+def forward(theta, xn, hidden: int, n_outputs: int = 1) -> np.ndarray:
     """Normalized net output ``yn`` (n,) for one output, (n, n_out) for several, at normalized inputs ``xn``
     (n, n_in).
 
     eq. (11), BP hill-chart paper (004): ``yn = sum_i W2_i f(W1_i . xn + b1_i) + b2`` with the log-sigmoid
     ``f(z) = 1 / (1 + exp(-z))`` of eq. (10).
     """
-    import torch
+    theta, xn = _as_inputs(theta, xn)
+    y, _ = _outputs(theta, xn, int(hidden), int(n_outputs), False)
+    return y if n_outputs == 1 else y.reshape(xn.shape[0], n_outputs)
 
-    w1, b1, w2, b2 = unpack(theta, hidden, xn.shape[1], n_outputs)
-    return torch.sigmoid(xn @ w1.T + b1) @ (w2 if n_outputs == 1 else w2.T) + b2  # eqs. (10)-(11), paper 004
 
-
-def residual_jacobian(theta: torch.Tensor, xn: torch.Tensor, hidden: int,
-                      n_outputs: int = 1) -> tuple[torch.Tensor, torch.Tensor]:
+def residual_jacobian(theta, xn, hidden: int, n_outputs: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Net output ``yn`` and its analytic Jacobian ``d yn / d theta``: (n,) and (n, 4 H + 1) for 2-H-1; for
     ``n_outputs`` > 1 the output flattened row-major (n n_out,) and (n n_out, n_parameters).
 
     With ``f = sigmoid(z)``, ``z = W1 xn + b1`` and ``d_k = W2_k f (1 - f)`` for output k:
     ``dyn_k/dW1_ij = d_ki xn_j``, ``dyn_k/db1_i = d_ki``, ``dyn_k/dW2_ki = f_i``, ``dyn_k/db2_k = 1``.
     """
-    import torch
-
-    n_in = xn.shape[1]
-    w1, b1, w2, b2 = unpack(theta, hidden, n_in, n_outputs)
-    f = torch.sigmoid(xn @ w1.T + b1)
-    n, h, k = xn.shape[0], hidden, n_in * hidden
-    if n_outputs == 1:
-        yn = f @ w2 + b2
-        d = f * (1.0 - f) * w2
-        jac = torch.empty((n, n_parameters(hidden, n_in)), dtype=theta.dtype)
-        jac[:, :k] = (d[:, :, None] * xn[:, None, :]).reshape(n, k)
-        jac[:, k: k + h] = d
-        jac[:, k + h: k + 2 * h] = f
-        jac[:, k + 2 * h] = 1.0
-        return yn, jac
-    yn = f @ w2.T + b2  # (n, n_out)
-    d = (f * (1.0 - f))[:, None, :] * w2[None, :, :]  # (n, n_out, H)
-    jac = torch.zeros((n, n_outputs, n_parameters(hidden, n_in, n_outputs)), dtype=theta.dtype)
-    jac[:, :, :k] = (d[:, :, :, None] * xn[:, None, None, :]).reshape(n, n_outputs, k)
-    jac[:, :, k: k + h] = d
-    for o in range(n_outputs):
-        jac[:, o, k + h + o * h: k + h + (o + 1) * h] = f
-        jac[:, o, k + h + n_outputs * h + o] = 1.0
-    return yn.reshape(-1), jac.reshape(n * n_outputs, -1)
+    theta, xn = _as_inputs(theta, xn)
+    return _outputs(theta, xn, int(hidden), int(n_outputs), True)
 
 
 def nguyen_widrow_init(hidden: int, rng: np.random.Generator, n_inputs: int = 2, n_outputs: int = 1) -> np.ndarray:
@@ -176,6 +198,146 @@ class LMResult:
     stop_reason: str
 
 
+#: Stop reasons by the training kernel's code.
+_STOP_REASONS = ("goal", "max_epochs", "min_grad", "mu_max", "validation")
+_NOT_FINITE = len(_STOP_REASONS)
+
+
+@numba.njit(cache=True, nogil=True)
+def _cholesky_solve(a, b, out):
+    """Solve ``a x = b`` for a symmetric positive definite ``a`` (p x p, p <= a few dozen) into ``out``; False when
+    ``a`` is not numerically positive definite (a failed LM step). Hand-written: inside the compiled loop, with a
+    failure flag instead of the exception ``np.linalg.cholesky`` raises."""
+    p = a.shape[0]
+    low = np.zeros((p, p))
+    for j in range(p):
+        s = a[j, j]
+        for m in range(j):
+            s -= low[j, m] * low[j, m]
+        if not s > 0.0:  # NaN too
+            return False
+        low[j, j] = math.sqrt(s)
+        for i in range(j + 1, p):
+            t = a[i, j]
+            for m in range(j):
+                t -= low[i, m] * low[j, m]
+            low[i, j] = t / low[j, j]
+    for i in range(p):  # L z = b
+        t = b[i]
+        for m in range(i):
+            t -= low[i, m] * out[m]
+        out[i] = t / low[i, i]
+    for i in range(p - 1, -1, -1):  # L^T x = z
+        t = out[i]
+        for m in range(i + 1, p):
+            t -= low[m, i] * out[m]
+        out[i] = t / low[i, i]
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _performance(theta, xn, yn, weights, hidden, n_outputs, regularization):
+    """``mean(w e^2) + lambda mean(theta^2)`` at ``theta`` (``weights`` of every residual, 1 for ``trainlm``)."""
+    y, _ = _outputs(theta, xn, hidden, n_outputs, False)
+    total = 0.0
+    for r in range(y.shape[0]):
+        e = y[r] - yn[r]
+        total += weights[r] * e * e
+    perf = total / y.shape[0]
+    if regularization != 0.0:
+        perf += regularization * np.mean(theta * theta)
+    return perf
+
+
+@numba.njit(cache=True, nogil=True)
+def _lm_kernel(xt, yt, xv, yv, theta0, weights, hidden, n_outputs, regularization, goal, max_epochs, max_fail, mu,
+               mu_dec, mu_inc, mu_max, min_grad):
+    """The loop of :func:`levenberg_marquardt`; returns ``(best_theta, best_val_mse, best_epoch, epochs, code,
+    perf)`` with ``code`` an index into ``_STOP_REASONS`` or ``_NOT_FINITE`` (``perf`` then the offending MSE)."""
+    theta = theta0.copy()
+    n_par = theta.shape[0]
+    m = yt.shape[0]
+    ones = np.ones(yv.shape[0])
+    decay = m * regularization / n_par  # the penalty in the sum form used by J^T J and J^T e
+    best_theta = theta.copy()
+    best_vperf = _performance(theta, xv, yv, ones, hidden, n_outputs, 0.0)
+    best_epoch = 0
+    val_fail = 0
+    code = 1
+    epoch = 0
+    jtj = np.empty((n_par, n_par))
+    jte = np.empty(n_par)
+    system = np.empty((n_par, n_par))
+    step = np.empty(n_par)
+    rhs = np.empty(n_par)
+    for epoch in range(max_epochs + 1):
+        yn, jac = _outputs(theta, xt, hidden, n_outputs, True)
+        total = 0.0
+        jtj[:, :] = 0.0
+        jte[:] = 0.0
+        for r in range(m):
+            e = yn[r] - yt[r]
+            total += weights[r] * e * e
+            for a in range(n_par):
+                wa = weights[r] * jac[r, a]
+                jte[a] += wa * e
+                for b in range(a + 1):
+                    jtj[a, b] += wa * jac[r, b]
+        for a in range(n_par):
+            for b in range(a):
+                jtj[b, a] = jtj[a, b]
+        perf = total / m
+        if regularization != 0.0:
+            perf += regularization * np.mean(theta * theta)
+            for a in range(n_par):
+                jte[a] += decay * theta[a]
+                jtj[a, a] += decay
+        if not np.isfinite(perf):
+            return best_theta, best_vperf, best_epoch, epoch, _NOT_FINITE, perf
+        gradient = 2.0 * math.sqrt(np.sum(jte * jte))
+        # stopping tests in trainlm's order
+        if perf <= goal:
+            code = 0
+            break
+        if epoch == max_epochs:
+            code = 1
+            break
+        if gradient <= min_grad:
+            code = 2
+            break
+        if mu > mu_max:
+            code = 3
+            break
+        if val_fail >= max_fail:
+            code = 4
+            break
+        # damped Gauss-Newton step; raise mu until the training error decreases
+        for a in range(n_par):
+            rhs[a] = -jte[a]
+        while mu <= mu_max:
+            system[:, :] = jtj
+            for a in range(n_par):
+                system[a, a] += mu
+            perf2 = math.inf
+            if _cholesky_solve(system, rhs, step):  # a singular system counts as a failed step
+                trial = theta + step
+                perf2 = _performance(trial, xt, yt, weights, hidden, n_outputs, regularization)
+            if perf2 < perf:  # NaN compares False: also a failed step
+                theta = trial
+                mu = max(mu * mu_dec, 1e-20)
+                break
+            mu *= mu_inc
+        vperf = _performance(theta, xv, yv, ones, hidden, n_outputs, 0.0)
+        if vperf < best_vperf:
+            best_theta = theta.copy()
+            best_vperf = vperf
+            best_epoch = epoch + 1
+            val_fail = 0
+        elif vperf > best_vperf:
+            val_fail += 1
+    return best_theta, best_vperf, best_epoch, epoch, code, 0.0
+
+
 def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: int, goal: float = 1e-5,
                         max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
                         mu_inc: float = 10.0, mu_max: float = 1e10, min_grad: float = 1e-15,
@@ -220,86 +382,35 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
     >>> res.train_mse < 1e-5
     True
     """
-    import torch
-
-    dtype = torch.float64
-    xt = torch.as_tensor(np.asarray(xn_train, dtype=float), dtype=dtype)
-    yt = torch.as_tensor(np.asarray(yn_train, dtype=float), dtype=dtype)
-    xv = torch.as_tensor(np.asarray(xn_val, dtype=float), dtype=dtype)
-    yv = torch.as_tensor(np.asarray(yn_val, dtype=float), dtype=dtype)
-    theta = torch.as_tensor(np.array(theta0, dtype=float), dtype=dtype)
-    eye = torch.eye(theta.shape[0], dtype=dtype)
+    xt, yt, xv, yv = (np.ascontiguousarray(v, dtype=np.float64) for v in (xn_train, yn_train, xn_val, yn_val))
     n_out = 1 if yt.ndim == 1 else yt.shape[1]  # a 2-D target array: n_in-H-n_out net
-    yt_flat = yt.reshape(-1)
-    n_par = theta.shape[0]
-    weights = None if sample_weight is None else torch.as_tensor(np.asarray(sample_weight, dtype=float), dtype=dtype)
-    if weights is not None and n_out > 1:
-        weights = weights.repeat_interleave(n_out)  # a sample's weight holds for each of its outputs (row-major)
-    decay = yt_flat.shape[0] * float(regularization) / n_par  # the penalty in the sum form used by J^T J and J^T e
-
-    def train_perf(th, err):
-        sq = err * err if weights is None else weights * err * err
-        perf_ = torch.mean(sq)
-        if decay:
-            perf_ = perf_ + float(regularization) * torch.mean(th * th)
-        return float(perf_)
-
-    def val_mse(th):
-        return float(torch.mean((forward(th, xv, hidden, n_out) - yv) ** 2))
-
-    best_theta, best_vperf, best_epoch = theta.clone(), val_mse(theta), 0
-    val_fail = 0
-    stop_reason = "max_epochs"
-    epoch = 0
-    for epoch in range(max_epochs + 1):
-        yn, jac = residual_jacobian(theta, xt, hidden, n_out)
-        err = yn - yt_flat
-        perf = train_perf(theta, err)
-        if not np.isfinite(perf):
-            raise NumericalError(f"Levenberg-Marquardt: training MSE is {perf} at epoch {epoch}")
-        wjac = jac if weights is None else weights[:, None] * jac
-        jte = wjac.T @ err
-        jtj = wjac.T @ jac
-        if decay:
-            jte = jte + decay * theta
-            jtj = jtj + decay * eye
-        gradient = 2.0 * float(torch.linalg.vector_norm(jte))
-        # stopping tests in trainlm's order
-        if perf <= goal:
-            stop_reason = "goal"
-            break
-        if epoch == max_epochs:
-            stop_reason = "max_epochs"
-            break
-        if gradient <= min_grad:
-            stop_reason = "min_grad"
-            break
-        if mu > mu_max:
-            stop_reason = "mu_max"
-            break
-        if val_fail >= max_fail:
-            stop_reason = "validation"
-            break
-        # damped Gauss-Newton step; raise mu until the training error decreases
-        while mu <= mu_max:
-            step, info = torch.linalg.solve_ex(jtj + mu * eye, -jte)
-            if int(info) == 0:  # a singular system (saturated neurons, tiny mu) counts as a failed step
-                trial = theta + step
-                perf2 = train_perf(trial, (forward(trial, xt, hidden, n_out) - yt).reshape(-1))
-            else:
-                perf2 = math.inf
-            if perf2 < perf:  # NaN compares False: also a failed step
-                theta = trial
-                mu = max(mu * mu_dec, 1e-20)
-                break
-            mu *= mu_inc
-        vperf = val_mse(theta)
-        if vperf < best_vperf:
-            best_theta, best_vperf, best_epoch = theta.clone(), vperf, epoch + 1
-            val_fail = 0
-        elif vperf > best_vperf:
-            val_fail += 1
+    theta = np.array(theta0, dtype=np.float64).ravel()
+    if sample_weight is None:
+        weights = np.ones(yt.size)
+    else:
+        # a sample's weight holds for each of its outputs (row-major)
+        weights = np.repeat(np.asarray(sample_weight, dtype=np.float64).ravel(), n_out)
+    yt_flat, yv_flat = yt.ravel(), yv.ravel()
+    best_theta, best_vperf, best_epoch, epochs, code, bad = _lm_kernel(
+        xt, yt_flat, xv, yv_flat, theta, weights, int(hidden), int(n_out), float(regularization), float(goal),
+        int(max_epochs), int(max_fail), float(mu), float(mu_dec), float(mu_inc), float(mu_max), float(min_grad))
+    if code == _NOT_FINITE:
+        raise NumericalError(f"Levenberg-Marquardt: training MSE is {bad} at epoch {epochs}")
     # trainlm returns the weights with the best validation performance, whatever stopped it
-    train_mse = train_perf(best_theta, (forward(best_theta, xt, hidden, n_out) - yt).reshape(-1))
-    return LMResult(theta=best_theta.numpy().copy(), train_mse=train_mse, val_mse=best_vperf,
-                    best_epoch=best_epoch, epochs=epoch, stop_reason=stop_reason)
+    train_mse = float(_performance(best_theta, xt, yt_flat, weights, int(hidden), int(n_out), float(regularization)))
+    return LMResult(theta=best_theta, train_mse=train_mse, val_mse=float(best_vperf),
+                    best_epoch=int(best_epoch), epochs=int(epochs), stop_reason=_STOP_REASONS[code])
+
+
+def levenberg_marquardt_many(xn_train, yn_train, xn_val, yn_val, thetas0, *, n_threads: int = 1,
+                             **options) -> list[LMResult]:
+    """:func:`levenberg_marquardt` from each start in ``thetas0`` (same data and options), in order. The compiled
+    loop releases the GIL, so ``n_threads`` > 1 runs the starts side by side; each result is the same as the
+    sequential one (the starts are independent)."""
+    def one(theta0):
+        return levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, **options)
+
+    if n_threads <= 1 or len(thetas0) <= 1:
+        return [one(t) for t in thetas0]
+    with ThreadPoolExecutor(max_workers=int(n_threads)) as pool:
+        return list(pool.map(one, thetas0))

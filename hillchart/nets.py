@@ -13,7 +13,7 @@ Q11 is in m^3/s and M11 in N*m whatever the chart's units; N11 in r/min; the ope
 Pieces
 ------
 :class:`HillNet`
-    scikit-learn style estimator for one net, trained in torch by Levenberg-Marquardt (:mod:`hillchart.lm`) with a
+    scikit-learn style estimator for one net, trained by Levenberg-Marquardt (:mod:`hillchart.lm`, a compiled loop) with a
     seeded, origin-stratified 80/20 split and a multi-start "loop control" (section 2.3).
 :class:`NetWeights`
     The exported weights of one net (the ``NET`` block of ``nets.json``), validated on construction.
@@ -372,21 +372,11 @@ def _split(groups, validation_fraction, validation_groups, rng):
 def _lm_runs(xn, yn, train_index, val_index, weight, hidden, regularization, rng, restarts, n_threads, lm_params):
     """``restarts`` Levenberg-Marquardt runs from Nguyen-Widrow initialisations ("loop control", section 2.3 of
     paper 004); returns the list of :class:`hillchart.lm.LMResult`."""
-    import torch  # training only: loading and evaluating nets never imports torch
-
-    previous_threads = torch.get_num_threads()
-    torch.set_num_threads(n_threads)
     sample_weight = None if np.all(weight[train_index] == 1.0) else weight[train_index]
-    try:
-        results = []
-        for _ in range(restarts):
-            theta0 = lm.nguyen_widrow_init(hidden, rng)
-            results.append(lm.levenberg_marquardt(
-                xn[train_index], yn[train_index], xn[val_index], yn[val_index], theta0, hidden=hidden,
-                sample_weight=sample_weight, regularization=regularization, **lm_params))
-    finally:
-        torch.set_num_threads(previous_threads)
-    return results
+    thetas0 = [lm.nguyen_widrow_init(hidden, rng) for _ in range(restarts)]
+    return lm.levenberg_marquardt_many(xn[train_index], yn[train_index], xn[val_index], yn[val_index], thetas0,
+                                       n_threads=n_threads, hidden=hidden, sample_weight=sample_weight,
+                                       regularization=regularization, **lm_params)
 
 
 class HillNet:
@@ -413,8 +403,8 @@ class HillNet:
         Levenberg-Marquardt damping: initial value, factor on success, factor on failure, upper limit.
     validation_fraction : float, default 0.2
     n_threads : int, default 1
-        torch intra-op threads during ``fit`` (one thread keeps results bit-reproducible and is fastest for
-        21-parameter problems).
+        Threads running the restarts side by side during ``fit`` (the compiled LM loop releases the GIL; the
+        result does not depend on it: the restarts are independent and drawn before they run).
 
     Attributes
     ----------

@@ -9,6 +9,18 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 import pytest  # noqa: E402
 
+#: Session fixtures expensive enough that their users should share one pytest-xdist worker (built once).
+SHARED_SESSION_FIXTURES = ("demo_fast_run",)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the xdist_group marks
+def pytest_collection_modifyitems(config, items):
+    """Group the tests for ``--dist loadgroup`` (pyproject's addopts): by file, so a module-scoped fixture is built
+    once, except that every user of a :data:`SHARED_SESSION_FIXTURES` fixture joins that fixture's group."""
+    for item in items:
+        shared = [name for name in SHARED_SESSION_FIXTURES if name in getattr(item, "fixturenames", ())]
+        item.add_marker(pytest.mark.xdist_group(shared[0] if shared else item.nodeid.split("::")[0]))
+
 
 @pytest.fixture(scope="session")
 def shipped_nets():

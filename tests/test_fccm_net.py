@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from hillchart import lm
+from tests.torch_reference import torch_forward
 from hillchart.errors import InputError
 from hillchart.fccm import FCCMNet, FCCMWeights, hidden_size, load_fccm_nets, split_indices
 
@@ -28,13 +29,15 @@ def smooth_data(n=150, seed=0):
 def test_multi_output_jacobian_matches_autograd():
     rng = np.random.default_rng(0)
     h, n_in, n_out = 6, 3, 4
-    theta = torch.as_tensor(lm.nguyen_widrow_init(h, rng, n_in, n_out))
-    xn = torch.as_tensor(rng.uniform(-1, 1, (9, n_in)))
+    theta = lm.nguyen_widrow_init(h, rng, n_in, n_out)
+    xn = rng.uniform(-1, 1, (9, n_in))
     yn, jac = lm.residual_jacobian(theta, xn, h, n_out)
-    auto = torch.func.jacrev(lambda t: lm.forward(t, xn, h, n_out).reshape(-1))(theta)
-    assert theta.numel() == lm.n_parameters(h, n_in, n_out) == 6 * (3 + 1 + 4) + 4
-    torch.testing.assert_close(yn, lm.forward(theta, xn, h, n_out).reshape(-1), rtol=0, atol=1e-15)
-    torch.testing.assert_close(jac, auto, rtol=0, atol=1e-12)  # analytic = autograd to rounding
+    theta_t, xn_t = torch.as_tensor(theta), torch.as_tensor(xn)
+    auto = torch.func.jacrev(lambda t: torch_forward(t, xn_t, h, n_out))(theta_t)
+    assert theta.size == lm.n_parameters(h, n_in, n_out) == 6 * (3 + 1 + 4) + 4
+    np.testing.assert_array_equal(yn, lm.forward(theta, xn, h, n_out).reshape(-1))  # one kernel behind both
+    np.testing.assert_allclose(yn, torch_forward(theta_t, xn_t, h, n_out).numpy(), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(jac, auto.numpy(), rtol=0, atol=1e-12)  # analytic = autograd to rounding
 
 
 def test_two_input_one_output_layout_and_draws_are_unchanged():

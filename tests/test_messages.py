@@ -148,3 +148,52 @@ def test_non_utf8_series_is_an_input_error(tmp_path):
     path.write_bytes(",".join(MEASURED_COLUMNS).encode() + b"\n0,\xff\xfe,1,1,1,1\n")
     with pytest.raises(InputError, match="not a UTF-8 text file"):
         load_measured_series(path, sample_time_s=0.2)
+
+
+def _with_blank_lines(path, edit):
+    """Rewrite ``path`` with two blank lines after the header and one in the middle, then let ``edit`` change the
+    list of file lines (index = line number - 1). Returns nothing; the file is rewritten in place."""
+    lines = path.read_text().splitlines()
+    lines = [lines[0], "", ""] + lines[1:20] + [""] + lines[20:]
+    edit(lines)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_chart_range_and_duplicate_messages_name_file_lines_below_blank_lines(chart_copy):
+    """Issue 14: one row convention (the file's line number) in every chart message, blank lines counted. Line 30
+    is below three blank lines: a convention counting data rows would say row 26 or 27."""
+    path = chart_copy / "flow.csv"
+    original = path.read_text()
+
+    def negative_n11(lines):
+        cells = lines[29].split(",")
+        lines[29] = f"{cells[0]},-5,{cells[2]}"
+
+    _with_blank_lines(path, negative_n11)
+    with pytest.raises(InputError, match=r"flow.csv: row 30, column 'n11': -5.0 is out of range"):
+        load_chart(chart_copy)
+
+    path.write_text(original)
+
+    def duplicate(lines):
+        lines[29] = lines[27]  # file line 30 repeats file line 28
+
+    _with_blank_lines(path, duplicate)
+    with pytest.raises(InputError, match=r"flow.csv: duplicate point .* at rows \[28, 30\]"):
+        load_chart(chart_copy)
+
+
+def test_plausibility_messages_name_file_lines_below_blank_lines(chart_copy):
+    """The outlier check reports the point by its file line, blank lines counted (line 30 is data row 27)."""
+    from hillchart.extend import extend_samples
+
+    path = chart_copy / "flow.csv"
+
+    def outlier(lines):
+        cells = lines[29].split(",")
+        lines[29] = f"{cells[0]},{cells[1]},{float(cells[2]) * 1.3:.4f}"  # 30 % off its opening line
+
+    _with_blank_lines(path, outlier)
+    chart = load_chart(chart_copy)
+    with pytest.raises(InputError, match=r"flow.csv: row 30 \(opening"):
+        extend_samples(chart)

@@ -12,6 +12,7 @@ from hillchart import lm
 from hillchart.characteristics import Characteristics, scalar_kernel
 from hillchart.errors import InputError
 from hillchart.nets import HillNet, HillNets, NetWeights, stratified_split, train_nets
+from tests.torch_reference import torch_forward
 
 
 def smooth_q11(n11, a):
@@ -41,15 +42,19 @@ def random_weights(hidden=5, seed=0, y_range=(0.0, 0.6)):
 
 # ---------------------------------------------------------------------------------------------------- LM core
 def test_analytic_jacobian_matches_autograd():
+    """The compiled forward pass and Jacobian against torch autograd of an independent transcription."""
     hidden = 5
     rng = np.random.default_rng(0)
-    theta = torch.as_tensor(lm.nguyen_widrow_init(hidden, rng))
-    xn = torch.as_tensor(rng.uniform(-1, 1, (30, 2)))
-    _, jac = lm.residual_jacobian(theta, xn, hidden)
-    auto = torch.func.jacrev(lambda th: lm.forward(th, xn, hidden))(theta)
+    theta = lm.nguyen_widrow_init(hidden, rng)
+    xn = rng.uniform(-1, 1, (30, 2))
+    yn, jac = lm.residual_jacobian(theta, xn, hidden)
+    theta_t, xn_t = torch.as_tensor(theta), torch.as_tensor(xn)
+    auto = torch.func.jacrev(lambda th: torch_forward(th, xn_t, hidden))(theta_t)
     assert jac.shape == (30, 21)
-    # same floating-point expression tree up to ordering: agreement to a few ulps
-    np.testing.assert_allclose(jac.numpy(), auto.numpy(), rtol=1e-12, atol=1e-14)
+    # same floating-point expressions up to ordering (and logsig's stable form): agreement to a few ulps
+    np.testing.assert_allclose(jac, auto.numpy(), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(yn, torch_forward(theta_t, xn_t, hidden).numpy(), rtol=1e-13, atol=1e-15)
+    np.testing.assert_array_equal(lm.forward(theta, xn, hidden), yn)  # one kernel behind both
 
 
 def test_lm_reaches_the_goal_on_a_smooth_function():
@@ -73,8 +78,8 @@ def test_lm_validation_stop_returns_best_validation_weights():
                                  goal=0.0, max_fail=6)
     assert res.stop_reason == "validation"
     assert res.best_epoch == res.epochs - 6  # six consecutive failures after the best epoch
-    theta = torch.as_tensor(res.theta)
-    val = float(torch.mean((lm.forward(theta, torch.as_tensor(x[64:]), 20) - torch.as_tensor(y[64:])) ** 2))
+    err = lm.forward(res.theta, x[64:], 20) - y[64:]
+    val = sum((e * e for e in err), 0.0) / err.size  # the kernel's summation order
     assert val == res.val_mse  # the returned weights are the best-validation ones, bit for bit
 
 
@@ -217,14 +222,14 @@ def test_gradient_matches_central_differences(seed):
     np.testing.assert_allclose(d_a, fd_a, rtol=1e-6, atol=1e-6 * np.max(np.abs(d_a)))
 
 
-def test_evaluation_matches_torch_forward():
-    """The numba eq. (11) and the torch training forward pass are the same function."""
+def test_evaluation_matches_training_forward():
+    """The evaluation kernel's eq. (11) and the training forward pass are the same function."""
     w = random_weights(seed=4)
     rng = np.random.default_rng(0)
     n11, a = rng.uniform(-20, 170, 100), rng.uniform(-3, 35, 100)  # also outside the input range
-    theta = torch.as_tensor(np.concatenate([np.asarray(w.W1).ravel(), w.b1, w.W2, [w.b2]]))
+    theta = np.concatenate([np.asarray(w.W1).ravel(), w.b1, w.W2, [w.b2]])
     xn = np.column_stack([2 * n11 / 150 - 1, 2 * a / 32 - 1])
-    yn = lm.forward(theta, torch.as_tensor(xn), 5).numpy()
+    yn = lm.forward(theta, xn, 5)
     expected = (yn + 1) * (w.y_max - w.y_min) / 2 + w.y_min
     np.testing.assert_allclose(w.evaluate(n11, a)[0], expected, rtol=1e-13, atol=1e-15)
 
