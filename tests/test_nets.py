@@ -70,6 +70,33 @@ def test_lm_reaches_the_goal_on_a_smooth_function():
     assert res.epochs < 1000
 
 
+def test_starts_on_threads_equal_the_sequential_starts():
+    """The compiled loop releases the GIL: restarts on two threads give the same results, in order, bit for bit."""
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-1, 1, (120, 2))
+    y = np.sin(2 * x[:, 0]) * x[:, 1] + rng.normal(0, 0.01, 120)
+    starts = [lm.nguyen_widrow_init(6, rng) for _ in range(4)]
+    options = dict(hidden=6, sample_weight=np.linspace(0.2, 1.0, 96), regularization=1e-5)
+    one = lm.levenberg_marquardt_many(x[:96], y[:96], x[96:], y[96:], starts, n_threads=1, **options)
+    two = lm.levenberg_marquardt_many(x[:96], y[:96], x[96:], y[96:], starts, n_threads=2, **options)
+    assert len({r.val_mse for r in one}) == 4  # four different starts, four different runs
+    for a, b in zip(one, two):
+        np.testing.assert_array_equal(a.theta, b.theta)
+        assert (a.val_mse, a.epochs, a.stop_reason) == (b.val_mse, b.epochs, b.stop_reason)
+
+
+def test_non_finite_training_error_is_raised():
+    """A NaN target makes the training MSE NaN at epoch 0: a NumericalError naming it, not a silent result."""
+    from hillchart.errors import NumericalError
+
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-1, 1, (20, 2))
+    y = x[:, 0].copy()
+    y[3] = np.nan
+    with pytest.raises(NumericalError, match=r"training MSE is nan at epoch 0"):
+        lm.levenberg_marquardt(x[:16], y[:16], x[16:], y[16:], lm.nguyen_widrow_init(3, rng), hidden=3)
+
+
 def test_lm_validation_stop_returns_best_validation_weights():
     rng = np.random.default_rng(5)
     x = rng.uniform(-1, 1, (80, 2))
