@@ -136,11 +136,9 @@ class IdentificationReport:
         """The summary as JSON-ready data (the content of ``identification.json``)."""
         return to_json_dict(self.summary)
 
-    def write(self, out_dir) -> dict[str, Path]:
-        """Write ``identification.json``, ``identified_series.csv`` and the figures into ``out_dir``; returns the
-        paths."""
-        from simulate.identification_plots import plot_report
-
+    def write(self, out_dir, *, plot: bool = True) -> dict[str, Path]:
+        """Write ``identification.json``, ``identified_series.csv`` and (``plot``) the figures into ``out_dir``;
+        returns the paths."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / "identification.json", "series": out / "identified_series.csv"}
@@ -148,7 +146,10 @@ class IdentificationReport:
         s = self.series
         np.savetxt(paths["series"], np.column_stack([s.time_s, s.x, s.h, s.y, s.m, s.q]), delimiter=",",
                    header="time_s,x,h,y,m,q", comments="", fmt="%.12g")
-        paths.update(plot_report(self, out))
+        if plot:
+            from simulate.identification_plots import plot_report
+
+            paths.update(plot_report(self, out))
         return paths
 
 

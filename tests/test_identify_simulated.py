@@ -120,9 +120,10 @@ def test_report_writes_json_and_figures(reports, tmp_path):
 def test_identify_cli(tmp_path, capsys):
     out = tmp_path / "ident"
     argv = ["identify", str(PLANT_FILE), "--out", str(out), "--penstock-model", "rigid", "--initial-opening",
-            str(STROKE), "--step-hold-s", "20", "--prbs-duration-s", "40", "--quiet-s", "20"]
+            str(STROKE), "--step-hold-s", "20", "--prbs-duration-s", "40", "--quiet-s", "20", "--no-plot"]
     assert main(argv) == 0
     text = capsys.readouterr().out
+    assert not list(out.glob("*.png"))  # --no-plot: the figures are tested in test_report_writes_json_and_figures
     assert "| ex |" in text and "batch_ls_within_0.02_of_nets | PASS" in text
     data = json.loads((out / "identification.json").read_text())
     assert data["experiment"]["step_hold_s"] == 20.0
@@ -134,7 +135,8 @@ def test_identify_cli(tmp_path, capsys):
     plant = load_plant(PLANT_FILE)
     settings = ExperimentSettings(step_hold_s=20.0, prbs_duration_s=40.0, quiet_s=20.0)
     run_simulation(experiment_plant(plant, settings, initial_stroke=STROKE, penstock_model="rigid")).to_csv(sim_csv)
-    assert main(["identify", str(PLANT_FILE), "--out", str(tmp_path / "measured"), "--data", str(sim_csv)]) == 0
+    assert main(["identify", str(PLANT_FILE), "--out", str(tmp_path / "measured"), "--data", str(sim_csv),
+                 "--no-plot"]) == 0
     measured = json.loads((tmp_path / "measured" / "identification.json").read_text())
     for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh"):
         # same data, same regression: equal to round-off of the CSV (10 significant digits)

@@ -72,6 +72,7 @@ def register(subparsers) -> None:
                            "closed_loop.json")
     grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=[0.5, 0.15], metavar="TI_S",
                       help="integral times of the closed-loop runs, s (default 0.5 0.15)")
+    parser.add_argument("--no-plot", action="store_true", help="do not write the PNG figures")
     parser.add_argument("--exact", choices=("auto", "synthetic", "none"), default="auto",
                         help="also report the exact synthetic turbine's coefficients (auto: when the plant uses the "
                              "shipped synthetic nets)")
@@ -148,8 +149,8 @@ def run(args: argparse.Namespace) -> int:
         summary = replace(summary, warnings=tuple(notes))
     report = replace(report, summary=summary)
     progress.done()
-    progress.start("writing identification.json, the series and the figures")
-    paths = report.write(out)
+    progress.start("writing identification.json, the series" + ("" if args.no_plot else " and the figures"))
+    paths = report.write(out, plot=not args.no_plot)
     if args.head_model is not None or args.closed_loop_kp is not None:
         from simulate.head_model import write_head_and_closed_loop
 
