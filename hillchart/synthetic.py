@@ -48,6 +48,7 @@ import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 from scipy.optimize import brentq
 
@@ -56,6 +57,53 @@ from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError, NumericalError
 
 _COMPLEX_STEP = 1e-30
+
+
+def _francis_terms(p, n11, opening):
+    """``(Q11, M11, gamma)`` of the 1-D model (module docstring) for parameters ``p`` = (d2, b1, t_gv, beta1_deg,
+    beta2_deg, k_gv, k_sh, k_r, k_dt, k_sw, k_df, opening_max) at real or complex N11 (r/min) and opening (mm),
+    arrays or scalars. The single implementation of the model equations: numpy evaluates it on arrays, numba
+    compiles it for the simulator's kernel (:func:`_synthetic_kernel`). ``gamma >= 0`` means no positive flow."""
+    d2, b1, pitch, beta1, beta2, k_gv, k_sh, k_r, k_dt, k_sw, k_df = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7],
+                                                                       p[8], p[9], p[10])
+    u1 = np.pi * n11 / 60.0
+    u2 = d2 * u1
+    sin_a = opening / pitch
+    cos_a = np.sqrt(1.0 - sin_a * sin_a)
+    inlet_area = np.pi * b1  # pi D1 B1 with D1 = 1
+    outlet_area = np.pi * d2**2 / 4.0
+    r = inlet_area * sin_a / outlet_area  # cm2 = r c1
+    cot_b1 = 1.0 / np.tan(np.radians(beta1))
+    cot_b2 = 1.0 / np.tan(np.radians(beta2))
+    sin_b2 = np.sin(np.radians(beta2))
+    e = cos_a + sin_a * cot_b1  # incidence: cu1 - u1 + cm1 cot(beta1) = e c1 - u1
+    f = r * cot_b2  # cu2 = u2 - f c1
+    alpha = k_gv + k_sh * e * e + k_r * r * r / sin_b2**2 + k_dt * r * r + k_sw * f * f
+    beta = 2 * u1 * cos_a + 2 * u2 * f - 2 * k_sh * e * u1 - 2 * k_sw * u2 * f
+    gamma = k_sh * u1 * u1 + (k_sw - 2.0) * u2 * u2 - 2.0 * G_M_S2
+    disc = np.sqrt(beta * beta - 4 * alpha * gamma)
+    c1 = -2.0 * gamma / (beta + disc)  # stable root of alpha c1^2 + beta c1 + gamma = 0 (beta + disc > 0)
+    q11 = inlet_area * sin_a * c1
+    cu1 = cos_a * c1
+    cu2 = u2 - f * c1
+    m11 = RHO_WATER_KG_M3 * q11 * 0.5 * (cu1 - d2 * cu2) - k_df * n11 * n11
+    return q11, m11, gamma
+
+
+_francis_terms_compiled = numba.njit(cache=True)(_francis_terms)
+
+
+@numba.njit(cache=True)
+def _synthetic_kernel(params, n11, opening):
+    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point: complex-step
+    derivatives (``f'(x) = Im f(x + i h) / h``) of :func:`_francis_terms`."""
+    q, m, gamma = _francis_terms_compiled(params, n11, opening)
+    if not (gamma < 0.0 and n11 >= 0.0 and 0.0 <= opening <= params[11]):
+        return np.nan, np.nan, np.nan, np.nan, np.nan, np.nan
+    h = _COMPLEX_STEP
+    q_n, m_n, _ = _francis_terms_compiled(params, complex(n11, h), complex(opening, 0.0))
+    q_a, m_a, _ = _francis_terms_compiled(params, complex(n11, 0.0), complex(opening, h))
+    return q, q_n.imag / h, q_a.imag / h, m, m_n.imag / h, m_a.imag / h
 
 
 @dataclass(frozen=True)
@@ -118,42 +166,27 @@ class SyntheticFrancis:
         return self.params.opening_max
 
     def _solve(self, n11, opening):
-        """Q11 and M11 on (possibly complex) inputs; the single implementation of the model equations."""
-        p = self.params
-        u1 = np.pi * n11 / 60.0
-        u2 = p.d2 * u1
-        sin_a = opening / p.guide_vane_pitch_mm
-        cos_a = np.sqrt(1.0 - sin_a * sin_a)
-        inlet_area = np.pi * p.b1  # pi D1 B1 with D1 = 1
-        outlet_area = np.pi * p.d2**2 / 4.0
-        r = inlet_area * sin_a / outlet_area  # cm2 = r c1
-        cot_b1 = 1.0 / np.tan(np.radians(p.beta1_deg))
-        cot_b2 = 1.0 / np.tan(np.radians(p.beta2_deg))
-        sin_b2 = np.sin(np.radians(p.beta2_deg))
-        e = cos_a + sin_a * cot_b1  # incidence: cu1 - u1 + cm1 cot(beta1) = e c1 - u1
-        f = r * cot_b2  # cu2 = u2 - f c1
-        alpha = (
-            p.k_guide_vane
-            + p.k_incidence * e * e
-            + p.k_runner * r * r / sin_b2**2
-            + p.k_draft_tube * r * r
-            + p.k_swirl * f * f
-        )
-        beta = 2 * u1 * cos_a + 2 * u2 * f - 2 * p.k_incidence * e * u1 - 2 * p.k_swirl * u2 * f
-        gamma = p.k_incidence * u1 * u1 + (p.k_swirl - 2.0) * u2 * u2 - 2.0 * G_M_S2
+        """Q11 and M11 on (possibly complex) inputs, by :func:`_francis_terms` (the model equations)."""
+        with np.errstate(invalid="ignore"):  # sqrt of a negative discriminant where gamma >= 0: raised below
+            q11, m11, gamma = _francis_terms(self._terms_params(), n11, opening)
         if np.any(np.real(gamma) >= 0):
             bad = np.real(n11 + 0 * gamma)[np.real(gamma) >= 0]
             raise InputError(
                 f"synthetic turbine: N11 = {float(np.max(bad)):.1f} r/min is beyond the model's range "
                 "(no positive flow: pumping region); allowed N11 below about 1.6 x runaway"
             )
-        disc = np.sqrt(beta * beta - 4 * alpha * gamma)
-        c1 = -2.0 * gamma / (beta + disc)  # stable root of alpha c1^2 + beta c1 + gamma = 0 (beta + disc > 0)
-        q11 = inlet_area * sin_a * c1
-        cu1 = cos_a * c1
-        cu2 = u2 - f * c1
-        m11 = RHO_WATER_KG_M3 * q11 * 0.5 * (cu1 - p.d2 * cu2) - p.k_disc_friction * n11 * n11
         return q11, m11
+
+    def _terms_params(self) -> tuple:
+        p = self.params
+        return (p.d2, p.b1, p.guide_vane_pitch_mm, p.beta1_deg, p.beta2_deg, p.k_guide_vane, p.k_incidence,
+                p.k_runner, p.k_draft_tube, p.k_swirl, p.k_disc_friction, p.opening_max)
+
+    def numba_kernel(self):
+        """``(kernel, params)`` for the simulator's compiled time loop: values and complex-step derivatives of the
+        same equations (:func:`_francis_terms`, compiled); NaN outside ``0 <= opening <= opening_max``, N11 >= 0 or
+        beyond the model's range, which the loop reports as a numerical failure."""
+        return _synthetic_kernel, tuple(float(v) for v in self._terms_params())
 
     def _checked(self, n11, opening):
         n11, opening = np.broadcast_arrays(np.asarray(n11, dtype=float), np.asarray(opening, dtype=float))
