@@ -10,7 +10,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import pytest  # noqa: E402
 
 #: Session fixtures expensive enough that their users should share one pytest-xdist worker (built once).
-SHARED_SESSION_FIXTURES = ("demo_fast_run",)
+SHARED_SESSION_FIXTURES = ("demo_fast_run", "torch_autograd")
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the xdist_group marks
@@ -68,3 +68,14 @@ def demo_fast_run(tmp_path_factory):
 def demo_fast_dir(demo_fast_run):
     """The folder of :func:`demo_fast_run`."""
     return demo_fast_run[0]
+
+
+@pytest.fixture(scope="session")
+def torch_autograd():
+    """``(torch, torch_forward)`` for the autograd checks of the compiled LM Jacobian. torch (a test dependency, about
+    1.5 s to import) is imported here rather than at module level, so only the worker running these tests pays it."""
+    import torch
+
+    from tests.torch_reference import torch_forward
+
+    return torch, torch_forward

@@ -7,10 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
 
 from hillchart import lm
-from tests.torch_reference import torch_forward
 from hillchart.errors import InputError
 from hillchart.fccm import FCCMNet, FCCMWeights, hidden_size, load_fccm_nets, split_indices
 
@@ -26,7 +24,8 @@ def smooth_data(n=150, seed=0):
     return X, Y
 
 
-def test_multi_output_jacobian_matches_autograd():
+def test_multi_output_jacobian_matches_autograd(torch_autograd):
+    torch, torch_forward = torch_autograd
     rng = np.random.default_rng(0)
     h, n_in, n_out = 6, 3, 4
     theta = lm.nguyen_widrow_init(h, rng, n_in, n_out)

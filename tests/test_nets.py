@@ -6,13 +6,11 @@ tests/test_nets_json.py.
 
 import numpy as np
 import pytest
-import torch
 
 from hillchart import lm
 from hillchart.characteristics import Characteristics, scalar_kernel
 from hillchart.errors import InputError
 from hillchart.nets import HillNet, HillNets, NetWeights, stratified_split, train_nets
-from tests.torch_reference import torch_forward
 
 
 def smooth_q11(n11, a):
@@ -41,8 +39,9 @@ def random_weights(hidden=5, seed=0, y_range=(0.0, 0.6)):
 
 
 # ---------------------------------------------------------------------------------------------------- LM core
-def test_analytic_jacobian_matches_autograd():
+def test_analytic_jacobian_matches_autograd(torch_autograd):
     """The compiled forward pass and Jacobian against torch autograd of an independent transcription."""
+    torch, torch_forward = torch_autograd
     hidden = 5
     rng = np.random.default_rng(0)
     theta = lm.nguyen_widrow_init(hidden, rng)
