@@ -44,8 +44,9 @@ def test_the_check_can_fail_when_torch_is_imported(tmp_path):
     """The same probe reports True once something imports torch (so the test above can fail). A stand-in module
     named torch on the path keeps this check from paying torch's second of import time."""
     (tmp_path / "torch.py").write_text("")
-    script = SCRIPT.replace('print("torch" in sys.modules)', 'import torch\nprint("torch" in sys.modules)')
-    assert script != SCRIPT
+    probe = SCRIPT.strip().splitlines()[-1]
+    assert probe == 'print("torch" in sys.modules)'
+    script = "import sys\nimport numpy\nimport torch\n" + probe  # the probe of SCRIPT after an import of torch
     out = subprocess.run([sys.executable, "-c", script], cwd=REPO, capture_output=True, text=True, timeout=300,
                          env=dict(os.environ, PYTHONPATH=os.pathsep.join([str(tmp_path), str(REPO)])))
     assert out.returncode == 0, out.stderr
