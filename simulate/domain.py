@@ -198,14 +198,18 @@ def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke) ->
 
 def extrapolation_warnings(record: dict) -> list[str]:
     """One line per kind the trajectory entered."""
+    from hillchart.tidy import tidy_float
+
     lines = []
     for kind in KINDS:
         entry = record.get(kind)
         if not entry or entry.get("fraction_of_time", 0.0) <= 0.0 and "first_time_s" not in entry:
             continue
+        # tidy_float: a servo closing exponentially leaves openings like 1e-109, printed as 0
         text = (f"{LABELS[kind]} for {100 * entry['fraction_of_time']:.1f} % of the time from t = "
                 f"{entry['first_time_s']:.3g} s (N11 {entry['n11_min']:.4g}-{entry['n11_max']:.4g} r/min, opening "
-                f"{entry['opening_min']:.4g}-{entry['opening_max']:.4g}, stroke up to {entry['stroke_max']:.4g})")
+                f"{tidy_float(entry['opening_min']):.4g}-{entry['opening_max']:.4g}, stroke up to "
+                f"{entry['stroke_max']:.4g})")
         if kind == "training_range":
             text += (f"; trained on N11 {record['training_n11_range'][0]:.4g}-{record['training_n11_range'][1]:.4g}, "
                      f"opening {record['training_opening_range'][0]:.4g}-{record['training_opening_range'][1]:.4g}")

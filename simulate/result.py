@@ -158,34 +158,41 @@ class SimulationResult:
                         encoding="utf-8")
         return path
 
-    def plot(self, path: str | Path | None = None):
+    def plot(self, path: str | Path | None = None, band=None):
         """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
 
         Intervals where the trajectory leaves the characteristics' trusted domain (``meta["extrapolation"]``) are
-        shaded. Uses matplotlib's object API with the Agg canvas (no pyplot, no display; imported here, not with
-        the module). Returns the figure.
+        shaded. ``band``: a :class:`simulate.uncertainty.TraceBand` (``hillsim run --uncertainty``), drawn as the
+        ensemble's percentile band behind each trace it covers. Uses matplotlib's object API with the Agg canvas
+        (no pyplot, no display; imported here, not with the module). Returns the figure.
         """
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        series = ((self.speed_rpm, "speed (r/min)"), (self.head_m, "head at turbine (m)"),
-                  (self.flow_m3_s, "flow (m$^3$/s)"), (self.opening, "opening (stroke)"))
+        series = ((self.speed_rpm, "speed (r/min)", "speed_rpm"), (self.head_m, "head at turbine (m)", "head_m"),
+                  (self.flow_m3_s, "flow (m$^3$/s)", "flow_m3_s"), (self.opening, "opening (stroke)", "opening"))
         if "frequency_hz" in self.signals:  # the sub-transient generator: frequency for speed, plus V and v_f
-            series = (((self.signals["frequency_hz"], "frequency (Hz)"),) + series[1:]
-                      + ((self.signals["terminal_voltage_pu"], "terminal voltage (pu)"),
-                         (self.signals["field_voltage_pu"], "field voltage (pu)")))
+            series = (((self.signals["frequency_hz"], "frequency (Hz)", None),) + series[1:]
+                      + ((self.signals["terminal_voltage_pu"], "terminal voltage (pu)", None),
+                         (self.signals["field_voltage_pu"], "field voltage (pu)", None)))
         fig = Figure(figsize=(8, 9 if len(series) == 4 else 12))
         FigureCanvasAgg(fig)
         axes = fig.subplots(len(series), 1, sharex=True)
         intervals = (self.meta.get("extrapolation") or {}).get("intervals_s", [])
-        for ax, (values, label) in zip(axes, series):
-            ax.plot(self.time_s, values, lw=1.2)
+        banded = False
+        for ax, (values, label, name) in zip(axes, series):
+            if band is not None and name in band.low:
+                low, high = band.percentiles
+                ax.fill_between(band.time_s, band.low[name], band.high[name], color="tab:orange", alpha=0.35, lw=0,
+                                label=None if banded else f"ensemble of {band.members}, {low:g}-{high:g} %")
+                banded = True
+            ax.plot(self.time_s, values, lw=1.2, label="point nets" if band is not None and ax is axes[0] else None)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
             for i, (t0, t1) in enumerate(intervals):
                 ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
                            label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
-        if intervals:
+        if intervals or banded:
             axes[0].legend(loc="best", fontsize=8)
         axes[-1].set_xlabel("time (s)")
         title = self.meta.get("scenario", "")

@@ -7,6 +7,7 @@ Only the public seams are used: :func:`simulate.config.load_plant` and
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,29 @@ from hillchart.errors import HillsimError, InputError
 
 #: Summary figures whose band is reported (fractions of the initial values, see SimulationResult.summary).
 BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m")
+#: Time series whose band over the members is drawn on ``transient.png`` (SimulationResult attributes).
+BAND_TRACES = ("speed_rpm", "head_m", "flow_m3_s", "opening")
+
+
+@dataclass(frozen=True)
+class TraceBand:
+    """Percentile band of time series over the ensemble members, on the runs' common time grid.
+
+    Attributes
+    ----------
+    time_s : ndarray (T,)
+    low, high : dict
+        ``{name: ndarray (T,)}`` for the names of :data:`BAND_TRACES` (units of the SimulationResult attributes).
+    percentiles : (float, float)
+    members : int
+        Members that ran (failed ones are not in the band).
+    """
+
+    time_s: np.ndarray
+    low: dict
+    high: dict
+    percentiles: tuple
+    members: int
 
 
 def _nets_of(plant):
@@ -30,7 +54,13 @@ def _nets_of(plant):
 
 
 def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
-    """Simulate ``plant``'s scenario with every ensemble member and return the band of the summary figures.
+    """Simulate ``plant``'s scenario with every ensemble member and return the band of the summary figures
+    (the first item of :func:`run_ensemble`)."""
+    return run_ensemble(plant, nets, percentiles=percentiles)[0]
+
+
+def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, TraceBand]:
+    """Simulate ``plant``'s scenario with every ensemble member: the band of the summary figures and of the traces.
 
     Parameters
     ----------
@@ -42,9 +72,11 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
 
     Returns
     -------
-    dict
+    band : dict
         ``members`` (count), ``failed`` (list of ``{"member", "message"}``), ``percentiles`` and, per figure of
-        :data:`BAND_FIGURES`, ``{"low", "high", "mean", "values"}`` over the members that ran.
+        :data:`BAND_FIGURES`, ``{"low", "high", "mean", "values"}`` over the members that ran (JSON-ready).
+    traces : TraceBand
+        The same percentiles of the :data:`BAND_TRACES` series at every time step (drawn on ``transient.png``).
 
     Raises
     ------
@@ -64,6 +96,8 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
         raise InputError("--uncertainty needs nets with an ensemble (hillsim train --ensemble N); this nets.json "
                          "has none")
     values = {name: [] for name in BAND_FIGURES}
+    traces = {name: [] for name in BAND_TRACES}
+    time_s = None
     failed = []
     first_error = None
     for i, member in enumerate(members):
@@ -76,6 +110,9 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
         summary = result.summary()
         for name in BAND_FIGURES:
             values[name].append(float(summary[name]))
+        time_s = result.time_s  # the same plant: the same time grid for every member that ran to the end
+        for name in BAND_TRACES:
+            traces[name].append(np.asarray(getattr(result, name), dtype=float))
     if len(failed) == len(members):
         raise first_error
     out = {"members": len(members), "failed": failed, "percentiles": [low_p, high_p]}
@@ -83,4 +120,8 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
         arr = np.asarray(series)
         out[name] = {"low": float(np.percentile(arr, low_p)), "high": float(np.percentile(arr, high_p)),
                      "mean": float(arr.mean()), "values": series}
-    return out
+    stacked = {name: np.vstack(rows) for name, rows in traces.items()}
+    band = TraceBand(time_s=np.asarray(time_s), low={k: np.percentile(v, low_p, axis=0) for k, v in stacked.items()},
+                     high={k: np.percentile(v, high_p, axis=0) for k, v in stacked.items()},
+                     percentiles=(low_p, high_p), members=len(members) - len(failed))
+    return out, band

@@ -205,3 +205,13 @@ def test_linearize_warns_outside_the_domain(capsys):
     assert main(["linearize", nets_path, "--n11", "67.8", "--opening", "23.46"]) == 0
     captured = capsys.readouterr()
     assert "warning" not in captured.err and json.loads(captured.out)["warnings"] == []
+
+
+def test_extrapolation_warning_prints_no_subnormal_openings():
+    """Issue 13 float noise: a servo closing exponentially leaves openings like 1.1e-109; the warning says 0."""
+    from simulate.domain import extrapolation_warnings
+
+    entry = {"fraction_of_time": 0.9, "first_time_s": 5.47, "n11_min": 82.27, "n11_max": 106.7,
+             "opening_min": 1.1e-109, "opening_max": 12.49, "stroke_max": 0.39}
+    (line,) = extrapolation_warnings({"digitized_region": entry})
+    assert "opening 0-12.49" in line and "e-109" not in line

@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339
@@ -57,3 +58,37 @@ def test_cli_writes_the_band_into_summary_json(tmp_path, capsys):
     assert band["members"] == 10
     assert band["max_speed_rise"]["low"] <= summary["max_speed_rise"] + 0.02  # the point run sits near the band
     assert "ensemble of 10 (0 failed): max speed rise" in capsys.readouterr().out
+
+
+def test_trace_band_is_drawn_on_the_transient_figure(tmp_path):
+    """``run --uncertainty`` draws the members' 5-95 % band behind the point run (issue 9 section 4)."""
+    plant = load_plant(PLANT_HLA339, SHORT)
+    band, traces = uncertainty.run_ensemble(plant)
+    assert traces.members == band["members"] == 10
+    for name in uncertainty.BAND_TRACES:
+        assert traces.low[name].shape == traces.time_s.shape
+        assert np.all(traces.low[name] <= traces.high[name])
+    # the band is not degenerate: the members differ (measured: up to ~2 % of the rated head after closure)
+    assert np.max(traces.high["head_m"] - traces.low["head_m"]) > 0.5
+    # its peak speed band is the summary band of max speed rise (same runs, same percentiles)
+    speed0 = traces.low["speed_rpm"][0]
+    assert np.max(traces.high["speed_rpm"]) / speed0 - 1 == pytest.approx(band["max_speed_rise"]["high"], abs=0.01)
+    from simulate.engine import run_simulation
+
+    result = run_simulation(plant)
+    fig = result.plot(tmp_path / "t.png", band=traces)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "ensemble of 10, 5-95 %" in labels and "point nets" in labels
+    banded = [ax for ax in fig.axes if any(type(c).__name__ in ("PolyCollection", "FillBetweenPolyCollection")
+                                          for c in ax.collections)]
+    assert len(banded) == 4  # speed, head, flow, opening
+    plain = result.plot(tmp_path / "plain.png")
+    assert plain.axes[0].get_legend() is None or "point nets" not in [
+        t.get_text() for t in plain.axes[0].get_legend().get_texts()]
+
+
+def test_cli_draws_the_band(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", str(PLANT_HLA339), "--out", str(out), "--set", "scenario.t_end_s=8.0", "--uncertainty"]) == 0
+    assert (out / "transient.png").stat().st_size > 20_000
+    assert "uncertainty" in json.loads((out / "summary.json").read_text())

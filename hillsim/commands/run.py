@@ -76,8 +76,8 @@ class FigureProcess:
 
                     from simulate.envelope import plot_envelope
 
-                    result, transient_png, envelope_png = pickle.loads(job)
-                    result.plot(transient_png)
+                    result, transient_png, envelope_png, band = pickle.loads(job)
+                    result.plot(transient_png, band=band)
                     plot_envelope(result, envelope_png)
                     answer = b"ok"
             except BaseException:  # noqa: BLE001 - reported to the parent, which raises it
@@ -94,14 +94,15 @@ class FigureProcess:
         os.close(done_w)
         self.pid, self._job, self._done = pid, job_w, done_r
 
-    def draw(self, result, transient_png: Path, envelope_png: Path) -> None:
-        """Draw ``result``'s figures into the two paths (in the child when there is one) and wait for them."""
+    def draw(self, result, transient_png: Path, envelope_png: Path, band=None) -> None:
+        """Draw ``result``'s figures into the two paths (in the child when there is one) and wait for them;
+        ``band``: the ensemble's trace band for ``transient.png`` (``--uncertainty``)."""
         if self.pid is not None:
             import dataclasses
             import pickle
 
-            job = pickle.dumps((dataclasses.replace(result, characteristics=None), transient_png, envelope_png),
-                               protocol=pickle.HIGHEST_PROTOCOL)
+            job = pickle.dumps((dataclasses.replace(result, characteristics=None), transient_png, envelope_png,
+                                band), protocol=pickle.HIGHEST_PROTOCOL)
             try:
                 with os.fdopen(self._job, "wb") as pipe:
                     self._job = None
@@ -117,7 +118,7 @@ class FigureProcess:
             self.failure = answer.decode("utf-8", "replace")
         from simulate.envelope import plot_envelope
 
-        result.plot(transient_png)
+        result.plot(transient_png, band=band)
         plot_envelope(result, envelope_png)
 
     def _answer(self) -> bytes:
@@ -149,18 +150,20 @@ class FigureProcess:
         self._reap()
 
 
-def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigureProcess | None = None) -> list[Path]:
+def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigureProcess | None = None,
+                      band=None) -> list[Path]:
     """Every file of a run, in one place: timeseries.csv, envelope.csv, the figures, summary.json last.
 
-    ``figures``: a :class:`FigureProcess` started earlier (the figures are then drawn there; default: here)."""
+    ``figures``: a :class:`FigureProcess` started earlier (the figures are then drawn there; default: here).
+    ``band``: the ensemble's :class:`simulate.uncertainty.TraceBand`, drawn on transient.png."""
     from simulate.envelope import plot_envelope, write_envelope_csv
 
     written = [result.to_csv(out / "timeseries.csv"), write_envelope_csv(result, out / "envelope.csv")]
     if plot:
         if figures is not None:
-            figures.draw(result, out / "transient.png", out / "envelope.png")
+            figures.draw(result, out / "transient.png", out / "envelope.png", band=band)
         else:
-            result.plot(out / "transient.png")
+            result.plot(out / "transient.png", band=band)
             plot_envelope(result, out / "envelope.png")
         written += [out / "transient.png", out / "envelope.png"]
     written.append(result.to_json(out / "summary.json"))
@@ -188,7 +191,15 @@ def run_command(args: argparse.Namespace) -> int:
             # the CLI turns this into its one-line message and exit 130, discarding the output set
             raise KeyboardInterrupt(f"after {100 * reached[0]:.0f} % of the run") from None
         progress.done()
-        write_run_outputs(result, out, plot=not args.no_plot, figures=figures)
+        ensemble = None
+        if getattr(args, "uncertainty", False) and result.success:
+            from simulate.uncertainty import run_ensemble
+
+            progress.start("simulating once per ensemble member")
+            ensemble = run_ensemble(plant)  # (summary band, trace band): N runs for N members
+            progress.done()
+        write_run_outputs(result, out, plot=not args.no_plot, figures=figures,
+                          band=None if ensemble is None else ensemble[1])
     finally:
         if figures is not None:
             figures.close()
@@ -199,8 +210,8 @@ def run_command(args: argparse.Namespace) -> int:
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
-    if getattr(args, "uncertainty", False) and result.success:
-        _add_uncertainty(plant, out / "summary.json")
+    if ensemble is not None:
+        _add_uncertainty(ensemble[0], out / "summary.json")
     if summary.get("frequency_recovery_time_s") is not None:  # the sub-transient generator after a load change
         print(f"frequency back within +-{summary['frequency_recovery_band_hz']} Hz of rated "
               f"{summary['frequency_recovery_time_s']:.2f} s after the load change at "
@@ -213,13 +224,10 @@ def run_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_uncertainty(plant, summary_path: Path) -> None:
-    """Minimal hook: the band from :func:`simulate.uncertainty.run_members` goes into summary.json."""
+def _add_uncertainty(band: dict, summary_path: Path) -> None:
+    """The band of :func:`simulate.uncertainty.run_ensemble` goes into summary.json (and one line on stdout)."""
     import json
 
-    from simulate.uncertainty import run_members
-
-    band = run_members(plant)
     summary = json.loads(summary_path.read_text(encoding="utf-8"))
     from hillchart.tidy import tidy_floats
 
