@@ -692,8 +692,11 @@ class HillNets:
         if not self.ensemble:
             raise InputError("these nets have no ensemble (train with --ensemble N)")
         values = np.array([getattr(m, quantity)(n11, opening) for m in self.members()])
-        return {"mean": np.nanmean(values, axis=0), "low": np.nanpercentile(values, low_p, axis=0),
-                "high": np.nanpercentile(values, high_p, axis=0), "point": getattr(self, quantity)(n11, opening)}
+        # np.nanpercentile along an axis loops over the points in Python (2.3 s for the 81 x 81 trust map);
+        # np.percentile gives the same numbers when nothing is NaN (efficiency can be NaN where Q11 <= 0)
+        percentile = np.percentile if np.all(np.isfinite(values)) else np.nanpercentile
+        return {"mean": np.nanmean(values, axis=0), "low": percentile(values, low_p, axis=0),
+                "high": percentile(values, high_p, axis=0), "point": getattr(self, quantity)(n11, opening)}
 
     # Characteristics protocol -----------------------------------------------------------------------------------
     def q11(self, n11, opening) -> np.ndarray:
