@@ -3,9 +3,14 @@
 Each fixture returns an object the tests must not modify (frozen dataclasses, or read-only folders by convention).
 """
 
+import importlib.util
 import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# torch is a test dependency of two checks only; without it, --doctest-modules must not import the torch transcription
+# (its users skip through the torch_autograd fixture)
+collect_ignore = [] if importlib.util.find_spec("torch") else ["torch_reference.py"]
 
 import pytest  # noqa: E402
 

@@ -64,19 +64,47 @@ def test_accuracy_bounds_hold_for_other_seeds(extended, truth_and_mask, seed):
     assert_issue_bounds(train_nets(extended, seed=seed), truth, inside)
 
 
-def test_shipped_nets_regenerate_byte_identical(tmp_path, capsys):
-    """``hillsim train data_synthetic/francis --out nets.json`` reproduces the shipped file exactly.
+def _largest_difference_over_range(a, b) -> float:
+    """Largest |a - b| of Q11 and M11, point nets and every ensemble member, over the whole extended domain
+    (N11 0-140 r/min, openings 0-34 mm), as a fraction of each quantity's range there."""
+    n11, opening = np.meshgrid(np.linspace(0.0, 140.0, 71), np.linspace(0.0, 34.0, 35))
+    worst = 0.0
+    for ma, mb in zip([a, *a.members()], [b, *b.members()], strict=True):
+        for name in ("q11", "m11"):
+            ya, yb = getattr(ma, name)(n11, opening), getattr(mb, name)(n11, opening)
+            worst = max(worst, float(np.max(np.abs(ya - yb)) / np.ptp(ya)))
+    return worst
 
-    Exactness relies on float64 torch ops on one thread giving the same bits; it holds on x86-64 CPUs with the
-    pinned torch, and is what makes the shipped file auditable.
+
+def test_shipped_nets_regenerate_on_any_cpu(tmp_path, capsys):
+    """``hillsim train data_synthetic/francis --out nets.json`` reproduces the shipped file to a stated tolerance.
+
+    Training is deterministic, but not bit-identical across CPUs: the compiled Levenberg-Marquardt loop and LAPACK's
+    Cholesky sum in an order that depends on the CPU's vector unit (AVX2, AVX-512, NEON), and the optimisation
+    amplifies those last-bit differences (3e-5 relative in the weights, measured on an AMD EPYC against the machine
+    that wrote the file). The bound, 1e-3 of each quantity's range over the whole extended domain, is 30x that and
+    50x below what a change of seed moves (5e-2; the failing case below), so a changed selection, seed or extension
+    fails it.
     """
     from hillsim.cli import main
 
     out = tmp_path / "nets.json"
     assert main(["train", str(CHART), "--out", str(out)]) == 0
-    assert out.read_bytes() == (CHART / "nets.json").read_bytes()
     text = capsys.readouterr().out
     assert "flow" in text and "torque" in text and "CV MSE" in text
+    shipped, regenerated = load_nets(CHART / "nets.json"), load_nets(out)
+    assert regenerated.flow.hidden == shipped.flow.hidden and regenerated.torque.hidden == shipped.torque.hidden
+    assert len(regenerated.members()) == len(shipped.members())
+    assert _largest_difference_over_range(shipped, regenerated) < 1e-3
+    # the failing case: another seed is another set of nets, far outside the bound
+    other = tmp_path / "other.json"
+    assert main(["train", str(CHART), "--out", str(other), "--seed", "1", "--quiet"]) == 0
+    assert _largest_difference_over_range(shipped, load_nets(other)) > 1e-2
+
+    # on one machine, training is bit-identical: the same command writes the same bytes
+    again = tmp_path / "again.json"
+    assert main(["train", str(CHART), "--out", str(again), "--quiet"]) == 0
+    assert again.read_bytes() == out.read_bytes()
 
 
 def test_runaway_curve_of_the_nets_matches_the_turbine():

@@ -1,5 +1,5 @@
 """The synthetic Francis turbine: physics sanity against the issue's HLA339 targets, exact derivatives, and the
-shipped chart regenerating byte-identically."""
+shipped chart regenerating (to a tolerance across CPUs, bit for bit on one machine)."""
 
 import filecmp
 
@@ -10,6 +10,7 @@ from data_synthetic import FRANCIS_DIR
 from hillchart.characteristics import Characteristics
 from hillchart.errors import InputError
 from hillchart.synthetic import FrancisParameters, SyntheticFrancis, write_synthetic_chart
+from tests.chart_files import CHART_FILES, assert_chart_matches, assert_csv_matches
 
 TURBINE = SyntheticFrancis()
 # HLA339-LJ-450: 200 r/min, D1 = 4.5 m, 176 m, 142.5 m^3/s
@@ -90,16 +91,31 @@ def test_truth_csv_tabulates_the_model():
     np.testing.assert_allclose(eta, TURBINE.efficiency(n11, a), rtol=1e-9, atol=1e-12)
 
 
-def test_shipped_chart_regenerates_byte_identically(tmp_path):
+def test_shipped_chart_regenerates_on_any_cpu(tmp_path):
+    """The shipped chart files come back from ``write_synthetic_chart(seed=0)``, to the last written digit
+    (:mod:`tests.chart_files` says why not bit for bit across CPUs); another seed fails that by far."""
     write_synthetic_chart(tmp_path, seed=0)
-    for name in ("chart.toml", "flow.csv", "efficiency.csv", "runaway.csv", "truth.csv"):
-        assert filecmp.cmp(tmp_path / name, FRANCIS_DIR / name, shallow=False), name
+    assert_chart_matches(tmp_path, FRANCIS_DIR)
+    # the failing case: the noise of another seed moves the digitized points by far more than the tolerance
+    other = tmp_path / "other"
+    write_synthetic_chart(other, seed=7)
+    flow_other = np.loadtxt(other / "flow.csv", delimiter=",", skiprows=1)
+    flow_shipped = np.loadtxt(FRANCIS_DIR / "flow.csv", delimiter=",", skiprows=1)
+    assert np.max(np.abs(flow_other - flow_shipped)[:, 2]) > 10 * 1e-4  # Q11 written to 1e-4
+
+
+def test_chart_is_bit_identical_on_one_machine(tmp_path):
+    """On one machine, the same seed writes the same bytes (what makes the shipped files auditable)."""
+    write_synthetic_chart(tmp_path / "a", seed=0)
+    write_synthetic_chart(tmp_path / "b", seed=0)
+    for name in CHART_FILES:
+        assert filecmp.cmp(tmp_path / "a" / name, tmp_path / "b" / name, shallow=False), name
 
 
 def test_other_seed_changes_only_the_noise(tmp_path):
     write_synthetic_chart(tmp_path, seed=7)
     assert (tmp_path / "flow.csv").read_text() != (FRANCIS_DIR / "flow.csv").read_text()
-    assert (tmp_path / "truth.csv").read_text() == (FRANCIS_DIR / "truth.csv").read_text()
+    assert_csv_matches(tmp_path / "truth.csv", FRANCIS_DIR / "truth.csv")
 
 
 def test_chart_sizes_meet_the_issue():
