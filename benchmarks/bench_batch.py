@@ -1,4 +1,4 @@
-"""Batch throughput (issue 15 section 1): case-steps per second of :func:`simulate.batch.run_batch` on the shipped
+"""Batch throughput (issue 15 section 1): case-steps per second of :func:`simulate.studies.batch.run_batch` on the shipped
 plant (nets, MOC, 8 reaches, 60 s load rejection, 3147 steps a case) at N = 1, 10, 100, 1000 cases, against N
 sequential ``run_simulation`` calls in one process (the same variants, plant built per case the same way).
 
@@ -24,9 +24,9 @@ import time
 import numpy as np
 
 from data_synthetic import PLANT_HLA339
-from simulate.batch import default_workers, run_batch
+from simulate.studies.batch import default_workers, run_batch
 from simulate.config import load_characteristics, load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 
 def variants(n: int) -> list[dict]:
@@ -96,7 +96,7 @@ def dask_compare(n: int) -> None:
     import tempfile
     from pathlib import Path
 
-    from simulate.sweep import build_variants, run_batch_dask
+    from simulate.studies.sweep import build_variants, run_batch_dask
 
     plant = load_plant(PLANT_HLA339)
     side = max(1, int(round(n ** 0.5)))

@@ -12,9 +12,9 @@ import time
 import numpy as np
 
 from data_synthetic import FRANCIS_DIR
-from hillchart.extend import ORIGINS, TARGETS, extend_samples
-from hillchart.samples import load_chart
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.extension.extend import ORIGINS, TARGETS, extend_samples
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import SyntheticFrancis
 
 
 def main() -> None:

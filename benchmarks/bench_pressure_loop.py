@@ -15,7 +15,7 @@ from importlib import resources
 import numpy as np
 
 from simulate.config import load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
 CASES = {

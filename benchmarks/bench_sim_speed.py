@@ -12,7 +12,7 @@ import time
 from importlib import resources
 
 from simulate.config import load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
 

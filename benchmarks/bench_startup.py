@@ -31,7 +31,7 @@ def commands(out_dir: Path) -> list[tuple[str, list[str], float]]:
         ("hillsim linearize data_synthetic/francis/nets.json --n11 67.8 --opening 23.46",
          [py, "-m", "hillsim.cli", "linearize", "data_synthetic/francis/nets.json", "--n11", "67.8", "--opening",
           "23.46"], 1.0),
-        ("python -c 'import simulate.engine'", [py, "-c", "import simulate.engine"], 1.0),
+        ("python -c 'import simulate.loop.engine'", [py, "-c", "import simulate.loop.engine"], 1.0),
     ]
 
 

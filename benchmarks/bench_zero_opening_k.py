@@ -4,8 +4,8 @@
 
 Part 1: K / true for the 36 charts of ``bench_generalization.py`` (3 turbines x noise 0.15 / 0.3 % x seeds 0-2 x
 with / without runaway curve; 8 opening lines of 6 uneven points, l/s, percent), from
-:func:`hillchart.extend.extend_samples` with default options. Part 2: the same fit on the fast turbine's seed-0
-chart with the prior's median disc-friction share and width changed (``hillchart.turbine_model``): when K follows
+:func:`hillchart.extension.extend.extend_samples` with default options. Part 2: the same fit on the fast turbine's seed-0
+chart with the prior's median disc-friction share and width changed (``hillchart.extension.turbine_model``): when K follows
 the prior one to one, the chart does not identify it.
 """
 
@@ -15,10 +15,10 @@ import tempfile
 import warnings
 from pathlib import Path
 
-import hillchart.turbine_model as turbine_model
-from hillchart.extend import extend_samples
-from hillchart.samples import load_chart
-from hillchart.synthetic import FAMILY, DigitizationOptions, synthetic_chart_texts
+import hillchart.extension.turbine_model as turbine_model
+from hillchart.extension.extend import extend_samples
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import FAMILY, DigitizationOptions, synthetic_chart_texts
 
 
 def _chart(name: str, seed: int, noise: float, runaway: bool):

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from simulate.linear import ArxModel, LinearPlant, arma_coefficients, torque_transfer_function
+from simulate.linear.models import ArxModel, LinearPlant, arma_coefficients, torque_transfer_function
 
 TAU_S = 0.2
 THETA_000 = (0.5061, 0.3950, -0.0512, 0.0319, 0.0434)

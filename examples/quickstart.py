@@ -9,12 +9,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339
-from hillchart.extend import extend_samples
+from hillchart.extension.extend import extend_samples
 from hillchart.linearize import six_coefficients
-from hillchart.nets import load_nets
-from hillchart.samples import load_chart
+from hillchart.nets.hill_nets import load_nets
+from hillchart.io.samples import load_chart
 from simulate.config import load_plant
-from simulate.engine import initial_state, run_simulation
+from simulate.loop.engine import initial_state, run_simulation
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "out/quickstart")  # out/ is gitignored
 out.mkdir(parents=True, exist_ok=True)
@@ -26,7 +26,7 @@ with warnings.catch_warnings():
 extended = extend_samples(chart)
 extended.to_csv(out / "extended.csv")
 
-# 2. the nets (hillchart.nets.train_nets(extended) trains new ones in a few seconds; here: the shipped ones)
+# 2. the nets (hillchart.nets.hill_nets.train_nets(extended) trains new ones in a few seconds; here: the shipped ones)
 nets = load_nets(FRANCIS_DIR / "nets.json")
 
 # 3. the example plant: steady state, then its scenario (100 % load rejection)

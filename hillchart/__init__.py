@@ -2,9 +2,50 @@
 
 Data flows one way::
 
-    chart folder -> hillchart.samples -> hillchart.extend -> hillchart.nets -> hillchart.linearize
+    chart folder -> hillchart.io (read, validate) -> hillchart.extension (torque, boundaries)
+                 -> hillchart.nets (train, evaluate) -> hillchart.linearize (six coefficients)
+
+:mod:`hillchart.fccm` characterises double-regulated (bulb, Kaplan) turbines from test tables;
+:mod:`hillchart.synthetic` holds the physically based synthetic turbines. The names most scripts need are importable
+from here (each on first use)::
+
+    from hillchart import extend_samples, load_chart, train_nets
+    nets = train_nets(extend_samples(load_chart("data_synthetic/francis")), seed=0)
 
 ``hillchart`` never imports ``simulate``.
 """
 
+from __future__ import annotations
+
+import importlib
+
 __version__ = "0.1.0"
+
+#: Public name -> module that defines it.
+PUBLIC = {
+    "load_chart": "hillchart.io.samples",
+    "extend_samples": "hillchart.extension.extend",
+    "train_nets": "hillchart.nets.hill_nets",
+    "load_nets": "hillchart.nets.hill_nets",
+    "HillNets": "hillchart.nets.hill_nets",
+    "six_coefficients": "hillchart.linearize",
+    "SyntheticFrancis": "hillchart.synthetic.francis",
+    "write_synthetic_chart": "hillchart.synthetic.francis",
+    "SyntheticBulb": "hillchart.synthetic.bulb",
+}
+
+__all__ = ["__version__", *PUBLIC]
+
+
+def __getattr__(name: str):
+    """Import a public name on first access (PEP 562)."""
+    module = PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'hillchart' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(PUBLIC))

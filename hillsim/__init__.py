@@ -28,17 +28,17 @@ __version__ = "0.1.0"
 
 #: Public name -> module that defines it.
 ENTRY_POINTS = {
-    "load_chart": "hillchart.samples",
-    "extend_samples": "hillchart.extend",
-    "train_nets": "hillchart.nets",
-    "load_nets": "hillchart.nets",
+    "load_chart": "hillchart.io.samples",
+    "extend_samples": "hillchart.extension.extend",
+    "train_nets": "hillchart.nets.hill_nets",
+    "load_nets": "hillchart.nets.hill_nets",
     "six_coefficients": "hillchart.linearize",
     "load_plant": "simulate.config",
-    "run_simulation": "simulate.engine",
-    "ExperimentSettings": "simulate.experiment",
-    "compare_identification": "simulate.identification",
-    "identify_measured": "simulate.identification",
-    "load_measured_series": "simulate.measured",
+    "run_simulation": "simulate.loop.engine",
+    "ExperimentSettings": "simulate.identification.experiment",
+    "compare_identification": "simulate.identification.compare",
+    "identify_measured": "simulate.identification.compare",
+    "load_measured_series": "simulate.identification.measured",
     "run_demo": "hillsim.demo",
 }
 

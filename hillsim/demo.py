@@ -36,9 +36,9 @@ STEPS = (
 
 
 def _write_json(path: Path, data) -> Path:
-    """JSON with tidy floats (:func:`hillchart.tidy.tidy_floats`: 12 significant digits, dust below 1e-30 -> 0)."""
-    from hillchart.tidy import tidy_floats
-    from simulate.result import json_default
+    """JSON with tidy floats (:func:`hillchart.io.tidy.tidy_floats`: 12 significant digits, dust below 1e-30 -> 0)."""
+    from hillchart.io.tidy import tidy_floats
+    from simulate.results.result import json_default
 
     data = tidy_floats(json.loads(json.dumps(data, default=json_default)))
     path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
@@ -50,7 +50,7 @@ def _read_json(path: Path):
 
 
 def _simulate(plant, nets, out_dir: Path) -> dict:
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     result = run_simulation(plant, characteristics=nets)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -100,16 +100,16 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     import numpy as np
 
     from data_synthetic import FRANCIS_DIR, PLANT_HLA339
-    from hillchart.chartplot import chart_figure
-    from hillchart.extend import extend_samples
+    from hillchart.nets.chartplot import chart_figure
+    from hillchart.extension.extend import extend_samples
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients
-    from hillchart.nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
-    from hillchart.samples import load_chart
-    from hillchart.synthetic import SyntheticFrancis
+    from hillchart.nets.hill_nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
+    from hillchart.io.samples import load_chart
+    from hillchart.synthetic.francis import SyntheticFrancis
     from simulate.config import ScenarioConfig, load_plant
-    from simulate.identification import compare_identification
-    from simulate.identification_results import CoefficientSet, to_json_dict
-    from simulate.linear_reference import plant_linearization
+    from simulate.identification.compare import compare_identification
+    from simulate.identification.results import CoefficientSet, to_json_dict
+    from simulate.linear.reference import plant_linearization
 
     from hillsim.progress import Stages
 
@@ -218,10 +218,10 @@ def _load_results(out: Path) -> dict:
 
 
 def _tidy_record(record):
-    """A copy of a frozen record (:mod:`simulate.identification_results`) with every float tidied as
-    :func:`_write_json` tidies the files (:func:`hillchart.tidy.tidy_float`), so that what the report reads from
+    """A copy of a frozen record (:mod:`simulate.identification.results`) with every float tidied as
+    :func:`_write_json` tidies the files (:func:`hillchart.io.tidy.tidy_float`), so that what the report reads from
     the record is what the JSON file says."""
-    from hillchart.tidy import tidy_float
+    from hillchart.io.tidy import tidy_float
 
     if is_dataclass(record) and not isinstance(record, type):
         return replace(record, **{f.name: _tidy_record(getattr(record, f.name)) for f in fields(record) if f.init})

@@ -18,8 +18,8 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  [max_node_steps], [max_output_mb]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
-    [excitation], [grid]  with generator.model = "subtransient" (simulate.excitation.ExcitationConfig,
-                 simulate.generator.GridConfig); [generator] then also takes the machine keys SUBTRANSIENT_KEYS
+    [excitation], [grid]  with generator.model = "subtransient" (simulate.components.control.excitation.ExcitationConfig,
+                 simulate.components.electrical.generator.GridConfig); [generator] then also takes the machine keys SUBTRANSIENT_KEYS
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 from hillchart.errors import InputError
 
-from simulate.components import PENSTOCKS  # noqa: E402  (light: no numba)
+from simulate.loop.registry import PENSTOCKS  # noqa: E402  (light: no numba)
 
 PENSTOCK_MODELS = PENSTOCKS.names()  # the penstock registry's names
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
@@ -240,7 +240,7 @@ class GeneratorConfig:
     """Rotor and load: ``inertia_time_s`` Ta = J w_r^2 / P_r; ``self_regulation`` e_g (per unit torque per unit
     speed) of the connected load, active only while the breaker is closed.
 
-    ``model``: the shaft component (registry :data:`simulate.components.SHAFTS`): ``"swing"`` (default, the swing
+    ``model``: the shaft component (registry :data:`simulate.loop.registry.SHAFTS`): ``"swing"`` (default, the swing
     equation with load self-regulation) or ``"subtransient"`` (paper 001's machine, eq. (10), with ``[excitation]``
     and ``[grid]``; its keys :data:`SUBTRANSIENT_KEYS` are required then (``ra`` optional) and rejected otherwise;
     the load's frequency dependence is ``grid.frequency_p``, so ``self_regulation`` must be 0).
@@ -262,7 +262,7 @@ class GeneratorConfig:
     ra: float | None = None
 
     def __post_init__(self):
-        from simulate.components import SHAFTS
+        from simulate.loop.registry import SHAFTS
 
         _check_choice("generator", "model", self.model, SHAFTS.names())
         _check_number("generator", "inertia_time_s", self.inertia_time_s, low=0.0, high=100.0, low_open=True)
@@ -285,8 +285,8 @@ class GeneratorConfig:
 
     @property
     def subtransient(self):
-        """:class:`simulate.generator.SubtransientGeneratorConfig` of the sub-transient keys (model "subtransient")."""
-        from simulate.generator import SubtransientGeneratorConfig
+        """:class:`simulate.components.electrical.generator.SubtransientGeneratorConfig` of the sub-transient keys (model "subtransient")."""
+        from simulate.components.electrical.generator import SubtransientGeneratorConfig
 
         if self.model != "subtransient":
             raise InputError(f"generator.model = {self.model!r} has no sub-transient machine")
@@ -352,8 +352,8 @@ class GovernorConfig:
 
     @property
     def discrete_servo(self):
-        """:class:`simulate.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys (servo_model "discrete")."""
-        from simulate.discrete_servo import DiscreteServoConfig
+        """:class:`simulate.components.control.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys (servo_model "discrete")."""
+        from simulate.components.control.discrete_servo import DiscreteServoConfig
 
         keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
         try:
@@ -440,7 +440,7 @@ class ScenarioConfig:
         overridden per kind."""
 
     def initial_target(self) -> dict:
-        """Keyword for :func:`simulate.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``."""
+        """Keyword for :func:`simulate.loop.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``."""
         if self.initial_power_mw is not None:
             return {"power_mw": float(self.initial_power_mw)}
         return {"stroke": float(self.initial_opening)}
@@ -526,7 +526,7 @@ class SurgeTankConfig:
                                                                      * self.tunnel_area_m2 ** 2)
 
     def time_constants(self) -> dict:
-        """Time constants the simulation step must resolve (see :mod:`simulate.guards`)."""
+        """Time constants the simulation step must resolve (see :mod:`simulate.loop.guards`)."""
         return {"surge tank period 2 pi sqrt(L A_s / (g A_t)) (surge_tank.area_m2, tunnel_length_m, "
                 "tunnel_diameter_m)": self.period_s}
 
@@ -549,8 +549,8 @@ class PlantConfig:
     solver: SolverConfig = field(default_factory=SolverConfig)
     base_dir: Path = Path(".")
     surge_tank: SurgeTankConfig | None = None
-    excitation: Any = None  # simulate.excitation.ExcitationConfig (generator.model = "subtransient")
-    grid: Any = None  # simulate.generator.GridConfig (generator.model = "subtransient")
+    excitation: Any = None  # simulate.components.control.excitation.ExcitationConfig (generator.model = "subtransient")
+    grid: Any = None  # simulate.components.electrical.generator.GridConfig (generator.model = "subtransient")
 
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
@@ -589,11 +589,11 @@ class PlantConfig:
 
     @property
     def electrical(self):
-        """:class:`simulate.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``, ``[grid]`` (model
+        """:class:`simulate.components.electrical.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``, ``[grid]`` (model
         "subtransient"; None for the swing model)."""
         if self.generator.model != "subtransient":
             return None
-        from simulate.generator import ElectricalConfig
+        from simulate.components.electrical.generator import ElectricalConfig
 
         return ElectricalConfig(generator=self.generator.subtransient, excitation=self.excitation, grid=self.grid)
 
@@ -625,8 +625,8 @@ _SECTIONS = {
     "scenario": ScenarioConfig,
     "solver": SolverConfig,
     "surge_tank": SurgeTankConfig,
-    "excitation": "simulate.excitation:ExcitationConfig",  # imported only when the section is present
-    "grid": "simulate.generator:GridConfig",
+    "excitation": "simulate.components.control.excitation:ExcitationConfig",  # imported only when the section is present
+    "grid": "simulate.components.electrical.generator:GridConfig",
 }
 
 
@@ -841,11 +841,11 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
 def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     """The characteristics object named by ``turbine.characteristics``.
 
-    One resolver for every command (:func:`simulate.components.resolve_characteristics`): ``"ideal"`` gives
+    One resolver for every command (:func:`simulate.loop.registry.resolve_characteristics`): ``"ideal"`` gives
     :class:`hillchart.characteristics.IdealTurbine` from the rated values:
     q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
     ``"synthetic"`` the exact synthetic Francis turbine; anything else is a nets.json path (relative to
-    ``base_dir``) read by ``hillchart.nets.load_nets``.
+    ``base_dir``) read by ``hillchart.nets.hill_nets.load_nets``.
 
     Examples
     --------
@@ -855,7 +855,7 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
     (0.25, 0.917431)
     """
-    from simulate.components import resolve_characteristics
+    from simulate.loop.registry import resolve_characteristics
 
     return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
 

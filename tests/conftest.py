@@ -31,7 +31,7 @@ def pytest_collection_modifyitems(config, items):
 def shipped_nets():
     """The shipped ``data_synthetic/francis/nets.json``, loaded once."""
     from data_synthetic import FRANCIS_DIR
-    from hillchart.nets import load_nets
+    from hillchart.nets.hill_nets import load_nets
 
     return load_nets(FRANCIS_DIR / "nets.json")
 
@@ -48,7 +48,7 @@ def example_plant():
 @pytest.fixture(scope="session")
 def shipped_rejection(example_plant, shipped_nets):
     """The example plant's scenario (100 % load rejection, MOC, governor) on the shipped nets: a SimulationResult."""
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     return run_simulation(example_plant, characteristics=shipped_nets)
 

@@ -1,4 +1,4 @@
-"""The real data in ``../shared/external/`` as hillchart.fccm test-table folders (validation only, never shipped).
+"""The real data in ``../shared/external/`` as hillchart.fccm.core test-table folders (validation only, never shipped).
 
 Tests call :func:`require_fccm_external`, which skips cleanly when the files are absent. The folder is found as in
 ``tests/external_charts.py`` (``<repo>/../shared/external``); ``HILLSIM_EXTERNAL_DIR`` overrides it (a git worktree

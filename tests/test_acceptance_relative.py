@@ -2,10 +2,10 @@
 
 from data_synthetic import PLANT_HLA339
 from simulate.config import load_plant
-from simulate.experiment import ExperimentSettings
-from simulate.identification import compare_identification
-from simulate.identification_results import SIMULATION_MODE_TOLERANCE
-from simulate.identification_tables import markdown_tables
+from simulate.identification.experiment import ExperimentSettings
+from simulate.identification.compare import compare_identification
+from simulate.identification.results import SIMULATION_MODE_TOLERANCE
+from simulate.identification.tables import markdown_tables
 
 PLANT = load_plant(PLANT_HLA339)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import hillsim
-from hillchart.tidy import tidy_float, tidy_floats
+from hillchart.io.tidy import tidy_float, tidy_floats
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -24,8 +24,8 @@ def test_import_hillsim_is_light():
 
 
 def test_entry_points_resolve_to_the_defining_functions():
-    from hillchart.nets import load_nets
-    from simulate.engine import run_simulation
+    from hillchart.nets.hill_nets import load_nets
+    from simulate.loop.engine import run_simulation
 
     assert hillsim.load_nets is load_nets and hillsim.run_simulation is run_simulation
     for name in hillsim.ENTRY_POINTS:
@@ -36,7 +36,7 @@ def test_entry_points_resolve_to_the_defining_functions():
 
 
 def test_to_json_can_carry_the_series(tmp_path):
-    from simulate.result import CSV_COLUMNS, SimulationResult
+    from simulate.results.result import CSV_COLUMNS, SimulationResult
 
     t = np.array([0.0, 0.5, 1.0])
     r = SimulationResult(t, t + 200, t + 100, t, t, t, t, t, np.array([0, 3, 2]), 200.0, 200.0)
@@ -77,7 +77,7 @@ def test_forgetting_factor_has_one_name():
 
 def test_summary_json_has_tidy_floats(tmp_path):
     """Issue 13: "final_opening": 3.719570726996532e-111 in summary.json."""
-    from simulate.result import SimulationResult
+    from simulate.results.result import SimulationResult
 
     t = np.array([0.0, 0.5, 1.0])
     opening = np.array([0.68, 0.3, 3.719570726996532e-111])

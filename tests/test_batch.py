@@ -1,4 +1,4 @@
-"""simulate.batch: identical to single runs, failing cases as records, structure/garbage refused."""
+"""simulate.studies.batch: identical to single runs, failing cases as records, structure/garbage refused."""
 
 import math
 
@@ -7,10 +7,10 @@ import pytest
 
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
-from simulate.batch import (CaseResult, BatchResult, check_key, extrapolation_kinds, run_batch, run_case,
+from simulate.studies.batch import (CaseResult, BatchResult, check_key, extrapolation_kinds, run_batch, run_case,
                             variant_overrides)
 from simulate.config import load_characteristics, load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 # 5 s of the shipped plant (nets, MOC, 8 reaches): the load rejection at 2 s and the first 3 s of overspeed.
 BASE = {"scenario.t_end_s": 5.0}
@@ -142,7 +142,7 @@ def test_processes_with_a_single_case_runs_it_in_this_process(plant, nets):
 
 
 def test_batch_pool_reused_across_batches_equals_serial(plant, nets):
-    from simulate.batch import BatchPool
+    from simulate.studies.batch import BatchPool
 
     serial = run_batch(plant, VARIANTS, characteristics=nets, mechanism="serial")
     with BatchPool(plant, [nets], workers=2) as pool:

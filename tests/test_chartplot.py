@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hillchart import chartplot
+from hillchart.nets import chartplot
 from hillchart.characteristics import IdealTurbine
-from hillchart.extend import ExtensionOptions, extend_samples
-from hillchart.nets import load_nets, train_nets
-from hillchart.samples import load_chart
+from hillchart.extension.extend import ExtensionOptions, extend_samples
+from hillchart.nets.hill_nets import load_nets, train_nets
+from hillchart.io.samples import load_chart
 from hillsim.cli import main
 from tests.external_charts import write_sayano_chart
 
@@ -95,7 +95,7 @@ def test_cli_chart_rejects_mismatched_opening_unit(tmp_path, capsys, synthetic):
     doc = nets.to_dict()
     doc["units"]["opening"] = "deg"
     path = tmp_path / "nets.json"
-    from hillchart.nets import HillNets
+    from hillchart.nets.hill_nets import HillNets
 
     HillNets.from_dict(doc).save(path)
     assert main(["chart", str(path), "--out", str(tmp_path / "c.png"), "--samples", str(CHART)]) == 2

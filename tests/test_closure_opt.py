@@ -9,11 +9,11 @@ import pytest
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339, PLANT_HLA339_GUARANTEE
 from hillchart.errors import InputError
 from hillsim.cli import main
-from simulate.batch import CaseResult
-from simulate.closure_opt import ClosureEvaluator, ClosureLaw, best_linear, closure_plant, optimize_closure
+from simulate.studies.batch import CaseResult
+from simulate.studies.closure_opt import ClosureEvaluator, ClosureLaw, best_linear, closure_plant, optimize_closure
 from simulate.config import load_plant
-from simulate.governor import closure_law
-from simulate.studies import Limits, LoadCase, load_ensemble, load_study
+from simulate.components.control.governor import closure_law
+from simulate.studies.cases import Limits, LoadCase, load_ensemble, load_study
 
 
 @pytest.fixture(scope="module")

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from hillchart.errors import InputError
-from simulate.identify import DeadZoneRLS, RecursiveLeastSquares, arx_regressors
-from simulate.linear import ArxModel, LinearPlant
+from simulate.identification.estimators import DeadZoneRLS, RecursiveLeastSquares, arx_regressors
+from simulate.linear.models import ArxModel, LinearPlant
 
 PLANT = LinearPlant(ex=-1.08, ey=0.42, eh=1.54, eqx=-0.03, eqy=0.50, eqh=0.515, water_time_s=1.4,
                     inertia_time_s=9.0, self_regulation=1.0, wave_time_s=0.44)

@@ -5,7 +5,7 @@ import pytest
 import scipy.signal
 
 from hillchart.errors import InputError
-from simulate.discrete_servo import (DiscreteServoConfig, check_servo_step, discrete_servo_parameters,
+from simulate.components.control.discrete_servo import (DiscreteServoConfig, check_servo_step, discrete_servo_parameters,
                                      discrete_servo_step, initial_servo_state)
 
 
@@ -80,7 +80,7 @@ def _plant(**overrides):
 
 
 def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_order_servo_does():
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     first = run_simulation(_plant())
     plant = _plant(**{"governor.servo_model": "discrete"})
@@ -120,7 +120,7 @@ def test_bad_discrete_servo_keys_are_named(overrides, match):
 
 
 def test_servo_sampling_must_be_a_multiple_of_the_time_step_in_the_loop():
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     with pytest.raises(InputError, match=r"governor\.servo_sample_time_s = 0\.21 must be a whole multiple of the time "
                                          r"step 0\.02 s .*set solver\.dt_s"):

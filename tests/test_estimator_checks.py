@@ -10,7 +10,7 @@ import pytest
 
 sklearn_checks = pytest.importorskip("sklearn.utils.estimator_checks")
 
-from simulate.identify import ArmaLeastSquares, DeadZoneRLS, RecursiveLeastSquares, SixCoefficientLeastSquares  # noqa: E402
+from simulate.identification.estimators import ArmaLeastSquares, DeadZoneRLS, RecursiveLeastSquares, SixCoefficientLeastSquares  # noqa: E402
 
 WORDING = ("hillsim raises InputError (a ValueError) naming the argument and the bad value; scikit-learn's check "
            "wants its own wording")

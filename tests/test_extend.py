@@ -7,9 +7,9 @@ import pytest
 
 from data_synthetic import FRANCIS_DIR
 from hillchart.errors import InputError, NumericalError
-from hillchart.extend import ExtensionOptions, extend_samples, fit_efficiency_surface, read_extended_csv
-from hillchart.samples import load_chart
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.extension.extend import ExtensionOptions, extend_samples, fit_efficiency_surface, read_extended_csv
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import SyntheticFrancis
 from tests.external_charts import write_sayano_chart
 
 TURBINE = SyntheticFrancis()

@@ -1,4 +1,4 @@
-"""Paper 003's analyses (hillchart.fccm) and ``hillsim fccm``: grey relations, image similarity, maps, the truth
+"""Paper 003's analyses (hillchart.fccm.core) and ``hillsim fccm``: grey relations, image similarity, maps, the truth
 comparison and its acceptance."""
 
 import json
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from scipy.spatial import distance
 
-from hillchart.bulb import write_bulb_table
+from hillchart.synthetic.bulb import write_bulb_table
 from hillchart.errors import InputError
-from hillchart.fccm import (FCCMNet, analyse_fccm, efficiency_maps, grey_images, grey_relational_analysis,
+from hillchart.fccm.core import (FCCMNet, analyse_fccm, efficiency_maps, grey_images, grey_relational_analysis,
                             image_similarity, load_fccm_nets, load_test_table, read_truth_csv, truth_acceptance,
                             truth_comparison)
 from hillsim.cli import main
@@ -30,7 +30,7 @@ def run(tmp_path_factory):
 
 
 def direct_grey_relational(table_path, outputs, controls, rho=0.5):
-    """Table 1 computed straight from the CSV with loops (independent of hillchart.fccm)."""
+    """Table 1 computed straight from the CSV with loops (independent of hillchart.fccm.core)."""
     data = np.genfromtxt(table_path, delimiter=",", names=True)
     out = {}
     for o in outputs:

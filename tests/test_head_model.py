@@ -6,7 +6,7 @@ import pytest
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError, NumericalError
 from simulate.config import load_plant
-from simulate.head_model import (closed_loop_identification, head_regressors, head_simulation_mode,
+from simulate.identification.head_model import (closed_loop_identification, head_regressors, head_simulation_mode,
                                  open_loop_head_study)
 
 PLANT = load_plant(PLANT_HLA339)

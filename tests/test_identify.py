@@ -9,7 +9,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.linear_model import LinearRegression
 
 from hillchart.errors import InputError, NumericalError
-from simulate.identify import (
+from simulate.identification.estimators import (
     ArmaLeastSquares,
     DeadZoneRLS,
     RecursiveLeastSquares,
@@ -18,7 +18,7 @@ from simulate.identify import (
     identified_arx,
     simulation_mode_output,
 )
-from simulate.linear import ArxModel, LinearPlant, arma_coefficients
+from simulate.linear.models import ArxModel, LinearPlant, arma_coefficients
 
 TAU = 0.2
 PLANT = LinearPlant(ex=-1.0, ey=1.0, eh=1.5, eqx=0.0, eqy=1.0, eqh=0.5, water_time_s=1.0, inertia_time_s=6.0,

@@ -9,11 +9,11 @@ import pytest
 
 from hillchart.errors import InputError
 from hillchart.linearize import COEFFICIENT_NAMES
-from simulate.experiment import ExperimentSettings
-from simulate.identification import identify_measured
-from simulate.identification_tables import markdown_tables
-from simulate.measured import OperatingPoint, RelativeSeries, load_measured_series
-from simulate.linear import LinearPlant
+from simulate.identification.experiment import ExperimentSettings
+from simulate.identification.compare import identify_measured
+from simulate.identification.tables import markdown_tables
+from simulate.identification.measured import OperatingPoint, RelativeSeries, load_measured_series
+from simulate.linear.models import LinearPlant
 
 OP = OperatingPoint(speed_rpm=200.0, head_m=176.0, flow_m3_s=140.0, torque_nm=1.07e7, opening=0.68)
 PLANT = LinearPlant(ex=-1.08, ey=0.42, eh=1.54, eqx=-0.03, eqy=0.50, eqh=0.515, water_time_s=1.4,
@@ -150,7 +150,7 @@ def test_identify_measured_recovers_the_linear_plant_exactly(tmp_path):
                                [getattr(PLANT, k) for k in COEFFICIENT_NAMES], atol=1e-9)
     # the samples at tau of an exact ZOH simulation at tau/4 are an exact ZOH simulation at tau: RLS finds the
     # plant's own ARX up to its ridge bias |theta| / (p0 lambda_min(phi^T phi)) (see test_identify)
-    from simulate.identify import arx_regressors
+    from simulate.identification.estimators import arx_regressors
 
     arx_true = PLANT.arx(0.2)
     phi, _ = arx_regressors(series.x, series.y, n_a=3, n_b=3, input_delay=0)
@@ -202,7 +202,7 @@ def test_measured_csv_accepts_extra_columns_in_any_order(tmp_path):
 def test_summary_is_a_frozen_record_and_the_json_is_made_from_it(tmp_path):
     import dataclasses
 
-    from simulate.identification_results import to_json_dict
+    from simulate.identification.results import to_json_dict
 
     path = write_csv(tmp_path / "series.csv", linear_measurement(SHORT))
     report = identify_measured(load_measured_series(path, sample_time_s=0.2, operating_point=OP), SHORT)

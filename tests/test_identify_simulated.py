@@ -11,15 +11,15 @@ import json
 import numpy as np
 import pytest
 
-pytest.importorskip("simulate.engine")
+pytest.importorskip("simulate.loop.engine")
 
 from data_synthetic import FRANCIS_DIR  # noqa: E402
-from hillchart.synthetic import SyntheticFrancis  # noqa: E402
+from hillchart.synthetic.francis import SyntheticFrancis  # noqa: E402
 from hillsim.cli import main  # noqa: E402
-from simulate.experiment import ExperimentSettings  # noqa: E402
-from simulate.identification import compare_identification  # noqa: E402
+from simulate.identification.experiment import ExperimentSettings  # noqa: E402
+from simulate.identification.compare import compare_identification  # noqa: E402
 from simulate.config import load_plant  # noqa: E402
-from simulate.identification_results import ArmaSkipped  # noqa: E402
+from simulate.identification.results import ArmaSkipped  # noqa: E402
 
 PLANT_FILE = FRANCIS_DIR.parent / "plant_hla339.toml"
 SHORT = ExperimentSettings(step_hold_s=25.0, prbs_duration_s=60.0, quiet_s=40.0)
@@ -129,8 +129,8 @@ def test_identify_cli(tmp_path, capsys):
     assert data["experiment"]["step_hold_s"] == 20.0
     # the measured-data path on the simulator's own output gives the same batch-LS coefficients
     sim_csv = tmp_path / "run.csv"
-    from simulate.experiment import experiment_plant
-    from simulate.engine import run_simulation
+    from simulate.identification.experiment import experiment_plant
+    from simulate.loop.engine import run_simulation
 
     plant = load_plant(PLANT_FILE)
     settings = ExperimentSettings(step_hold_s=20.0, prbs_duration_s=40.0, quiet_s=20.0)

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hillchart.errors import InputError
-from simulate.linear import (
+from simulate.linear.models import (
     DEFAULT_ALPHA,
     ArxModel,
     LinearPlant,

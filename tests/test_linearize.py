@@ -182,7 +182,7 @@ def test_bad_map_grid_is_rejected():
 
 
 def test_synthetic_francis_at_rated_point_matches_finite_differences():
-    from hillchart.synthetic import SyntheticFrancis
+    from hillchart.synthetic.francis import SyntheticFrancis
 
     t = SyntheticFrancis()
     c = six_coefficients(t, n11=67.8, opening=23.46)  # HLA339-like rated point (Q11 = 0.53 m^3/s)
@@ -194,7 +194,7 @@ def test_synthetic_francis_at_rated_point_matches_finite_differences():
 
 
 def test_nets_trained_on_an_ideal_chart_give_the_ideal_coefficients():
-    from hillchart.nets import HillNet, HillNets
+    from hillchart.nets.hill_nets import HillNet, HillNets
 
     # an ideal-turbine "chart" on a band of N11 away from 0 (Q11 = k a, M11 = c a / N11), both nets trained by LM
     n, a = np.meshgrid(np.linspace(50, 90, 15), np.linspace(5, 30, 12))
@@ -212,8 +212,8 @@ def test_nets_trained_on_an_ideal_chart_give_the_ideal_coefficients():
 
 
 def test_shipped_synthetic_nets_at_rated_point_match_the_exact_turbine():
-    from hillchart.nets import load_nets
-    from hillchart.synthetic import SyntheticFrancis
+    from hillchart.nets.hill_nets import load_nets
+    from hillchart.synthetic.francis import SyntheticFrancis
 
     from data_synthetic import FRANCIS_DIR
 

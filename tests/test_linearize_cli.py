@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hillchart.linearize import six_coefficients
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.synthetic.francis import SyntheticFrancis
 from hillsim.cli import main
 
 
@@ -51,10 +51,10 @@ def test_linearize_bad_options(argv, message, capsys, tmp_path, monkeypatch):
 
 
 def test_linearize_missing_nets_file(capsys, tmp_path):
-    pytest.importorskip("hillchart.nets")
+    pytest.importorskip("hillchart.nets.hill_nets")
     assert main(["linearize", str(tmp_path / "none.json"), "--n11", "67.8", "--opening", "20"]) == 2
     err = capsys.readouterr().err
-    # the one resolver of characteristics (simulate.components.resolve_characteristics) names the argument
+    # the one resolver of characteristics (simulate.loop.registry.resolve_characteristics) names the argument
     assert err.startswith("hillsim linearize: error: NETS = ") and "none.json' does not exist" in err
     assert "relative to the plant file" not in err  # NETS is relative to the working folder
 
@@ -75,7 +75,7 @@ def test_linearize_ideal_turbine_needs_a_plant_and_is_exact_with_one(capsys):
 
 
 def test_linearize_shipped_nets_json(capsys, tmp_path):
-    from hillchart.nets import load_nets
+    from hillchart.nets.hill_nets import load_nets
 
     from data_synthetic import FRANCIS_DIR
 

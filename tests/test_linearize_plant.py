@@ -9,11 +9,11 @@ import pytest
 
 from hillsim.cli import main
 
-pytest.importorskip("simulate.engine")
+pytest.importorskip("simulate.loop.engine")
 
 from data_synthetic import FRANCIS_DIR  # noqa: E402
 from hillchart.linearize import six_coefficients  # noqa: E402
-from hillchart.nets import load_nets  # noqa: E402
+from hillchart.nets.hill_nets import load_nets  # noqa: E402
 
 PLANT_FILE = FRANCIS_DIR.parent / "plant_hla339.toml"
 NETS = FRANCIS_DIR / "nets.json"
@@ -37,8 +37,8 @@ def test_linearize_at_plant_operating_point(capsys, model, order):
     assert lin["water_time_s"] == pytest.approx(inertance * op["flow_m3_s"] / op["head_m"], rel=1e-12)
     # the printed JSON is the typed record plant_linearization returns (one JSON function for both)
     from simulate.config import load_plant
-    from simulate.identification_results import to_json_dict
-    from simulate.linear_reference import plant_linearization
+    from simulate.identification.results import to_json_dict
+    from simulate.linear.reference import plant_linearization
 
     record = plant_linearization(load_plant(PLANT_FILE), load_nets(NETS), initial_opening=0.68, penstock_model=model)
     assert record.linear_model.arx.a == tuple(lin["arx"]["a"]) and record.operating_point.stroke == 0.68

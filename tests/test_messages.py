@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from hillchart.errors import InputError
-from hillchart.samples import load_chart
-from hillchart.tabular import read_table
-from simulate.measured import MEASURED_COLUMNS, OperatingPoint, RelativeSeries, load_measured_series
+from hillchart.io.samples import load_chart
+from hillchart.io.tabular import read_table
+from simulate.identification.measured import MEASURED_COLUMNS, OperatingPoint, RelativeSeries, load_measured_series
 from simulate.config import load_plant
 
 REPO = Path(__file__).resolve().parents[1]
@@ -185,7 +185,7 @@ def test_chart_range_and_duplicate_messages_name_file_lines_below_blank_lines(ch
 
 def test_plausibility_messages_name_file_lines_below_blank_lines(chart_copy):
     """The outlier check reports the point by its file line, blank lines counted (line 30 is data row 27)."""
-    from hillchart.extend import extend_samples
+    from hillchart.extension.extend import extend_samples
 
     path = chart_copy / "flow.csv"
 

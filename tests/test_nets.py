@@ -7,10 +7,10 @@ tests/test_nets_json.py.
 import numpy as np
 import pytest
 
-from hillchart import lm
+from hillchart.nets import lm
 from hillchart.characteristics import Characteristics, scalar_kernel
 from hillchart.errors import InputError
-from hillchart.nets import HillNet, HillNets, NetWeights, stratified_split, train_nets
+from hillchart.nets.hill_nets import HillNet, HillNets, NetWeights, stratified_split, train_nets
 
 
 def smooth_q11(n11, a):

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hillchart.extend import extend_samples
-from hillchart.nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
-from hillchart.samples import load_chart
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.extension.extend import extend_samples
+from hillchart.nets.hill_nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import SyntheticFrancis
 
 CHART = Path(__file__).resolve().parents[1] / "data_synthetic" / "francis"
 
@@ -122,7 +122,7 @@ def test_runaway_curve_of_the_nets_matches_the_turbine():
 
 
 def test_best_efficiency_point_matches_the_turbine():
-    from hillchart.chartplot import efficiency_from_characteristics
+    from hillchart.nets.chartplot import efficiency_from_characteristics
 
     nets = load_nets(CHART / "nets.json")
     turbine = SyntheticFrancis()

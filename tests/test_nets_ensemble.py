@@ -8,7 +8,7 @@ import pytest
 from data_synthetic import FRANCIS_DIR
 from hillchart.errors import InputError
 from hillchart.linearize import COEFFICIENT_NAMES, six_coefficients, six_coefficients_band
-from hillchart.nets import HillNets, load_nets
+from hillchart.nets.hill_nets import HillNets, load_nets
 
 SHIPPED = load_nets(FRANCIS_DIR / "nets.json")
 
@@ -108,9 +108,9 @@ def test_folder_and_byte_order_mark(tmp_path):
 
 
 def test_trust_map_is_wider_outside_the_digitized_region(tmp_path):
-    from hillchart import chartplot
-    from hillchart.nets import measured_region_mask
-    from hillchart.samples import load_chart
+    from hillchart.nets import chartplot
+    from hillchart.nets.hill_nets import measured_region_mask
+    from hillchart.io.samples import load_chart
 
     chart = load_chart(FRANCIS_DIR)
     N, A, width = chartplot.trust_map(SHIPPED, grid=41)

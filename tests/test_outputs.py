@@ -292,12 +292,12 @@ def test_extend_with_a_bad_plot_path_writes_nothing(tmp_path, capsys):
 
 def test_run_checks_out_before_simulating(tmp_path, capsys, monkeypatch):
     """Issue 14: `run` found an unusable --out only after the simulation."""
-    import simulate.engine
+    import simulate.loop.engine
 
     def never(*args, **kwargs):
         raise AssertionError("the simulation ran before --out was checked")
 
-    monkeypatch.setattr(simulate.engine, "run_simulation", never)
+    monkeypatch.setattr(simulate.loop.engine, "run_simulation", never)
     (tmp_path / "taken").write_text("a file")
     assert main(["run", str(PLANT), "--out", str(tmp_path / "taken")]) == 2
     assert "--out" in capsys.readouterr().err

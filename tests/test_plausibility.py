@@ -7,10 +7,10 @@ import pytest
 
 from data_synthetic import FRANCIS_DIR
 from hillchart.errors import InputError
-from hillchart.extend import extend_samples
-from hillchart.plausibility import check_chart
-from hillchart.samples import load_chart
-from hillchart.synthetic import FAMILY, DigitizationOptions, write_synthetic_chart
+from hillchart.extension.extend import extend_samples
+from hillchart.extension.plausibility import check_chart
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import FAMILY, DigitizationOptions, write_synthetic_chart
 from hillsim.cli import main
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from data_synthetic import FRANCIS_DIR
 from hillchart.errors import InputError
-from hillchart.samples import load_chart
+from hillchart.io.samples import load_chart
 
 CHART_FILES = ("chart.toml", "flow.csv", "efficiency.csv", "runaway.csv")
 

@@ -9,13 +9,13 @@ import pytest
 from hillchart.errors import InputError
 from hillsim.commands.identify import has_quiet_tail, review_summary
 from simulate.config import load_plant
-from simulate.experiment import ExperimentSettings
-from simulate.identification_results import (ArxEstimate, ArxResults, ArxStructure, CoefficientSet,
+from simulate.identification.experiment import ExperimentSettings
+from simulate.identification.results import (ArxEstimate, ArxResults, ArxStructure, CoefficientSet,
                                              IdentificationSummary, ResidualRms, SimulationModeError,
                                              SixCoefficientResult, to_json_dict)
-from simulate.identification_tables import markdown_tables
-from simulate.measured import MEASURED_COLUMNS, OperatingPoint, load_measured_series
-from simulate.series_checks import (check_against_plant, check_measured_table, check_time, hampel_outliers,
+from simulate.identification.tables import markdown_tables
+from simulate.identification.measured import MEASURED_COLUMNS, OperatingPoint, load_measured_series
+from simulate.identification.series_checks import (check_against_plant, check_measured_table, check_time, hampel_outliers,
                                     small_signal_warning)
 
 REPO = Path(__file__).resolve().parents[1]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hillsim.cli import main
-from simulate.result import CSV_COLUMNS
+from simulate.results.result import CSV_COLUMNS
 
 PLANT_FILE = str(resources.files("data_synthetic") / "plant_hla339.toml")
 SUMMARY_KEYS = ("max_speed_rise", "t_max_speed_s", "max_head_rise", "min_head_drop", "final_speed_error",

@@ -199,7 +199,7 @@ def test_courant_condition_for_moc(raw):
 
 def test_wave_speed_adjustment_limit(raw):
     from simulate.config import PenstockConfig, PenstockSegment
-    from simulate.penstock import build_moc_grid
+    from simulate.components.hydraulic.penstock import build_moc_grid
     pen = PenstockConfig(model="moc", static_head_m=100.0, reaches=1, segments=(
         PenstockSegment(length_m=100.0, diameter_m=2.0, wave_speed_m_s=1000.0, darcy_friction=0.0),
         PenstockSegment(length_m=140.0, diameter_m=2.0, wave_speed_m_s=1000.0, darcy_friction=0.0)))

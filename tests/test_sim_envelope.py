@@ -9,11 +9,11 @@ import pytest
 
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
-from hillchart.nets import load_nets
+from hillchart.nets.hill_nets import load_nets
 from simulate.config import load_plant, plant_from_dict, to_dict
-from simulate.domain import convex_hull, inside_hull, point_warnings, trusted_domain
-from simulate.engine import run_simulation
-from simulate.envelope import VAPOUR_PRESSURE_HEAD_M, envelope_table
+from simulate.loop.domain import convex_hull, inside_hull, point_warnings, trusted_domain
+from simulate.loop.engine import run_simulation
+from simulate.results.envelope import VAPOUR_PRESSURE_HEAD_M, envelope_table
 
 DATA = Path(__file__).parent / "data"
 
@@ -172,9 +172,9 @@ def test_start_with_negative_power_or_outside_the_training_range_is_an_error(net
     with pytest.raises(InputError, match=r"scenario\.initial_power_mw = 225\.0 is outside the power range"):
         run_simulation(load_plant(PLANT_HLA339, {"turbine.rated_speed_rpm": 380.0}), characteristics=nets)
     # positive power but N11 above the training range (nets declared up to 70 r/min, start at 67.8 * 380/200)
-    from simulate.guards import check_initial_state
-    from simulate.domain import TrustedDomain
-    from simulate.engine import initial_state
+    from simulate.loop.guards import check_initial_state
+    from simulate.loop.domain import TrustedDomain
+    from simulate.loop.engine import initial_state
 
     plant = load_plant(PLANT_HLA339)
     steady = initial_state(plant, nets)
@@ -209,7 +209,7 @@ def test_linearize_warns_outside_the_domain(capsys):
 
 def test_extrapolation_warning_prints_no_subnormal_openings():
     """Issue 13 float noise: a servo closing exponentially leaves openings like 1.1e-109; the warning says 0."""
-    from simulate.domain import extrapolation_warnings
+    from simulate.loop.domain import extrapolation_warnings
 
     entry = {"fraction_of_time": 0.9, "first_time_s": 5.47, "n11_min": 82.27, "n11_max": 106.7,
              "opening_min": 1.1e-109, "opening_max": 12.49, "stroke_max": 0.39}

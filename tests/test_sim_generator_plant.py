@@ -14,8 +14,8 @@ import pytest
 from data_synthetic import PLANT_HLA339, PLANT_HLA339_GRID
 from hillchart.errors import InputError, NumericalError
 from simulate.config import load_plant, plant_from_dict, to_dict
-from simulate.engine import run_simulation
-from simulate.generator import (classical_short_circuit_current, field_step_test, frequency_recovery_time,
+from simulate.loop.engine import run_simulation
+from simulate.components.electrical.generator import (classical_short_circuit_current, field_step_test, frequency_recovery_time,
                                 short_circuit_test)
 
 IDEAL = {"turbine.characteristics": "ideal"}
@@ -278,7 +278,7 @@ def test_compiled_loop_equals_pure_python_with_numba_disabled(tmp_path):
         "import sys, numpy as np\n"
         "from data_synthetic import PLANT_HLA339_GRID\n"
         "from simulate.config import load_plant\n"
-        "from simulate.engine import run_simulation\n"
+        "from simulate.loop.engine import run_simulation\n"
         "p = load_plant(PLANT_HLA339_GRID, {'turbine.characteristics': 'ideal', 'scenario.t_end_s': 1.0,\n"
         "               'scenario.event_time_s': 0.3})\n"
         "r = run_simulation(p)\n"
@@ -356,9 +356,9 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
 
 
 def test_linear_models_take_the_islands_self_regulation_and_refuse_the_infinite_bus():
-    from simulate.linear_reference import linear_reference
+    from simulate.linear.reference import linear_reference
     from simulate.config import load_characteristics
-    from simulate.engine import initial_state
+    from simulate.loop.engine import initial_state
 
     sub = grid_plant(**{"grid.frequency_p": 1.5})
     chars = load_characteristics(sub.turbine)

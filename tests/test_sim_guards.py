@@ -14,7 +14,7 @@ import pytest
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
 from simulate.config import load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 IDEAL = {"turbine.characteristics": "ideal"}

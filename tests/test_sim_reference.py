@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from data_synthetic import PLANT_HLA339
-from hillchart.nets import load_nets
+from hillchart.nets.hill_nets import load_nets
 from simulate.config import load_plant
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 DATA = Path(__file__).parent / "data"
 #: 1e-12 relative: the issue's bound. Round-off of a reordered but equivalent sum is ~1e-15 per operation and the

@@ -5,10 +5,10 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.synthetic.francis import SyntheticFrancis
 from simulate.config import load_plant
-from simulate.engine import run_simulation
-from simulate.governor import closure_law, governor_step, piecewise_linear
+from simulate.loop.engine import run_simulation
+from simulate.components.control.governor import closure_law, governor_step, piecewise_linear
 
 PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
 FRANCIS = SyntheticFrancis()
@@ -112,7 +112,7 @@ def test_shipped_plant_with_its_nets_rejects_load_and_returns_to_rated_speed():
     # vanes shut only disc friction brakes the runner, so at 120 s the unit is still decelerating. The final speed
     # must be the exact synthetic turbine's (measured: both 0.2207 above rated); the nets' runaway/no-load region
     # decides it, so a wrong zero-opening boundary fails here.
-    from hillchart.synthetic import SyntheticFrancis
+    from hillchart.synthetic.francis import SyntheticFrancis
 
     plant = load_plant(PLANT_FILE, {"scenario.t_end_s": 120.0})
     r = run_simulation(plant)

@@ -27,7 +27,7 @@ def _modules_after(code: str, tmp_path, env_extra=None) -> dict:
 def test_simulating_with_ideal_characteristics_imports_no_torch_scipy_signal_or_matplotlib(tmp_path):
     loaded = _modules_after(
         "from data_synthetic import PLANT_HLA339\n"
-        "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
+        "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"
         "r = run_simulation(load_plant(PLANT_HLA339, {'turbine.characteristics': 'ideal', 'scenario.t_end_s': 3.0}))\n"
         "r.summary()\n", tmp_path)
     assert loaded == {"torch": False, "scipy.signal": False, "matplotlib": False}
@@ -40,11 +40,11 @@ def test_the_same_check_sees_an_import(tmp_path):
 
 
 def test_simulating_and_linearizing_with_the_shipped_nets_import_no_torch(tmp_path):
-    """Needs the nets branch (issue 9: hillchart.nets evaluates without importing torch); fails before that merge."""
+    """Needs the nets branch (issue 9: hillchart.nets.hill_nets evaluates without importing torch); fails before that merge."""
     loaded = _modules_after(
         "from data_synthetic import PLANT_HLA339\n"
-        "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
-        "from simulate.linear_reference import plant_linearization\n"
+        "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"
+        "from simulate.linear.reference import plant_linearization\n"
         "plant = load_plant(PLANT_HLA339, {'scenario.t_end_s': 3.0})\n"
         "run_simulation(plant).summary()\nplant_linearization(plant)\n", tmp_path)
     assert not loaded["torch"] and not loaded["scipy.signal"], loaded
@@ -54,7 +54,7 @@ def test_second_run_loads_the_loop_from_the_disk_cache(tmp_path):
     """Everything compiled is cached: in a second process numba compiles nothing (no cache miss anywhere)."""
     code = (
         "from data_synthetic import PLANT_HLA339\n"
-        "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
+        "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"
         "import numba.core.dispatcher as d\n"
         "misses = []\n"
         "orig = d.Dispatcher._compile_for_args\n"
@@ -80,8 +80,8 @@ def test_second_run_loads_the_loop_from_the_disk_cache(tmp_path):
 
 def test_identification_imports_no_torch_scipy_signal_or_matplotlib(tmp_path):
     loaded = _modules_after(
-        "import numpy as np\nimport simulate.identification\n"
-        "from simulate.identify import RecursiveLeastSquares, SixCoefficientLeastSquares\n"
+        "import numpy as np\nimport simulate.identification.compare\n"
+        "from simulate.identification.estimators import RecursiveLeastSquares, SixCoefficientLeastSquares\n"
         "rng = np.random.default_rng(0)\n"
         "RecursiveLeastSquares().fit(rng.normal(size=(50, 2)), rng.normal(size=50))\n"
         "SixCoefficientLeastSquares().fit(rng.normal(size=(50, 3)), rng.normal(size=(50, 2)))\n", tmp_path)

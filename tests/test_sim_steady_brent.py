@@ -1,4 +1,4 @@
-"""simulate.steady.brentq: scipy.optimize.brentq's algorithm without importing scipy.optimize (issue 10, section 3).
+"""simulate.loop.steady.brentq: scipy.optimize.brentq's algorithm without importing scipy.optimize (issue 10, section 3).
 
 The port must return scipy's root to the bit (the steady state, and so the stored reference run, depends on it),
 take the same number of function calls, and fail where scipy fails.
@@ -13,7 +13,7 @@ import pytest
 from scipy.optimize import brentq as scipy_brentq
 
 from hillchart.errors import InputError, NumericalError
-from simulate.steady import brentq
+from simulate.loop.steady import brentq
 
 CASES = [
     (lambda x: x * x - 2.0, 0.0, 2.0),
@@ -65,9 +65,9 @@ def test_steady_state_of_the_shipped_plant_is_unchanged():
     """The shipped plant's steady state with the port equals the one scipy's brentq gives (same head and stroke)."""
     import importlib.resources as ir
 
-    import simulate.steady as steady
+    import simulate.loop.steady as steady
     from simulate.config import load_characteristics, load_plant
-    from simulate.engine import initial_state
+    from simulate.loop.engine import initial_state
 
     plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml")
     chars = load_characteristics(plant.turbine, plant.base_dir)

@@ -14,7 +14,7 @@ from data_synthetic import PLANT_HLA339
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError, NumericalError
 from simulate.config import load_plant, plant_from_dict, to_dict
-from simulate.engine import run_simulation
+from simulate.loop.engine import run_simulation
 
 SURGE_PLANT = Path(PLANT_HLA339).parent / "plant_hla339_surge_tank.toml"
 #: the issue's section, spelled as in the contract

@@ -9,10 +9,10 @@ from scipy.linalg import expm
 
 from hillchart.characteristics import IdealTurbine, scalar_kernel
 from hillchart.constants import G_M_S2
-from hillchart.synthetic import SyntheticFrancis
+from hillchart.synthetic.francis import SyntheticFrancis
 from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, PenstockSegment, PlantConfig,
                              ScenarioConfig, SolverConfig, TurbineConfig, load_characteristics, load_plant)
-from simulate.engine import initial_state, run_simulation
+from simulate.loop.engine import initial_state, run_simulation
 
 PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
 #: Opening step of the linearization check (stroke fraction; 0.16 mm of 32 mm on the synthetic turbine).

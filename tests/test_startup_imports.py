@@ -80,9 +80,9 @@ def test_run_help_imports_no_other_command_and_no_numpy(tmp_path):
 
 
 def test_a_run_imports_no_scipy_optimize(tmp_path):
-    """The steady state uses simulate.steady.brentq (scipy's algorithm, ported), not scipy.optimize."""
+    """The steady state uses simulate.loop.steady.brentq (scipy's algorithm, ported), not scipy.optimize."""
     code = ("from data_synthetic import PLANT_HLA339\n"
-            "from simulate.config import load_plant\nfrom simulate.engine import run_simulation\n"
+            "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"
             "run_simulation(load_plant(PLANT_HLA339, {'turbine.characteristics': 'ideal', "
             "'scenario.t_end_s': 3.0})).summary()\n")
     assert _modules_after(code, ["scipy.optimize"], tmp_path) == {"scipy.optimize": False}
@@ -94,8 +94,8 @@ def test_few_point_net_evaluation_is_the_compiled_kernel_to_the_bit():
     kernel's values exactly (same operations in the same order, libm's exp either way)."""
     import numpy as np
 
-    from hillchart import nets
-    from hillchart.nets import load_nets
+    from hillchart.nets import hill_nets as nets
+    from hillchart.nets.hill_nets import load_nets
 
     flow = load_nets(ROOT / "data_synthetic" / "francis" / "nets.json").flow
     rng = np.random.default_rng(3)
@@ -109,7 +109,7 @@ def test_few_point_net_evaluation_is_the_compiled_kernel_to_the_bit():
 def test_linearizing_one_point_loads_nothing_compiled(tmp_path):
     """numba's first cache load initialises its compiler (it imports numba.np.arraymath, about half a second);
     ``hillsim linearize`` at one point does not need it."""
-    code = ("from hillchart.nets import load_nets\nfrom hillchart.linearize import six_coefficients\n"
+    code = ("from hillchart.nets.hill_nets import load_nets\nfrom hillchart.linearize import six_coefficients\n"
             f"nets = load_nets({str(ROOT / 'data_synthetic' / 'francis' / 'nets.json')!r})\n"
             "six_coefficients(nets, n11=67.8, opening=23.46)\n")
     assert _modules_after(code, ["numba.np.arraymath"], tmp_path) == {"numba.np.arraymath": False}
@@ -123,7 +123,7 @@ def test_linearizing_one_point_loads_nothing_compiled(tmp_path):
 def short_result():
     from data_synthetic import PLANT_HLA339
     from simulate.config import load_plant
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     return run_simulation(load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 4.0}))
 
@@ -131,7 +131,7 @@ def short_result():
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 def test_figure_process_draws_the_same_pngs_as_this_process(tmp_path, short_result):
     from hillsim.commands.run import FigureProcess
-    from simulate.envelope import plot_envelope
+    from simulate.results.envelope import plot_envelope
 
     figures = FigureProcess()
     assert figures.pid is not None

@@ -1,4 +1,4 @@
-"""hillsim sweep / simulate.sweep: --vary parsing, cases.csv, results.csv, Dask equals local, garbage refused."""
+"""hillsim sweep / simulate.studies.sweep: --vary parsing, cases.csv, results.csv, Dask equals local, garbage refused."""
 
 import csv
 import io
@@ -12,7 +12,7 @@ from hillchart.errors import InputError
 from hillsim.cli import main
 from hillsim.commands.sweep import Progress
 from simulate.config import load_plant
-from simulate.sweep import DASK_MISSING, build_variants, cartesian, parse_vary, run_batch_dask, run_sweep
+from simulate.studies.sweep import DASK_MISSING, build_variants, cartesian, parse_vary, run_batch_dask, run_sweep
 
 PLANT = str(PLANT_HLA339)
 SHORT = ["--set", "scenario.t_end_s=5"]  # 5 s of the shipped plant: rejection at 2 s, 3 s of transient
@@ -133,7 +133,7 @@ def test_sweep_cli_writes_one_row_per_case_with_failures_as_rows(tmp_path, capsy
     for column in ("max_speed_rise", "max_head_m", "min_head_m", "min_pressure_head_m", "extrapolated", "status"):
         assert column in rows[0]
     # the row equals the single run of the same plant (same code path: exact)
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
     single = run_simulation(load_plant(PLANT_HLA339, {"scenario.t_end_s": 5.0, "governor.closing_time_s": 8.0,
                                                       "scenario.initial_power_mw": 225.0})).summary()
     assert float(rows[3]["max_speed_rise"]) == single["max_speed_rise"]
@@ -194,11 +194,11 @@ def test_sweep_cli_on_dask_equals_the_local_sweep(tmp_path, monkeypatch, capsys)
     pytest.importorskip("dask.distributed")
     import functools
 
-    import simulate.sweep
+    import simulate.studies.sweep
 
     # threads of this process instead of worker processes (each would compile the loop: seconds per worker)
-    monkeypatch.setattr(simulate.sweep, "run_batch_dask",
-                        functools.partial(simulate.sweep.run_batch_dask, processes=False))
+    monkeypatch.setattr(simulate.studies.sweep, "run_batch_dask",
+                        functools.partial(simulate.studies.sweep.run_batch_dask, processes=False))
     args = ["--vary", "governor.closing_time_s=8:12:3", "--vary", "governor.kp=1.5,2.5", *SHORT, "--no-plot"]
     assert main(["sweep", PLANT, "--out", str(tmp_path / "local"), *args]) == 0
     assert main(["sweep", PLANT, "--out", str(tmp_path / "dask"), "--scheduler", "dask", "--workers", "2",

@@ -9,7 +9,7 @@ import pytest
 from data_synthetic import FRANCIS_DIR
 from hillchart.characteristics import Characteristics
 from hillchart.errors import InputError
-from hillchart.synthetic import FrancisParameters, SyntheticFrancis, write_synthetic_chart
+from hillchart.synthetic.francis import FrancisParameters, SyntheticFrancis, write_synthetic_chart
 from tests.chart_files import CHART_FILES, assert_chart_matches, assert_csv_matches
 
 TURBINE = SyntheticFrancis()
@@ -50,7 +50,7 @@ def test_zero_opening_is_closed_and_brakes():
 
 
 def test_rated_point_inside_chart():
-    from hillchart.samples import load_chart
+    from hillchart.io.samples import load_chart
 
     chart = load_chart(FRANCIS_DIR)
     assert chart.flow_n11.min() < RATED_N11 < chart.flow_n11.max()
@@ -119,7 +119,7 @@ def test_other_seed_changes_only_the_noise(tmp_path):
 
 
 def test_chart_sizes_meet_the_issue():
-    from hillchart.samples import load_chart
+    from hillchart.io.samples import load_chart
 
     chart = load_chart(FRANCIS_DIR)
     assert chart.openings.size >= 8
@@ -159,7 +159,7 @@ def test_compiled_kernel_is_the_same_model():
 def test_simulation_with_the_exact_turbine_is_compiled_and_equals_the_python_loop():
     from data_synthetic import PLANT_HLA339
     from simulate.config import load_plant
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 4.0,
                                       "scenario.event_time_s": 1.0})

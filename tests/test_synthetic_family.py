@@ -11,8 +11,8 @@ from scipy.optimize import minimize
 from data_synthetic import FRANCIS_DIR
 from tests.chart_files import assert_chart_matches
 from hillchart.errors import InputError
-from hillchart.samples import load_chart
-from hillchart.synthetic import FAMILY, DigitizationOptions, write_synthetic_chart
+from hillchart.io.samples import load_chart
+from hillchart.synthetic.francis import FAMILY, DigitizationOptions, write_synthetic_chart
 from hillsim.cli import main
 
 

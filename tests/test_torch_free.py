@@ -14,9 +14,9 @@ SCRIPT = textwrap.dedent(
     import sys
     import numpy as np
     from data_synthetic import FRANCIS_DIR
-    from hillchart.nets import HillNet, NetWeights, load_nets
+    from hillchart.nets.hill_nets import HillNet, NetWeights, load_nets
     from hillchart.linearize import six_coefficients, coefficient_maps
-    from hillchart.chartplot import efficiency_from_characteristics
+    from hillchart.nets.chartplot import efficiency_from_characteristics
     nets = load_nets(FRANCIS_DIR / "nets.json")
     n, a = np.meshgrid(np.linspace(50, 90, 5), np.linspace(12, 30, 4))
     assert np.all(np.isfinite(nets.q11(n, a))) and np.all(np.isfinite(nets.m11_grad(n, a)[0]))

@@ -7,16 +7,16 @@ import pytest
 
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339
 from hillchart.errors import InputError
-from hillchart.nets import HillNets, load_nets
+from hillchart.nets.hill_nets import HillNets, load_nets
 from hillsim.cli import main
 from simulate.config import load_plant
-from simulate import uncertainty
+from simulate.studies import uncertainty
 
 SHORT = {"scenario.t_end_s": 8.0}  # the speed and head peaks of the load rejection come within 8 s
 
 
 def test_band_over_the_members_costs_one_run_each(monkeypatch):
-    import simulate.engine as engine
+    import simulate.loop.engine as engine
 
     calls = []
     real = engine.run_simulation
@@ -73,7 +73,7 @@ def test_trace_band_is_drawn_on_the_transient_figure(tmp_path):
     # its peak speed band is the summary band of max speed rise (same runs, same percentiles)
     speed0 = traces.low["speed_rpm"][0]
     assert np.max(traces.high["speed_rpm"]) / speed0 - 1 == pytest.approx(band["max_speed_rise"]["high"], abs=0.01)
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     result = run_simulation(plant)
     fig = result.plot(tmp_path / "t.png", band=traces)

@@ -26,15 +26,15 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hillchart.chartplot import chart_figure
-    from hillchart.nets import load_nets
+    from hillchart.nets.chartplot import chart_figure
+    from hillchart.nets.hill_nets import load_nets
 
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place at the end
     nets = load_nets(args.nets)
     chart = extended = None
     if args.samples is not None:
-        from hillchart.extend import extend_samples
-        from hillchart.samples import load_chart
+        from hillchart.extension.extend import extend_samples
+        from hillchart.io.samples import load_chart
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _recorded_options(nets):
     """The extension options recorded by ``hillsim train`` (defaults when the record has none)."""
-    from hillchart.extend import ExtensionOptions
+    from hillchart.extension.extend import ExtensionOptions
 
     if "extension" not in nets.training:
         return ExtensionOptions()

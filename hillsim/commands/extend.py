@@ -7,7 +7,7 @@ import warnings
 
 
 def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of :class:`hillchart.extend.ExtensionOptions` (shared by ``extend`` and ``train``)."""
+    """The options of :class:`hillchart.extension.extend.ExtensionOptions` (shared by ``extend`` and ``train``)."""
     group = parser.add_argument_group("extension (BP hill-chart paper, sections 2.1 and 2.6)")
     group.add_argument("--no-runaway", action="store_true", help="do not add the runaway boundary")
     group.add_argument("--no-zero-opening", action="store_true", help="do not add the zero-opening boundary")
@@ -24,7 +24,7 @@ def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def extension_options(args: argparse.Namespace):
-    from hillchart.extend import ExtensionOptions
+    from hillchart.extension.extend import ExtensionOptions
 
     return ExtensionOptions(
         runaway=not args.no_runaway,
@@ -37,11 +37,11 @@ def extension_options(args: argparse.Namespace):
 
 
 def load_chart_reporting_warnings(folder, boundaries: str = "polynomial"):
-    """:func:`hillchart.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``.
+    """:func:`hillchart.io.samples.load_chart`, printing its warnings (e.g. no runaway.csv) as ``warning: ...``.
 
     With ``boundaries="model"`` a missing runaway.csv is no warning: the fitted turbine model gives the runaway
     samples (a note says so)."""
-    from hillchart.samples import load_chart
+    from hillchart.io.samples import load_chart
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -68,7 +68,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hillchart.extend import extend_samples
+    from hillchart.extension.extend import extend_samples
 
     out, plot = args.outputs.file("--out", args.out), args.outputs.file("--plot", args.plot)  # checked first
     options = extension_options(args)

@@ -57,7 +57,7 @@ def _split(text: str) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
-    from hillchart.fccm import (FCCMNet, analyse_fccm, format_grey_relational_table, load_test_table,
+    from hillchart.fccm.core import (FCCMNet, analyse_fccm, format_grey_relational_table, load_test_table,
                                 read_truth_csv)
 
     inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.output_columns)

@@ -3,7 +3,7 @@
 Runs the nonlinear simulator in open loop around the plant's operating point (opening steps and a seeded PRBS,
 sampled at tau), identifies the six coefficients (batch least squares) and the ARX speed model (RLS, RLS with
 forgetting, dead-zone RLS), and compares them with the nets' analytic coefficients and the zero-order hold of the
-linear model they imply (:mod:`simulate.identification`). Writes ``identification.json``, ``identified_series.csv`` and
+linear model they imply (:mod:`simulate.identification.compare`). Writes ``identification.json``, ``identified_series.csv`` and
 figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured series instead.
 """
 
@@ -63,7 +63,7 @@ def register(subparsers) -> None:
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
     est.add_argument("--arx", choices=("zoh", "paper"), default="zoh",
                      help="ARX structure: exact zero-order hold (default) or paper 000 eq. (53) as printed")
-    grid = parser.add_argument_group("paper 000 head model and closed loop (simulate.head_model)")
+    grid = parser.add_argument_group("paper 000 head model and closed loop (simulate.identification.head_model)")
     grid.add_argument("--head-model", choices=("interval", "paper"), default=None,
                       help="also learn the head ARX (eqs. 60-61) and the speed/head/flow estimates (eqs. 62-68): "
                            "head_model.json, head_model.png")
@@ -83,7 +83,7 @@ def _exact(choice: str, plant):
     """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics."""
     if choice == "none":
         return None
-    from simulate.components import resolve_characteristics
+    from simulate.loop.registry import resolve_characteristics
 
     if choice == "synthetic":
         return resolve_characteristics("synthetic")
@@ -101,12 +101,12 @@ def _exact(choice: str, plant):
 
 def run(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
-    from simulate.experiment import ExperimentSettings
-    from simulate.identification import compare_identification, identify_measured
-    from simulate.identification_tables import markdown_tables
-    from simulate.measured import load_measured_series
+    from simulate.identification.experiment import ExperimentSettings
+    from simulate.identification.compare import compare_identification, identify_measured
+    from simulate.identification.tables import markdown_tables
+    from simulate.identification.measured import load_measured_series
 
-    from simulate.head_model import check_closed_loop_options
+    from simulate.identification.head_model import check_closed_loop_options
 
     check_closed_loop_options(args.closed_loop_kp, args.closed_loop_ti)  # before anything is written
     out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
@@ -123,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     if args.data is not None:
         if args.penstock_model is not None or args.initial_opening is not None:
             raise InputError("--penstock-model and --initial-opening apply to the simulated experiment, not to --data")
-        from simulate.series_checks import check_against_plant
+        from simulate.identification.series_checks import check_against_plant
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -152,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     progress.start("writing identification.json, the series" + ("" if args.no_plot else " and the figures"))
     paths = report.write(out, plot=not args.no_plot)
     if args.head_model is not None or args.closed_loop_kp is not None:
-        from simulate.head_model import write_head_and_closed_loop
+        from simulate.identification.head_model import write_head_and_closed_loop
 
         paths.update(write_head_and_closed_loop(report, plant, out, head_structure=args.head_model,
                                                 closed_loop_kp=args.closed_loop_kp, closed_loop_ti=args.closed_loop_ti))
@@ -188,11 +188,11 @@ def review_summary(summary, series, settings):
 
     Parameters
     ----------
-    summary : simulate.identification_results.IdentificationSummary
-    series : simulate.measured.RelativeSeries
-    settings : simulate.experiment.ExperimentSettings
+    summary : simulate.identification.results.IdentificationSummary
+    series : simulate.identification.measured.RelativeSeries
+    settings : simulate.identification.experiment.ExperimentSettings
     """
-    from simulate.series_checks import small_signal_warning
+    from simulate.identification.series_checks import small_signal_warning
 
     notes = []
     signal = small_signal_warning(series)

@@ -18,9 +18,9 @@ from hillsim import progress
 
 def load_characteristics(source: str, plant=None):
     """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
-    (:func:`simulate.components.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
+    (:func:`simulate.loop.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
     ``--plant``: the ideal turbine from the plant's rated values)."""
-    from simulate.components import resolve_characteristics
+    from simulate.loop.registry import resolve_characteristics
 
     characteristics = resolve_characteristics(source, turbine=plant.turbine if plant is not None else None,
                                               key="NETS")
@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from simulate.domain import point_warnings  # issue 10 section 4: never extrapolate silently
+    from simulate.loop.domain import point_warnings  # issue 10 section 4: never extrapolate silently
 
     domain_dir = None if args.nets == "synthetic" else Path(args.nets).parent
     warnings = point_warnings(characteristics, record["n11_rpm"], args.opening, chart_dir=domain_dir)
@@ -149,8 +149,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_plant(args) -> int:
     from simulate.config import load_plant
-    from simulate.identification_results import to_json_dict
-    from simulate.linear_reference import plant_linearization
+    from simulate.identification.results import to_json_dict
+    from simulate.linear.reference import plant_linearization
 
     if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
         raise InputError("with --plant the operating point comes from the plant (use --stroke to choose it); "

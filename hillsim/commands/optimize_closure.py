@@ -57,7 +57,7 @@ def plot_outputs(opt, plant, load_cases, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
-    from simulate.governor import closure_law
+    from simulate.components.control.governor import closure_law
 
     fig, ax = plt.subplots(figsize=(7, 5))
     lin = [g for g in opt.linear_family if g.feasible_runs]
@@ -112,8 +112,8 @@ def verify(opt, plant, load_cases, out: Path) -> list[dict]:
     """Run the optimum of each load case through ``hillsim run`` (a written plant file) and compare its
     summary.json with the batch record (nets of the plant, member 0)."""
     from hillsim.cli import main
-    from simulate.batch import variant_overrides
-    from simulate.studies import plant_toml
+    from simulate.studies.batch import variant_overrides
+    from simulate.studies.cases import plant_toml
 
     rows = []
     for i, lc in enumerate(load_cases):
@@ -136,9 +136,9 @@ def verify(opt, plant, load_cases, out: Path) -> list[dict]:
 
 
 def optimize_command(args: argparse.Namespace) -> int:
-    from simulate.closure_opt import closure_plant, optimize_closure
+    from simulate.studies.closure_opt import closure_plant, optimize_closure
     from simulate.config import load_characteristics, parse_override
-    from simulate.studies import load_ensemble, load_study, plant_toml
+    from simulate.studies.cases import load_ensemble, load_study, plant_toml
 
     for name in ("maxiter", "popsize", "workers"):
         value = getattr(args, name)
@@ -209,11 +209,11 @@ def optimize_command(args: argparse.Namespace) -> int:
                                             "break_time_s": opt.bounds[2]},
         "differential_evolution": opt.de_message,
     }
-    from hillchart.tidy import tidy_floats
+    from hillchart.io.tidy import tidy_floats
 
     # 12 significant digits like every summary.json, so the verification runs' files match these numbers exactly
     (out / "closure.json").write_text(json.dumps(tidy_floats(doc), indent=2) + "\n", encoding="utf-8")
-    from simulate.batch import variant_overrides
+    from simulate.studies.batch import variant_overrides
     worst = max(range(len(study.load_cases)), key=lambda i: getattr(law.cases[i], doc["objective"]))
     (out / "optimum_plant.toml").write_text(
         plant_toml(plant.with_overrides(variant_overrides({**study.load_cases[worst].overrides,

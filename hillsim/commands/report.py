@@ -51,10 +51,10 @@ class Verdict(Value):
 
 def read_envelope(result) -> dict | None:
     """The head envelope of a run as ``{position_m, max_head_m, min_head_m[, min_pressure_head_m]}`` lists (from
-    :func:`simulate.envelope.envelope_table`), or None when the run has no envelope (a lumped or rigid penstock)."""
+    :func:`simulate.results.envelope.envelope_table`), or None when the run has no envelope (a lumped or rigid penstock)."""
     if getattr(result, "envelope_max_m", None) is None:
         return None
-    from simulate.envelope import envelope_table
+    from simulate.results.envelope import envelope_table
 
     table = envelope_table(result)
     out = {"position_m": [float(v) for v in table["x_m"]], "max_head_m": [float(v) for v in table["head_max_m"]],
@@ -65,7 +65,7 @@ def read_envelope(result) -> dict | None:
 
 
 def _hash(path: Path) -> str:
-    from simulate.studies import file_sha256
+    from simulate.studies.cases import file_sha256
     return file_sha256(path)
 
 
@@ -183,7 +183,7 @@ def plot_hill_chart_with_runs(chars, plant, runs, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from hillchart.chartplot import plot_hill_chart
+    from hillchart.nets.chartplot import plot_hill_chart
 
     d1 = plant.turbine.runner_diameter_m
     traj = []
@@ -230,7 +230,7 @@ def plot_envelope(envelopes, path: Path) -> None:
 
 
 def _case_json(case, lc, verdicts, folder: str) -> dict:
-    from simulate.batch import extrapolation_kinds
+    from simulate.studies.batch import extrapolation_kinds
 
     return {"name": lc.name, "overrides": lc.overrides, "status": case.status, "error": case.error,
             "max_speed_rise": case.max_speed_rise, "max_speed_rpm": case.max_speed_rpm,
@@ -247,10 +247,10 @@ def _case_json(case, lc, verdicts, folder: str) -> dict:
 def build_report(args) -> tuple[dict, Path]:
     """Run the cases, write the per-case files and figures; return (report.json document, out dir)."""
     import hillsim
-    from simulate.batch import case_from_result, nets_domain, variant_overrides
+    from simulate.studies.batch import case_from_result, nets_domain, variant_overrides
     from simulate.config import load_characteristics, parse_override
-    from simulate.engine import run_simulation
-    from simulate.studies import load_study
+    from simulate.loop.engine import run_simulation
+    from simulate.studies.cases import load_study
 
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
@@ -475,7 +475,7 @@ def _esc(text: str) -> str:
 
 
 def report_command(args: argparse.Namespace) -> int:
-    from hillchart.tidy import tidy_floats
+    from hillchart.io.tidy import tidy_floats
 
     report, out = build_report(args)
     report = tidy_floats(report)  # the same rounding as each run's summary.json, so the numbers match exactly

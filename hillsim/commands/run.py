@@ -74,7 +74,7 @@ class FigureProcess:
                 if job:
                     import pickle
 
-                    from simulate.envelope import plot_envelope
+                    from simulate.results.envelope import plot_envelope
 
                     result, transient_png, envelope_png, band = pickle.loads(job)
                     result.plot(transient_png, band=band)
@@ -116,7 +116,7 @@ class FigureProcess:
             # the child failed (its traceback is kept in ``failure``): draw here, so that the error, if it is one
             # (e.g. an unwritable file), is raised with its own type for the CLI's message
             self.failure = answer.decode("utf-8", "replace")
-        from simulate.envelope import plot_envelope
+        from simulate.results.envelope import plot_envelope
 
         result.plot(transient_png, band=band)
         plot_envelope(result, envelope_png)
@@ -155,8 +155,8 @@ def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigurePr
     """Every file of a run, in one place: timeseries.csv, envelope.csv, the figures, summary.json last.
 
     ``figures``: a :class:`FigureProcess` started earlier (the figures are then drawn there; default: here).
-    ``band``: the ensemble's :class:`simulate.uncertainty.TraceBand`, drawn on transient.png."""
-    from simulate.envelope import plot_envelope, write_envelope_csv
+    ``band``: the ensemble's :class:`simulate.studies.uncertainty.TraceBand`, drawn on transient.png."""
+    from simulate.results.envelope import plot_envelope, write_envelope_csv
 
     written = [result.to_csv(out / "timeseries.csv"), write_envelope_csv(result, out / "envelope.csv")]
     if plot:
@@ -172,7 +172,7 @@ def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigurePr
 
 def run_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
-    from simulate.engine import run_simulation
+    from simulate.loop.engine import run_simulation
 
     out = args.outputs.folder("--out", args.out, stale=("transient.png", "envelope.png"))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
@@ -193,7 +193,7 @@ def run_command(args: argparse.Namespace) -> int:
         progress.done()
         ensemble = None
         if getattr(args, "uncertainty", False) and result.success:
-            from simulate.uncertainty import run_ensemble
+            from simulate.studies.uncertainty import run_ensemble
 
             progress.start("simulating once per ensemble member")
             ensemble = run_ensemble(plant)  # (summary band, trace band): N runs for N members
@@ -225,11 +225,11 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def _add_uncertainty(band: dict, summary_path: Path) -> None:
-    """The band of :func:`simulate.uncertainty.run_ensemble` goes into summary.json (and one line on stdout)."""
+    """The band of :func:`simulate.studies.uncertainty.run_ensemble` goes into summary.json (and one line on stdout)."""
     import json
 
     summary = json.loads(summary_path.read_text(encoding="utf-8"))
-    from hillchart.tidy import tidy_floats
+    from hillchart.io.tidy import tidy_floats
 
     summary["uncertainty"] = tidy_floats(band)
     summary_path.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -67,7 +67,7 @@ def parse_scheduler(values: list[str]) -> tuple[str, str | None]:
 
 def sweep_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
-    from simulate.sweep import build_variants, run_sweep, write_sweep
+    from simulate.studies.sweep import build_variants, run_sweep, write_sweep
 
     scheduler, address = parse_scheduler(args.scheduler)
     for name in ("workers", "chunk_size"):

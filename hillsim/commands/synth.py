@@ -13,7 +13,7 @@ import argparse
 def _francis_writer(name: str):
     def write(out_dir, args):
         from hillchart.errors import InputError
-        from hillchart.synthetic import DigitizationOptions, write_synthetic_chart
+        from hillchart.synthetic.francis import DigitizationOptions, write_synthetic_chart
 
         try:
             options = DigitizationOptions(
@@ -26,13 +26,13 @@ def _francis_writer(name: str):
             raise InputError(f"--{option} {str(exc).split(' ', 1)[1]}") from None
         return write_synthetic_chart(out_dir, seed=args.seed, turbine=name, options=options)
 
-    write.__doc__ = f"The synthetic Francis family member {name!r} (hillchart.synthetic.FAMILY)."
+    write.__doc__ = f"The synthetic Francis family member {name!r} (hillchart.synthetic.francis.FAMILY)."
     return write
 
 
 def _write_bulb(out_dir, args):
-    """The synthetic double-regulated bulb turbine's model-test table (hillchart.bulb)."""
-    from hillchart.bulb import write_bulb_table
+    """The synthetic double-regulated bulb turbine's model-test table (hillchart.synthetic.bulb)."""
+    from hillchart.synthetic.bulb import write_bulb_table
     from hillchart.errors import InputError
 
     noise_pct = 0.3 if args.noise is None else args.noise

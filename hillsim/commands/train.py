@@ -98,9 +98,9 @@ def parse_options(args: argparse.Namespace) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
-    from hillchart.extend import extend_samples
-    from hillchart.nets import train_nets
-    from hillchart.plausibility import efficiency_plausibility
+    from hillchart.extension.extend import extend_samples
+    from hillchart.nets.hill_nets import train_nets
+    from hillchart.extension.plausibility import efficiency_plausibility
 
     options = parse_options(args)
     extension = extension_options(args)

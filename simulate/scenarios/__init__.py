@@ -59,7 +59,7 @@ class Schedules:
 
 
 def initial_target(scenario) -> dict:
-    """Keyword for :func:`simulate.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``.
+    """Keyword for :func:`simulate.loop.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``.
 
     Examples
     --------

@@ -10,7 +10,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.config import ScenarioConfig, _check_number
-from simulate.governor import closure_law
+from simulate.components.control.governor import closure_law
 from simulate.scenarios import GOVERNOR, PRESCRIBED, Schedules, steady_schedules
 
 

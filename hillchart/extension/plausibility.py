@@ -1,0 +1,170 @@
+"""Plausibility checks of a digitized chart before training, and of the trained nets (issue 9 section 5, issue 14).
+
+What a digitizer typically gets wrong, each reported as an :class:`~hillchart.errors.InputError` that names the file,
+the row (line number in the file) and what looks wrong:
+
+* every flow point at one N11 (no speed range to train on);
+* Q11 that looks like l/s in a chart declared m^3/s (or the reverse), efficiency that looks like percent in a chart
+  declared fraction (the loader's range check) or like a fraction in a chart declared percent;
+* opening lines that cross (a larger opening must pass more flow at the same N11);
+* an interior point far off its opening line (an outlier or a zigzag: a misclick), judged against a quadratic
+  through the line's other points;
+* efficiency contours outside the flow lines' N11-Q11 hull (contours digitized on another chart or in other units).
+
+:func:`efficiency_plausibility` checks the trained nets: efficiency above the best digitized contour inside the
+digitized region means the flow and torque nets disagree.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+#: Q11 of Francis model runners, m^3/s: a chart declared in m^3/s with Q11 above this is in l/s.
+Q11_MAX_PLAUSIBLE_M3_S = 5.0
+#: A point further than this fraction of the chart's Q11 range from the quadratic through its line's other points
+#: is an outlier (digitization noise is about 0.5 % of the range; a misclick several %).
+OUTLIER_FRACTION = 0.04
+#: Opening lines "cross" when the larger opening has less flow by more than this fraction of the Q11 range.
+CROSSING_FRACTION = 0.02
+#: Contour points may lie this far (fraction of each axis span) outside the hull of the flow points.
+HULL_MARGIN_FRACTION = 0.10
+#: Nets' efficiency may exceed the best digitized contour by this much inside the digitized region.
+EFFICIENCY_MARGIN = 0.01
+
+
+def _row(chart, name: str, index: int) -> str:
+    rows = getattr(chart, "rows", None) or {}
+    numbers = rows.get(name)
+    return f"row {int(numbers[index])}" if numbers is not None and len(numbers) > index else f"point {index + 1}"
+
+
+def check_units(chart) -> None:
+    """Units that look wrong: l/s in m^3/s, fraction in percent (the reverse cases are range errors of the loader)."""
+    info, folder = chart.info, chart.folder
+    q_raw = chart.flow_q11 / (1e-3 if info.q11_unit == "l/s" else 1.0)
+    if info.q11_unit == "m3/s" and np.max(chart.flow_q11) > Q11_MAX_PLAUSIBLE_M3_S:
+        raise InputError(f"{folder / 'flow.csv'}: Q11 up to {np.max(q_raw):.4g} looks like l/s, but chart.toml "
+                         f"declares q11_unit = 'm3/s' (model-runner Q11 is below {Q11_MAX_PLAUSIBLE_M3_S} m^3/s); "
+                         "set q11_unit = \"l/s\"")
+    if info.q11_unit == "l/s" and np.max(q_raw) < Q11_MAX_PLAUSIBLE_M3_S:
+        raise InputError(f"{folder / 'flow.csv'}: Q11 up to {np.max(q_raw):.4g} looks like m^3/s, but chart.toml "
+                         "declares q11_unit = 'l/s'; set q11_unit = \"m3/s\"")
+    if info.efficiency_unit == "percent" and np.max(chart.eff_efficiency) * 100.0 <= 1.0:
+        raise InputError(f"{folder / 'efficiency.csv'}: efficiency values up to "
+                         f"{np.max(chart.eff_efficiency) * 100:.4g} look like fractions, but chart.toml declares "
+                         "efficiency_unit = 'percent'; set efficiency_unit = \"fraction\"")
+
+
+def check_lines(chart) -> None:
+    """Speed range, outliers/zigzags on each opening line, crossing lines."""
+    path = chart.folder / "flow.csv"
+    if np.ptp(chart.flow_n11) <= 0:
+        raise InputError(f"{path}: every point sits at N11 = {float(chart.flow_n11[0])!r} r/min; the nets need the "
+                         "opening lines over a range of N11 (digitize several points along each line)")
+    q_range = float(np.ptp(chart.flow_q11))
+    if q_range <= 0:
+        raise InputError(f"{path}: every point has Q11 = {float(chart.flow_q11[0])!r}; the lines need a range of flow")
+    lines = {}
+    for a in chart.openings:
+        idx = np.flatnonzero(chart.flow_opening == a)
+        idx = idx[np.argsort(chart.flow_n11[idx], kind="stable")]
+        n, q = chart.flow_n11[idx], chart.flow_q11[idx]
+        if np.unique(n).size < 2:
+            raise InputError(f"{path}: the opening line a = {a:g} has all its points at N11 = {float(n[0])!r} "
+                             f"({_row(chart, 'flow', int(idx[0]))}); a line needs a range of N11")
+        if n.size >= 5:
+            # leave-one-out quadratic: a misclicked point stands out against the others; the worst one is reported.
+            # End points are not judged: extrapolating 4 unevenly spaced points misses by 10 % of the range on
+            # clean family charts (measured), so no bound there separates misclicks from honest points.
+            worst, worst_ratio, worst_miss, worst_allowed = None, 1.0, 0.0, 0.0
+            for j in range(1, n.size - 1):  # interior points only: an end point would be an extrapolation
+                keep = np.arange(n.size) != j
+                if np.unique(n[keep]).size < 3:
+                    continue
+                miss = abs(float(np.polyval(np.polyfit(n[keep], q[keep], 2), n[j])) - q[j])
+                allowed = OUTLIER_FRACTION
+                if miss / (allowed * q_range) > worst_ratio:
+                    worst, worst_ratio, worst_miss, worst_allowed = j, miss / (allowed * q_range), miss, allowed
+            if worst is not None:
+                j = worst
+                raise InputError(
+                    f"{path}: {_row(chart, 'flow', int(idx[j]))} (opening {a:g}, N11 {n[j]:g}, Q11 {q[j]:.4g} "
+                    f"m^3/s) is {worst_miss:.3g} m^3/s ({100 * worst_miss / q_range:.1f} % of the Q11 range) off "
+                    f"the smooth curve through the line's other points (allowed {100 * worst_allowed:g} %): an "
+                    "outlier or a zigzag; check the digitized point")
+        lines[float(a)] = (n, q, idx)
+    openings = sorted(lines)
+    for low, high in zip(openings[:-1], openings[1:]):
+        n_lo, q_lo, _ = lines[low]
+        n_hi, q_hi, idx_hi = lines[high]
+        inside = (n_hi >= n_lo[0]) & (n_hi <= n_lo[-1])
+        if not inside.any():
+            continue
+        gap = q_hi[inside] - np.interp(n_hi[inside], n_lo, q_lo)
+        worst = int(np.argmin(gap))
+        if gap[worst] < -CROSSING_FRACTION * q_range:
+            j = int(idx_hi[inside][worst])
+            raise InputError(
+                f"{path}: the opening lines a = {low:g} and a = {high:g} cross: at N11 {n_hi[inside][worst]:g} "
+                f"({_row(chart, 'flow', j)}) the larger opening has {-gap[worst]:.3g} m^3/s less flow; check the "
+                "openings of these lines")
+
+
+def check_contours(chart) -> None:
+    """Efficiency points far outside the N11-Q11 hull of the flow points."""
+    from scipy.spatial import Delaunay, QhullError
+
+    flow = np.column_stack([chart.flow_n11, chart.flow_q11])
+    span = np.ptp(flow, axis=0)
+    lo = flow.min(axis=0) - HULL_MARGIN_FRACTION * span
+    hi = flow.max(axis=0) + HULL_MARGIN_FRACTION * span
+    eff = np.column_stack([chart.eff_n11, chart.eff_q11])
+    outside = np.any((eff < lo) | (eff > hi), axis=1)
+    try:  # inside the bounding box but outside the hull, grown by the margin about its centre
+        centre = flow.mean(axis=0)
+        hull = Delaunay(centre + (flow - centre) * (1.0 + 2.0 * HULL_MARGIN_FRACTION))
+        outside |= hull.find_simplex(eff) < 0
+    except QhullError:
+        pass  # a degenerate hull was already rejected by check_lines
+    if outside.mean() > 0.25:
+        j = int(np.flatnonzero(outside)[0])
+        raise InputError(
+            f"{chart.folder / 'efficiency.csv'}: {int(outside.sum())} of {outside.size} contour points lie outside "
+            f"the N11-Q11 region of the opening lines (first: {_row(chart, 'eff', j)}, N11 {eff[j, 0]:g}, Q11 "
+            f"{eff[j, 1]:.4g} m^3/s; lines cover N11 {flow[:, 0].min():g}-{flow[:, 0].max():g}, Q11 "
+            f"{flow[:, 1].min():.4g}-{flow[:, 1].max():.4g} m^3/s): contours from another chart or in other units?")
+
+
+def check_chart(chart) -> None:
+    """All chart checks (units, lines, contours); raises the first InputError found.
+
+    Examples
+    --------
+    >>> from data_synthetic import FRANCIS_DIR
+    >>> from hillchart.io.samples import load_chart
+    >>> check_chart(load_chart(FRANCIS_DIR)) is None
+    True
+    """
+    check_units(chart)
+    check_lines(chart)
+    check_contours(chart)
+
+
+def efficiency_plausibility(nets, chart, *, margin: float = EFFICIENCY_MARGIN) -> str | None:
+    """A message when the nets' efficiency inside the digitized region exceeds the chart's best contour by more
+    than ``margin`` (the flow and torque nets then disagree: usually a poor boundary extension), else None."""
+    from hillchart.nets.chartplot import efficiency_from_characteristics
+    from hillchart.nets.hill_nets import measured_region_mask
+
+    n11, opening = np.meshgrid(np.linspace(chart.flow_n11.min(), chart.flow_n11.max(), 60),
+                               np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 60))
+    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, n11, opening)
+    eta = efficiency_from_characteristics(nets, n11[inside], opening[inside])
+    best_net, best_chart = float(np.nanmax(eta)), float(chart.eff_efficiency.max())
+    if best_net <= best_chart + margin:
+        return None
+    return (f"the nets' efficiency reaches {best_net:.3f} inside the digitized region, the chart's best contour is "
+            f"{best_chart:.3f} (allowed + {margin}): the flow and torque nets disagree there; check the extended "
+            "samples (hillsim extend --plot) and the chart's units")

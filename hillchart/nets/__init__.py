@@ -1,0 +1,1 @@
+"""The BP nets of the unit characteristics: training (Levenberg-Marquardt), evaluation, figures."""

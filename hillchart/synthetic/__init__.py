@@ -1,0 +1,1 @@
+"""Physically based synthetic turbines (Francis family, bulb) and the charts digitized from them."""

@@ -1,0 +1,1 @@
+"""Control: speed governor and servos, voltage control."""

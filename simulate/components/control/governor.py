@@ -1,0 +1,205 @@
+"""Speed governor (parallel PID with permanent droop and derivative filter), hydraulic servo, and prescribed
+guide-vane laws. Pure step functions on per-unit quantities (paper 000 sections 2.5-2.7).
+
+Signals: x = n / n_r - 1 (per-unit speed deviation), x_ref the per-unit speed reference, y the servo stroke
+(fraction of full stroke; chart opening a = y * opening_max).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: Layout of the governor parameter vector passed to the compiled loop.
+GOVERNOR_PARAMS = ("kp", "ki", "kd", "derivative_filter_s", "permanent_droop", "initial_stroke", "stroke_min",
+                   "stroke_max", "servo_decay", "close_step", "open_step")
+
+
+def governor_parameters(governor, initial_stroke: float, dt_s: float) -> np.ndarray:
+    """The float vector (layout :data:`GOVERNOR_PARAMS`) for :func:`governor_step` and :func:`servo_step`.
+
+    ``servo_decay`` = exp(-dt / T_y); ``close_step`` / ``open_step`` = the largest stroke change per step,
+    dt / closing_time_s and dt / opening_time_s.
+
+    Examples
+    --------
+    >>> from simulate.config import GovernorConfig
+    >>> g = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
+    ...                    servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
+    >>> [round(float(v), 4) for v in governor_parameters(g, 0.8, 0.01)[-3:]]
+    [0.9512, 0.001, 0.0005]
+    """
+    return np.array([governor.kp, governor.ki, governor.kd, governor.derivative_filter_s, governor.permanent_droop,
+                     initial_stroke, governor.stroke_min, governor.stroke_max, math.exp(-dt_s / governor.servo_time_s),
+                     dt_s / governor.closing_time_s, dt_s / governor.opening_time_s])
+
+
+@numba.njit(cache=True)
+def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
+    """Controller output u (stroke command) after one step; updates ``state`` = [integral, derivative, e_prev].
+
+    e = x_ref - x - b_p (y - y0) (permanent droop on the servo stroke);
+    u = y0 + kp e + I + D, I' = ki e, T_f D' + D = kd e' (backward Euler). The command is clipped to the stroke
+    limits. Anti-windup by integrator clamping: the integral stays within [stroke_min - y0, stroke_max - y0], so
+    it can always bring the command back from either limit. (Back-calculation of the clipped amount would load the
+    derivative kick of a reference step into the integral, which then drives the vanes the wrong way as the kick
+    decays; conditional integration would freeze the integral during a long overspeed, and the proportional part
+    alone would reopen the vanes while the unit is still far above speed.)
+
+    Examples
+    --------
+    >>> p = np.array([2.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.9, 0.01, 0.01])
+    >>> s = np.zeros(3)
+    >>> round(float(governor_step(p, s, -0.01, 0.0, 0.5, 0.1)), 4)   # 0.5 + 2*0.01 + 0.5*0.01*0.1
+    0.5205
+    """
+    kp, ki, kd, tf = params[0], params[1], params[2], params[3]
+    droop, y0, y_min, y_max = params[4], params[5], params[6], params[7]
+    error = speed_ref - speed_dev - droop * (stroke - y0)
+    state[1] = (tf * state[1] + kd * (error - state[2])) / (tf + dt_s)
+    state[2] = error
+    state[0] = min(max(state[0] + ki * error * dt_s, y_min - y0), y_max - y0)
+    command = y0 + kp * error + state[0] + state[1]
+    return min(max(command, y_min), y_max)
+
+
+@numba.njit(cache=True)
+def servo_step(params, command, stroke):
+    """First-order servo T_y y' = u - y (exact for a constant command over the step), rate limited to one full
+    stroke per closing/opening time, clipped to the stroke limits.
+
+    Examples
+    --------
+    >>> p = np.array([0, 0, 0, 0, 0, 0.5, 0.0, 1.0, 0.9, 0.01, 0.005])
+    >>> round(float(servo_step(p, 0.0, 0.5)), 4), round(float(servo_step(p, 0.52, 0.5)), 4)
+    (0.49, 0.502)
+    """
+    y_min, y_max, decay, close_step, open_step = params[6], params[7], params[8], params[9], params[10]
+    change = (command - stroke) * (1.0 - decay)
+    if change < -close_step:
+        change = -close_step
+    elif change > open_step:
+        change = open_step
+    return min(max(stroke + change, y_min), y_max)
+
+
+@numba.njit(cache=True)
+def piecewise_linear(times, values, t):
+    """Right-continuous piecewise-linear interpolation (a repeated time makes a step).
+
+    Examples
+    --------
+    >>> tt = np.array([0.0, 1.0, 1.0, 2.0]); vv = np.array([1.0, 1.0, 0.5, 0.0])
+    >>> [float(piecewise_linear(tt, vv, t)) for t in (0.5, 1.0, 1.5, 3.0)]
+    [1.0, 0.5, 0.25, 0.0]
+    """
+    n = times.size
+    if t < times[0]:
+        return values[0]
+    if t >= times[n - 1]:
+        return values[n - 1]
+    i = np.searchsorted(times, t, side="right")  # times[i-1] <= t < times[i]
+    t0, t1 = times[i - 1], times[i]
+    if t1 <= t0:
+        return values[i]
+    return values[i - 1] + (values[i] - values[i - 1]) * (t - t0) / (t1 - t0)
+
+
+@numba.njit(cache=True)
+def piecewise_constant(times, values, t, initial):
+    """``initial`` before ``times[0]``, then ``values[i]`` from ``times[i]`` on (times sorted).
+
+    Examples
+    --------
+    >>> float(piecewise_constant(np.array([1.0, 2.0]), np.array([5.0, 7.0]), 1.5, 3.0))
+    5.0
+    """
+    i = np.searchsorted(times, t, side="right")
+    if i == 0:
+        return initial
+    return values[i - 1]
+
+
+def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, break_opening: float | None = None,
+                break_time_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Breakpoints (times s, strokes) of a linear or two-stage closure from ``initial_stroke`` to 0.
+
+    First stage at the rate of a full stroke per ``closing_time_s`` (0: closes within one step); below
+    ``break_opening`` the rate of a full stroke per ``break_time_s``.
+
+    Examples
+    --------
+    >>> t, y = closure_law(0.8, 1.0, 10.0)
+    >>> t.tolist(), y.tolist()
+    ([1.0, 9.0], [0.8, 0.0])
+    >>> t, y = closure_law(0.8, 1.0, 10.0, break_opening=0.2, break_time_s=20.0)
+    >>> [round(float(v), 6) for v in t], y.tolist()
+    ([1.0, 7.0, 11.0], [0.8, 0.2, 0.0])
+    """
+    times, strokes = [start_s], [initial_stroke]
+    level, now = initial_stroke, start_s
+    if break_opening is not None and break_opening < initial_stroke:
+        now += (level - break_opening) * closing_time_s
+        times.append(now)
+        strokes.append(break_opening)
+        level = break_opening
+        now += level * break_time_s
+    else:
+        now += level * closing_time_s
+    times.append(now)
+    strokes.append(0.0)
+    return np.array(times), np.array(strokes)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Components for the time loop (registry kind "control"; see simulate.loop.registry)
+# ---------------------------------------------------------------------------------------------------------------
+# A control component owns the control vector (fractions of each control's full stroke; control 0 the guide vane)
+# and offers  step(p, s, speed_rpm, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state).
+@numba.njit(cache=True)
+def governor_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """Governor PID on the speed at t, then the guide-vane servo: controls at t_next."""
+    gov, ref_times, ref_values, scal = p
+    state, controls = s
+    x = speed_rpm / scal[0] - 1.0
+    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
+    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
+    controls[0] = servo_step(gov, command, controls[0])
+    return controls
+
+
+@numba.njit(cache=True)
+def prescribed_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """The prescribed stroke law at t_next (piecewise linear)."""
+    law_times, law_strokes, scal = p
+    controls = s[0]
+    controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
+    return controls
+
+
+def build_governor(plant, steady, dt_s: float, schedules):
+    """Governor + servo on the guide vane; the speed reference follows the scenario's schedule. The servo is the
+    first-order one, or paper 000's discrete eq. (37) with ``governor.servo_model = "discrete"``."""
+    from simulate.loop.registry import CompiledPart
+
+    if plant.governor.servo_model == "discrete":
+        from simulate.components.control.discrete_servo import build_discrete_governor
+
+        return build_discrete_governor(plant, steady, dt_s, schedules)
+
+    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
+    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
+              scal)
+    return CompiledPart(kind="control", name="governor", functions={"step": governor_control_step},
+                        params=params, state=(np.zeros(3), np.array([steady.stroke])), signals=())
+
+
+def build_prescribed(plant, steady, dt_s: float, schedules):
+    """The guide vane follows the scenario's prescribed law (no governor)."""
+    from simulate.loop.registry import CompiledPart
+
+    params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]))
+    return CompiledPart(kind="control", name="prescribed", functions={"step": prescribed_control_step},
+                        params=params, state=(np.array([steady.stroke]),))

@@ -1,0 +1,1 @@
+"""The electrical side: the synchronous generator and its grid."""

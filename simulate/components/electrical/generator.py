@@ -1,0 +1,931 @@
+"""Synchronous generator, sub-transient d-q model (paper 001 section 3, eq. (10), Table 1), and its grid.
+
+Per unit on the machine base (``rated_mva``, rated voltage, rated frequency); time in seconds. Generator convention:
+currents flow out of the machine. The q axis leads the d axis; a phasor A (bus frame) has the d-q components
+``A_d + j A_q = A exp(-j (delta - pi/2))``, delta the angle of the q axis ahead of the infinite bus.
+
+States (:data:`GEN_STATE`): ``E'q, E''q, E''d`` of eq. (10) and the rotor angle ``delta`` (rad, used by the
+infinite bus only; in an island it just integrates the frequency deviation)::
+
+    T'd0  dE'q/dt  = v_f - E'q  - Id (Xd  - X'd)          eq. (10), first row  (v_f: field voltage, "v")
+    T''d0 dE''q/dt = E'q - E''q - Id (X'd - X''d)         eq. (10), second row
+    T''q0 dE''d/dt = -E''d      + Iq (Xq  - X''q)         eq. (10), third row
+    d delta/dt     = omega_b x                             (x: per-unit speed deviation, omega_b = 2 pi f_n)
+
+Stator transients are neglected (the paper's third-order model) and the stator voltage equations use rated speed::
+
+    Vd = E''d - Ra Id + X''q Iq,   Vq = E''q - Ra Iq - X''d Id
+    Te = E''d Id + E''q Iq + (X''q - X''d) Id Iq = Vd Id + Vq Iq + Ra (Id^2 + Iq^2)   (air-gap torque = power)
+
+The network closes the currents algebraically (:func:`network_solution`): a three-phase fault at the terminals
+(V = 0), an open breaker (I = 0), an island load (I = Y V, admittance from constant impedance or constant power,
+with a frequency dependence) or an infinite bus behind a line reactance (``V = V_bus + j x_line I``).
+
+Everything the time loop calls is a pure numba function (``cache=True``) on float arrays: parameters from
+:func:`generator_parameters` (layout :data:`GEN_PARAMS`), the state vector (layout :data:`GEN_STATE`), inputs as
+scalars. One step is :func:`generator_step` (classical RK4 in sub-steps no longer than a quarter of the shortest
+short-circuit time constant, the network solved at every stage). RK4 is written by hand because it must run inside
+the compiled loop (scipy's integrators cannot be called from numba); the tests check it against
+``scipy.integrate.solve_ivp`` (Radau) and the closed-form solutions.
+
+The small Python drivers :func:`simulate_generator`, :func:`short_circuit_test` and :func:`field_step_test` run the
+generator (and the excitation of :mod:`simulate.components.control.excitation`) alone at a prescribed speed.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+import tomllib
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numba
+import numpy as np
+
+from hillchart.errors import InputError, NumericalError
+
+GRID_KINDS = ("island", "infinite-bus")
+LOAD_MODELS = ("impedance", "power")
+ISLAND, INFINITE_BUS = 0, 1
+
+#: Layout of the generator parameter vector (machine base per unit, s, rad/s).
+GEN_PARAMS = ("xd", "xd_t", "xd_st", "xq", "xq_st", "td0_t_s", "td0_st_s", "tq0_st_s", "ra", "grid_kind",
+              "x_line_pu", "bus_voltage_pu", "load_g0_pu", "load_b0_pu", "load_v0_pu", "load_exp_p", "load_exp_q",
+              "frequency_p", "frequency_q", "omega_base_rad_s", "max_substep_s", "torque_base_ratio",
+              "max_iterations", "tolerance")
+(P_XD, P_XD_T, P_XD_ST, P_XQ, P_XQ_ST, P_TD0_T, P_TD0_ST, P_TQ0_ST, P_RA, P_GRID, P_XLINE, P_VBUS, P_G0, P_B0, P_V0,
+ P_NP, P_NQ, P_KPF, P_KQF, P_OMEGA_B, P_SUBSTEP, P_TORQUE_RATIO, P_MAXIT, P_TOL) = range(len(GEN_PARAMS))
+
+#: Layout of the generator state vector.
+GEN_STATE = ("eq_t_pu", "eq_st_pu", "ed_st_pu", "delta_rad")
+S_EQ_T, S_EQ_ST, S_ED_ST, S_DELTA = range(4)
+
+#: Layout of the output vector written by :func:`network_solution` / :func:`generator_outputs`.
+GEN_OUTPUTS = ("vd_pu", "vq_pu", "id_pu", "iq_pu", "terminal_voltage_pu", "electrical_power_pu",
+               "electrical_torque_pu", "reactive_power_pu")
+O_VD, O_VQ, O_ID, O_IQ, O_VT, O_PE, O_TE, O_QE = range(8)
+
+#: Status codes of the jitted functions (0 = ok).
+STATUS_TEXT = {0: "ok", 1: "network matrix singular (generator + grid impedance determinant ~ 0)",
+               2: "constant-power load: voltage iteration did not converge (load beyond the voltage-stability "
+                  "limit?)", 3: "terminal voltage collapsed to zero under a constant-power load",
+               4: "non-finite generator state"}
+
+#: Keys of the ``[generator]`` section owned by the rotor (swing) part of the plant, accepted and ignored here.
+ROTOR_KEYS = ("model", "inertia_time_s", "self_regulation")
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# validation
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def check_number(section: str, key: str, value: Any, *, low: float | None = None, high: float | None = None,
+                 low_open: bool = False, high_open: bool = False) -> float:
+    """``value`` as float, or :class:`InputError` naming ``section.key``, the value and the allowed range.
+
+    Examples
+    --------
+    >>> check_number("grid", "x_line_pu", 0.3, low=0.0, high=5.0, low_open=True)
+    0.3
+    >>> check_number("grid", "x_line_pu", -1, low=0.0, high=5.0, low_open=True)
+    Traceback (most recent call last):
+    ...
+    hillchart.errors.InputError: grid.x_line_pu must be in (0.0, 5.0], got -1.0
+    """
+    low_txt = "-inf" if low is None else repr(float(low))
+    high_txt = "inf" if high is None else repr(float(high))
+    allowed = (f"{'(' if low_open or low is None else '['}{low_txt}, {high_txt}"
+               f"{')' if high_open or high is None else ']'}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{section}.{key} must be a number in {allowed}, got {value!r}")
+    value = float(value)
+    bad = not math.isfinite(value)
+    if low is not None:
+        bad |= value <= low if low_open else value < low
+    if high is not None:
+        bad |= value >= high if high_open else value > high
+    if bad:
+        raise InputError(f"{section}.{key} must be in {allowed}, got {value!r}")
+    return value
+
+
+def build_section(section: str, cls, raw: Any, *, ignore: tuple[str, ...] = ()):
+    """An instance of the frozen dataclass ``cls`` from a TOML table (strict keys: unknown or missing keys raise
+    :class:`InputError` naming the key and the valid ones; keys in ``ignore`` belong to another component)."""
+    if not isinstance(raw, dict):
+        raise InputError(f"[{section}] must be a table of keys, got {raw!r}")
+    names = [f.name for f in fields(cls)]
+    unknown = sorted(set(raw) - set(names) - set(ignore))
+    if unknown:
+        raise InputError(f"unknown key {section}.{unknown[0]}; valid keys of [{section}]: {', '.join(names)}")
+    required = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING]
+    missing = [k for k in required if k not in raw]
+    if missing:
+        raise InputError(f"missing required key {section}.{missing[0]}; [{section}] needs {', '.join(required)}")
+    return cls(**{k: raw[k] for k in names if k in raw})
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# configuration
+# ----------------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SubtransientGeneratorConfig:
+    """Sub-transient salient-pole machine of paper 001 eq. (10) (per unit on ``rated_mva``, times in s).
+
+    ``xd, xd_t, xd_st``: X_d, X'_d, X''_d; ``xq, xq_st``: X_q, X''_q; ``td0_t_s, td0_st_s, tq0_st_s``: T'_d0, T''_d0,
+    T''_q0 (open circuit); ``ra`` stator resistance (default 0, as Table 1); ``rated_mva`` the machine base;
+    ``power_factor`` the rated power factor (rated active power = rated_mva * power_factor).
+    Physical ordering is enforced: 0 < X''d < X'd < Xd, 0 < X''q < Xq, 0 < T''d0 < T'd0.
+    """
+
+    xd: float
+    xd_t: float
+    xd_st: float
+    xq: float
+    xq_st: float
+    td0_t_s: float
+    td0_st_s: float
+    tq0_st_s: float
+    rated_mva: float
+    power_factor: float
+    ra: float = 0.0
+
+    def __post_init__(self):
+        for key in ("xd", "xd_t", "xd_st", "xq", "xq_st"):
+            check_number("generator", key, getattr(self, key), low=0.0, high=10.0, low_open=True)
+        for key in ("td0_t_s", "td0_st_s", "tq0_st_s"):
+            check_number("generator", key, getattr(self, key), low=0.0, high=100.0, low_open=True)
+        check_number("generator", "ra", self.ra, low=0.0, high=0.1)
+        check_number("generator", "rated_mva", self.rated_mva, low=0.0, high=5000.0, low_open=True)
+        check_number("generator", "power_factor", self.power_factor, low=0.0, high=1.0, low_open=True)
+        for small, large in (("xd_st", "xd_t"), ("xd_t", "xd"), ("xq_st", "xq"), ("td0_st_s", "td0_t_s")):
+            if not getattr(self, small) < getattr(self, large):
+                raise InputError(f"generator.{small} must be < generator.{large} = {getattr(self, large)!r} "
+                                 f"(sub-transient < transient < synchronous), got {getattr(self, small)!r}")
+
+    @property
+    def rated_power_mw(self) -> float:
+        """rated_mva * power_factor, MW."""
+        return self.rated_mva * self.power_factor
+
+    @property
+    def shortest_time_constant_s(self) -> float:
+        """min(T''d, T''q) with T''d = T''d0 X''d/X'd, T''q = T''q0 X''q/Xq: the fastest mode (terminal short)."""
+        return min(self.td0_st_s * self.xd_st / self.xd_t, self.tq0_st_s * self.xq_st / self.xq)
+
+
+@dataclass(frozen=True)
+class GridConfig:
+    """What the generator feeds (``[grid]``).
+
+    ``kind = "island"``: a local load that takes the initial power at the initial voltage, ``load_model``
+    ``"impedance"`` (P, Q proportional to V^2) or ``"power"`` (P, Q independent of V), power factor
+    ``load_power_factor`` (lagging), frequency dependence P = P0 (1 + frequency_p x), Q = Q0 (1 + frequency_q x)
+    with x the per-unit speed deviation. The rotor sees the flux-linkage torque psi_d Iq - psi_q Id, which with the
+    stator at rated speed is the air-gap power in per unit, so frequency_p is directly the load's torque
+    self-regulation (the swing model's e_g = 1 at the initial load is frequency_p = 1).
+    ``kind = "infinite-bus"``: ``x_line_pu`` line reactance (machine base, > 0) to a bus of ``bus_voltage_pu`` at
+    rated frequency. ``frequency_hz``: rated frequency (omega_b = 2 pi f_n).
+    Keys of the other kind are rejected.
+    """
+
+    kind: str
+    frequency_hz: float = 50.0
+    load_model: str | None = None
+    load_power_factor: float | None = None
+    frequency_p: float | None = None
+    frequency_q: float | None = None
+    x_line_pu: float | None = None
+    bus_voltage_pu: float | None = None
+
+    ISLAND_KEYS = ("load_model", "load_power_factor", "frequency_p", "frequency_q")
+    BUS_KEYS = ("x_line_pu", "bus_voltage_pu")
+
+    def __post_init__(self):
+        if self.kind not in GRID_KINDS:
+            raise InputError(f"grid.kind must be one of {', '.join(GRID_KINDS)}; got {self.kind!r}")
+        check_number("grid", "frequency_hz", self.frequency_hz, low=1.0, high=1000.0)
+        own, other = (self.ISLAND_KEYS, self.BUS_KEYS) if self.kind == "island" else (self.BUS_KEYS,
+                                                                                     self.ISLAND_KEYS)
+        for key in other:
+            if getattr(self, key) is not None:
+                raise InputError(f"grid.{key} is not used by grid.kind = {self.kind!r}; allowed keys: kind, "
+                                 f"frequency_hz, {', '.join(own)}")
+        if self.kind == "island":
+            if self.load_model is not None and self.load_model not in LOAD_MODELS:
+                raise InputError(f"grid.load_model must be one of {', '.join(LOAD_MODELS)}; got {self.load_model!r}")
+            if self.load_power_factor is not None:
+                check_number("grid", "load_power_factor", self.load_power_factor, low=0.0, high=1.0, low_open=True)
+            for key in ("frequency_p", "frequency_q"):
+                if getattr(self, key) is not None:
+                    check_number("grid", key, getattr(self, key), low=-10.0, high=10.0)
+        else:
+            for key in self.BUS_KEYS:
+                if getattr(self, key) is None:
+                    raise InputError(f"grid.{key} is required for grid.kind = 'infinite-bus'")
+            check_number("grid", "x_line_pu", self.x_line_pu, low=0.0, high=5.0, low_open=True)
+            check_number("grid", "bus_voltage_pu", self.bus_voltage_pu, low=0.5, high=1.5)
+
+    # defaults of the island keys (None in the record means "not given")
+    @property
+    def island_load_model(self) -> str:
+        return self.load_model or "impedance"
+
+    @property
+    def island_power_factor(self) -> float:
+        return 1.0 if self.load_power_factor is None else float(self.load_power_factor)
+
+    @property
+    def island_frequency_p(self) -> float:
+        return 1.0 if self.frequency_p is None else float(self.frequency_p)
+
+    @property
+    def island_frequency_q(self) -> float:
+        return 0.0 if self.frequency_q is None else float(self.frequency_q)
+
+
+@dataclass(frozen=True)
+class ElectricalConfig:
+    """The three electrical sections of a plant file: ``[generator]`` (sub-transient keys), ``[excitation]``,
+    ``[grid]``."""
+
+    generator: SubtransientGeneratorConfig
+    excitation: Any  # simulate.components.control.excitation.ExcitationConfig
+    grid: GridConfig
+
+
+def electrical_from_dict(raw: dict) -> ElectricalConfig:
+    """Build the electrical sections from a parsed TOML dictionary (other sections are ignored; the rotor keys of
+    ``[generator]`` (:data:`ROTOR_KEYS`) are accepted; ``generator.model`` must be ``"subtransient"`` if given).
+    """
+    from simulate.components.control.excitation import ExcitationConfig
+
+    if not isinstance(raw, dict):
+        raise InputError(f"plant file must be a table of sections, got {raw!r}")
+    for name in ("generator", "excitation", "grid"):
+        if name not in raw:
+            raise InputError(f"missing section [{name}]; a sub-transient generator needs [generator], [excitation] "
+                             f"and [grid]")
+    gen_raw = raw["generator"]
+    if isinstance(gen_raw, dict) and gen_raw.get("model", "subtransient") != "subtransient":
+        raise InputError(f"generator.model must be \"subtransient\" for the sub-transient keys, got "
+                         f"{gen_raw.get('model')!r} (allowed: swing, subtransient)")
+    generator = build_section("generator", SubtransientGeneratorConfig, gen_raw, ignore=ROTOR_KEYS)
+    excitation = build_section("excitation", ExcitationConfig, raw["excitation"])
+    grid_raw = raw["grid"]
+    grid = build_section("grid", GridConfig, grid_raw)
+    return ElectricalConfig(generator=generator, excitation=excitation, grid=grid)
+
+
+def load_electrical(path: str | Path) -> ElectricalConfig:
+    """Read ``[generator]``, ``[excitation]`` and ``[grid]`` from a TOML file (e.g.
+    ``data_synthetic/generator_table1.toml``).
+
+    Examples
+    --------
+    >>> import importlib.resources as ir
+    >>> e = load_electrical(ir.files("data_synthetic") / "generator_table1.toml")
+    >>> e.generator.xd, e.generator.td0_t_s, e.grid.kind
+    (0.768, 7.88, 'island')
+    """
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise InputError(f"cannot read {str(path)!r}: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{str(path)!r} is not valid TOML: {exc}") from None
+    return electrical_from_dict(raw)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# jitted physics
+# ----------------------------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def _solve_currents(p, e_d, e_q, zn11, zn12, zn21, zn22, vs_d, vs_q, out):
+    """Stator (Vd = E''d - Ra Id + X''q Iq, Vq = E''q - Ra Iq - X''d Id) against V = Zn I + Vs; fills ``out``."""
+    ra, xd_st, xq_st = p[P_RA], p[P_XD_ST], p[P_XQ_ST]
+    a11, a12 = ra + zn11, -xq_st + zn12
+    a21, a22 = xd_st + zn21, ra + zn22
+    det = a11 * a22 - a12 * a21
+    if abs(det) < 1e-12:
+        return 1
+    r1, r2 = e_d - vs_d, e_q - vs_q
+    i_d = (r1 * a22 - a12 * r2) / det
+    i_q = (a11 * r2 - a21 * r1) / det
+    v_d = e_d - ra * i_d + xq_st * i_q
+    v_q = e_q - ra * i_q - xd_st * i_d
+    out[O_VD], out[O_VQ], out[O_ID], out[O_IQ] = v_d, v_q, i_d, i_q
+    return 0
+
+
+@numba.njit(cache=True)
+def network_solution(p, state, speed_dev, breaker, load_scale, fault, out):
+    """Currents, terminal voltage, powers and air-gap torque of the present state (layout :data:`GEN_OUTPUTS`).
+
+    Parameters
+    ----------
+    p : float array (:data:`GEN_PARAMS`)
+    state : float array (:data:`GEN_STATE`)
+    speed_dev : float
+        Per-unit speed deviation x (frequency dependence of the island load).
+    breaker : float
+        1 closed, 0 open (no current unless ``fault``).
+    load_scale : float
+        Island load as a multiple of the initial load (1 = initial; 0 = no load); ignored on the infinite bus.
+    fault : float
+        1 = three-phase short circuit at the terminals (V = 0), else 0.
+    out : float array (8,)
+
+    Returns
+    -------
+    int
+        Status (0 ok; see :data:`STATUS_TEXT`).
+    """
+    e_d, e_q = state[S_ED_ST], state[S_EQ_ST]
+    status = 0
+    if fault > 0.5:
+        status = _solve_currents(p, e_d, e_q, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, out)
+    elif breaker < 0.5 or (p[P_GRID] == ISLAND and load_scale <= 0.0):
+        out[O_VD], out[O_VQ], out[O_ID], out[O_IQ] = e_d, e_q, 0.0, 0.0  # open circuit: V = E''
+    elif p[P_GRID] == INFINITE_BUS:
+        x, vb, delta = p[P_XLINE], p[P_VBUS], state[S_DELTA]
+        # V = V_bus + j x I in the rotor frame: Vd = Vb sin(delta) - x Iq, Vq = Vb cos(delta) + x Id
+        status = _solve_currents(p, e_d, e_q, 0.0, -x, x, 0.0, vb * math.sin(delta), vb * math.cos(delta), out)
+    else:
+        # island load I = Y V, Y = G + jB with P = s P0 (V/V0)^np (1 + kpf x), Q = s Q0 (V/V0)^nq (1 + kqf x)
+        v0, n_p, n_q = p[P_V0], p[P_NP], p[P_NQ]
+        fp = load_scale * (1.0 + p[P_KPF] * speed_dev)
+        fq = load_scale * (1.0 + p[P_KQF] * speed_dev)
+        v = v0
+        converged = False
+        for _ in range(int(p[P_MAXIT])):
+            ratio = v / v0
+            g = p[P_G0] * fp * ratio ** (n_p - 2.0)
+            b = p[P_B0] * fq * ratio ** (n_q - 2.0)
+            y2 = g * g + b * b
+            if y2 == 0.0:
+                out[O_VD], out[O_VQ], out[O_ID], out[O_IQ] = e_d, e_q, 0.0, 0.0
+                converged = True
+                break
+            # V = Y^-1 I: [[g, b], [-b, g]] / (g^2 + b^2)
+            status = _solve_currents(p, e_d, e_q, g / y2, b / y2, -b / y2, g / y2, 0.0, 0.0, out)
+            if status != 0:
+                return status
+            v_new = math.sqrt(out[O_VD] ** 2 + out[O_VQ] ** 2)
+            if v_new < 1e-6:
+                return 3
+            if abs(v_new - v) <= p[P_TOL] or (n_p == 2.0 and n_q == 2.0):
+                converged = True
+                break
+            v = v_new
+        if not converged:
+            return 2
+    if status != 0:
+        return status
+    v_d, v_q, i_d, i_q = out[O_VD], out[O_VQ], out[O_ID], out[O_IQ]
+    out[O_VT] = math.sqrt(v_d * v_d + v_q * v_q)
+    out[O_PE] = v_d * i_d + v_q * i_q
+    out[O_QE] = v_q * i_d - v_d * i_q
+    out[O_TE] = out[O_PE] + p[P_RA] * (i_d * i_d + i_q * i_q)  # air-gap torque (power at rated speed)
+    return 0
+
+
+@numba.njit(cache=True)
+def generator_derivatives(p, state, field_voltage, speed_dev, i_d, i_q, deriv):
+    """d/dt of the state, paper 001 eq. (10) and d delta/dt = omega_b x; fills ``deriv`` (4,)."""
+    deriv[S_EQ_T] = (field_voltage - state[S_EQ_T] - i_d * (p[P_XD] - p[P_XD_T])) / p[P_TD0_T]  # eq. (10)
+    deriv[S_EQ_ST] = (state[S_EQ_T] - state[S_EQ_ST] - i_d * (p[P_XD_T] - p[P_XD_ST])) / p[P_TD0_ST]  # eq. (10)
+    deriv[S_ED_ST] = (-state[S_ED_ST] + i_q * (p[P_XQ] - p[P_XQ_ST])) / p[P_TQ0_ST]  # eq. (10)
+    deriv[S_DELTA] = p[P_OMEGA_B] * speed_dev
+
+
+@numba.njit(cache=True)
+def generator_step(p, state, speed_dev, field_voltage, breaker, load_scale, fault, dt_s, work):
+    """Advance ``state`` in place by ``dt_s`` (inputs held over the step); RK4 in equal sub-steps.
+
+    ``work`` is a scratch array of at least 28 floats (no allocation in the loop). Returns the status (0 ok).
+    """
+    n_sub = max(1, int(math.ceil(dt_s / p[P_SUBSTEP] - 1e-9)))
+    h = dt_s / n_sub
+    out = work[0:8]
+    k1, k2, k3, k4 = work[8:12], work[12:16], work[16:20], work[20:24]
+    tmp = work[24:28]
+    for _ in range(n_sub):
+        st = network_solution(p, state, speed_dev, breaker, load_scale, fault, out)
+        if st != 0:
+            return st
+        generator_derivatives(p, state, field_voltage, speed_dev, out[O_ID], out[O_IQ], k1)
+        for i in range(4):
+            tmp[i] = state[i] + 0.5 * h * k1[i]
+        st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
+        if st != 0:
+            return st
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k2)
+        for i in range(4):
+            tmp[i] = state[i] + 0.5 * h * k2[i]
+        st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
+        if st != 0:
+            return st
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k3)
+        for i in range(4):
+            tmp[i] = state[i] + h * k3[i]
+        st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
+        if st != 0:
+            return st
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k4)
+        for i in range(4):
+            state[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+            if not math.isfinite(state[i]):
+                return 4
+    return 0
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# parameters and steady state
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def generator_parameters(gen: SubtransientGeneratorConfig, grid: GridConfig, *, load_g0_pu: float = 0.0,
+                         load_b0_pu: float = 0.0, load_v0_pu: float = 1.0,
+                         turbine_rated_power_mw: float | None = None) -> np.ndarray:
+    """The float vector (layout :data:`GEN_PARAMS`) for the jitted functions.
+
+    ``load_*`` come from the steady state (:func:`initial_generator_state`); ``torque_base_ratio`` =
+    rated_mva / P_r converts the air-gap torque from the machine base to the turbine torque base P_r/omega_r of the
+    rotor equation (1 when ``turbine_rated_power_mw`` is None).
+    """
+    p = np.zeros(len(GEN_PARAMS))
+    p[[P_XD, P_XD_T, P_XD_ST, P_XQ, P_XQ_ST, P_TD0_T, P_TD0_ST, P_TQ0_ST, P_RA]] = (
+        gen.xd, gen.xd_t, gen.xd_st, gen.xq, gen.xq_st, gen.td0_t_s, gen.td0_st_s, gen.tq0_st_s, gen.ra)
+    p[P_GRID] = ISLAND if grid.kind == "island" else INFINITE_BUS
+    if grid.kind == "infinite-bus":
+        p[P_XLINE], p[P_VBUS] = grid.x_line_pu, grid.bus_voltage_pu
+    else:
+        p[P_NP] = p[P_NQ] = 2.0 if grid.island_load_model == "impedance" else 0.0
+        p[P_KPF], p[P_KQF] = grid.island_frequency_p, grid.island_frequency_q
+    p[P_G0], p[P_B0], p[P_V0] = load_g0_pu, load_b0_pu, load_v0_pu
+    p[P_OMEGA_B] = 2.0 * math.pi * grid.frequency_hz
+    p[P_SUBSTEP] = 0.25 * gen.shortest_time_constant_s  # RK4 step x fastest eigenvalue <= 0.25
+    p[P_TORQUE_RATIO] = 1.0 if turbine_rated_power_mw is None else gen.rated_mva / turbine_rated_power_mw
+    p[P_MAXIT], p[P_TOL] = 100.0, 1e-13
+    return p
+
+
+@dataclass(frozen=True)
+class GeneratorSteadyState:
+    """A verified steady state of generator + grid (machine-base per unit).
+
+    ``state`` (:data:`GEN_STATE`), ``field_voltage_pu``, ``outputs`` (:data:`GEN_OUTPUTS`), ``params`` (the vector
+    for the loop, with the island load fixed from this point), ``residuals`` {equation: value} all below 1e-9.
+    """
+
+    state: np.ndarray
+    field_voltage_pu: float
+    outputs: dict
+    params: np.ndarray
+    breaker_closed: bool = True
+    residuals: dict = field(default_factory=dict)
+
+
+def _dq(phasor: complex, delta: float) -> tuple[float, float]:
+    """d and q components of a bus-frame phasor for a q axis at angle delta."""
+    z = phasor * cmath.exp(-1j * (delta - math.pi / 2))
+    return z.real, z.imag
+
+
+def initial_generator_state(gen: SubtransientGeneratorConfig, grid: GridConfig, *, airgap_power_pu: float,
+                            voltage_pu: float, breaker_closed: bool = True,
+                            turbine_rated_power_mw: float | None = None, tolerance: float = 1e-9
+                            ) -> GeneratorSteadyState:
+    """Steady state at rated speed delivering ``airgap_power_pu`` (machine base; = turbine power / rated_mva) at
+    terminal voltage ``voltage_pu``, with every residual of eq. (10) and the network checked below ``tolerance``.
+
+    Island: the load takes the terminal power at ``load_power_factor``; its admittance at this point is stored in
+    the parameters. Infinite bus: the terminal voltage magnitude is ``voltage_pu`` and the bus angle follows from
+    P = V Vb sin(theta)/x_line (too much power for the line is an :class:`InputError`). ``breaker_closed=False`` (or
+    zero power in an island): open circuit, E'q = E''q = V, E''d = 0, field voltage V.
+
+    Raises
+    ------
+    InputError
+        Infeasible point (power beyond the line's limit, negative power).
+    NumericalError
+        A residual above ``tolerance`` (names the equation and its value).
+    """
+    check_number("initial point", "airgap_power_pu", airgap_power_pu, low=0.0, high=3.0)
+    check_number("initial point", "voltage_pu", voltage_pu, low=0.5, high=1.5)
+    v0 = float(voltage_pu)
+    ra = gen.ra
+    open_circuit = not breaker_closed or (grid.kind == "island" and airgap_power_pu == 0.0)
+    g0 = b0 = 0.0
+    delta_bus = 0.0  # angle of the terminal voltage ahead of the bus (0 in an island)
+    if open_circuit:
+        current = 0j
+        p_term = q_term = 0.0
+    else:
+        # terminal power P with P + Ra |I|^2 = airgap power: |I| depends on P (and Q): fixed point, contraction Ra
+        p_term = airgap_power_pu
+        for _ in range(200):
+            if grid.kind == "island":
+                pf = grid.island_power_factor
+                q_term = p_term * math.tan(math.acos(pf))
+            else:
+                x, vb = grid.x_line_pu, grid.bus_voltage_pu
+                s = p_term * x / (v0 * vb)
+                if abs(s) >= 1.0:
+                    raise InputError(f"grid.x_line_pu = {x!r}: the line cannot carry {p_term:.4g} pu at terminal "
+                                     f"voltage {v0} and bus voltage {vb} (needs P x / (V Vb) < 1, got {s:.4g})")
+                delta_bus = math.asin(s)
+                q_term = (v0 * v0 - v0 * vb * math.cos(delta_bus)) / x
+            i_mag2 = (p_term ** 2 + q_term ** 2) / v0 ** 2
+            new = airgap_power_pu - ra * i_mag2
+            if abs(new - p_term) < 1e-15:
+                break
+            p_term = new
+        if p_term < 0:
+            raise InputError(f"airgap_power_pu = {airgap_power_pu} is below the stator loss: no steady state")
+        current = (p_term - 1j * q_term) / (v0 * cmath.exp(-1j * delta_bus))  # I = S* / V*
+        if grid.kind == "island":
+            g0, b0 = p_term / v0 ** 2, -q_term / v0 ** 2  # Y = S* / |V|^2
+    v_ph = v0 * cmath.exp(1j * delta_bus)
+    e_q_axis = v_ph + complex(ra, gen.xq) * current  # E_Q = V + (Ra + j Xq) I lies on the q axis
+    # open circuit: the q axis on the terminal voltage (V = E''q), no load angle
+    delta = cmath.phase(e_q_axis) if abs(current) > 0 else delta_bus
+    v_d, v_q = _dq(v_ph, delta)
+    i_d, i_q = _dq(current, delta)
+    ed_st = (gen.xq - gen.xq_st) * i_q  # eq. (10) third row at rest
+    eq_st = v_q + ra * i_q + gen.xd_st * i_d  # stator q equation
+    eq_t = eq_st + (gen.xd_t - gen.xd_st) * i_d  # eq. (10) second row at rest
+    efd = eq_t + (gen.xd - gen.xd_t) * i_d  # eq. (10) first row at rest
+    state = np.array([eq_t, eq_st, ed_st, delta])
+    params = generator_parameters(gen, grid, load_g0_pu=g0, load_b0_pu=b0, load_v0_pu=v0,
+                                  turbine_rated_power_mw=turbine_rated_power_mw)
+    out = np.zeros(8)
+    status = network_solution(params, state, 0.0, 1.0 if breaker_closed else 0.0, 1.0, 0.0, out)
+    if status != 0:
+        raise NumericalError(f"generator steady state: network solution failed: {STATUS_TEXT[status]}")
+    deriv = np.zeros(4)
+    generator_derivatives(params, state, efd, 0.0, out[O_ID], out[O_IQ], deriv)
+    residuals = {"eq10_dEq_t_dt": deriv[0] * gen.td0_t_s, "eq10_dEq_st_dt": deriv[1] * gen.td0_st_s,
+                 "eq10_dEd_st_dt": deriv[2] * gen.tq0_st_s,
+                 "airgap_power": out[O_TE] - (0.0 if open_circuit else airgap_power_pu),
+                 "terminal_voltage": out[O_VT] - v0,
+                 "current_d": out[O_ID] - i_d, "current_q": out[O_IQ] - i_q}
+    worst = max(residuals, key=lambda k: abs(residuals[k]))
+    if not abs(residuals[worst]) < tolerance:
+        raise NumericalError(f"generator steady state: residual of {worst} is {residuals[worst]:.3g} "
+                             f"(tolerance {tolerance:g})")
+    outputs = dict(zip(GEN_OUTPUTS, (float(v) for v in out)))
+    return GeneratorSteadyState(state=state, field_voltage_pu=float(efd), outputs=outputs, params=params,
+                                breaker_closed=bool(breaker_closed),
+                                residuals={k: float(v) for k, v in residuals.items()})
+
+
+@dataclass(frozen=True, eq=False)
+class ElectricalArrays:
+    """Everything the plant loop needs from the electrical sections, compiled at a verified steady state.
+
+    ``generator_params`` (:data:`GEN_PARAMS`), ``generator_state`` (:data:`GEN_STATE`, mutated by the loop),
+    ``excitation_params`` / ``excitation_state`` (:mod:`simulate.components.control.excitation` layouts), ``field_voltage_pu`` (steady
+    field), ``outputs`` (8 floats, :data:`GEN_OUTPUTS`) and ``work`` (28 floats) scratch for the jitted steps,
+    ``breaker`` (1.0 / 0.0 initial), ``steady`` (the :class:`GeneratorSteadyState`).
+    """
+
+    generator_params: np.ndarray
+    generator_state: np.ndarray
+    excitation_params: np.ndarray
+    excitation_state: np.ndarray
+    field_voltage_pu: float
+    outputs: np.ndarray
+    work: np.ndarray
+    breaker: float
+    steady: GeneratorSteadyState
+
+
+def compile_electrical(electrical: ElectricalConfig, *, turbine_power_mw: float, turbine_rated_power_mw: float,
+                       breaker_closed: bool = True) -> ElectricalArrays:
+    """Compile ``[generator]``, ``[excitation]``, ``[grid]`` at the turbine's steady state for the plant loop.
+
+    The rotor is in equilibrium at rated speed, so the air-gap power equals the turbine power:
+    ``airgap_power_pu = turbine_power_mw / rated_mva``. ``breaker_closed=False`` (no-load kinds): open circuit at
+    the voltage set point. The terminal voltage is the excitation's set point.
+
+    Raises
+    ------
+    InputError
+        Turbine power above 1.5 x the machine rating, a field voltage outside the excitation limits, an infeasible
+        infinite-bus point.
+    NumericalError
+        A steady-state residual above 1e-9.
+
+    Examples
+    --------
+    >>> import importlib.resources as ir
+    >>> e = load_electrical(ir.files("data_synthetic") / "generator_table1.toml")
+    >>> arrays = compile_electrical(e, turbine_power_mw=225.0, turbine_rated_power_mw=225.0)
+    >>> round(float(arrays.steady.outputs["electrical_torque_pu"] * arrays.generator_params[P_TORQUE_RATIO]), 12)
+    1.0
+    """
+    from simulate.components.control.excitation import excitation_parameters, initial_excitation_state
+
+    gen, exc = electrical.generator, electrical.excitation
+    check_number("turbine", "rated_power_mw", turbine_rated_power_mw, low=0.0, high=5000.0, low_open=True)
+    check_number("initial point", "turbine_power_mw", turbine_power_mw, low=0.0, high=1.5 * gen.rated_mva)
+    steady = initial_generator_state(gen, electrical.grid, airgap_power_pu=turbine_power_mw / gen.rated_mva,
+                                     voltage_pu=exc.voltage_setpoint_pu, breaker_closed=breaker_closed,
+                                     turbine_rated_power_mw=turbine_rated_power_mw)
+    return ElectricalArrays(generator_params=steady.params, generator_state=steady.state.copy(),
+                            excitation_params=excitation_parameters(exc),
+                            excitation_state=initial_excitation_state(exc, steady.field_voltage_pu),
+                            field_voltage_pu=steady.field_voltage_pu, outputs=np.zeros(len(GEN_OUTPUTS)),
+                            work=np.zeros(28), breaker=1.0 if breaker_closed else 0.0, steady=steady)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# classical short-circuit envelope
+# ----------------------------------------------------------------------------------------------------------------
+
+
+def classical_short_circuit_current(gen: SubtransientGeneratorConfig, voltage_pu: float, time_s) -> np.ndarray:
+    """Symmetrical short-circuit current envelope from open circuit at voltage E (textbook formula):
+
+    ``|i| = E [1/Xd + (1/X'd - 1/Xd) e^(-t/T'd) + (1/X''d - 1/X'd) e^(-t/T''d)]``,
+    ``T'd = T'd0 X'd/Xd``, ``T''d = T''d0 X''d/X'd`` (the approximations that assume T''d0 << T'd0).
+
+    Examples
+    --------
+    >>> g = SubtransientGeneratorConfig(xd=0.768, xd_t=0.249, xd_st=0.187, xq=0.512, xq_st=0.189, td0_t_s=7.88,
+    ...                                 td0_st_s=0.049, tq0_st_s=0.0283, rated_mva=250.0, power_factor=0.9)
+    >>> [round(float(v), 4) for v in classical_short_circuit_current(g, 1.0, [0.0, 1e3])]   # E/X''d, E/Xd
+    [5.3476, 1.3021]
+    """
+    t = np.asarray(time_s, dtype=float)
+    td_t = gen.td0_t_s * gen.xd_t / gen.xd
+    td_st = gen.td0_st_s * gen.xd_st / gen.xd_t
+    return voltage_pu * (1.0 / gen.xd + (1.0 / gen.xd_t - 1.0 / gen.xd) * np.exp(-t / td_t)
+                         + (1.0 / gen.xd_st - 1.0 / gen.xd_t) * np.exp(-t / td_st))
+
+
+def frequency_recovery_time(time_s, frequency_hz, *, event_time_s: float, rated_frequency_hz: float = 50.0,
+                            band_hz: float = 0.05) -> float:
+    """Time after ``event_time_s`` from which the frequency stays within ``rated +- band_hz`` to the end of the
+    series (paper 001 section 4: "recovered within 9.6 s back to 50 Hz", band not stated). Default band: 50 mHz,
+    the standard frequency range of the European grid. ``nan`` when it never leaves the band; ``inf`` when it is
+    still outside at the end.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 60.0, 6001)
+    >>> f = 50.0 - 0.5 * np.exp(-(t - 10.0) / 4.0) * (t >= 10.0)       # -0.5 Hz, recovering with 4 s
+    >>> round(frequency_recovery_time(t, f, event_time_s=10.0), 2)     # 4 ln(0.5/0.05) = 9.21, next sample
+    9.22
+    """
+    t = np.asarray(time_s, dtype=float)
+    f = np.asarray(frequency_hz, dtype=float)
+    if t.shape != f.shape or t.ndim != 1 or t.size < 2:
+        raise InputError(f"time_s and frequency_hz must be 1-D of the same length >= 2, got {t.shape}, {f.shape}")
+    check_number("recovery", "band_hz", band_hz, low=0.0, high=10.0, low_open=True)
+    after = t >= event_time_s
+    outside = after & (np.abs(f - rated_frequency_hz) > band_hz)
+    if not np.any(outside):
+        return float("nan")
+    last = int(np.flatnonzero(outside)[-1])
+    if last == t.size - 1:
+        return float("inf")
+    return float(t[last + 1] - event_time_s)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# standalone drivers (speed prescribed)
+# ----------------------------------------------------------------------------------------------------------------
+
+#: Columns of a standalone run (the ``timeseries.csv`` extra columns of the sub-transient model).
+RUN_COLUMNS = ("time_s", "terminal_voltage_pu", "current_d_pu", "current_q_pu", "field_voltage_pu",
+               "electrical_power_pu", "eq_t_pu", "eq_st_pu", "ed_st_pu", "frequency_hz")
+
+
+@dataclass(frozen=True, eq=False)
+class GeneratorRun:
+    """Series of a standalone generator run, one row per step (row 0: the initial state).
+
+    ``columns`` maps :data:`RUN_COLUMNS` (plus ``reactive_power_pu``, ``electrical_torque_pu``, ``delta_rad``) to
+    arrays; ``steady`` is the initial :class:`GeneratorSteadyState`.
+    """
+
+    columns: dict
+    steady: GeneratorSteadyState
+    meta: dict = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def to_csv(self, path) -> None:
+        names = list(self.columns)
+        np.savetxt(path, np.column_stack([self.columns[n] for n in names]), delimiter=",",
+                   header=",".join(names), comments="", fmt="%.12g")
+
+
+def simulate_generator(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s: float, dt_s: float,
+                       steady: GeneratorSteadyState, excitation=None, voltage_setpoint_pu: float | None = None,
+                       speed_dev: float = 0.0, fault_time_s: float | None = None,
+                       field_step: tuple[float, float] | None = None, load_step: tuple[float, float] | None = None,
+                       breaker_open_time_s: float | None = None, jit: bool = True) -> GeneratorRun:
+    """Run the generator alone at a constant per-unit speed deviation ``speed_dev``.
+
+    Per step k (the order the plant loop uses, see the README): inputs at t_k; outputs of state k
+    (:func:`network_solution`); field voltage for [t_k, t_k+1) from the excitation (:func:`simulate.components.control.excitation.
+    excitation_step`, on V_k) or held at the steady value (+ ``field_step`` = (time_s, delta_pu) when reached);
+    :func:`generator_step` to t_k+1.
+
+    Parameters
+    ----------
+    excitation : simulate.components.control.excitation.ExcitationConfig or None
+        None holds the field voltage (the standard short-circuit and field-step tests).
+    voltage_setpoint_pu : float, optional
+        Overrides ``excitation.voltage_setpoint_pu``.
+    fault_time_s : float, optional
+        Three-phase terminal fault from this time on.
+    load_step : (time_s, load_scale), optional
+        Island load multiplied by ``load_scale`` from ``time_s`` on.
+    breaker_open_time_s : float, optional
+        Breaker opens (currents to zero).
+    jit : bool
+        False runs the plain-Python versions (``.py_func``) of every jitted function (for the compiled-equals-Python
+        check).
+    """
+    from simulate.components.control.excitation import excitation_parameters, excitation_step, initial_excitation_state
+
+    check_number("run", "t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
+    check_number("run", "dt_s", dt_s, low=0.0, high=1.0, low_open=True)
+    n = int(round(t_end_s / dt_s))
+    if n < 1:
+        raise InputError(f"run.t_end_s = {t_end_s} is shorter than one step dt_s = {dt_s}")
+    net, step = (network_solution, generator_step) if jit else (network_solution.py_func, generator_step.py_func)
+    exc_step = excitation_step if jit else excitation_step.py_func
+    p = steady.params
+    state = steady.state.copy()
+    efd = steady.field_voltage_pu
+    if excitation is not None:
+        ep = excitation_parameters(excitation, voltage_setpoint_pu=voltage_setpoint_pu)
+        es = initial_excitation_state(excitation, efd)
+    f_n = p[P_OMEGA_B] / (2.0 * math.pi)
+    names = RUN_COLUMNS + ("reactive_power_pu", "electrical_torque_pu", "delta_rad")
+    cols = {name: np.zeros(n + 1) for name in names}
+    out = np.zeros(8)
+    work = np.zeros(28)
+    eps = 1e-9 * dt_s
+    breaker0 = 1.0 if steady.breaker_closed else 0.0
+    for k in range(n + 1):
+        t = k * dt_s
+        fault = 1.0 if fault_time_s is not None and t >= fault_time_s - eps else 0.0
+        scale = load_step[1] if load_step is not None and t >= load_step[0] - eps else 1.0
+        breaker = 0.0 if breaker_open_time_s is not None and t >= breaker_open_time_s - eps else breaker0
+        status = net(p, state, speed_dev, breaker, scale, fault, out)
+        if status != 0:
+            raise NumericalError(f"generator network at t = {t:.6g} s: {STATUS_TEXT[status]}")
+        if excitation is not None:
+            efd = exc_step(ep, es, out[O_VT], dt_s)
+        elif field_step is not None and t >= field_step[0] - eps:
+            efd = steady.field_voltage_pu + field_step[1]
+        for name, value in (("time_s", t), ("terminal_voltage_pu", out[O_VT]), ("current_d_pu", out[O_ID]),
+                            ("current_q_pu", out[O_IQ]), ("field_voltage_pu", efd),
+                            ("electrical_power_pu", out[O_PE]), ("eq_t_pu", state[S_EQ_T]),
+                            ("eq_st_pu", state[S_EQ_ST]), ("ed_st_pu", state[S_ED_ST]),
+                            ("frequency_hz", f_n * (1.0 + speed_dev)), ("reactive_power_pu", out[O_QE]),
+                            ("electrical_torque_pu", out[O_TE]), ("delta_rad", state[S_DELTA])):
+            cols[name][k] = value
+        if k == n:
+            break
+        status = step(p, state, speed_dev, efd, breaker, scale, fault, dt_s, work)
+        if status != 0:
+            raise NumericalError(f"generator step at t = {t:.6g} s: {STATUS_TEXT[status]}")
+    return GeneratorRun(columns=cols, steady=steady, meta={"dt_s": dt_s, "compiled": jit,
+                                                           "substeps": int(math.ceil(dt_s / p[P_SUBSTEP] - 1e-9))})
+
+
+def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s: float, dt_s: float,
+                  steady: GeneratorSteadyState, inertia_time_s: float, excitation=None,
+                  torque_step: tuple[float, float] | None = None, load_step: tuple[float, float] | None = None,
+                  fault_window: tuple[float, float] | None = None, jit: bool = True) -> GeneratorRun:
+    """Generator + rotor with a prescribed mechanical torque: the swing equation of :mod:`simulate.components.shaft.rotor` with the
+    generator's air-gap torque as its load (how the plant loop couples the two; see the README).
+
+    The mechanical torque (turbine torque base P_r/omega_r) equals the steady electrical torque, then steps by
+    ``torque_step = (time_s, delta_pu)``. ``inertia_time_s`` Ta on the turbine base (``steady`` must have been built
+    with ``turbine_rated_power_mw``). ``fault_window = (on_s, off_s)``: three-phase terminal fault, cleared at
+    ``off_s`` (the machine stays connected). Extra columns ``speed_dev``, ``current_d_pu``, ``current_q_pu``.
+
+    Per step k: (1) :func:`network_solution` at (state_k, x_k) -> Te_k, V_k; (2) field voltage from
+    :func:`simulate.components.control.excitation.excitation_step` on V_k (or held); (3) ``x_k+1 = rotor_step(x_k, m_t, Te_k *
+    torque_base_ratio, 0, Ta, dt)`` (self-regulation 0: the load's frequency dependence is in the grid);
+    (4) :func:`generator_step` (state_k -> state_k+1 at x_k).
+    """
+    from simulate.components.control.excitation import excitation_parameters, excitation_step, initial_excitation_state
+    from simulate.components.shaft.rotor import rotor_step
+
+    check_number("run", "t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
+    check_number("run", "dt_s", dt_s, low=0.0, high=1.0, low_open=True)
+    check_number("generator", "inertia_time_s", inertia_time_s, low=0.0, high=100.0, low_open=True)
+    n = int(round(t_end_s / dt_s))
+    net, step = (network_solution, generator_step) if jit else (network_solution.py_func, generator_step.py_func)
+    exc_step = excitation_step if jit else excitation_step.py_func
+    rotor = rotor_step if jit else rotor_step.py_func
+    p = steady.params
+    ratio = p[P_TORQUE_RATIO]
+    state = steady.state.copy()
+    efd = steady.field_voltage_pu
+    if excitation is not None:
+        ep = excitation_parameters(excitation)
+        es = initial_excitation_state(excitation, efd)
+    m_mech0 = steady.outputs["electrical_torque_pu"] * ratio
+    names = ("time_s", "speed_dev", "electrical_torque_pu", "terminal_voltage_pu", "field_voltage_pu",
+             "delta_rad", "eq_t_pu", "eq_st_pu", "ed_st_pu", "current_d_pu", "current_q_pu")
+    cols = {name: np.zeros(n + 1) for name in names}
+    out, work = np.zeros(8), np.zeros(28)
+    x = 0.0
+    eps = 1e-9 * dt_s
+    breaker = 1.0 if steady.breaker_closed else 0.0
+    for k in range(n + 1):
+        t = k * dt_s
+        scale = load_step[1] if load_step is not None and t >= load_step[0] - eps else 1.0
+        m_mech = m_mech0 + (torque_step[1] if torque_step is not None and t >= torque_step[0] - eps else 0.0)
+        fault = 1.0 if fault_window is not None and fault_window[0] - eps <= t < fault_window[1] - eps else 0.0
+        status = net(p, state, x, breaker, scale, fault, out)  # (1)
+        if status != 0:
+            raise NumericalError(f"generator network at t = {t:.6g} s: {STATUS_TEXT[status]}")
+        if excitation is not None:
+            efd = exc_step(ep, es, out[O_VT], dt_s)  # (2)
+        for name, value in (("time_s", t), ("speed_dev", x), ("electrical_torque_pu", out[O_TE]),
+                            ("terminal_voltage_pu", out[O_VT]), ("field_voltage_pu", efd),
+                            ("delta_rad", state[S_DELTA]), ("eq_t_pu", state[S_EQ_T]),
+                            ("eq_st_pu", state[S_EQ_ST]), ("ed_st_pu", state[S_ED_ST]),
+                            ("current_d_pu", out[O_ID]), ("current_q_pu", out[O_IQ])):
+            cols[name][k] = value
+        if k == n:
+            break
+        x_next = rotor(x, m_mech, out[O_TE] * ratio, 0.0, inertia_time_s, dt_s)  # (3)
+        status = step(p, state, x_next, efd, breaker, scale, fault, dt_s, work)  # (4)
+        if status != 0:
+            raise NumericalError(f"generator step at t = {t:.6g} s: {STATUS_TEXT[status]}")
+        x = x_next
+    return GeneratorRun(columns=cols, steady=steady, meta={"dt_s": dt_s, "compiled": jit})
+
+
+def transient_synchronizing_torque(gen: SubtransientGeneratorConfig, grid: GridConfig,
+                                   steady: GeneratorSteadyState) -> float:
+    """dTe/d(delta) (machine base per rad) of a machine on an infinite bus with E'q held and the sub-transient
+    circuits settled (E''q = E'q - (X'd - X''d) Id, E''d = (Xq - X''q) Iq): the classical transient model, E'q
+    behind X'd on the d axis and Xq on the q axis::
+
+        Te = E'q Vb sin(d) / (X'd + x) + Vb^2 / 2 (1/(Xq + x) - 1/(X'd + x)) sin(2 d)
+
+    The electromechanical mode of the rotor is then omega_n = sqrt(omega_b K_s (S/P_r) / Ta) (rad/s).
+    """
+    if grid.kind != "infinite-bus":
+        raise InputError("transient_synchronizing_torque needs grid.kind = 'infinite-bus'")
+    x, vb = grid.x_line_pu, grid.bus_voltage_pu
+    d = steady.state[S_DELTA]
+    eq_t = steady.state[S_EQ_T]
+    return (eq_t * vb * math.cos(d) / (gen.xd_t + x)
+            + vb ** 2 * (1.0 / (gen.xq + x) - 1.0 / (gen.xd_t + x)) * math.cos(2.0 * d))
+
+
+def short_circuit_test(gen: SubtransientGeneratorConfig, *, voltage_pu: float = 1.0, event_time_s: float = 0.1,
+                       t_end_s: float = 5.0, dt_s: float = 1e-3, frequency_hz: float = 50.0,
+                       jit: bool = True) -> GeneratorRun:
+    """The standard short-circuit test: open circuit at rated speed and ``voltage_pu``, three-phase fault at the
+    terminals at ``event_time_s``, speed and field voltage held."""
+    grid = GridConfig(kind="island", frequency_hz=frequency_hz)
+    steady = initial_generator_state(gen, grid, airgap_power_pu=0.0, voltage_pu=voltage_pu, breaker_closed=False)
+    return simulate_generator(gen, grid, t_end_s=t_end_s, dt_s=dt_s, steady=steady, fault_time_s=event_time_s,
+                              jit=jit)
+
+
+def field_step_test(gen: SubtransientGeneratorConfig, *, field_step_pu: float = 0.1, voltage_pu: float = 1.0,
+                    event_time_s: float = 1.0, t_end_s: float = 40.0, dt_s: float = 0.01,
+                    frequency_hz: float = 50.0, jit: bool = True) -> GeneratorRun:
+    """Open circuit at rated speed and ``voltage_pu``; the field voltage steps by ``field_step_pu`` at
+    ``event_time_s``. The terminal voltage then rises with T'd0 (and a T''d0 lag): V = V0 + dv [1 - (T'd0
+    e^(-t/T'd0) - T''d0 e^(-t/T''d0)) / (T'd0 - T''d0)]."""
+    check_number("scenario", "field_step_pu", field_step_pu, low=-1.0, high=1.0)
+    grid = GridConfig(kind="island", frequency_hz=frequency_hz)
+    steady = initial_generator_state(gen, grid, airgap_power_pu=0.0, voltage_pu=voltage_pu, breaker_closed=False)
+    return simulate_generator(gen, grid, t_end_s=t_end_s, dt_s=dt_s, steady=steady,
+                              field_step=(event_time_s, field_step_pu), jit=jit)
+
+
+__all__ = ["SubtransientGeneratorConfig", "GridConfig", "ElectricalConfig", "ElectricalArrays", "compile_electrical",
+           "GeneratorSteadyState", "GeneratorRun",
+           "GEN_PARAMS", "GEN_STATE", "GEN_OUTPUTS", "RUN_COLUMNS", "STATUS_TEXT", "electrical_from_dict",
+           "load_electrical", "network_solution", "generator_derivatives", "generator_step", "generator_parameters",
+           "initial_generator_state", "classical_short_circuit_current", "simulate_generator", "simulate_unit",
+           "transient_synchronizing_torque", "frequency_recovery_time", "short_circuit_test",
+           "field_step_test"]

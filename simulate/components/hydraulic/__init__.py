@@ -1,0 +1,1 @@
+"""Hydraulic components: penstock models, reservoir, headrace tunnel and surge tank."""

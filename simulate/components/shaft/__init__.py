@@ -1,0 +1,1 @@
+"""The shaft: the rotor's swing equation, alone or with the sub-transient generator."""

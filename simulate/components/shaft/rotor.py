@@ -1,0 +1,58 @@
+"""Rotor: Ta dx/dt = m_t - m_g - e_g x (per unit; torque base P_r / omega_r, speed base n_r)."""
+
+from __future__ import annotations
+
+import numba
+
+from simulate.components.control.governor import piecewise_constant
+
+
+@numba.njit(cache=True)
+def rotor_step(speed_dev, turbine_torque_pu, load_torque_pu, self_regulation, inertia_time_s, dt_s):
+    """Per-unit speed deviation after one explicit Euler step of the swing equation.
+
+    Examples
+    --------
+    >>> round(rotor_step(0.0, 1.0, 0.9, 0.0, 8.0, 0.1), 6)
+    0.00125
+    """
+    return speed_dev + dt_s * (turbine_torque_pu - load_torque_pu - self_regulation * speed_dev) / inertia_time_s
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Component for the time loop (registry kind "shaft"; see simulate.loop.registry)
+# ---------------------------------------------------------------------------------------------------------------
+# A shaft component owns the speed and offers
+#   speed(p, s) -> speed_rpm                                   at the current step
+#   step(p, s, turbine_torque_nm, t_s, dt_s) -> speed_rpm      the speed at t + dt
+@numba.njit(cache=True)
+def rotor_speed(p, s):
+    return s[0][0]
+
+
+@numba.njit(cache=True)
+def rotor_shaft_step(p, s, turbine_torque_nm, t_s, dt_s):
+    """Swing equation with the scenario's load torque and self-regulation schedule (piecewise constant)."""
+    scal, load_times, load_values, regulation_values = p
+    n_r, m_r, ta, eps_t, load0, reg0 = scal[0], scal[1], scal[2], scal[3], scal[4], scal[5]
+    x = s[0][0] / n_r - 1.0
+    load = piecewise_constant(load_times, load_values, t_s + eps_t, load0)
+    reg = piecewise_constant(load_times, regulation_values, t_s + eps_t, reg0)
+    x_next = rotor_step(x, turbine_torque_nm / m_r, load, reg, ta, dt_s)
+    speed = n_r * (1.0 + x_next)
+    s[0][0] = speed
+    return speed
+
+
+def build_rotor(plant, steady, dt_s: float, schedules):
+    """The rotor of :class:`simulate.config.GeneratorConfig` (Ta, e_g) with the scenario's load schedule."""
+    import numpy as np
+
+    from simulate.loop.registry import CompiledPart
+
+    t = plant.turbine
+    scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s,
+                     schedules.initial_load, schedules.initial_self_regulation])
+    params = (scal, schedules.load_times_s, schedules.load_values, schedules.self_regulation_values)
+    return CompiledPart(kind="shaft", name="rotor", functions={"speed": rotor_speed, "step": rotor_shaft_step},
+                        params=params, state=(np.array([steady.speed_rpm]),))

@@ -1,0 +1,1 @@
+"""The turbine boundary: characteristics at the penstock's end and the pressure loop."""

@@ -1,0 +1,1 @@
+"""Identification: estimators, experiments, measured series and the comparison with the nets."""

@@ -1,0 +1,1 @@
+"""Linear models of the turbine-penstock-rotor system and the nets' linear reference."""

@@ -1,0 +1,234 @@
+"""Where the characteristics can be trusted, and where a trajectory leaves that domain (issue 10, section 4).
+
+Three kinds of extrapolation, each reported separately:
+
+``training_range``   outside the nets' training range: N11 or opening outside the input normalization
+                     [x_min, x_max] of both nets (the samples they were fitted on, extension included);
+``digitized_region`` outside the digitized region: the convex hull of the (N11, opening) points of ``flow.csv`` in
+                     the chart folder the nets came from (the folder of the nets.json, when it holds a flow.csv),
+                     or of ``characteristics.digitized_region`` (vertices) when the object offers one;
+``full_stroke``      beyond full stroke: the guide-vane stroke above 1 (``governor.stroke_max`` > 1).
+
+A run never extrapolates silently: :func:`extrapolation_record` goes into ``summary.json`` and the CLI warns.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+KINDS = ("training_range", "digitized_region", "full_stroke")
+LABELS = {"training_range": "outside the nets' training range",
+          "digitized_region": "outside the digitized region of the chart",
+          "full_stroke": "beyond full guide-vane stroke"}
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Vertices of the convex hull of 2-D ``points`` (n, 2), counter-clockwise (Andrew's monotone chain).
+
+    Hand-written because ``scipy.spatial`` costs 1-2 s of start-up on every run; 15 lines, tested against
+    ``scipy.spatial.ConvexHull``.
+
+    Examples
+    --------
+    >>> convex_hull(np.array([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]])).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+    """
+    pts = np.unique(np.asarray(points, dtype=float), axis=0)
+    if len(pts) < 3:
+        return pts
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in pts[::-1]:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def inside_hull(hull: np.ndarray, x, y, *, scale=(1.0, 1.0)) -> np.ndarray:
+    """True where (x, y) lies inside or on the counter-clockwise convex polygon ``hull`` (tolerance 1e-9 of
+    ``scale``)."""
+    x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+    ok = np.ones(x.shape, dtype=bool)
+    n = len(hull)
+    tol = 1e-9 * scale[0] * scale[1]
+    for i in range(n):
+        (x0, y0), (x1, y1) = hull[i], hull[(i + 1) % n]
+        ok &= (x1 - x0) * (y - y0) - (y1 - y0) * (x - x0) >= -tol
+    return ok
+
+
+@dataclass(frozen=True)
+class TrustedDomain:
+    """The trusted domain of a set of characteristics (any part may be absent: None)."""
+
+    n11_range: tuple[float, float] | None = None
+    opening_range: tuple[float, float] | None = None
+    hull: np.ndarray | None = None
+    hull_source: str = ""
+
+    def masks(self, n11, opening, stroke) -> dict[str, np.ndarray]:
+        """Boolean arrays per kind: True where the point is outside."""
+        n11, opening, stroke = (np.asarray(v, dtype=float) for v in (n11, opening, stroke))
+        out = {}
+        if self.n11_range is not None:
+            (n_lo, n_hi), (a_lo, a_hi) = self.n11_range, self.opening_range
+            out["training_range"] = (n11 < n_lo) | (n11 > n_hi) | (opening < a_lo) | (opening > a_hi)
+        if self.hull is not None and len(self.hull) >= 3:
+            span = np.ptp(self.hull, axis=0)
+            out["digitized_region"] = ~inside_hull(self.hull, n11, opening, scale=span)
+        out["full_stroke"] = stroke > 1.0 + 1e-12
+        return out
+
+    def outside_reason(self, n11: float, opening: float, stroke: float, kinds=("training_range", "full_stroke")):
+        """Text naming why a single point is outside (kinds checked: ``kinds``), or ``""``."""
+        masks = self.masks(n11, opening, stroke)
+        reasons = []
+        for kind in kinds:
+            if kind in masks and bool(np.any(masks[kind])):
+                if kind == "training_range":
+                    reasons.append(f"{LABELS[kind]} (N11 {self.n11_range[0]:.4g}-{self.n11_range[1]:.4g} r/min, "
+                                   f"opening {self.opening_range[0]:.4g}-{self.opening_range[1]:.4g})")
+                else:
+                    reasons.append(LABELS[kind])
+        return "; ".join(reasons)
+
+
+def _nets_ranges(characteristics):
+    lo = hi = None
+    for name in ("flow", "torque"):
+        net = getattr(characteristics, name, None)
+        if net is None or not hasattr(net, "x_min"):
+            return None, None
+        x_min, x_max = np.asarray(net.x_min, float), np.asarray(net.x_max, float)
+        lo = x_min if lo is None else np.maximum(lo, x_min)
+        hi = x_max if hi is None else np.minimum(hi, x_max)
+    return (float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1]))
+
+
+def digitized_hull_from_folder(folder) -> np.ndarray | None:
+    """Hull of the (N11, opening) points of ``folder/flow.csv`` (None when there is no such file)."""
+    path = Path(folder) / "flow.csv"
+    if not path.is_file():
+        return None
+    try:
+        table = np.genfromtxt(path, delimiter=",", names=True, encoding="utf-8-sig")
+        points = np.column_stack((np.asarray(table["n11"], float), np.asarray(table["opening"], float)))
+    except (ValueError, KeyError, OSError) as exc:
+        raise InputError(f"{path}: cannot read the digitized points for the trusted domain: {exc}") from None
+    points = points[np.all(np.isfinite(points), axis=1)]
+    return convex_hull(points) if len(points) >= 3 else None
+
+
+def trusted_domain(characteristics, *, chart_dir=None) -> TrustedDomain:
+    """The trusted domain of ``characteristics`` (see module docstring)."""
+    n11_range, opening_range = _nets_ranges(characteristics)
+    hull, source = None, ""
+    region = getattr(characteristics, "digitized_region", None)
+    if region is not None:
+        hull, source = convex_hull(np.asarray(region, float)), "characteristics.digitized_region"
+    elif chart_dir is not None:
+        hull = digitized_hull_from_folder(chart_dir)
+        source = str(Path(chart_dir) / "flow.csv") if hull is not None else ""
+    return TrustedDomain(n11_range, opening_range, hull, source)
+
+
+def plant_domain(plant, characteristics) -> TrustedDomain:
+    """The domain for a plant run: the chart folder is the folder of ``turbine.characteristics`` when that is a
+    nets.json path."""
+    spec = plant.turbine.characteristics
+    chart_dir = None
+    if spec not in ("ideal", "synthetic"):
+        path = Path(spec)
+        chart_dir = (path if path.is_absolute() else Path(plant.base_dir) / path).parent
+    return trusted_domain(characteristics, chart_dir=chart_dir)
+
+
+def _intervals(time_s: np.ndarray, mask: np.ndarray) -> list[list[float]]:
+    out = []
+    if not mask.any():
+        return out
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    for s, e in zip(starts, ends):
+        out.append([float(time_s[s]), float(time_s[e])])
+    return out
+
+
+def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke) -> dict:
+    """Per kind: fraction of the time outside, first time, extreme N11 and opening reached outside; plus the merged
+    intervals (for the plot) and the list of kinds checked."""
+    time_s = np.asarray(time_s, float)
+    masks = domain.masks(n11, opening, stroke)
+    dt = np.diff(time_s)
+    record = {"checked": sorted(masks), "intervals_s": []}
+    any_mask = np.zeros(time_s.shape, dtype=bool)
+    for kind, mask in masks.items():
+        if not mask.any():
+            record[kind] = {"fraction_of_time": 0.0}
+            continue
+        any_mask |= mask
+        # fraction of time: a step counts when it ends outside (row k covers (t_{k-1}, t_k])
+        frac = float(dt[mask[1:]].sum() / (time_s[-1] - time_s[0])) if time_s.size > 1 else 1.0
+        record[kind] = {"fraction_of_time": frac, "first_time_s": float(time_s[np.argmax(mask)]),
+                        "n11_min": float(np.min(np.asarray(n11)[mask])), "n11_max": float(np.max(np.asarray(n11)[mask])),
+                        "opening_min": float(np.min(np.asarray(opening)[mask])),
+                        "opening_max": float(np.max(np.asarray(opening)[mask])),
+                        "stroke_max": float(np.max(np.asarray(stroke)[mask]))}
+    if domain.n11_range is not None:
+        record["training_n11_range"] = list(domain.n11_range)
+        record["training_opening_range"] = list(domain.opening_range)
+    if domain.hull_source:
+        record["digitized_region_source"] = domain.hull_source
+    record["intervals_s"] = _intervals(time_s, any_mask)
+    return record
+
+
+def extrapolation_warnings(record: dict) -> list[str]:
+    """One line per kind the trajectory entered."""
+    from hillchart.io.tidy import tidy_float
+
+    lines = []
+    for kind in KINDS:
+        entry = record.get(kind)
+        if not entry or entry.get("fraction_of_time", 0.0) <= 0.0 and "first_time_s" not in entry:
+            continue
+        # tidy_float: a servo closing exponentially leaves openings like 1e-109, printed as 0
+        text = (f"{LABELS[kind]} for {100 * entry['fraction_of_time']:.1f} % of the time from t = "
+                f"{entry['first_time_s']:.3g} s (N11 {entry['n11_min']:.4g}-{entry['n11_max']:.4g} r/min, opening "
+                f"{tidy_float(entry['opening_min']):.4g}-{entry['opening_max']:.4g}, stroke up to "
+                f"{entry['stroke_max']:.4g})")
+        if kind == "training_range":
+            text += (f"; trained on N11 {record['training_n11_range'][0]:.4g}-{record['training_n11_range'][1]:.4g}, "
+                     f"opening {record['training_opening_range'][0]:.4g}-{record['training_opening_range'][1]:.4g}")
+        lines.append(text)
+    return lines
+
+
+def point_warnings(characteristics, n11: float, opening: float, *, chart_dir=None, opening_max=None) -> list[str]:
+    """Warnings for one operating point (``hillsim linearize``): training range, digitized region, full stroke."""
+    domain = trusted_domain(characteristics, chart_dir=chart_dir)
+    stroke = opening / opening_max if opening_max else 0.0
+    masks = domain.masks(n11, opening, stroke)
+    out = []
+    for kind in KINDS:
+        if kind in masks and bool(np.any(masks[kind])):
+            text = f"N11 = {n11:.4g} r/min, opening {opening:.4g} is {LABELS[kind]}"
+            if kind == "training_range":
+                text += (f" (N11 {domain.n11_range[0]:.4g}-{domain.n11_range[1]:.4g} r/min, opening "
+                         f"{domain.opening_range[0]:.4g}-{domain.opening_range[1]:.4g}): the coefficients are an "
+                         f"extrapolation")
+            out.append(text)
+    return out

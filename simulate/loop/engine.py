@@ -1,0 +1,261 @@
+"""The time loop, assembled from compiled components (see :mod:`simulate.loop.registry`, :mod:`simulate.loop.assembly`).
+
+Per step k -> k+1 (t = k dt):
+
+1. control: the control vector at t_{k+1} (governor PID + servo on the speed at t_k, or a prescribed law);
+2. shaft: the speed at t_{k+1} from the turbine torque and the load at t_k (explicit Euler);
+3. penstock: the linear relation H = C_L + k Q at the turbine, with the upstream head of this step;
+4. turbine boundary: (H, Q) at n_{k+1} and the controls by the chosen pressure loop; turbine torque M11 D1^3 H;
+5. penstock and upstream (reservoir or surge tank) updates; the head envelope at every computing node.
+
+The loop runs in chunks of about :data:`CHUNK_WALL_S` of work, so Ctrl-C is honoured between chunks (the compiled
+code cannot be interrupted). With characteristics that offer no numba kernel, or ``jit=False``, the same generated
+source runs as plain Python.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from hillchart.errors import InputError, NumericalError
+from simulate.components.turbine.boundary import STATUS_TEXT, turbine_parameters, turbine_state
+from simulate.config import PlantConfig, load_characteristics
+from simulate.results.result import SimulationResult
+from simulate.scenarios import GOVERNOR, build_schedules, initial_target
+from simulate.loop.steady import SteadyState, steady_state
+
+#: Lowest head (fraction of rated) the pressure loop accepts; below it the column would separate.
+HEAD_FLOOR_FRACTION = 1e-4
+#: Stroke at or below which the guide vanes are shut: the boundary is a closed valve, Q = 0 and H = C_L, whatever
+#: the characteristics say. A fitted net has a small Q11 at a = 0 (the shipped nets: about -0.002 m^3/s, varying
+#: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
+#: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
+CLOSED_STROKE = 1e-6
+
+#: Wall time of work per call into the compiled loop; Ctrl-C is honoured between calls.
+CHUNK_WALL_S = 0.25
+
+
+def upstream_friction_s2_m5(plant: PlantConfig) -> float:
+    """Steady head loss coefficient K Q|Q| upstream of the penstock (e.g. a surge tank's headrace tunnel), s^2/m^5."""
+    from simulate.loop.registry import upstream_section
+
+    config = upstream_section(plant)[1]
+    return 0.0 if config is None else config.steady_loss_coefficient_s2_m5
+
+
+def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
+    """The verified steady state a run of ``plant`` starts from (see :mod:`simulate.loop.steady`).
+
+    Examples
+    --------
+    >>> from simulate.config import load_plant
+    >>> import importlib.resources as ir
+    >>> plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml", {"turbine.characteristics": "ideal"})
+    >>> s = initial_state(plant)
+    >>> round(s.power_mw, 9), s.speed_rpm, max(abs(v) for v in s.residuals.values()) < 1e-9
+    (225.0, 200.0, True)
+    """
+    from hillchart.characteristics import scalar_kernel
+
+    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    kernel, params, _ = scalar_kernel(chars)
+    friction = plant.penstock.friction_coefficient_s2_m5
+    extra = upstream_friction_s2_m5(plant)
+    if extra:
+        friction = friction + extra
+    return steady_state(kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m,
+                        friction_s2_m5=friction, stroke_min=plant.governor.stroke_min,
+                        stroke_max=plant.governor.stroke_max, **initial_target(plant.scenario))
+
+
+def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
+    """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries."""
+    from simulate.loop.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
+
+    turbine = plant.turbine
+    load0 = steady.torque_nm / turbine.rated_torque_nm
+    schedules = build_schedules(plant, steady.stroke, load0)
+    upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
+    head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
+    parts = {
+        "upstream": upstream,
+        "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
+        "control": CONTROLS.builder("governor" if schedules.mode == GOVERNOR else "prescribed")(
+            plant, steady, dt_s, schedules),
+        "shaft": SHAFTS.builder(shaft_section(plant)[0])(plant, steady, dt_s, schedules),
+    }
+    return parts, schedules
+
+
+def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True,
+                   raise_on_failure: bool = True, progress=None) -> SimulationResult:
+    """Simulate ``plant`` (its scenario) and return the :class:`SimulationResult`.
+
+    Parameters
+    ----------
+    plant : PlantConfig
+    characteristics : object implementing :class:`hillchart.characteristics.Characteristics`, optional
+        Overrides ``plant.turbine.characteristics`` (any object with q11, m11 and their gradients).
+    jit : bool
+        Run the compiled loop when the characteristics offer a numba kernel; False runs the same source as
+        plain Python (slow; for checks).
+    raise_on_failure : bool
+        A pressure-loop failure raises :class:`NumericalError` (default) or, when False, returns the series up to
+        the failure with ``success=False``.
+    progress : callable, optional
+        Called as ``progress(step, n_steps)`` between chunks of the loop.
+
+    Examples
+    --------
+    >>> from simulate.config import load_plant
+    >>> from hillchart.characteristics import IdealTurbine
+    >>> import importlib.resources as ir
+    >>> plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml",
+    ...                    {"turbine.characteristics": "ideal", "scenario.t_end_s": 5.0})
+    >>> result = run_simulation(plant)
+    >>> result.success, round(result.summary()["max_speed_rise"], 2) > 0
+    (True, True)
+    """
+    from simulate.loop import guards
+    from simulate.loop.assembly import assemble
+    from simulate.loop.registry import compile_characteristics
+
+    dt = plant.time_step_s  # Courant check before anything heavier
+    n_steps = int(round(plant.scenario.t_end_s / dt))
+    if n_steps < 1:
+        raise InputError(f"scenario.t_end_s = {plant.scenario.t_end_s!r} is shorter than one step "
+                         f"(dt = {dt:.6g} s)")
+    stride = guards.output_stride(plant, dt)
+    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    compiled_chars = compile_characteristics(chars)
+    turbine, pen = plant.turbine, plant.penstock
+    guards.check_run_size(plant, dt, n_steps, stride)
+    from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
+
+    domain = plant_domain(plant, chars)
+    steady = initial_state(plant, chars)
+    guards.check_initial_state(plant, steady, domain)
+    warnings = guards.check_time_step(plant, dt, steady)
+    parts, schedules = build_parts(plant, steady, dt)
+
+    tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
+                            closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max])
+    n_controls = 1
+    ts = turbine_state(steady.head_m, steady.flow_m3_s, steady.torque_nm, n_controls)
+    rows = n_steps // stride + 1
+    out = {name: np.zeros(rows) for name in ("speed", "head", "flow", "torque")}
+    out_iter = np.zeros(rows, dtype=np.int64)
+    out_controls = np.zeros((rows, n_controls))
+    signal_names = [name for kind in ("upstream", "shaft", "control") for name in parts[kind].signals]
+    out_signals = np.zeros((rows, len(signal_names)))
+    out["speed"][0], out["head"][0], out["flow"][0] = steady.speed_rpm, steady.head_m, steady.flow_m3_s
+    out["torque"][0] = steady.torque_nm
+    out_controls[0, 0] = steady.stroke
+    pen_part, up_part = parts["penstock"], parts["upstream"]
+    column = 0
+    for kind in ("upstream", "shaft", "control"):  # row 0: each recording component's initial signals
+        if parts[kind].signals:
+            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].meta["initial_signals"]
+            column += len(parts[kind].signals)
+    nodes = np.zeros(pen_part.n_nodes)
+    node_heads = pen_part.functions["node_heads"]
+    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state, up_part.meta.get(
+        "initial_head_m", pen.static_head_m), steady.head_m, nodes)
+    env_max, env_min = nodes.copy(), nodes.copy()
+    diag = np.zeros(8)
+
+    compiled = bool(jit and compiled_chars.jitted)
+    loop = assemble(parts, compiled_chars, plant.solver.pressure_loop, compiled=compiled)
+    args = (compiled_chars.params, tp, ts, pen_part.params, pen_part.state, up_part.params, up_part.state,
+            parts["control"].params, parts["control"].state, parts["shaft"].params, parts["shaft"].state,
+            out["speed"], out["head"], out["flow"], out["torque"], out_iter, out_controls, out_signals,
+            env_max, env_min, diag)
+    wall = _time.perf_counter()
+    k, status, chunk = 0, 0, max(stride, min(n_steps, 2000 // stride * stride or stride))
+    while k < n_steps:
+        k_end = min(n_steps, k + chunk)
+        t0 = _time.perf_counter()
+        status, k_done = loop(k, k_end, dt, stride, *args)
+        if status != 0:
+            break
+        k = k_done
+        if progress is not None:
+            progress(k, n_steps)
+        spent = _time.perf_counter() - t0
+        # aim each chunk at CHUNK_WALL_S of work (a multiple of the output stride)
+        target = int(chunk * CHUNK_WALL_S / max(spent, 1e-6))
+        chunk = max(stride, min(10 * chunk, target) // stride * stride)
+    wall = _time.perf_counter() - wall
+
+    message = "ok"
+    if status == 0:  # a component may find the run invalid afterwards (e.g. a surge tank running dry)
+        all_signals = {name: out_signals[:, j] for j, name in enumerate(signal_names)}
+        all_time = np.arange(rows) * (dt * stride)
+        for part in parts.values():
+            problem = part.meta.get("error_after", lambda time_s, signals: "")(all_time, all_signals)
+            if problem:
+                if raise_on_failure:
+                    raise NumericalError(problem)
+                message, status = problem, -1
+                break
+    if status > 0:
+        failed_step = int(k_done)
+        n_rows = failed_step // stride + 1
+        message = (f"pressure loop '{plant.solver.pressure_loop}' failed ({STATUS_TEXT[int(status)]}) at t = "
+                   f"{diag[0]:.6g} s (step {failed_step + 1}): speed {diag[1]:.6g} r/min, opening {diag[2]:.6g} "
+                   f"(chart units), head guess {diag[3]:.6g} m, penstock relation H = {diag[4]:.6g} + "
+                   f"({diag[5]:.6g}) Q, last head residual {diag[6]:.3g} m (tolerance {tp[0][2]:.3g} m, "
+                   f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation})")
+        for part in parts.values():  # a component that failed first (e.g. the generator's network) says why
+            why = part.meta.get("failure", lambda: "")()
+            if why:
+                message = f"{why} (the pressure loop then stopped: {STATUS_TEXT[int(status)]})"
+                break
+        if raise_on_failure:
+            raise NumericalError(message)
+    else:
+        n_rows = rows
+    time_s = np.arange(n_rows) * (dt * stride)
+    speed = out["speed"][:n_rows]
+    torque = out["torque"][:n_rows]
+    stroke = out_controls[:n_rows, 0]
+    ref_end = 0.0
+    if schedules.mode == GOVERNOR:
+        from simulate.components.control.governor import piecewise_constant
+
+        # py_func: a one-off call from Python need not load the compiled version from the disk cache
+        ref_end = float(getattr(piecewise_constant, "py_func", piecewise_constant)(
+            schedules.ref_times_s, schedules.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
+    tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
+    meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
+            "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "water_time_s": tw,
+            "travel_time_s": pen.travel_time_s, "compiled": compiled,
+            "steady_state_max_residual": max(abs(v) for v in steady.residuals.values())}
+    if stride != 1:
+        meta["output_dt_s"] = dt * stride
+    for part in parts.values():
+        meta.update(part.meta.get("summary", {}))
+        meta.update(part.meta.get("summary_after", lambda time_s, signals: {})(
+            time_s, {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)}))
+    meta.update(pen_part.meta)
+    head = out["head"][:n_rows]
+    n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
+    meta["extrapolation"] = extrapolation_record(domain, time_s, n11, stroke * turbine.opening_max, stroke)
+    warnings += extrapolation_warnings(meta["extrapolation"])
+    for part in parts.values():
+        warnings += part.meta.get("warnings_after", lambda signals: [])(
+            {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)})
+    meta["warnings"] = warnings
+    signals = {name: out_signals[:n_rows, j].copy() for j, name in enumerate(signal_names)}
+    return SimulationResult(
+        time_s=time_s, speed_rpm=speed, head_m=out["head"][:n_rows], flow_m3_s=out["flow"][:n_rows],
+        opening=stroke, opening_chart=stroke * turbine.opening_max,
+        torque_nm=torque, power_mw=torque * speed * (2.0 * math.pi / 60.0) * 1e-6, iterations=out_iter[:n_rows],
+        speed_reference_rpm=turbine.rated_speed_rpm * (1.0 + ref_end), rated_speed_rpm=turbine.rated_speed_rpm,
+        success=status == 0, message=message, meta=meta, wall_time_s=wall, signals=signals,
+        envelope_x_m=np.asarray(pen_part.node_x_m, float), envelope_max_m=env_max, envelope_min_m=env_min,
+        steady=steady, plant=plant, characteristics=chars)

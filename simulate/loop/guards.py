@@ -1,0 +1,124 @@
+"""Checks before a run starts (issue 10 section 5, issue 14): the size of the run, the time step against the
+plant's dynamics, and the initial operating point against the characteristics.
+
+Every refusal is an :class:`InputError` naming the estimate or the value, the bound, and the key to change.
+"""
+
+from __future__ import annotations
+
+import math
+
+from hillchart.errors import InputError
+
+#: dt above this fraction of a time constant is refused (the explicit rotor step and the sampled governor are
+#: unstable or meaningless there); above :data:`DT_WARN_FRACTION` a warning is recorded with the result.
+DT_REFUSE_FRACTION = 0.5
+DT_WARN_FRACTION = 0.1
+#: The loop's cost per step beyond its nodes, in node-equivalents (measured: the shipped plant's 3147 steps of 26
+#: MOC nodes take about 1 ms, i.e. ~0.3 us a step where a node costs ~3 ns).
+STEP_OVERHEAD_NODES = 100
+#: bytes per stored row (time, speed, head, flow, torque, iterations, one control) plus 8 per extra signal
+ROW_BYTES = 56
+
+
+def output_stride(plant, dt_s: float) -> int:
+    """Steps per stored row: ``solver.output_dt_s`` / dt rounded (1 when not set)."""
+    out_dt = plant.solver.output_dt_s
+    if out_dt is None:
+        return 1
+    stride = int(round(out_dt / dt_s))
+    if stride < 1 or abs(stride * dt_s - out_dt) > 1e-6 * out_dt:
+        raise InputError(f"solver.output_dt_s = {out_dt!r} s must be a whole multiple of the time step "
+                         f"dt = {dt_s:.9g} s (e.g. {max(1, stride) * dt_s:.9g})")
+    return stride
+
+
+def estimate(plant, dt_s: float, n_steps: int, stride: int) -> dict:
+    """Node-steps of the run (steps x (nodes + :data:`STEP_OVERHEAD_NODES`)) and the memory of its stored series
+    (bytes)."""
+    if plant.penstock.model == "moc":
+        nodes = 1 + sum(max(1, int(round(s.travel_time_s / dt_s))) for s in plant.penstock.segments)
+    else:
+        nodes = 2
+    rows = n_steps // stride + 1
+    return {"steps": n_steps, "nodes": nodes, "node_steps": float(n_steps) * (nodes + STEP_OVERHEAD_NODES),
+            "output_bytes": float(rows) * (ROW_BYTES + 16)}
+
+
+def check_run_size(plant, dt_s: float, n_steps: int, stride: int) -> dict:
+    """Refuse a run whose node-steps or stored series exceed ``solver.max_node_steps`` / ``solver.max_output_mb``."""
+    est = estimate(plant, dt_s, n_steps, stride)
+    sol = plant.solver
+    if est["node_steps"] > sol.max_node_steps:
+        raise InputError(
+            f"the run needs {est['steps']:.4g} steps x ({est['nodes']} nodes + {STEP_OVERHEAD_NODES} for the step) = "
+            f"{est['node_steps']:.3g} node-steps "
+            f"(about {est['node_steps'] / 3e8:.3g} s at 3e8 node-steps/s), more than solver.max_node_steps = "
+            f"{sol.max_node_steps:.3g}: shorten scenario.t_end_s, use fewer penstock.reaches (dt = {dt_s:.3g} s), "
+            f"check lengths and wave speeds (units: m, m/s), or raise solver.max_node_steps")
+    mb = est["output_bytes"] / 1e6
+    if mb > sol.max_output_mb:
+        raise InputError(
+            f"the stored series would take about {mb:.4g} MB ({n_steps // stride + 1} rows), more than "
+            f"solver.max_output_mb = {sol.max_output_mb:g}: set solver.output_dt_s (e.g. "
+            f"{dt_s * max(2, math.ceil(mb / sol.max_output_mb)):.3g} s) to store a decimated series, or raise "
+            f"solver.max_output_mb")
+    return est
+
+
+def time_constants(plant, steady=None) -> dict:
+    """The plant's time constants the step must resolve, by the key that sets them (s)."""
+    t, pen, gov = plant.turbine, plant.penstock, plant.governor
+    out = {"generator.inertia_time_s (Ta)": plant.generator.inertia_time_s,
+           "penstock water time Tw (lengths, diameters, rated flow and head)":
+               pen.water_time_s(t.rated_flow_m3_s, t.rated_head_m)}
+    if plant.scenario.kind in ("load-rejection", "frequency-steps", "load-step"):  # governor in control
+        out["governor.servo_time_s"] = gov.servo_time_s
+        if gov.kd > 0.0 and gov.derivative_filter_s > 0.0:
+            out["governor.derivative_filter_s"] = gov.derivative_filter_s
+        if gov.ki > 0.0 and gov.kp > 0.0:
+            out["governor integral time kp/ki"] = gov.kp / gov.ki
+    from simulate.loop.registry import upstream_section
+
+    upstream = upstream_section(plant)[1]
+    if upstream is not None and hasattr(upstream, "time_constants"):
+        out.update(upstream.time_constants())
+    return out
+
+
+def check_time_step(plant, dt_s: float, steady=None) -> list[str]:
+    """Refuse dt > 0.5 T of any time constant T; return warnings for dt > 0.1 T (naming which)."""
+    warnings = []
+    for name, value in time_constants(plant, steady).items():
+        if dt_s > DT_REFUSE_FRACTION * value:
+            raise InputError(
+                f"time step dt = {dt_s:.6g} s is not small against {name} = {value:.6g} s (allowed dt <= "
+                f"{DT_REFUSE_FRACTION} x {value:.6g} = {DT_REFUSE_FRACTION * value:.6g} s): set solver.dt_s, or "
+                f"penstock.reaches for moc (check the wave speed and lengths: m/s and m)")
+        if dt_s > DT_WARN_FRACTION * value:
+            warnings.append(f"time step dt = {dt_s:.6g} s is more than {DT_WARN_FRACTION} x {name} = {value:.6g} s; "
+                            f"results may be inaccurate")
+    return warnings
+
+
+def check_initial_state(plant, steady, domain=None) -> None:
+    """A negative or implausible initial power, or a start outside the characteristics' trusted domain, is an
+    error naming the cause."""
+    t = plant.turbine
+    if steady.power_mw < -1e-6 * t.rated_power_mw:
+        raise InputError(
+            f"the initial operating point has negative power {steady.power_mw:.4g} MW (N11 = "
+            f"{steady.unit_speed_rpm:.4g} r/min, stroke {steady.stroke:.4g}): the turbine would brake, not drive; "
+            f"check turbine.rated_speed_rpm = {t.rated_speed_rpm!r}, turbine.runner_diameter_m and "
+            f"penstock.static_head_m")
+    if steady.power_mw > 1.5 * t.rated_power_mw:
+        raise InputError(f"the initial power {steady.power_mw:.4g} MW is more than 1.5 x turbine.rated_power_mw = "
+                         f"{t.rated_power_mw!r}: check scenario.initial_opening and the rated values")
+    if domain is not None:
+        problem = domain.outside_reason(steady.unit_speed_rpm, steady.opening_chart, steady.stroke)
+        if problem:
+            raise InputError(
+                f"the initial operating point is outside the characteristics' trusted domain: {problem} (N11 = "
+                f"{steady.unit_speed_rpm:.4g} r/min at {steady.speed_rpm:.4g} r/min, head {steady.head_m:.4g} m); "
+                f"check turbine.rated_speed_rpm, turbine.runner_diameter_m, penstock.static_head_m and the "
+                f"scenario's initial point")

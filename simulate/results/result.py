@@ -1,0 +1,226 @@
+"""SimulationResult: the record a run returns (time series in physical units, summary, files on request)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: Columns of timeseries.csv, in order, with units.
+CSV_COLUMNS = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw",
+               "iterations")
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Time series of one run (one row per step, row 0 the verified initial state).
+
+    Attributes
+    ----------
+    time_s, speed_rpm, head_m (at the turbine inlet), flow_m3_s, opening (stroke fraction), opening_chart (chart
+    units), torque_nm (turbine), power_mw (turbine), iterations (pressure-loop iterations of the step, 0 in row 0)
+        ndarray, shape (n_rows,)
+    speed_reference_rpm : float
+        Governor speed reference at the end (rated speed for open-loop kinds).
+    success : bool
+        False when the pressure loop failed and the caller asked for a result instead of an exception; the
+        series then stop at the last good step and ``message`` says why.
+    message : str
+    meta : dict
+        Run settings (penstock model, pressure loop, dt, steady-state residuals, ...).
+    wall_time_s : float
+        Wall-clock time of the time loop (not in the summary, which stays deterministic).
+    """
+
+    time_s: np.ndarray
+    speed_rpm: np.ndarray
+    head_m: np.ndarray
+    flow_m3_s: np.ndarray
+    opening: np.ndarray
+    opening_chart: np.ndarray
+    torque_nm: np.ndarray
+    power_mw: np.ndarray
+    iterations: np.ndarray
+    speed_reference_rpm: float
+    rated_speed_rpm: float
+    success: bool = True
+    message: str = "ok"
+    meta: dict = field(default_factory=dict)
+    wall_time_s: float = float("nan")
+    signals: dict = field(default_factory=dict)
+    envelope_x_m: np.ndarray | None = None
+    envelope_max_m: np.ndarray | None = None
+    envelope_min_m: np.ndarray | None = None
+    steady: object = None
+    plant: object = None
+    characteristics: object = field(default=None, repr=False, compare=False)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The series by CSV column name: :data:`CSV_COLUMNS`, then the components' extra signals (e.g. a surge
+        tank's ``surge_level_m``, ``tunnel_flow_m3_s``)."""
+        out = {name: getattr(self, name) for name in CSV_COLUMNS}
+        out.update(self.signals)
+        return out
+
+    def summary(self) -> dict:
+        """Summary figures (fractions of the initial values unless the name says otherwise).
+
+        ``max_speed_rise`` max(n)/n0 - 1; ``t_max_speed_s``; ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
+        1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
+        ``max_head_m``/``min_head_m`` at the turbine (m) and when; the head envelope along the penstock
+        (``envelope_*``; with a profile ``min_pressure_head_m`` and where, ``column_separation``);
+        ``extrapolation`` (per kind of :mod:`simulate.loop.domain`: fraction of the time outside the trusted domain and the
+        extremes reached); ``warnings`` (time step, extrapolation, column separation);
+        ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded; steps with the vanes shut count 0,
+        there is nothing to solve); plus the initial point, success,
+        message and the run settings from ``meta``.
+
+        Examples
+        --------
+        >>> t = np.array([0.0, 1.0, 2.0])
+        >>> r = SimulationResult(t, np.array([100.0, 110.0, 100.5]), np.array([50.0, 60.0, 45.0]), t, t, t, t, t,
+        ...                      np.array([0, 2, 4]), speed_reference_rpm=100.0, rated_speed_rpm=100.0)
+        >>> s = r.summary()
+        >>> [round(s[k], 6) for k in ("max_speed_rise", "t_max_speed_s", "max_head_rise", "min_head_drop",
+        ...                           "final_speed_error", "mean_iterations", "max_iterations")]
+        [0.1, 1.0, 0.2, 0.1, 0.005, 3.0, 4]
+        """
+        n0, h0 = float(self.speed_rpm[0]), float(self.head_m[0])
+        i_max = int(np.argmax(self.speed_rpm))
+        steps = self.iterations[1:]
+        out = {
+            "max_speed_rise": float(self.speed_rpm.max() / n0 - 1.0),
+            "t_max_speed_s": float(self.time_s[i_max]),
+            "max_head_rise": float(self.head_m.max() / h0 - 1.0),
+            "min_head_drop": float(1.0 - self.head_m.min() / h0),
+            "final_speed_error": float((self.speed_rpm[-1] - self.speed_reference_rpm) / self.rated_speed_rpm),
+            "mean_iterations": float(steps.mean()) if steps.size else 0.0,
+            "max_iterations": int(steps.max()) if steps.size else 0,
+            "t_max_head_s": float(self.time_s[int(np.argmax(self.head_m))]),
+            "max_head_m": float(self.head_m.max()),
+            "min_head_m": float(self.head_m.min()),
+            "t_min_head_s": float(self.time_s[int(np.argmin(self.head_m))]),
+            "max_speed_rpm": float(self.speed_rpm.max()),
+            "initial_speed_rpm": n0,
+            "initial_head_m": h0,
+            "initial_flow_m3_s": float(self.flow_m3_s[0]),
+            "initial_opening": float(self.opening[0]),
+            "initial_power_mw": float(self.power_mw[0]),
+            "final_opening": float(self.opening[-1]),
+            "t_end_s": float(self.time_s[-1]),
+            "steps": int(self.time_s.size - 1),
+            "success": bool(self.success),
+            "message": self.message,
+        }
+        out.update(self.meta)
+        if self.envelope_max_m is not None:
+            from simulate.results.envelope import envelope_summary, envelope_warnings
+
+            env = envelope_summary(self)
+            out.update(env)
+            extra = [w for w in envelope_warnings(env) if w not in out.get("warnings", [])]
+            if extra:
+                out["warnings"] = list(out.get("warnings", [])) + extra
+        return out
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write timeseries.csv (header line with :data:`CSV_COLUMNS`, one row per step, 10 significant digits).
+
+        Examples
+        --------
+        >>> import tempfile, pathlib
+        >>> t = np.array([0.0, 0.5])
+        >>> r = SimulationResult(t, t + 200, t + 100, t, t, t, t, t, np.array([0, 3]), 200.0, 200.0)
+        >>> path = r.to_csv(pathlib.Path(tempfile.mkdtemp()) / "timeseries.csv")
+        >>> path.read_text().splitlines()[:2]
+        ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations', '0,200,100,0,0,0,0,0,0']
+        """
+        path = Path(path)
+        columns = self.columns()
+        names = list(columns)
+        data = np.column_stack([columns[c] for c in names])
+        fmt = ["%.10g" if c != "iterations" else "%d" for c in names]
+        np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
+        return path
+
+    def to_json(self, path: str | Path, *, series: bool = False) -> Path:
+        """Write the :meth:`summary` as JSON (summary.json); with ``series=True`` also every column of
+        timeseries.csv under ``"series"`` (``{column: [values]}``, full precision). Summary floats are tidied
+        (:func:`hillchart.io.tidy.tidy_floats`: 12 significant digits, |x| < 1e-30 written as 0)."""
+        from hillchart.io.tidy import tidy_floats
+
+        path = Path(path)
+        summary = tidy_floats(json.loads(json.dumps(self.summary(), default=json_default)))
+        data = summary | ({"series": self.columns()} if series else {})
+        path.write_text(json.dumps(data, indent=2, sort_keys=True, default=json_default) + "\n",
+                        encoding="utf-8")
+        return path
+
+    def plot(self, path: str | Path | None = None, band=None):
+        """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
+
+        Intervals where the trajectory leaves the characteristics' trusted domain (``meta["extrapolation"]``) are
+        shaded. ``band``: a :class:`simulate.studies.uncertainty.TraceBand` (``hillsim run --uncertainty``), drawn as the
+        ensemble's percentile band behind each trace it covers. Uses matplotlib's object API with the Agg canvas
+        (no pyplot, no display; imported here, not with the module). Returns the figure.
+        """
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        series = ((self.speed_rpm, "speed (r/min)", "speed_rpm"), (self.head_m, "head at turbine (m)", "head_m"),
+                  (self.flow_m3_s, "flow (m$^3$/s)", "flow_m3_s"), (self.opening, "opening (stroke)", "opening"))
+        if "frequency_hz" in self.signals:  # the sub-transient generator: frequency for speed, plus V and v_f
+            series = (((self.signals["frequency_hz"], "frequency (Hz)", None),) + series[1:]
+                      + ((self.signals["terminal_voltage_pu"], "terminal voltage (pu)", None),
+                         (self.signals["field_voltage_pu"], "field voltage (pu)", None)))
+        fig = Figure(figsize=(8, 9 if len(series) == 4 else 12))
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(len(series), 1, sharex=True)
+        intervals = (self.meta.get("extrapolation") or {}).get("intervals_s", [])
+        banded = False
+        for ax, (values, label, name) in zip(axes, series):
+            if band is not None and name in band.low:
+                low, high = band.percentiles
+                ax.fill_between(band.time_s, band.low[name], band.high[name], color="tab:orange", alpha=0.35, lw=0,
+                                label=None if banded else f"ensemble of {band.members}, {low:g}-{high:g} %")
+                banded = True
+            ax.plot(self.time_s, values, lw=1.2, label="point nets" if band is not None and ax is axes[0] else None)
+            ax.set_ylabel(label)
+            ax.grid(True, alpha=0.3)
+            for i, (t0, t1) in enumerate(intervals):
+                ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
+                           label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
+        if intervals or banded:
+            axes[0].legend(loc="best", fontsize=8)
+        axes[-1].set_xlabel("time (s)")
+        title = self.meta.get("scenario", "")
+        fig.suptitle(f"{title}  penstock {self.meta.get('penstock_model', '')}, pressure loop "
+                     f"{self.meta.get('pressure_loop', '')}" + ("" if self.success else "  (FAILED)"))
+        # fixed margins (what tight_layout finds for these labels) instead of tight_layout, which draws the figure
+        # once more to measure the text: about a third of the figure's time (issue 10, section 3)
+        fig.subplots_adjust(left=0.095, right=0.98, bottom=0.065, top=0.945, hspace=0.1)
+        if path is not None:
+            save_png(fig, path)
+        return fig
+
+
+def save_png(fig, path) -> None:
+    """Save ``fig`` as PNG at 120 dpi with fast zlib compression (level 1: about a quarter larger file than the
+    default level 6, a third less time encoding it)."""
+    fig.savefig(path, dpi=120, pil_kwargs={"compress_level": 1})
+
+
+def json_default(value):
+    """``json.dumps(default=...)`` for numpy scalars and arrays, complex numbers ([re, im]) and paths; anything
+    else is a TypeError (never silently stringified)."""
+    if isinstance(value, complex):
+        return [value.real, value.imag]
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")

@@ -1,0 +1,1 @@
+"""Design studies: batches, sweeps, closure-law optimization, load cases, ensemble bands."""

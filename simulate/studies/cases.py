@@ -1,0 +1,274 @@
+"""Design-study sections of a plant file: ``[limits]`` (guarantees) and ``[[load_cases]]``; ensemble nets.
+
+The plant reader (:func:`simulate.config.plant_from_dict`) is strict and does not know these sections yet, so
+:func:`load_study` reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant from the rest with
+the public :func:`simulate.config.plant_from_dict`. Format (units in the names)::
+
+    [limits]                        # every key optional
+    max_speed_rise = 0.50           # max(n)/n0 - 1, fraction
+    max_head_rise = 0.45            # max(H)/H0 - 1 at the turbine, fraction
+    max_head_m = 260.0              # head at the turbine inlet, m
+    min_pressure_head_m = 5.0       # along the penstock (needs the simulator's head envelope)
+
+    [[load_cases]]                  # optional; default: the plant's own scenario as one case
+    name = "rated load, normal level"
+    scenario.initial_power_mw = 225.0      # any numeric plant key that keeps the structure (simulate.studies.batch)
+    penstock.static_head_m = 180.0
+
+:func:`load_ensemble` reads the optional top-level ``"ensemble"`` list of ``{"flow": NET, "torque": NET}`` of a
+nets.json (members share the base nets' units).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from hillchart.errors import InputError
+from simulate.studies.batch import CaseResult, check_key, check_value
+from simulate.config import PlantConfig, apply_overrides, plant_from_dict, to_dict
+
+STUDY_SECTIONS = ("limits", "load_cases")
+
+
+def _limit(key: str, value: Any, low: float, high: float) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not (low < value <= high):
+        raise InputError(f"limits.{key} must be a number in ({low}, {high}], got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Guarantee limits; None = not guaranteed. Fractions of the initial value, heads in m."""
+
+    max_speed_rise: float | None = None
+    max_head_rise: float | None = None
+    max_head_m: float | None = None
+    min_pressure_head_m: float | None = None
+
+    def __post_init__(self):
+        _limit("max_speed_rise", self.max_speed_rise, 0.0, 5.0)
+        _limit("max_head_rise", self.max_head_rise, 0.0, 10.0)
+        _limit("max_head_m", self.max_head_m, 0.0, 1e4)
+        _limit("min_pressure_head_m", self.min_pressure_head_m, -10.4, 1e4)  # -10.4 m: vacuum, water
+
+    @classmethod
+    def from_dict(cls, raw: Any) -> "Limits":
+        if not isinstance(raw, dict):
+            raise InputError(f"[limits] must be a table of keys, got {raw!r}")
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(set(raw) - set(names))
+        if unknown:
+            raise InputError(f"unknown key limits.{unknown[0]}; valid keys of [limits]: {', '.join(names)}")
+        return cls(**raw)
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def check(self, case: CaseResult) -> list[dict]:
+        """One row per set limit: ``{"limit", "allowed", "value", "verdict"}`` with verdict ``PASS``, ``FAIL`` or
+        ``n/a`` (the case did not run, or the figure is not computed, e.g. no envelope)."""
+        rows = []
+        for name, figure, upper in (("max_speed_rise", "max_speed_rise", True),
+                                    ("max_head_rise", "max_head_rise", True),
+                                    ("max_head_m", "max_head_m", True),
+                                    ("min_pressure_head_m", "min_pressure_head_m", False)):
+            allowed = getattr(self, name)
+            if allowed is None:
+                continue
+            value = getattr(case, figure)
+            if not case.ok or value is None or not math.isfinite(value):
+                verdict = "n/a"
+            else:
+                verdict = "PASS" if (value <= allowed if upper else value >= allowed) else "FAIL"
+            rows.append({"limit": name, "allowed": allowed, "value": value, "verdict": verdict})
+        return rows
+
+
+@dataclass(frozen=True)
+class LoadCase:
+    """A named set of numeric overrides of the plant (``{"section.key": number}``)."""
+
+    name: str
+    overrides: dict
+
+
+def parse_load_cases(raw: Any, plant: PlantConfig) -> tuple[LoadCase, ...]:
+    """Validate ``[[load_cases]]`` (a list of tables with ``name`` and ``section.key = number`` entries)."""
+    if not isinstance(raw, list) or not raw:
+        raise InputError(f"load_cases must be a non-empty array of tables [[load_cases]], got {raw!r}")
+    out, names = [], set()
+    for i, table in enumerate(raw):
+        where = f"load_cases[{i}]"
+        if not isinstance(table, dict):
+            raise InputError(f"{where} must be a table, got {table!r}")
+        name = table.get("name")
+        if not isinstance(name, str) or not name.strip():
+            raise InputError(f"{where}.name must be a non-empty string, got {name!r}")
+        if name in names:
+            raise InputError(f"{where}.name {name!r} is used twice; names must be unique")
+        names.add(name)
+        overrides = {}
+        for section, body in table.items():
+            if section == "name":
+                continue
+            if not isinstance(body, dict):
+                raise InputError(f"{where}.{section} must be written section.key = number (e.g. "
+                                 f"scenario.initial_power_mw = 225.0), got {section} = {body!r}")
+            for key, value in body.items():
+                dotted = f"{section}.{key}"
+                try:
+                    check_key(plant, dotted)
+                    overrides[dotted] = check_value(dotted, value)
+                except InputError as exc:
+                    raise InputError(f"{where} ({name!r}): {exc}") from None
+        if not overrides:
+            raise InputError(f"{where} ({name!r}) sets no plant key; give e.g. scenario.initial_power_mw = 225.0")
+        out.append(LoadCase(name=name, overrides=overrides))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A plant with its optional limits and load cases, and the SHA-256 of the file it came from."""
+
+    plant: PlantConfig
+    limits: Limits | None
+    load_cases: tuple[LoadCase, ...]
+    path: Path
+    sha256: str
+
+
+def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Study:
+    """Read a plant file that may carry ``[limits]`` and ``[[load_cases]]`` (see the module docstring).
+
+    Raises
+    ------
+    InputError
+        Unreadable file, invalid TOML, anything :func:`simulate.config.plant_from_dict` rejects, a bad limit or
+        load case (the message names the key and the value).
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+        text = data.decode("utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"plant file {str(path)!r} is not UTF-8 text") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
+    study_raw = {k: raw.pop(k) for k in STUDY_SECTIONS if k in raw}
+    if overrides:
+        apply_overrides(raw, overrides)
+    plant = plant_from_dict(raw, base_dir=path.resolve().parent)
+    limits = Limits.from_dict(study_raw["limits"]) if "limits" in study_raw else None
+    cases = (parse_load_cases(study_raw["load_cases"], plant) if "load_cases" in study_raw
+             else (LoadCase(name="plant scenario", overrides={}),))
+    return Study(plant=plant, limits=limits, load_cases=cases, path=path, sha256=hashlib.sha256(data).hexdigest())
+
+
+def file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# a plant file for hillsim run
+# ---------------------------------------------------------------------------------------------------------------
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {value!r} as TOML")
+
+
+def plant_toml(plant: PlantConfig) -> str:
+    """The plant as a TOML file :func:`simulate.config.load_plant` reads back to an equal plant (the
+    characteristics path made absolute, so the file works from any folder).
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> from dataclasses import replace
+    >>> from simulate.config import load_plant
+    >>> from data_synthetic import PLANT_HLA339
+    >>> plant = load_plant(PLANT_HLA339)
+    >>> again = plant_from_dict(tomllib.loads(plant_toml(plant)), base_dir=plant.base_dir)
+    >>> again.turbine.characteristics == str(plant.base_dir / "francis" / "nets.json")
+    True
+    >>> replace(again, turbine=plant.turbine) == plant
+    True
+    """
+    raw = to_dict(plant)
+    chars = raw["turbine"]["characteristics"]
+    if chars != "ideal" and not Path(chars).is_absolute():
+        raw["turbine"]["characteristics"] = str((plant.base_dir / chars).resolve())
+    lines = []
+    for section, body in raw.items():
+        lines.append(f"[{section}]")
+        for key, value in body.items():
+            if key != "segments":
+                lines.append(f"{key} = {_toml_value(value)}")
+        lines.append("")
+        for seg in body.get("segments", []):
+            lines.append(f"[[{section}.segments]]")
+            lines.extend(f"{k} = {_toml_value(v)}" for k, v in seg.items())
+            lines.append("")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# ensemble nets
+# ---------------------------------------------------------------------------------------------------------------
+def load_ensemble(path: str | Path) -> list:
+    """The members of the optional top-level ``"ensemble"`` list of a nets.json as HillNets (empty list when
+    the file has none). Each member is ``{"flow": NET, "torque": NET}`` in the base file's units.
+
+    Raises
+    ------
+    InputError
+        ``ensemble`` not a non-empty list, a member not an object or without flow/torque, a malformed NET (the
+        message names ``ensemble[i].flow.KEY``).
+    """
+    from hillchart.nets.hill_nets import HillNets, NetWeights, load_nets
+
+    path = Path(path)
+    base = load_nets(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"cannot read nets file {str(path)!r}: {exc}") from None
+    if "ensemble" not in doc:
+        return []
+    members = doc["ensemble"]
+    if not isinstance(members, list) or not members:
+        raise InputError(f"{str(path)!r}: ensemble must be a non-empty list of {{\"flow\": NET, \"torque\": NET}}, "
+                         f"got {type(members).__name__}")
+    out = []
+    for i, member in enumerate(members):
+        if not isinstance(member, dict) or "flow" not in member or "torque" not in member:
+            raise InputError(f"{str(path)!r}: ensemble[{i}] must be an object with keys flow and torque")
+        out.append(HillNets(flow=NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
+                            torque=NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque",
+                                                        output="m11"),
+                            opening_unit=base.opening_unit))
+    return out
+
+
+__all__ = ["STUDY_SECTIONS", "Limits", "LoadCase", "Study", "parse_load_cases", "load_study", "plant_toml",
+           "file_sha256", "load_ensemble"]

@@ -1,0 +1,127 @@
+"""The scenario once per ensemble member: the band of the regulating-guarantee figures (issue 9 section 4).
+
+Only the public seams are used: :func:`simulate.config.load_plant` and
+:func:`simulate.loop.engine.run_simulation(plant, characteristics)`; each member of the nets' ensemble (see
+:meth:`hillchart.nets.hill_nets.HillNets.members`) is passed as the characteristics. Cost: one simulation per member.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import HillsimError, InputError
+
+#: Summary figures whose band is reported (fractions of the initial values, see SimulationResult.summary).
+BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m")
+#: Time series whose band over the members is drawn on ``transient.png`` (SimulationResult attributes).
+BAND_TRACES = ("speed_rpm", "head_m", "flow_m3_s", "opening")
+
+
+@dataclass(frozen=True)
+class TraceBand:
+    """Percentile band of time series over the ensemble members, on the runs' common time grid.
+
+    Attributes
+    ----------
+    time_s : ndarray (T,)
+    low, high : dict
+        ``{name: ndarray (T,)}`` for the names of :data:`BAND_TRACES` (units of the SimulationResult attributes).
+    percentiles : (float, float)
+    members : int
+        Members that ran (failed ones are not in the band).
+    """
+
+    time_s: np.ndarray
+    low: dict
+    high: dict
+    percentiles: tuple
+    members: int
+
+
+def _nets_of(plant):
+    from hillchart.nets.hill_nets import load_nets
+
+    source = plant.turbine.characteristics
+    if source == "ideal":
+        raise InputError("--uncertainty needs nets with an ensemble: turbine.characteristics is \"ideal\"")
+    path = Path(source)
+    if not path.is_absolute():
+        path = Path(plant.base_dir) / path
+    return load_nets(path)
+
+
+def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
+    """Simulate ``plant``'s scenario with every ensemble member and return the band of the summary figures
+    (the first item of :func:`run_ensemble`)."""
+    return run_ensemble(plant, nets, percentiles=percentiles)[0]
+
+
+def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, TraceBand]:
+    """Simulate ``plant``'s scenario with every ensemble member: the band of the summary figures and of the traces.
+
+    Parameters
+    ----------
+    plant : PlantConfig
+        From :func:`simulate.config.load_plant`.
+    nets : HillNets, optional
+        Default: the plant's ``turbine.characteristics`` nets.json (it must hold an ensemble).
+    percentiles : (low, high), percent
+
+    Returns
+    -------
+    band : dict
+        ``members`` (count), ``failed`` (list of ``{"member", "message"}``), ``percentiles`` and, per figure of
+        :data:`BAND_FIGURES`, ``{"low", "high", "mean", "values"}`` over the members that ran (JSON-ready).
+    traces : TraceBand
+        The same percentiles of the :data:`BAND_TRACES` series at every time step (drawn on ``transient.png``).
+
+    Raises
+    ------
+    InputError
+        No ensemble, bad percentiles.
+    NumericalError
+        Every member failed (the first failure is raised).
+    """
+    from simulate.loop.engine import run_simulation
+
+    low_p, high_p = (float(p) for p in percentiles)
+    if not 0 <= low_p < high_p <= 100:
+        raise InputError(f"percentiles must satisfy 0 <= low < high <= 100, got {percentiles!r}")
+    nets = _nets_of(plant) if nets is None else nets
+    members = nets.members() if hasattr(nets, "members") else []
+    if not members:
+        raise InputError("--uncertainty needs nets with an ensemble (hillsim train --ensemble N); this nets.json "
+                         "has none")
+    values = {name: [] for name in BAND_FIGURES}
+    traces = {name: [] for name in BAND_TRACES}
+    time_s = None
+    failed = []
+    first_error = None
+    for i, member in enumerate(members):
+        try:
+            result = run_simulation(plant, characteristics=member, raise_on_failure=True)
+        except HillsimError as exc:  # reported per member, never swallowed: all failing is raised below
+            failed.append({"member": i, "message": str(exc)})
+            first_error = first_error or exc
+            continue
+        summary = result.summary()
+        for name in BAND_FIGURES:
+            values[name].append(float(summary[name]))
+        time_s = result.time_s  # the same plant: the same time grid for every member that ran to the end
+        for name in BAND_TRACES:
+            traces[name].append(np.asarray(getattr(result, name), dtype=float))
+    if len(failed) == len(members):
+        raise first_error
+    out = {"members": len(members), "failed": failed, "percentiles": [low_p, high_p]}
+    for name, series in values.items():
+        arr = np.asarray(series)
+        out[name] = {"low": float(np.percentile(arr, low_p)), "high": float(np.percentile(arr, high_p)),
+                     "mean": float(arr.mean()), "values": series}
+    stacked = {name: np.vstack(rows) for name, rows in traces.items()}
+    band = TraceBand(time_s=np.asarray(time_s), low={k: np.percentile(v, low_p, axis=0) for k, v in stacked.items()},
+                     high={k: np.percentile(v, high_p, axis=0) for k, v in stacked.items()},
+                     percentiles=(low_p, high_p), members=len(members) - len(failed))
+    return out, band
