@@ -31,7 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from hillchart.extension.extend import ExtensionOptions  # noqa: E402
-from hillchart.synthetic.generalization import acceptance_failures, evaluate  # noqa: E402
+from hillchart.generalization import acceptance_failures, evaluate  # noqa: E402
 from hillchart.synthetic.francis import FAMILY, DigitizationOptions  # noqa: E402
 
 PIPELINES = {

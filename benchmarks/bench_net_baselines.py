@@ -37,7 +37,8 @@ from tests.torch_reference import torch_forward  # noqa: E402  (the Adam baselin
 
 from hillchart.nets import lm  # noqa: E402
 from hillchart.extension.extend import extend_samples  # noqa: E402
-from hillchart.nets.hill_nets import HillNet, measured_region_mask, read_truth_csv  # noqa: E402
+from hillchart.nets.hill_nets import HillNet, read_truth_csv  # noqa: E402
+from hillchart.io.samples import measured_region_mask
 from hillchart.io.samples import load_chart  # noqa: E402
 
 CHART = Path(__file__).resolve().parents[1] / "data_synthetic" / "francis"

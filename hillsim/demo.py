@@ -103,13 +103,14 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     from hillchart.nets.chartplot import chart_figure
     from hillchart.extension.extend import extend_samples
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients
-    from hillchart.nets.hill_nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
+    from hillchart.nets.hill_nets import load_nets, read_truth_csv, train_nets, truth_errors
+    from hillchart.io.samples import measured_region_mask
     from hillchart.io.samples import load_chart
     from hillchart.synthetic.francis import SyntheticFrancis
     from simulate.config import ScenarioConfig, load_plant
     from simulate.identification.compare import compare_identification
     from simulate.identification.results import CoefficientSet, to_json_dict
-    from simulate.linear.reference import plant_linearization
+    from simulate.identification.linear_reference import plant_linearization
 
     from hillsim.progress import Stages
 

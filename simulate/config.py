@@ -31,65 +31,13 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from hillchart.errors import InputError
+from hillchart.validation import check_choice, check_int, check_number
 
-from simulate.loop.registry import PENSTOCKS  # noqa: E402  (light: no numba)
+from simulate.components.registry import PENSTOCKS  # noqa: E402  (light: no numba)
+from simulate.scenarios.base import SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig
 
 PENSTOCK_MODELS = PENSTOCKS.names()  # the penstock registry's names
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
-SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps", "short-circuit",
-                  "field-step")
-
-#: Keys each scenario kind accepts beyond ``kind`` and ``t_end_s`` (required ones first in the docs).
-SCENARIO_KEYS = {
-    "load-rejection": ("initial_power_mw", "initial_opening", "event_time_s"),
-    "closure-law": ("initial_power_mw", "initial_opening", "event_time_s", "closing_time_s", "break_opening",
-                    "break_time_s"),
-    "frequency-steps": ("speed_steps", "step_times_s"),
-    "load-step": ("initial_power_mw", "initial_opening", "event_time_s", "load_step"),
-    "opening-steps": ("initial_power_mw", "initial_opening", "opening_steps", "step_times_s"),
-    "short-circuit": ("event_time_s",),
-    "field-step": ("event_time_s", "field_step_pu"),
-}
-
-
-def _check_number(section: str, key: str, value: Any, *, low: float | None = None, high: float | None = None,
-                  low_open: bool = False, high_open: bool = False) -> float:
-    """Return ``value`` as float or raise InputError naming ``section.key``, the value and the allowed range."""
-    low_txt = "-inf" if low is None else repr(low)
-    high_txt = "inf" if high is None else repr(high)
-    allowed = f"{'(' if low_open or low is None else '['}{low_txt}, {high_txt}{')' if high_open or high is None else ']'}"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{section}.{key} must be a number in {allowed}, got {value!r}")
-    value = float(value)
-    bad = not math.isfinite(value)
-    if low is not None:
-        bad |= value <= low if low_open else value < low
-    if high is not None:
-        bad |= value >= high if high_open else value > high
-    if bad:
-        raise InputError(f"{section}.{key} must be in {allowed}, got {value!r}")
-    return value
-
-
-def _check_int(section: str, key: str, value: Any, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not (low <= value <= high):
-        raise InputError(f"{section}.{key} must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
-
-
-def _check_choice(section: str, key: str, value: Any, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise InputError(f"{section}.{key} must be one of {', '.join(choices)}; got {value!r}")
-    return value
-
-
-def _check_float_list(section: str, key: str, value: Any, *, low: float, high: float) -> tuple[float, ...]:
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-        raise InputError(f"{section}.{key} must be a list of numbers in [{low}, {high}], got {value!r}")
-    out = tuple(_check_number(section, f"{key}[{i}]", v, low=low, high=high) for i, v in enumerate(value))
-    if not out:
-        raise InputError(f"{section}.{key} must be a non-empty list of numbers, got {value!r}")
-    return out
 
 
 @dataclass(frozen=True)
@@ -111,7 +59,7 @@ class TurbineConfig:
     def __post_init__(self):
         for name, high in (("rated_head_m", 3000.0), ("rated_flow_m3_s", 1e4), ("rated_speed_rpm", 3600.0),
                            ("rated_power_mw", 2000.0), ("runner_diameter_m", 20.0), ("opening_max", 1e5)):
-            _check_number("turbine", name, getattr(self, name), low=0.0, high=high, low_open=True)
+            check_number(f"turbine.{name}", getattr(self, name), low=0.0, high=high, low_open=True)
         if not isinstance(self.characteristics, str) or not self.characteristics.strip():
             raise InputError(f"turbine.characteristics must be \"ideal\" or a path to a nets.json, "
                              f"got {self.characteristics!r}")
@@ -153,12 +101,12 @@ class PenstockSegment:
                              f"the tailwater datum, m); got {self.elevation_start_m!r} and {self.elevation_end_m!r}")
         for key in ("elevation_start_m", "elevation_end_m"):
             if getattr(self, key) is not None:
-                _check_number("penstock.segments", key, getattr(self, key), low=-3000.0, high=3000.0)
-        _check_number("penstock.segments", "length_m", self.length_m, low=0.0, high=1e5, low_open=True)
-        _check_number("penstock.segments", "diameter_m", self.diameter_m, low=0.0, high=30.0, low_open=True)
-        _check_number("penstock.segments", "wave_speed_m_s", self.wave_speed_m_s, low=0.0, high=1600.0,
+                check_number(f"penstock.segments.{key}", getattr(self, key), low=-3000.0, high=3000.0)
+        check_number("penstock.segments.length_m", self.length_m, low=0.0, high=1e5, low_open=True)
+        check_number("penstock.segments.diameter_m", self.diameter_m, low=0.0, high=30.0, low_open=True)
+        check_number("penstock.segments.wave_speed_m_s", self.wave_speed_m_s, low=0.0, high=1600.0,
                       low_open=True)
-        _check_number("penstock.segments", "darcy_friction", self.darcy_friction, low=0.0, high=0.2)
+        check_number("penstock.segments.darcy_friction", self.darcy_friction, low=0.0, high=0.2)
 
     @property
     def area_m2(self) -> float:
@@ -189,11 +137,11 @@ class PenstockConfig:
     zdomain_feedback: float = 0.0
 
     def __post_init__(self):
-        _check_choice("penstock", "model", self.model, PENSTOCK_MODELS)
-        _check_number("penstock", "static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
-        _check_int("penstock", "reaches", self.reaches, 1, 10000)
-        _check_number("penstock", "lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
-        _check_number("penstock", "zdomain_feedback", self.zdomain_feedback, low=0.0, high=100.0)
+        check_choice("penstock.model", self.model, PENSTOCK_MODELS)
+        check_number("penstock.static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
+        check_int("penstock.reaches", self.reaches, 1, 10000)
+        check_number("penstock.lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
+        check_number("penstock.zdomain_feedback", self.zdomain_feedback, low=0.0, high=100.0)
         if not isinstance(self.segments, tuple) or not self.segments or not all(
                 isinstance(s, PenstockSegment) for s in self.segments):
             raise InputError(f"penstock.segments must be a non-empty list of segments, got {self.segments!r}")
@@ -240,7 +188,7 @@ class GeneratorConfig:
     """Rotor and load: ``inertia_time_s`` Ta = J w_r^2 / P_r; ``self_regulation`` e_g (per unit torque per unit
     speed) of the connected load, active only while the breaker is closed.
 
-    ``model``: the shaft component (registry :data:`simulate.loop.registry.SHAFTS`): ``"swing"`` (default, the swing
+    ``model``: the shaft component (registry :data:`simulate.components.registry.SHAFTS`): ``"swing"`` (default, the swing
     equation with load self-regulation) or ``"subtransient"`` (paper 001's machine, eq. (10), with ``[excitation]``
     and ``[grid]``; its keys :data:`SUBTRANSIENT_KEYS` are required then (``ra`` optional) and rejected otherwise;
     the load's frequency dependence is ``grid.frequency_p``, so ``self_regulation`` must be 0).
@@ -262,11 +210,11 @@ class GeneratorConfig:
     ra: float | None = None
 
     def __post_init__(self):
-        from simulate.loop.registry import SHAFTS
+        from simulate.components.registry import SHAFTS
 
-        _check_choice("generator", "model", self.model, SHAFTS.names())
-        _check_number("generator", "inertia_time_s", self.inertia_time_s, low=0.0, high=100.0, low_open=True)
-        _check_number("generator", "self_regulation", self.self_regulation, low=0.0, high=20.0)
+        check_choice("generator.model", self.model, SHAFTS.names())
+        check_number("generator.inertia_time_s", self.inertia_time_s, low=0.0, high=100.0, low_open=True)
+        check_number("generator.self_regulation", self.self_regulation, low=0.0, high=20.0)
         given = [k for k in SUBTRANSIENT_KEYS if getattr(self, k) is not None]
         if self.model != "subtransient":
             if given:
@@ -329,17 +277,17 @@ class GovernorConfig:
     DISCRETE_KEYS: ClassVar[tuple[str, ...]] = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
     def __post_init__(self):
-        _check_choice("governor", "servo_model", self.servo_model, ("first-order", "discrete"))
-        _check_number("governor", "kp", self.kp, low=0.0, high=1000.0)
-        _check_number("governor", "ki", self.ki, low=0.0, high=1000.0)
-        _check_number("governor", "kd", self.kd, low=0.0, high=1000.0)
-        _check_number("governor", "derivative_filter_s", self.derivative_filter_s, low=0.0, high=100.0)
-        _check_number("governor", "permanent_droop", self.permanent_droop, low=0.0, high=1.0, high_open=True)
-        _check_number("governor", "servo_time_s", self.servo_time_s, low=0.0, high=100.0, low_open=True)
-        _check_number("governor", "closing_time_s", self.closing_time_s, low=0.0, high=1000.0, low_open=True)
-        _check_number("governor", "opening_time_s", self.opening_time_s, low=0.0, high=1000.0, low_open=True)
-        _check_number("governor", "stroke_min", self.stroke_min, low=0.0, high=1.0)
-        _check_number("governor", "stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+        check_choice("governor.servo_model", self.servo_model, ("first-order", "discrete"))
+        check_number("governor.kp", self.kp, low=0.0, high=1000.0)
+        check_number("governor.ki", self.ki, low=0.0, high=1000.0)
+        check_number("governor.kd", self.kd, low=0.0, high=1000.0)
+        check_number("governor.derivative_filter_s", self.derivative_filter_s, low=0.0, high=100.0)
+        check_number("governor.permanent_droop", self.permanent_droop, low=0.0, high=1.0, high_open=True)
+        check_number("governor.servo_time_s", self.servo_time_s, low=0.0, high=100.0, low_open=True)
+        check_number("governor.closing_time_s", self.closing_time_s, low=0.0, high=1000.0, low_open=True)
+        check_number("governor.opening_time_s", self.opening_time_s, low=0.0, high=1000.0, low_open=True)
+        check_number("governor.stroke_min", self.stroke_min, low=0.0, high=1.0)
+        check_number("governor.stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
@@ -360,94 +308,8 @@ class GovernorConfig:
             return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max,
                                        closing_time_s=self.closing_time_s, opening_time_s=self.opening_time_s)
         except InputError as exc:
-            raise InputError(f"governor (servo_model = \"discrete\", eq. (37)): "
+            raise InputError("governor (servo_model = \"discrete\", eq. (37)): "
                              + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
-
-
-@dataclass(frozen=True)
-class ScenarioConfig:
-    """What happens: ``kind`` (one of :data:`SCENARIO_KINDS`), end time and the kind's own keys.
-
-    A tagged union: ``ScenarioConfig(kind=..., ...)`` returns the dataclass of that kind, one per file in
-    :mod:`simulate.scenarios` (``LoadRejection``, ``ClosureLaw``, ``FrequencySteps``, ``LoadStep``,
-    ``OpeningSteps``), each with its own keys (``KEYS``), checks (``validate``), initial point and schedules. A key
-    that the kind does not use must stay at its default (an error names it and the kind's keys).
-
-    Defaults: ``event_time_s`` 1.0; ``load_step`` 0.1 (fraction of the initial load); ``speed_steps``
-    (0.04, -0.08, 0.04) at ``step_times_s`` (10, 40, 70) for frequency-steps (paper 004 Fig. 11a);
-    ``opening_steps`` (0.02,) at ``step_times_s`` (1,) for opening-steps. Exactly one of ``initial_power_mw`` /
-    ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
-    ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
-    vanes move at the slower rate of a full stroke per ``break_time_s``. ``field_step_pu`` (field-step, default 0.1):
-    the field-voltage step, pu.
-    """
-
-    kind: str
-    t_end_s: float
-    initial_power_mw: float | None = None
-    initial_opening: float | None = None
-    event_time_s: float = 1.0
-    closing_time_s: float | None = None
-    break_opening: float | None = None
-    break_time_s: float | None = None
-    load_step: float = 0.1
-    speed_steps: tuple[float, ...] | None = None
-    opening_steps: tuple[float, ...] | None = None
-    step_times_s: tuple[float, ...] | None = None
-    field_step_pu: float = 0.1
-
-    #: keys of this kind beyond ``kind`` and ``t_end_s`` (set by each kind's class)
-    KEYS: ClassVar[tuple[str, ...]] = ()
-
-    def __new__(cls, *args, **kwargs):
-        if cls is ScenarioConfig:
-            from simulate.scenarios import SCENARIO_CLASSES
-
-            kind = kwargs.get("kind", args[0] if args else None)
-            _check_choice("scenario", "kind", kind, SCENARIO_KINDS)
-            cls = SCENARIO_CLASSES[kind]
-        return super().__new__(cls)
-
-    def __post_init__(self):
-        _check_choice("scenario", "kind", self.kind, SCENARIO_KINDS)
-        if SCENARIO_KEYS.get(self.kind) != self.KEYS:
-            raise InputError(f"scenario.kind = {self.kind!r} does not match the scenario class {type(self).__name__}")
-        _check_number("scenario", "t_end_s", self.t_end_s, low=0.0, high=1e5, low_open=True)
-        allowed = set(self.KEYS)
-        for f in fields(self):
-            if f.name in ("kind", "t_end_s") or f.name in allowed:
-                continue
-            if getattr(self, f.name) != f.default:
-                raise InputError(f"scenario.{f.name} is not used by scenario.kind = {self.kind!r}; "
-                                 f"allowed keys: kind, t_end_s, {', '.join(self.KEYS)}")
-        _check_number("scenario", "event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
-        if "initial_power_mw" in allowed:
-            if (self.initial_power_mw is None) == (self.initial_opening is None):
-                raise InputError(f"scenario kind {self.kind!r} needs exactly one of scenario.initial_power_mw or "
-                                 f"scenario.initial_opening; got {self.initial_power_mw!r} and "
-                                 f"{self.initial_opening!r}")
-            if self.initial_power_mw is not None:
-                _check_number("scenario", "initial_power_mw", self.initial_power_mw, low=0.0, high=3000.0)
-            if self.initial_opening is not None:
-                _check_number("scenario", "initial_opening", self.initial_opening, low=0.0, high=1.5)
-        self.validate()
-
-    def validate(self) -> None:
-        """The kind's own checks (overridden per kind)."""
-
-    def check_plant(self, plant) -> None:
-        """Checks of the kind against the rest of the plant (e.g. a kind that needs the sub-transient generator);
-        overridden per kind."""
-
-    def initial_target(self) -> dict:
-        """Keyword for :func:`simulate.loop.steady.steady_state`: ``{"power_mw": ...}`` or ``{"stroke": ...}``."""
-        if self.initial_power_mw is not None:
-            return {"power_mw": float(self.initial_power_mw)}
-        return {"stroke": float(self.initial_opening)}
-
-    def schedules(self, plant, initial_stroke: float, initial_load_pu: float):
-        """The :class:`simulate.scenarios.Schedules` the loop follows (per kind)."""
-        raise NotImplementedError(f"scenario kind {self.kind!r} defines no schedules")
 
 
 @dataclass(frozen=True)
@@ -473,15 +335,15 @@ class SolverConfig:
 
     def __post_init__(self):
         if self.dt_s is not None:
-            _check_number("solver", "dt_s", self.dt_s, low=0.0, high=10.0, low_open=True)
+            check_number("solver.dt_s", self.dt_s, low=0.0, high=10.0, low_open=True)
         if self.output_dt_s is not None:
-            _check_number("solver", "output_dt_s", self.output_dt_s, low=0.0, high=1e4, low_open=True)
-        _check_number("solver", "max_node_steps", self.max_node_steps, low=0.0, high=1e15, low_open=True)
-        _check_number("solver", "max_output_mb", self.max_output_mb, low=0.0, high=1e7, low_open=True)
-        _check_choice("solver", "pressure_loop", self.pressure_loop, PRESSURE_LOOPS)
-        _check_number("solver", "tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
-        _check_int("solver", "max_iterations", self.max_iterations, 1, 100000)
-        _check_number("solver", "relaxation", self.relaxation, low=0.0, high=1.0, low_open=True)
+            check_number("solver.output_dt_s", self.output_dt_s, low=0.0, high=1e4, low_open=True)
+        check_number("solver.max_node_steps", self.max_node_steps, low=0.0, high=1e15, low_open=True)
+        check_number("solver.max_output_mb", self.max_output_mb, low=0.0, high=1e7, low_open=True)
+        check_choice("solver.pressure_loop", self.pressure_loop, PRESSURE_LOOPS)
+        check_number("solver.tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
+        check_int("solver.max_iterations", self.max_iterations, 1, 100000)
+        check_number("solver.relaxation", self.relaxation, low=0.0, high=1.0, low_open=True)
 
 
 @dataclass(frozen=True)
@@ -504,15 +366,15 @@ class SurgeTankConfig:
     level_min_m: float | None = None
 
     def __post_init__(self):
-        _check_number("surge_tank", "area_m2", self.area_m2, low=0.0, high=1e5, low_open=True)
-        _check_number("surge_tank", "throttle_loss_coefficient", self.throttle_loss_coefficient, low=0.0, high=1e4)
-        _check_number("surge_tank", "tunnel_length_m", self.tunnel_length_m, low=0.0, high=1e5, low_open=True)
-        _check_number("surge_tank", "tunnel_diameter_m", self.tunnel_diameter_m, low=0.0, high=30.0, low_open=True)
-        _check_number("surge_tank", "tunnel_darcy_friction", self.tunnel_darcy_friction, low=0.0, high=0.2)
+        check_number("surge_tank.area_m2", self.area_m2, low=0.0, high=1e5, low_open=True)
+        check_number("surge_tank.throttle_loss_coefficient", self.throttle_loss_coefficient, low=0.0, high=1e4)
+        check_number("surge_tank.tunnel_length_m", self.tunnel_length_m, low=0.0, high=1e5, low_open=True)
+        check_number("surge_tank.tunnel_diameter_m", self.tunnel_diameter_m, low=0.0, high=30.0, low_open=True)
+        check_number("surge_tank.tunnel_darcy_friction", self.tunnel_darcy_friction, low=0.0, high=0.2)
         if self.level_max_m is not None:
-            _check_number("surge_tank", "level_max_m", self.level_max_m, low=0.0, high=1e4, low_open=True)
+            check_number("surge_tank.level_max_m", self.level_max_m, low=0.0, high=1e4, low_open=True)
         if self.level_min_m is not None:
-            _check_number("surge_tank", "level_min_m", self.level_min_m, low=-1e4, high=0.0, high_open=True)
+            check_number("surge_tank.level_min_m", self.level_min_m, low=-1e4, high=0.0, high_open=True)
 
     @property
     def tunnel_area_m2(self) -> float:
@@ -841,7 +703,7 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
 def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     """The characteristics object named by ``turbine.characteristics``.
 
-    One resolver for every command (:func:`simulate.loop.registry.resolve_characteristics`): ``"ideal"`` gives
+    One resolver for every command (:func:`simulate.components.registry.resolve_characteristics`): ``"ideal"`` gives
     :class:`hillchart.characteristics.IdealTurbine` from the rated values:
     q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
     ``"synthetic"`` the exact synthetic Francis turbine; anything else is a nets.json path (relative to
@@ -855,7 +717,7 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
     (0.25, 0.917431)
     """
-    from simulate.loop.registry import resolve_characteristics
+    from simulate.components.registry import resolve_characteristics
 
     return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
 

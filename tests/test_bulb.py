@@ -123,7 +123,9 @@ def test_best_efficiency_closure_is_the_optimum_of_each_propeller_curve():
     for blade, gv in [(-18.0, 40.0), (16.0, 78.0), (0.0, 55.0), (-10.0, 70.0), (16.0, 40.0)]:
         best = float(bulb.best_efficiency_n11(blade, gv))
         assert best == pytest.approx(n[np.argmax(bulb.unit_efficiency(n, gv, blade))], abs=0.011)  # scan step
-        eta = lambda x: float(bulb.unit_efficiency(x, gv, blade))
+        def eta(x, gv=gv, blade=blade):
+            return float(bulb.unit_efficiency(x, gv, blade))
+
         assert eta(best) >= max(eta(best - 0.05), eta(best + 0.05))
     op = bulb.best_efficiency_points(np.array([-5.0, 5.0]), np.array([50.0, 60.0]))
     d, speed = bulb.params.runner_diameter_m, bulb.params.speed_rpm

@@ -5,7 +5,6 @@ import io
 import re
 from pathlib import Path
 
-import pytest
 
 from hillsim.cli import build_parser, main
 from hillsim.progress import Stages

@@ -9,7 +9,7 @@ defaults (model boundaries, selection by cross-validation, ensemble of 10). The 
 import pytest
 
 from hillchart.extension.extend import ExtensionOptions
-from hillchart.synthetic.generalization import acceptance_failures, evaluate
+from hillchart.generalization import acceptance_failures, evaluate
 from hillchart.synthetic.francis import FAMILY, DigitizationOptions
 
 ISSUE_CHART = DigitizationOptions(points_per_line=6, spacing="uneven", noise_pct=0.3, q11_unit="l/s",

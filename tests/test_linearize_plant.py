@@ -38,7 +38,7 @@ def test_linearize_at_plant_operating_point(capsys, model, order):
     # the printed JSON is the typed record plant_linearization returns (one JSON function for both)
     from simulate.config import load_plant
     from simulate.identification.results import to_json_dict
-    from simulate.linear.reference import plant_linearization
+    from simulate.identification.linear_reference import plant_linearization
 
     record = plant_linearization(load_plant(PLANT_FILE), load_nets(NETS), initial_opening=0.68, penstock_model=model)
     assert record.linear_model.arx.a == tuple(lin["arx"]["a"]) and record.operating_point.stroke == 0.68

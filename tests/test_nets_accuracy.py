@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from hillchart.extension.extend import extend_samples
-from hillchart.nets.hill_nets import load_nets, measured_region_mask, read_truth_csv, train_nets, truth_errors
+from hillchart.nets.hill_nets import load_nets, read_truth_csv, train_nets, truth_errors
+from hillchart.io.samples import measured_region_mask
 from hillchart.io.samples import load_chart
 from hillchart.synthetic.francis import SyntheticFrancis
 

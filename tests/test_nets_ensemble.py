@@ -109,7 +109,7 @@ def test_folder_and_byte_order_mark(tmp_path):
 
 def test_trust_map_is_wider_outside_the_digitized_region(tmp_path):
     from hillchart.nets import chartplot
-    from hillchart.nets.hill_nets import measured_region_mask
+    from hillchart.io.samples import measured_region_mask
     from hillchart.io.samples import load_chart
 
     chart = load_chart(FRANCIS_DIR)

@@ -7,7 +7,8 @@ import numpy as np
 from matplotlib.path import Path as MplPath
 
 from hillchart.nets import chartplot
-from hillchart.nets.hill_nets import load_nets, measured_region_mask
+from hillchart.nets.hill_nets import load_nets
+from hillchart.io.samples import measured_region_mask
 from hillchart.io.samples import load_chart
 from hillsim.cli import main
 from tests.external_charts import write_sayano_chart

@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from data_synthetic import PLANT_HLA339
-from hillchart.characteristics import IdealTurbine
 from hillchart.errors import InputError
 from simulate.loop import assembly
-from simulate.loop.registry import CHARACTERISTICS, CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM
+from simulate.components.registry import CHARACTERISTICS, CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM
 from simulate.config import load_characteristics, load_plant
 from simulate.loop.engine import run_simulation
 
@@ -100,7 +99,7 @@ def test_result_carries_its_steady_state_and_plant():
 def test_components_chosen_by_their_section_are_picked_without_naming_them():
     from types import SimpleNamespace
 
-    from simulate.loop.registry import Registry, section_component
+    from simulate.components.registry import Registry, section_component
 
     reg = Registry("shaft", "shaft", {"rotor": "simulate.components.shaft.rotor:build_rotor",
                                       "synchronous_generator": "somewhere:build"})

@@ -1,7 +1,6 @@
 """Head envelope along the penstock and extrapolation tracking (issue 10, section 4)."""
 
 import json
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np

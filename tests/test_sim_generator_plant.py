@@ -6,7 +6,6 @@ the CLI, garbage in the new keys."""
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 import pytest
@@ -356,7 +355,7 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
 
 
 def test_linear_models_take_the_islands_self_regulation_and_refuse_the_infinite_bus():
-    from simulate.linear.reference import linear_reference
+    from simulate.identification.linear_reference import linear_reference
     from simulate.config import load_characteristics
     from simulate.loop.engine import initial_state
 

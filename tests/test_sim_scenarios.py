@@ -8,7 +8,8 @@ import pytest
 from hillchart.synthetic.francis import SyntheticFrancis
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
-from simulate.components.control.governor import closure_law, governor_step, piecewise_linear
+from simulate.components.control.governor import closure_law, governor_step
+from simulate.components.schedules import piecewise_linear
 
 PLANT_FILE = resources.files("data_synthetic") / "plant_hla339.toml"
 FRANCIS = SyntheticFrancis()

@@ -9,7 +9,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("torch", "scipy.signal", "matplotlib")
@@ -44,7 +43,7 @@ def test_simulating_and_linearizing_with_the_shipped_nets_import_no_torch(tmp_pa
     loaded = _modules_after(
         "from data_synthetic import PLANT_HLA339\n"
         "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"
-        "from simulate.linear.reference import plant_linearization\n"
+        "from simulate.identification.linear_reference import plant_linearization\n"
         "plant = load_plant(PLANT_HLA339, {'scenario.t_end_s': 3.0})\n"
         "run_simulation(plant).summary()\nplant_linearization(plant)\n", tmp_path)
     assert not loaded["torch"] and not loaded["scipy.signal"], loaded

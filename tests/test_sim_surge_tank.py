@@ -76,7 +76,7 @@ def test_the_analytic_check_fails_for_a_throttled_tank():
 
 def test_tunnel_friction_makes_the_oscillation_decay():
     r = _instant_stop(**{"surge_tank.tunnel_darcy_friction": 0.015, "surge_tank.tunnel_diameter_m": 6.0})
-    z, t = r.signals["surge_level_m"], r.time_s
+    z = r.signals["surge_level_m"]
     z0 = z[0]
     # the steady level is below the reservoir by the tunnel loss K_t Q0^2
     k_t = r.plant.surge_tank.steady_loss_coefficient_s2_m5

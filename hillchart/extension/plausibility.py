@@ -155,8 +155,8 @@ def check_chart(chart) -> None:
 def efficiency_plausibility(nets, chart, *, margin: float = EFFICIENCY_MARGIN) -> str | None:
     """A message when the nets' efficiency inside the digitized region exceeds the chart's best contour by more
     than ``margin`` (the flow and torque nets then disagree: usually a poor boundary extension), else None."""
-    from hillchart.nets.chartplot import efficiency_from_characteristics
-    from hillchart.nets.hill_nets import measured_region_mask
+    from hillchart.characteristics import efficiency_from_characteristics
+    from hillchart.io.samples import measured_region_mask
 
     n11, opening = np.meshgrid(np.linspace(chart.flow_n11.min(), chart.flow_n11.max(), 60),
                                np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 60))

@@ -36,7 +36,6 @@ from pathlib import Path
 
 import numpy as np
 
-from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError, NumericalError
 
 # ----------------------------------------------------------------------------------------------------------------

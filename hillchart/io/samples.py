@@ -263,3 +263,20 @@ def load_chart(folder) -> ChartSamples:
         rows={"flow": line_numbers["flow.csv"], "eff": line_numbers["efficiency.csv"],
               "runaway": line_numbers["runaway.csv"]},
     )
+
+
+def measured_region_mask(measured_n11, measured_opening, n11, opening) -> np.ndarray:
+    """True where (N11, a) lies inside the convex hull of the measured (digitized) flow samples.
+
+    This is the chart's "measured region": where the chart itself has data.
+
+    Examples
+    --------
+    >>> measured_region_mask([0, 1, 0, 1], [0, 0, 1, 1], [0.5, 2.0], [0.5, 0.5]).tolist()
+    [True, False]
+    """
+    from scipy.spatial import Delaunay
+
+    hull = Delaunay(np.column_stack([np.asarray(measured_n11, float), np.asarray(measured_opening, float)]))
+    points = np.column_stack([np.ravel(n11), np.ravel(opening)]).astype(float)
+    return (hull.find_simplex(points) >= 0).reshape(np.shape(n11))

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hillchart.characteristics import efficiency_from_unit_torque
+from hillchart.characteristics import efficiency_from_characteristics, efficiency_from_unit_torque  # noqa: F401
 from hillchart.extension.extend import ORIGIN_COLOURS
 
 #: Iso-efficiency levels drawn when the caller gives none (those below the chart's best are used).
@@ -34,21 +34,6 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
-
-
-def efficiency_from_characteristics(characteristics, n11, opening) -> np.ndarray:
-    """Hydraulic efficiency (fraction) ``eta = M11 (2 pi N11 / 60) / (rho g Q11)``: eq. (5) of paper 004 solved
-    for eta. NaN where Q11 <= 0 or N11 <= 0.
-
-    Examples
-    --------
-    >>> from hillchart.characteristics import IdealTurbine
-    >>> t = IdealTurbine(q11_max_m3_s=0.6, opening_max=30.0, efficiency=0.9)
-    >>> round(float(efficiency_from_characteristics(t, 70.0, 15.0)), 12)
-    0.9
-    """
-    n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
-    return efficiency_from_unit_torque(characteristics.q11(n11, opening), n11, characteristics.m11(n11, opening))
 
 
 def _domain(nets):

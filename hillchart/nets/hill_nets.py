@@ -1149,23 +1149,6 @@ def read_truth_csv(path) -> dict[str, np.ndarray]:
     return out
 
 
-def measured_region_mask(measured_n11, measured_opening, n11, opening) -> np.ndarray:
-    """True where (N11, a) lies inside the convex hull of the measured (digitized) flow samples.
-
-    This is the "measured region" of issue 3 section 4: where the chart itself has data.
-
-    Examples
-    --------
-    >>> measured_region_mask([0, 1, 0, 1], [0, 0, 1, 1], [0.5, 2.0], [0.5, 0.5]).tolist()
-    [True, False]
-    """
-    from scipy.spatial import Delaunay
-
-    hull = Delaunay(np.column_stack([np.asarray(measured_n11, float), np.asarray(measured_opening, float)]))
-    points = np.column_stack([np.ravel(n11), np.ravel(opening)]).astype(float)
-    return (hull.find_simplex(points) >= 0).reshape(np.shape(n11))
-
-
 def truth_errors(characteristics, truth: dict, inside: np.ndarray) -> dict:
     """Errors of ``characteristics`` against exact values, inside and outside the measured region.
 
@@ -1175,7 +1158,7 @@ def truth_errors(characteristics, truth: dict, inside: np.ndarray) -> dict:
     truth : dict of ndarray
         ``n11``, ``opening``, ``q11``, ``m11`` (see :func:`read_truth_csv`).
     inside : ndarray of bool
-        Measured-region mask of the truth points (see :func:`measured_region_mask`).
+        Measured-region mask of the truth points (see :func:`hillchart.io.samples.measured_region_mask`).
 
     Returns
     -------

@@ -83,7 +83,7 @@ def _exact(choice: str, plant):
     """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics."""
     if choice == "none":
         return None
-    from simulate.loop.registry import resolve_characteristics
+    from simulate.components.registry import resolve_characteristics
 
     if choice == "synthetic":
         return resolve_characteristics("synthetic")

@@ -18,9 +18,9 @@ from hillsim import progress
 
 def load_characteristics(source: str, plant=None):
     """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
-    (:func:`simulate.loop.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
+    (:func:`simulate.components.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
     ``--plant``: the ideal turbine from the plant's rated values)."""
-    from simulate.loop.registry import resolve_characteristics
+    from simulate.components.registry import resolve_characteristics
 
     characteristics = resolve_characteristics(source, turbine=plant.turbine if plant is not None else None,
                                               key="NETS")
@@ -150,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_plant(args) -> int:
     from simulate.config import load_plant
     from simulate.identification.results import to_json_dict
-    from simulate.linear.reference import plant_linearization
+    from simulate.identification.linear_reference import plant_linearization
 
     if any(v is not None for v in (args.n11, args.opening, args.speed_rpm, args.head_m, args.d1_m)):
         raise InputError("with --plant the operating point comes from the plant (use --stroke to choose it); "

@@ -69,7 +69,7 @@ from simulate.identification.estimators import (
     simulation_mode_output,
 )
 from simulate.linear.models import ArxModel, LinearPlant, combined_coefficient
-from simulate.linear.reference import linear_reference
+from simulate.identification.linear_reference import linear_reference
 from simulate.identification.measured import RelativeSeries
 
 

@@ -302,7 +302,7 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
     ARX whose orders exceed the regulator's are (nearly) linearly dependent: the data cannot separate plant from
     regulator. A persistently exciting reference (or dither) restores identifiability; a single step does not.
     """
-    from simulate.linear.reference import linear_reference
+    from simulate.identification.linear_reference import linear_reference
     from simulate.config import ScenarioConfig, load_characteristics
     from simulate.loop.engine import initial_state, run_simulation
 

@@ -1,1 +1,2 @@
-"""The time loop: component registries, the generated loop, the steady state, the guards before a run."""
+"""The time loop: generated from the compiled components and cached on disk, its steady start, the checks before a run,
+and where the characteristics can be trusted."""

@@ -183,10 +183,24 @@ def _fingerprint(source: str, modules: list[str]) -> str:
     h = hashlib.sha256()
     h.update(f"{TEMPLATE_VERSION} numba {numba.__version__} {sys.version_info[:2]}".encode())
     h.update(source.encode())
-    for name in modules:
+    for name in sorted(_with_compiled_dependencies(modules)):
         mod = sys.modules.get(name) or importlib.import_module(name)
         h.update(Path(mod.__file__).read_bytes())
     return h.hexdigest()[:20]
+
+
+def _with_compiled_dependencies(modules: list[str]) -> set[str]:
+    """``modules`` and the project modules whose compiled functions they import (e.g. the schedules a governor
+    calls), so that editing any of them makes a new loop."""
+    names = set(modules)
+    for name in modules:
+        mod = sys.modules.get(name) or importlib.import_module(name)
+        for value in vars(mod).values():
+            if isinstance(value, numba.core.registry.CPUDispatcher):
+                owner = value.py_func.__module__
+                if owner.split(".")[0] in ("simulate", "hillchart") and owner in sys.modules:
+                    names.add(owner)
+    return names
 
 
 _LOADED: dict[str, types.ModuleType] = {}

@@ -1,4 +1,4 @@
-"""The time loop, assembled from compiled components (see :mod:`simulate.loop.registry`, :mod:`simulate.loop.assembly`).
+"""The time loop, assembled from compiled components (see :mod:`simulate.components.registry`, :mod:`simulate.loop.assembly`).
 
 Per step k -> k+1 (t = k dt):
 
@@ -41,7 +41,7 @@ CHUNK_WALL_S = 0.25
 
 def upstream_friction_s2_m5(plant: PlantConfig) -> float:
     """Steady head loss coefficient K Q|Q| upstream of the penstock (e.g. a surge tank's headrace tunnel), s^2/m^5."""
-    from simulate.loop.registry import upstream_section
+    from simulate.components.registry import upstream_section
 
     config = upstream_section(plant)[1]
     return 0.0 if config is None else config.steady_loss_coefficient_s2_m5
@@ -74,7 +74,7 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
 
 def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
     """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries."""
-    from simulate.loop.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
+    from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
 
     turbine = plant.turbine
     load0 = steady.torque_nm / turbine.rated_torque_nm
@@ -122,7 +122,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     """
     from simulate.loop import guards
     from simulate.loop.assembly import assemble
-    from simulate.loop.registry import compile_characteristics
+    from simulate.components.registry import compile_characteristics
 
     dt = plant.time_step_s  # Courant check before anything heavier
     n_steps = int(round(plant.scenario.t_end_s / dt))
@@ -225,7 +225,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     stroke = out_controls[:n_rows, 0]
     ref_end = 0.0
     if schedules.mode == GOVERNOR:
-        from simulate.components.control.governor import piecewise_constant
+        from simulate.components.schedules import piecewise_constant
 
         # py_func: a one-off call from Python need not load the compiled version from the disk cache
         ref_end = float(getattr(piecewise_constant, "py_func", piecewise_constant)(

@@ -78,7 +78,7 @@ def time_constants(plant, steady=None) -> dict:
             out["governor.derivative_filter_s"] = gov.derivative_filter_s
         if gov.ki > 0.0 and gov.kp > 0.0:
             out["governor integral time kp/ki"] = gov.kp / gov.ki
-    from simulate.loop.registry import upstream_section
+    from simulate.components.registry import upstream_section
 
     upstream = upstream_section(plant)[1]
     if upstream is not None and hasattr(upstream, "time_constants"):

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from simulate.results.figures import save_png
+
 #: Vapour pressure of water at 20 degC as a gauge head: (2.34 kPa - 101.325 kPa) / (rho g), m.
 VAPOUR_PRESSURE_HEAD_M = (2.34e3 - 101.325e3) / (1000.0 * 9.81)
 
@@ -96,7 +98,5 @@ def plot_envelope(result, path=None):
     ax.set_title(f"head envelope ({result.meta.get('penstock_model', '')})")
     fig.subplots_adjust(left=0.09, right=0.98, bottom=0.115, top=0.925)  # fixed: tight_layout draws once more
     if path is not None:
-        from simulate.results.result import save_png
-
         save_png(fig, path)
     return fig

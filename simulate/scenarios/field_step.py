@@ -10,8 +10,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from simulate.config import ScenarioConfig, _check_number
-from simulate.scenarios import Schedules, steady_schedules
+from hillchart.validation import check_number
+from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 from simulate.scenarios.short_circuit import require_subtransient
 
 
@@ -21,7 +21,7 @@ class FieldStep(ScenarioConfig):
     KEYS: ClassVar[tuple[str, ...]] = ("event_time_s", "field_step_pu")
 
     def validate(self) -> None:
-        _check_number("scenario", "field_step_pu", self.field_step_pu, low=-1.0, high=1.0)
+        check_number("scenario.field_step_pu", self.field_step_pu, low=-1.0, high=1.0)
 
     def initial_target(self) -> dict:
         return {"power_mw": 0.0}

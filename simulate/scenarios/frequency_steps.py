@@ -8,8 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from simulate.config import ScenarioConfig, _check_number
-from simulate.scenarios import check_steps, GOVERNOR, PRESCRIBED, Schedules, steady_schedules
+from simulate.scenarios.base import ScenarioConfig, check_steps, Schedules, steady_schedules
 
 
 @dataclass(frozen=True)

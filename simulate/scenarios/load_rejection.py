@@ -8,8 +8,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from simulate.config import ScenarioConfig, _check_number
-from simulate.scenarios import GOVERNOR, PRESCRIBED, Schedules, steady_schedules
+from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 
 
 @dataclass(frozen=True)

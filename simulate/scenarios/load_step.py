@@ -9,8 +9,8 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.config import ScenarioConfig, _check_number
-from simulate.scenarios import GOVERNOR, PRESCRIBED, Schedules, steady_schedules
+from hillchart.validation import check_number
+from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 
 
 @dataclass(frozen=True)
@@ -19,7 +19,7 @@ class LoadStep(ScenarioConfig):
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s", "load_step")
 
     def validate(self) -> None:
-        _check_number("scenario", "load_step", self.load_step, low=-1.0, high=1.0)
+        check_number("scenario.load_step", self.load_step, low=-1.0, high=1.0)
 
     def check_plant(self, plant) -> None:
         grid = getattr(plant, "grid", None)

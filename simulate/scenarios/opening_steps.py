@@ -9,8 +9,7 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.config import ScenarioConfig
-from simulate.scenarios import check_steps, GOVERNOR, PRESCRIBED, Schedules, steady_schedules
+from simulate.scenarios.base import ScenarioConfig, check_steps, PRESCRIBED, Schedules, steady_schedules
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.config import ScenarioConfig
-from simulate.scenarios import Schedules, steady_schedules
+from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 
 
 def require_subtransient(kind: str, plant) -> None:

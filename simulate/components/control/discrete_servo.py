@@ -22,8 +22,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.electrical.generator import check_number
-from simulate.components.control.governor import governor_step, piecewise_constant
+from hillchart.validation import check_number
 
 #: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
@@ -53,12 +52,12 @@ class DiscreteServoConfig:
     def __post_init__(self):
         for key in ("closing_time_s", "opening_time_s"):
             if getattr(self, key) is not None:
-                check_number("servo", key, getattr(self, key), low=0.0, high=1000.0, low_open=True)
+                check_number(f"servo.{key}", getattr(self, key), low=0.0, high=1000.0, low_open=True)
         for key in ("b0", "a1", "a2"):
-            check_number("servo", key, getattr(self, key), low=-10.0, high=10.0)
-        check_number("servo", "sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
-        check_number("servo", "stroke_min", self.stroke_min, low=0.0, high=1.0)
-        check_number("servo", "stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+            check_number(f"servo.{key}", getattr(self, key), low=-10.0, high=10.0)
+        check_number("servo.sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
+        check_number("servo.stroke_min", self.stroke_min, low=0.0, high=1.0)
+        check_number("servo.stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"servo.stroke_min must be < servo.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
@@ -122,43 +121,5 @@ def discrete_servo_step(params, state, command, dt_s):
     return state[0]
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# Component for the time loop (registry kind "control", chosen by governor.servo_model = "discrete")
-# ---------------------------------------------------------------------------------------------------------------
-@numba.njit(cache=True)
-def governor_discrete_servo_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """Governor PID on the speed at t (:func:`simulate.components.control.governor.governor_step`), then the eq. (37) servo: the
-    controls at t_next."""
-    gov, ref_times, ref_values, scal, servo = p
-    state, controls, servo_state = s
-    x = speed_rpm / scal[0] - 1.0
-    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
-    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
-    controls[0] = discrete_servo_step(servo, servo_state, command, dt_s)
-    return controls
-
-
-def build_discrete_governor(plant, steady, dt_s: float, schedules):
-    """The governor of :func:`simulate.components.control.governor.build_governor` with paper 000's discrete servo (eq. (37)) in place
-    of the first-order one; ``dt_s`` must divide ``governor.servo_sample_time_s``."""
-    from simulate.loop.registry import CompiledPart
-    from simulate.components.control.governor import governor_parameters
-
-    config = plant.governor.discrete_servo
-    try:
-        check_servo_step(config, dt_s)
-    except InputError as exc:
-        raise InputError(str(exc).replace("servo.sample_time_s", "governor.servo_sample_time_s")
-                         + "; set solver.dt_s (or penstock.reaches) or governor.servo_sample_time_s") from None
-    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
-    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
-              scal, discrete_servo_parameters(config))
-    state = (np.zeros(3), np.array([steady.stroke]), initial_servo_state(steady.stroke))
-    return CompiledPart(kind="control", name="governor", functions={"step": governor_discrete_servo_step},
-                        params=params, state=state, signals=(),
-                        meta={"summary": {"servo_model": "discrete (paper 000 eq. (37))",
-                                          "servo_sample_time_s": config.sample_time_s}})
-
-
 __all__ = ["DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
-           "check_servo_step", "discrete_servo_step", "governor_discrete_servo_step", "build_discrete_governor"]
+           "check_servo_step", "discrete_servo_step"]

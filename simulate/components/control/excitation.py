@@ -28,7 +28,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.electrical.generator import check_number
+from hillchart.validation import check_number
 
 #: Layout of the excitation parameter vector.
 EXC_PARAMS = ("kp", "ki", "filter_s", "field_min_pu", "field_max_pu", "voltage_setpoint_pu")
@@ -50,12 +50,12 @@ class ExcitationConfig:
     voltage_setpoint_pu: float
 
     def __post_init__(self):
-        check_number("excitation", "kp", self.kp, low=0.0, high=1000.0)
-        check_number("excitation", "ki", self.ki, low=0.0, high=1000.0)
-        check_number("excitation", "filter_s", self.filter_s, low=0.0, high=10.0)
-        check_number("excitation", "field_min_pu", self.field_min_pu, low=-20.0, high=20.0)
-        check_number("excitation", "field_max_pu", self.field_max_pu, low=-20.0, high=20.0)
-        check_number("excitation", "voltage_setpoint_pu", self.voltage_setpoint_pu, low=0.5, high=1.5)
+        check_number("excitation.kp", self.kp, low=0.0, high=1000.0)
+        check_number("excitation.ki", self.ki, low=0.0, high=1000.0)
+        check_number("excitation.filter_s", self.filter_s, low=0.0, high=10.0)
+        check_number("excitation.field_min_pu", self.field_min_pu, low=-20.0, high=20.0)
+        check_number("excitation.field_max_pu", self.field_max_pu, low=-20.0, high=20.0)
+        check_number("excitation.voltage_setpoint_pu", self.voltage_setpoint_pu, low=0.5, high=1.5)
         if self.kp == 0.0 and self.ki == 0.0:
             raise InputError("excitation.kp and excitation.ki are both 0: no voltage control (give kp > 0 or ki > 0)")
         if not self.field_min_pu < self.field_max_pu:
@@ -73,8 +73,7 @@ def excitation_parameters(config: ExcitationConfig, *, voltage_setpoint_pu: floa
     >>> excitation_parameters(c).tolist()
     [20.0, 10.0, 0.02, 0.0, 5.0, 1.0]
     """
-    vset = config.voltage_setpoint_pu if voltage_setpoint_pu is None else check_number(
-        "excitation", "voltage_setpoint_pu", voltage_setpoint_pu, low=0.5, high=1.5)
+    vset = config.voltage_setpoint_pu if voltage_setpoint_pu is None else check_number("excitation.voltage_setpoint_pu", voltage_setpoint_pu, low=0.5, high=1.5)
     return np.array([config.kp, config.ki, config.filter_s, config.field_min_pu, config.field_max_pu, vset])
 
 

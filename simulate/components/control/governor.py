@@ -12,6 +12,11 @@ import math
 import numba
 import numpy as np
 
+from hillchart.errors import InputError
+from simulate.components.control.discrete_servo import (check_servo_step, discrete_servo_parameters,
+                                                       discrete_servo_step, initial_servo_state)
+from simulate.components.schedules import piecewise_constant, piecewise_linear
+
 #: Layout of the governor parameter vector passed to the compiled loop.
 GOVERNOR_PARAMS = ("kp", "ki", "kd", "derivative_filter_s", "permanent_droop", "initial_stroke", "stroke_min",
                    "stroke_max", "servo_decay", "close_step", "open_step")
@@ -85,43 +90,6 @@ def servo_step(params, command, stroke):
     return min(max(stroke + change, y_min), y_max)
 
 
-@numba.njit(cache=True)
-def piecewise_linear(times, values, t):
-    """Right-continuous piecewise-linear interpolation (a repeated time makes a step).
-
-    Examples
-    --------
-    >>> tt = np.array([0.0, 1.0, 1.0, 2.0]); vv = np.array([1.0, 1.0, 0.5, 0.0])
-    >>> [float(piecewise_linear(tt, vv, t)) for t in (0.5, 1.0, 1.5, 3.0)]
-    [1.0, 0.5, 0.25, 0.0]
-    """
-    n = times.size
-    if t < times[0]:
-        return values[0]
-    if t >= times[n - 1]:
-        return values[n - 1]
-    i = np.searchsorted(times, t, side="right")  # times[i-1] <= t < times[i]
-    t0, t1 = times[i - 1], times[i]
-    if t1 <= t0:
-        return values[i]
-    return values[i - 1] + (values[i] - values[i - 1]) * (t - t0) / (t1 - t0)
-
-
-@numba.njit(cache=True)
-def piecewise_constant(times, values, t, initial):
-    """``initial`` before ``times[0]``, then ``values[i]`` from ``times[i]`` on (times sorted).
-
-    Examples
-    --------
-    >>> float(piecewise_constant(np.array([1.0, 2.0]), np.array([5.0, 7.0]), 1.5, 3.0))
-    5.0
-    """
-    i = np.searchsorted(times, t, side="right")
-    if i == 0:
-        return initial
-    return values[i - 1]
-
-
 def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, break_opening: float | None = None,
                 break_time_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Breakpoints (times s, strokes) of a linear or two-stage closure from ``initial_stroke`` to 0.
@@ -154,7 +122,7 @@ def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, br
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Components for the time loop (registry kind "control"; see simulate.loop.registry)
+# Components for the time loop (registry kind "control"; see simulate.components.registry)
 # ---------------------------------------------------------------------------------------------------------------
 # A control component owns the control vector (fractions of each control's full stroke; control 0 the guide vane)
 # and offers  step(p, s, speed_rpm, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state).
@@ -182,11 +150,9 @@ def prescribed_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 def build_governor(plant, steady, dt_s: float, schedules):
     """Governor + servo on the guide vane; the speed reference follows the scenario's schedule. The servo is the
     first-order one, or paper 000's discrete eq. (37) with ``governor.servo_model = "discrete"``."""
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     if plant.governor.servo_model == "discrete":
-        from simulate.components.control.discrete_servo import build_discrete_governor
-
         return build_discrete_governor(plant, steady, dt_s, schedules)
 
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
@@ -198,8 +164,45 @@ def build_governor(plant, steady, dt_s: float, schedules):
 
 def build_prescribed(plant, steady, dt_s: float, schedules):
     """The guide vane follows the scenario's prescribed law (no governor)."""
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]))
     return CompiledPart(kind="control", name="prescribed", functions={"step": prescribed_control_step},
                         params=params, state=(np.array([steady.stroke]),))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Component for the time loop (registry kind "control", chosen by governor.servo_model = "discrete")
+# ---------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def governor_discrete_servo_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """Governor PID on the speed at t (:func:`governor_step`), then the eq. (37) servo: the
+    controls at t_next."""
+    gov, ref_times, ref_values, scal, servo = p
+    state, controls, servo_state = s
+    x = speed_rpm / scal[0] - 1.0
+    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
+    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
+    controls[0] = discrete_servo_step(servo, servo_state, command, dt_s)
+    return controls
+
+
+def build_discrete_governor(plant, steady, dt_s: float, schedules):
+    """The governor of :func:`build_governor` with paper 000's discrete servo (eq. (37)) in place
+    of the first-order one; ``dt_s`` must divide ``governor.servo_sample_time_s``."""
+    from simulate.components.registry import CompiledPart
+
+    config = plant.governor.discrete_servo
+    try:
+        check_servo_step(config, dt_s)
+    except InputError as exc:
+        raise InputError(str(exc).replace("servo.sample_time_s", "governor.servo_sample_time_s")
+                         + "; set solver.dt_s (or penstock.reaches) or governor.servo_sample_time_s") from None
+    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
+    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
+              scal, discrete_servo_parameters(config))
+    state = (np.zeros(3), np.array([steady.stroke]), initial_servo_state(steady.stroke))
+    return CompiledPart(kind="control", name="governor", functions={"step": governor_discrete_servo_step},
+                        params=params, state=state, signals=(),
+                        meta={"summary": {"servo_model": "discrete (paper 000 eq. (37))",
+                                          "servo_sample_time_s": config.sample_time_s}})

@@ -45,6 +45,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
+from hillchart.validation import check_number
 
 GRID_KINDS = ("island", "infinite-bus")
 LOAD_MODELS = ("impedance", "power")
@@ -80,36 +81,6 @@ ROTOR_KEYS = ("model", "inertia_time_s", "self_regulation")
 # ----------------------------------------------------------------------------------------------------------------
 # validation
 # ----------------------------------------------------------------------------------------------------------------
-
-
-def check_number(section: str, key: str, value: Any, *, low: float | None = None, high: float | None = None,
-                 low_open: bool = False, high_open: bool = False) -> float:
-    """``value`` as float, or :class:`InputError` naming ``section.key``, the value and the allowed range.
-
-    Examples
-    --------
-    >>> check_number("grid", "x_line_pu", 0.3, low=0.0, high=5.0, low_open=True)
-    0.3
-    >>> check_number("grid", "x_line_pu", -1, low=0.0, high=5.0, low_open=True)
-    Traceback (most recent call last):
-    ...
-    hillchart.errors.InputError: grid.x_line_pu must be in (0.0, 5.0], got -1.0
-    """
-    low_txt = "-inf" if low is None else repr(float(low))
-    high_txt = "inf" if high is None else repr(float(high))
-    allowed = (f"{'(' if low_open or low is None else '['}{low_txt}, {high_txt}"
-               f"{')' if high_open or high is None else ']'}")
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{section}.{key} must be a number in {allowed}, got {value!r}")
-    value = float(value)
-    bad = not math.isfinite(value)
-    if low is not None:
-        bad |= value <= low if low_open else value < low
-    if high is not None:
-        bad |= value >= high if high_open else value > high
-    if bad:
-        raise InputError(f"{section}.{key} must be in {allowed}, got {value!r}")
-    return value
 
 
 def build_section(section: str, cls, raw: Any, *, ignore: tuple[str, ...] = ()):
@@ -157,12 +128,12 @@ class SubtransientGeneratorConfig:
 
     def __post_init__(self):
         for key in ("xd", "xd_t", "xd_st", "xq", "xq_st"):
-            check_number("generator", key, getattr(self, key), low=0.0, high=10.0, low_open=True)
+            check_number(f"generator.{key}", getattr(self, key), low=0.0, high=10.0, low_open=True)
         for key in ("td0_t_s", "td0_st_s", "tq0_st_s"):
-            check_number("generator", key, getattr(self, key), low=0.0, high=100.0, low_open=True)
-        check_number("generator", "ra", self.ra, low=0.0, high=0.1)
-        check_number("generator", "rated_mva", self.rated_mva, low=0.0, high=5000.0, low_open=True)
-        check_number("generator", "power_factor", self.power_factor, low=0.0, high=1.0, low_open=True)
+            check_number(f"generator.{key}", getattr(self, key), low=0.0, high=100.0, low_open=True)
+        check_number("generator.ra", self.ra, low=0.0, high=0.1)
+        check_number("generator.rated_mva", self.rated_mva, low=0.0, high=5000.0, low_open=True)
+        check_number("generator.power_factor", self.power_factor, low=0.0, high=1.0, low_open=True)
         for small, large in (("xd_st", "xd_t"), ("xd_t", "xd"), ("xq_st", "xq"), ("td0_st_s", "td0_t_s")):
             if not getattr(self, small) < getattr(self, large):
                 raise InputError(f"generator.{small} must be < generator.{large} = {getattr(self, large)!r} "
@@ -209,7 +180,7 @@ class GridConfig:
     def __post_init__(self):
         if self.kind not in GRID_KINDS:
             raise InputError(f"grid.kind must be one of {', '.join(GRID_KINDS)}; got {self.kind!r}")
-        check_number("grid", "frequency_hz", self.frequency_hz, low=1.0, high=1000.0)
+        check_number("grid.frequency_hz", self.frequency_hz, low=1.0, high=1000.0)
         own, other = (self.ISLAND_KEYS, self.BUS_KEYS) if self.kind == "island" else (self.BUS_KEYS,
                                                                                      self.ISLAND_KEYS)
         for key in other:
@@ -220,16 +191,16 @@ class GridConfig:
             if self.load_model is not None and self.load_model not in LOAD_MODELS:
                 raise InputError(f"grid.load_model must be one of {', '.join(LOAD_MODELS)}; got {self.load_model!r}")
             if self.load_power_factor is not None:
-                check_number("grid", "load_power_factor", self.load_power_factor, low=0.0, high=1.0, low_open=True)
+                check_number("grid.load_power_factor", self.load_power_factor, low=0.0, high=1.0, low_open=True)
             for key in ("frequency_p", "frequency_q"):
                 if getattr(self, key) is not None:
-                    check_number("grid", key, getattr(self, key), low=-10.0, high=10.0)
+                    check_number(f"grid.{key}", getattr(self, key), low=-10.0, high=10.0)
         else:
             for key in self.BUS_KEYS:
                 if getattr(self, key) is None:
                     raise InputError(f"grid.{key} is required for grid.kind = 'infinite-bus'")
-            check_number("grid", "x_line_pu", self.x_line_pu, low=0.0, high=5.0, low_open=True)
-            check_number("grid", "bus_voltage_pu", self.bus_voltage_pu, low=0.5, high=1.5)
+            check_number("grid.x_line_pu", self.x_line_pu, low=0.0, high=5.0, low_open=True)
+            check_number("grid.bus_voltage_pu", self.bus_voltage_pu, low=0.5, high=1.5)
 
     # defaults of the island keys (None in the record means "not given")
     @property
@@ -520,8 +491,8 @@ def initial_generator_state(gen: SubtransientGeneratorConfig, grid: GridConfig, 
     NumericalError
         A residual above ``tolerance`` (names the equation and its value).
     """
-    check_number("initial point", "airgap_power_pu", airgap_power_pu, low=0.0, high=3.0)
-    check_number("initial point", "voltage_pu", voltage_pu, low=0.5, high=1.5)
+    check_number("initial point.airgap_power_pu", airgap_power_pu, low=0.0, high=3.0)
+    check_number("initial point.voltage_pu", voltage_pu, low=0.5, high=1.5)
     v0 = float(voltage_pu)
     ra = gen.ra
     open_circuit = not breaker_closed or (grid.kind == "island" and airgap_power_pu == 0.0)
@@ -637,8 +608,8 @@ def compile_electrical(electrical: ElectricalConfig, *, turbine_power_mw: float,
     from simulate.components.control.excitation import excitation_parameters, initial_excitation_state
 
     gen, exc = electrical.generator, electrical.excitation
-    check_number("turbine", "rated_power_mw", turbine_rated_power_mw, low=0.0, high=5000.0, low_open=True)
-    check_number("initial point", "turbine_power_mw", turbine_power_mw, low=0.0, high=1.5 * gen.rated_mva)
+    check_number("turbine.rated_power_mw", turbine_rated_power_mw, low=0.0, high=5000.0, low_open=True)
+    check_number("initial point.turbine_power_mw", turbine_power_mw, low=0.0, high=1.5 * gen.rated_mva)
     steady = initial_generator_state(gen, electrical.grid, airgap_power_pu=turbine_power_mw / gen.rated_mva,
                                      voltage_pu=exc.voltage_setpoint_pu, breaker_closed=breaker_closed,
                                      turbine_rated_power_mw=turbine_rated_power_mw)
@@ -692,7 +663,7 @@ def frequency_recovery_time(time_s, frequency_hz, *, event_time_s: float, rated_
     f = np.asarray(frequency_hz, dtype=float)
     if t.shape != f.shape or t.ndim != 1 or t.size < 2:
         raise InputError(f"time_s and frequency_hz must be 1-D of the same length >= 2, got {t.shape}, {f.shape}")
-    check_number("recovery", "band_hz", band_hz, low=0.0, high=10.0, low_open=True)
+    check_number("recovery.band_hz", band_hz, low=0.0, high=10.0, low_open=True)
     after = t >= event_time_s
     outside = after & (np.abs(f - rated_frequency_hz) > band_hz)
     if not np.any(outside):
@@ -763,8 +734,8 @@ def simulate_generator(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_
     """
     from simulate.components.control.excitation import excitation_parameters, excitation_step, initial_excitation_state
 
-    check_number("run", "t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
-    check_number("run", "dt_s", dt_s, low=0.0, high=1.0, low_open=True)
+    check_number("run.t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
+    check_number("run.dt_s", dt_s, low=0.0, high=1.0, low_open=True)
     n = int(round(t_end_s / dt_s))
     if n < 1:
         raise InputError(f"run.t_end_s = {t_end_s} is shorter than one step dt_s = {dt_s}")
@@ -831,9 +802,9 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
     from simulate.components.control.excitation import excitation_parameters, excitation_step, initial_excitation_state
     from simulate.components.shaft.rotor import rotor_step
 
-    check_number("run", "t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
-    check_number("run", "dt_s", dt_s, low=0.0, high=1.0, low_open=True)
-    check_number("generator", "inertia_time_s", inertia_time_s, low=0.0, high=100.0, low_open=True)
+    check_number("run.t_end_s", t_end_s, low=0.0, high=1e5, low_open=True)
+    check_number("run.dt_s", dt_s, low=0.0, high=1.0, low_open=True)
+    check_number("generator.inertia_time_s", inertia_time_s, low=0.0, high=100.0, low_open=True)
     n = int(round(t_end_s / dt_s))
     net, step = (network_solution, generator_step) if jit else (network_solution.py_func, generator_step.py_func)
     exc_step = excitation_step if jit else excitation_step.py_func
@@ -915,7 +886,7 @@ def field_step_test(gen: SubtransientGeneratorConfig, *, field_step_pu: float = 
     """Open circuit at rated speed and ``voltage_pu``; the field voltage steps by ``field_step_pu`` at
     ``event_time_s``. The terminal voltage then rises with T'd0 (and a T''d0 lag): V = V0 + dv [1 - (T'd0
     e^(-t/T'd0) - T''d0 e^(-t/T''d0)) / (T'd0 - T''d0)]."""
-    check_number("scenario", "field_step_pu", field_step_pu, low=-1.0, high=1.0)
+    check_number("scenario.field_step_pu", field_step_pu, low=-1.0, high=1.0)
     grid = GridConfig(kind="island", frequency_hz=frequency_hz)
     steady = initial_generator_state(gen, grid, airgap_power_pu=0.0, voltage_pu=voltage_pu, breaker_closed=False)
     return simulate_generator(gen, grid, t_end_s=t_end_s, dt_s=dt_s, steady=steady,

@@ -245,7 +245,7 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Components for the time loop (registry kind "penstock"; see simulate.loop.registry)
+# Components for the time loop (registry kind "penstock"; see simulate.components.registry)
 # ---------------------------------------------------------------------------------------------------------------
 # Every penstock model offers the same five functions (params and state are tuples of arrays):
 #   relation(p, s, upstream_head_m) -> (C_L, k)      H = C_L + k Q at the turbine for this step
@@ -335,7 +335,7 @@ def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
     """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes), [current])."""
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     grid = build_moc_grid(plant.penstock, dt_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
@@ -352,7 +352,7 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
 
 def _build_iir(model: str):
     def build(plant, steady, dt_s: float, upstream_head_m: float):
-        from simulate.loop.registry import CompiledPart
+        from simulate.components.registry import CompiledPart
 
         pen, turbine = plant.penstock, plant.turbine
         tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)

@@ -1,6 +1,6 @@
 """The upstream end of the penstock when there is no surge tank: a reservoir at constant level.
 
-Registry kind "upstream" (see :mod:`simulate.loop.registry`); an upstream component offers
+Registry kind "upstream" (see :mod:`simulate.components.registry`); an upstream component offers
 
 ``head(p, s) -> H``                      piezometric head at the penstock inlet for this step, m above tailwater
 ``step(p, s, inlet_flow_m3_s, dt_s)``   advance with the penstock's inlet flow of this step
@@ -24,7 +24,7 @@ def reservoir_step(p, s, inlet_flow_m3_s, dt_s):
 
 def build_reservoir(plant, steady, dt_s: float):
     """Constant level ``penstock.static_head_m``."""
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     return CompiledPart(kind="upstream", name="reservoir", functions={"head": reservoir_head, "step": reservoir_step},
                         params=(np.array([plant.penstock.static_head_m]),), state=(np.zeros(1),))

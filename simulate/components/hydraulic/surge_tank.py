@@ -59,7 +59,7 @@ def surge_tank_record(p, s, out):
 
 def build_surge_tank(plant, steady, dt_s: float):
     """Compiled surge tank at the steady state: Q_t = Q_p = Q0, z = H_res - K_t Q0|Q0|, no flow into the tank."""
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     tank = plant.surge_tank
     q0 = steady.flow_m3_s

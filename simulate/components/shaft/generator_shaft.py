@@ -1,5 +1,5 @@
 """The sub-transient generator on the shaft: registry kind "shaft", name ``subtransient`` (``[generator] model =
-"subtransient"``; see :mod:`simulate.loop.registry`).
+"subtransient"``; see :mod:`simulate.components.registry`).
 
 It joins the pieces of :mod:`simulate.components.electrical.generator` (paper 001 eq. (10) and its grid), :mod:`simulate.components.control.excitation`
 (eqs. (11)-(13)) and the swing equation of :mod:`simulate.components.shaft.rotor` into one shaft component with the kind's fixed
@@ -33,7 +33,7 @@ import numpy as np
 from simulate.components.control.excitation import excitation_step
 from simulate.components.electrical.generator import (O_ID, O_IQ, O_PE, O_TE, O_VT, P_TORQUE_RATIO, RUN_COLUMNS, S_ED_ST, S_EQ_ST, S_EQ_T,
                                 STATUS_TEXT, generator_step, network_solution)
-from simulate.components.control.governor import piecewise_constant
+from simulate.components.schedules import piecewise_constant
 from simulate.components.shaft.rotor import rotor_step
 
 #: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.generator.RUN_COLUMNS` without time).
@@ -129,7 +129,7 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     state (:func:`simulate.components.electrical.generator.compile_electrical`: the generator takes the scenario's initial load, the
     terminal voltage is the excitation's set point; residuals checked < 1e-9)."""
     from hillchart.errors import InputError
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
     from simulate.components.electrical.generator import compile_electrical, frequency_recovery_time
 
     t = plant.turbine

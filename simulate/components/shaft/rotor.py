@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numba
 
-from simulate.components.control.governor import piecewise_constant
+from simulate.components.schedules import piecewise_constant
 
 
 @numba.njit(cache=True)
@@ -20,7 +20,7 @@ def rotor_step(speed_dev, turbine_torque_pu, load_torque_pu, self_regulation, in
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Component for the time loop (registry kind "shaft"; see simulate.loop.registry)
+# Component for the time loop (registry kind "shaft"; see simulate.components.registry)
 # ---------------------------------------------------------------------------------------------------------------
 # A shaft component owns the speed and offers
 #   speed(p, s) -> speed_rpm                                   at the current step
@@ -48,7 +48,7 @@ def build_rotor(plant, steady, dt_s: float, schedules):
     """The rotor of :class:`simulate.config.GeneratorConfig` (Ta, e_g) with the scenario's load schedule."""
     import numpy as np
 
-    from simulate.loop.registry import CompiledPart
+    from simulate.components.registry import CompiledPart
 
     t = plant.turbine
     scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s,

@@ -200,8 +200,8 @@ def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):  # template
         if head < floor:
             status = NO_POSITIVE_HEAD
     else:
-        head, flow, iters, residual, status = pressure_loop(cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor,
-                                                            tol, max_iterations, relaxation)
+        head, flow, iters, residual, status = pressure_loop(  # noqa: F821 (a template global, bound by the loop)
+            cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor, tol, max_iterations, relaxation)
     if status != OK:
         diag[1] = speed_rpm
         diag[2] = chart[0]
@@ -210,7 +210,7 @@ def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):  # template
         diag[5] = slope
         diag[6] = residual
         return status, iters
-    m11 = kernel(cp, speed_rpm * d1 / math.sqrt(head), chart)[2]
+    m11 = kernel(cp, speed_rpm * d1 / math.sqrt(head), chart)[2]  # noqa: F821 (template global, bound by the loop)
     signals[0] = head
     signals[1] = flow
     signals[2] = m11 * d1 ** 3 * head

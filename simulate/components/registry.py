@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 
 from hillchart.errors import InputError
 
@@ -96,9 +95,9 @@ SHAFTS = Registry("shaft", "generator.model", {
 })
 #: Turbine characteristics by the word in ``turbine.characteristics`` (anything else is a nets.json path).
 CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
-    "ideal": "simulate.loop.registry:ideal_from_rated",
-    "synthetic": "simulate.loop.registry:synthetic_francis",
-    "nets": "simulate.loop.registry:nets_from_path",
+    "ideal": "simulate.components.registry:ideal_from_rated",
+    "synthetic": "simulate.components.registry:synthetic_francis",
+    "nets": "simulate.components.registry:nets_from_path",
 })
 
 

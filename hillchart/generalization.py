@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.linearize import COEFFICIENT_NAMES, six_coefficients
-from hillchart.nets.hill_nets import measured_region_mask, read_truth_csv, train_nets, truth_errors
+from hillchart.nets.hill_nets import read_truth_csv, train_nets, truth_errors
+from hillchart.io.samples import measured_region_mask
 from hillchart.synthetic.francis import FAMILY, DigitizationOptions, synthetic_chart_texts
 
 #: Operating points of the six-coefficient check, as (N11 / best-efficiency N11, opening / full stroke): the rated
