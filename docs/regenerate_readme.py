@@ -9,7 +9,7 @@ depend on the matplotlib and font versions).
 
 Text blocks: every README region between ``<!-- generated: NAME -->`` and ``<!-- end generated -->`` is replaced by
 :func:`blocks`'s text for NAME (the demo's terminal summary, the ``hillsim linearize`` example's real output).
-``tests/test_readme.py`` runs the same comparison on the shared demo run.
+``tests/hillsim/test_readme.py`` runs the same comparison on the shared demo run.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""hillsim from Python: the pipeline of ``hillsim demo`` in a few lines (run by tests/test_examples.py).
+"""hillsim from Python: the pipeline of ``hillsim demo`` in a few lines (run by tests/hillsim/test_examples.py).
 
 Usage: ``python examples/quickstart.py [OUT_DIR]``
 """

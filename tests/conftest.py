@@ -27,6 +27,14 @@ def pytest_collection_modifyitems(config, items):
         item.add_marker(pytest.mark.xdist_group(shared[0] if shared else item.nodeid.split("::")[0]))
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    """Tell the external-data helpers which test is being set up (they check its ``external`` marker)."""
+    import tests.external_charts
+
+    tests.external_charts.CURRENT_TEST = item
+
+
 @pytest.fixture(scope="session")
 def shipped_nets():
     """The shipped ``data_synthetic/francis/nets.json``, loaded once."""

@@ -6,17 +6,28 @@ Tests that use these call :func:`require_external`, which skips cleanly when the
 from __future__ import annotations
 
 import csv
+import os
 from pathlib import Path
 
 import pytest
 
-EXTERNAL_DIR = Path(__file__).resolve().parents[2] / "shared" / "external"
+#: ``<repo>/../shared/external``; ``HILLSIM_EXTERNAL_DIR`` overrides it (e.g. for a git worktree elsewhere).
+EXTERNAL_DIR = Path(os.environ.get("HILLSIM_EXTERNAL_DIR", Path(__file__).resolve().parents[2] / "shared" / "external"))
 SAYANO_LINES = "sayano_shushenskaya_francis_opening_lines.csv"
 SAYANO_CONTOURS = "sayano_shushenskaya_francis_efficiency_contours.csv"
 
 
+#: The test being set up (set by tests/conftest.py), so that :func:`require_external` can check its marker.
+CURRENT_TEST = None
+
+
 def require_external(*names: str) -> Path:
-    """The external folder, or skip the calling test when it (or one of ``names``) is absent."""
+    """The external folder, or skip the calling test when it (or one of ``names``) is absent.
+
+    A test that reads external data must carry ``@pytest.mark.external`` (so ``-m "not external"`` leaves it out):
+    one that does not is an error here, not a silent dependency."""
+    if CURRENT_TEST is not None and CURRENT_TEST.get_closest_marker("external") is None:
+        raise AssertionError(f"{CURRENT_TEST.nodeid} reads ../shared/external: mark it @pytest.mark.external")
     for name in names:
         if not (EXTERNAL_DIR / name).is_file():
             pytest.skip(f"external data {EXTERNAL_DIR / name} is absent")

@@ -1,30 +1,18 @@
 """The real data in ``../shared/external/`` as hillchart.fccm.core test-table folders (validation only, never shipped).
 
-Tests call :func:`require_fccm_external`, which skips cleanly when the files are absent. The folder is found as in
-``tests/external_charts.py`` (``<repo>/../shared/external``); ``HILLSIM_EXTERNAL_DIR`` overrides it (a git worktree
-lives deeper than the main checkout).
+The files are found by ``tests/external_charts.py``'s :func:`require_external`, which skips cleanly when they are
+absent (and checks that the calling test carries the ``external`` marker).
 """
 
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 
-import pytest
-
-from tests.external_charts import EXTERNAL_DIR
+from tests.external_charts import require_external
 
 BULB_137KW = "bulb_137kW_gv_hill_chart.csv"
 KAPLAN_LISZKA = "liszka_kaplan_blade_angle_hill_chart.csv"
-
-
-def require_fccm_external(*names: str) -> Path:
-    folder = Path(os.environ.get("HILLSIM_EXTERNAL_DIR", EXTERNAL_DIR))
-    for name in names:
-        if not (folder / name).is_file():
-            pytest.skip(f"external data {folder / name} is absent")
-    return folder
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -35,7 +23,7 @@ def _rows(path: Path) -> list[dict[str, str]]:
 def write_bulb_137kw_table(dest) -> Path:
     """EGAT 137 kW fixed-blade bulb (D = 0.4 m, 1000 r/min): controls guide vane and head; mechanical power and
     efficiency (generator efficiency 0.9 assumed by SOURCES.md); n11 and Q11 left for the loader to derive."""
-    src = require_fccm_external(BULB_137KW) / BULB_137KW
+    src = require_external(BULB_137KW) / BULB_137KW
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     (dest / "table.toml").write_text('name = "EGAT 137 kW bulb turbine (fixed blades), Kaeng Krachan rig"\n'
@@ -52,7 +40,7 @@ def write_bulb_137kw_table(dest) -> Path:
 
 def write_kaplan_table(dest) -> Path:
     """Liszka et al. Kaplan chart (unit quantities): blade angle and n11 as the chart's variables."""
-    src = require_fccm_external(KAPLAN_LISZKA) / KAPLAN_LISZKA
+    src = require_external(KAPLAN_LISZKA) / KAPLAN_LISZKA
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     (dest / "table.toml").write_text('name = "Kaplan chart of Liszka et al. (digitized)"\n'

@@ -1,0 +1,40 @@
+"""Sayano-Shushenskaya (real chart, ../shared/external) with ``hillsim train``'s defaults (issue 9 acceptance).
+Skips without the external data."""
+
+import warnings
+
+import numpy as np
+from matplotlib.path import Path as MplPath
+
+from hillchart.nets import chartplot
+from hillchart.nets.hill_nets import load_nets
+from hillchart.io.samples import measured_region_mask
+from hillchart.io.samples import load_chart
+from hillsim.cli import main
+from tests.external_charts import write_sayano_chart
+
+pytestmark = pytest.mark.external  # reads ../shared/external; skips when it is absent
+
+
+def test_sayano_trains_with_defaults_without_error_or_warning(tmp_path, capsys):
+    folder = write_sayano_chart(tmp_path / "sayano")  # skips when ../shared/external is absent
+    out = tmp_path / "nets.json"
+    assert main(["train", str(folder), "--out", str(out), "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert "warning" not in captured.out.lower() and "warning" not in captured.err.lower()
+    nets = load_nets(out)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no runaway.csv
+        chart = load_chart(folder)
+    # efficiency islands closed around the digitized best point (contour 0.922 at N11 66.5, Q11 0.421)
+    best = np.array([66.5, 0.421])
+    for level in (0.88, 0.90):
+        loops = [p for closed, p in chartplot.efficiency_islands(nets, [level], samples=chart)[level] if closed]
+        assert any(MplPath(p).contains_point(best) for p in loops), level
+    n, a = np.meshgrid(np.linspace(chart.flow_n11.min(), chart.flow_n11.max(), 120),
+                       np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 120))
+    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, n, a)
+    eta_best = float(np.nanmax(chartplot.efficiency_from_characteristics(nets, n[inside], a[inside])))
+    # issue 9: within 0.015 of the best digitized contour (0.922); measured 0.915. Above the contour + 0.01 would be
+    # the plausibility error that train raises; the paper's polynomial boundaries gave 1.04-1.12 here.
+    assert 0.922 - 0.015 <= eta_best <= 0.922 + 0.01

@@ -1,0 +1,35 @@
+"""The paper-number table in the README is the output of benchmarks/paper_numbers.py (it cannot go stale)."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("paper_numbers", ROOT / "benchmarks" / "paper_numbers.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_readme_holds_the_generated_tables():
+    text = _module().markdown()
+    assert text in (ROOT / "README.md").read_text(encoding="utf-8"), \
+        "README is stale: paste the output of `python benchmarks/paper_numbers.py`"
+
+
+def test_paper_numbers_by_hand():
+    m = _module()
+    _, p000 = m.paper_000()
+    # DC gain of eq. (53) with the printed theta: (b1 + b2) / (1 - a1 - a2 - a3) = 0.0753 / 0.1501
+    assert p000["dc_arx"] == pytest.approx(0.0753 / 0.1501, rel=1e-12)
+    assert p000["dc_six"] == pytest.approx(0.1178 / 0.1438, rel=1e-9)  # ey / (-ex), rigid water, no damping
+    assert np.prod(np.abs(p000["poles"])) == pytest.approx(0.0512, rel=1e-9)  # |a3| = product of the poles
+    _, p002 = m.paper_002()
+    assert p002["pole"] == pytest.approx(-1.0 / (0.4910 * 1.886), rel=1e-12)
+    assert p002["zero"] == pytest.approx(1.0 / (0.0345 * 1.886), rel=1e-12)
+    assert p002["initial"] == pytest.approx(-1.4948 * 0.0345 / 0.4910, rel=1e-12)

@@ -1,0 +1,139 @@
+"""Runs that cannot finish, cannot fit or cannot be trusted are refused before they start; long runs can be decimated
+and interrupted (issue 10 section 5, issue 14)."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from data_synthetic import PLANT_HLA339
+from hillchart.errors import InputError
+from simulate.config import load_plant
+from simulate.loop.engine import run_simulation
+
+ROOT = Path(__file__).resolve().parents[3]
+IDEAL = {"turbine.characteristics": "ideal"}
+
+
+def test_tiny_wave_speed_is_refused_naming_the_inertia_time():
+    """Issue 14: wave speed 1 m/s gave '3 steps of 22.5 s, max speed rise 250 %'."""
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.segments": [
+        {"length_m": 180.0, "diameter_m": 5.6, "wave_speed_m_s": 1.0, "darcy_friction": 0.012}]})
+    with pytest.raises(InputError, match=r"time step dt = 22\.5 s is not small against generator\.inertia_time_s "
+                                         r"\(Ta\) = 9 s \(allowed dt <= 0\.5 x 9 = 4\.5 s\)"):
+        run_simulation(plant)
+
+
+def test_coarse_rigid_step_is_refused_and_a_moderate_one_warned():
+    """Issue 14: a rigid penstock with dt_s = 10 gave '6 steps of 10 s, max speed rise 111 %'."""
+    with pytest.raises(InputError, match=r"dt = 10 s is not small against generator\.inertia_time_s"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 10.0}))
+    # Tw of the shipped plant is about 1.4 s, the servo time 0.2 s: dt = 1 s is refused naming Tw, dt = 0.5 s
+    # naming the servo, dt = 0.05 s passes with a warning (> 0.1 x 0.2 s), dt = 0.015 s without
+    with pytest.raises(InputError, match=r"dt = 1 s is not small against penstock water time Tw"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 1.0,
+                                                 "generator.inertia_time_s": 30.0}))
+    with pytest.raises(InputError, match=r"dt = 0\.5 s is not small against governor\.servo_time_s = 0\.2 s"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 0.5}))
+    r = run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 0.05,
+                                                 "scenario.t_end_s": 10.0}))
+    assert any("more than 0.1 x governor.servo_time_s = 0.2 s" in w for w in r.summary()["warnings"])
+    r = run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 0.015,
+                                                 "scenario.t_end_s": 10.0}))
+    assert not any("time step" in w for w in r.summary()["warnings"])
+
+
+def test_servo_and_governor_time_constants_are_checked():
+    with pytest.raises(InputError, match=r"not small against governor\.servo_time_s = 0\.02 s"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "governor.servo_time_s": 0.02}))
+
+
+def test_huge_runs_are_refused_with_the_estimate_and_the_key():
+    """Issue 10: 10 000 reaches and t_end 1e5 s tried to allocate 48.8 GiB."""
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.reaches": 10000, "scenario.t_end_s": 1e5})
+    with pytest.raises(InputError, match=r"the run needs 6\.55\d*e\+09 steps x \(\d+ nodes \+ 100 for the step\) = "
+                                         r".* more than solver\.max_node_steps = 3e\+10.*raise solver\.max_node_steps"):
+        run_simulation(plant)
+    # a tiny lumped step: few nodes, but 6e7 rows would take 4 GB
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "lumped", "solver.dt_s": 1e-6})
+    with pytest.raises(InputError, match=r"the stored series would take about 4\d\d\d MB \(60000001 rows\), more than "
+                                         r"solver\.max_output_mb = 2000: set solver\.output_dt_s"):
+        run_simulation(plant)
+
+
+def test_limits_are_overridable_and_output_dt_decimates_exactly():
+    full = run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 10.0}))
+    dt = full.meta["dt_s"]
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 10.0, "solver.output_dt_s": 4 * dt,
+                                      "solver.max_output_mb": 0.01})
+    thin = run_simulation(plant)
+    # the same arithmetic: every 4th row of the full run, bit for bit
+    for name in ("speed_rpm", "head_m", "flow_m3_s", "opening", "torque_nm"):
+        np.testing.assert_array_equal(getattr(thin, name), getattr(full, name)[::4][:thin.time_s.size])
+    assert thin.meta["output_dt_s"] == 4 * dt and thin.time_s.size == full.time_s.size // 4 + 1
+    # the envelope still sees every step
+    np.testing.assert_array_equal(thin.envelope_max_m, full.envelope_max_m)
+    with pytest.raises(InputError, match=r"stored series would take about 0\.0\d+ MB"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 10.0, "solver.max_output_mb": 0.01}))
+    with pytest.raises(InputError, match=r"solver\.output_dt_s = 0\.05 s must be a whole multiple of the time step"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "solver.output_dt_s": 0.05}))
+
+
+@pytest.mark.parametrize("key,value,message", [
+    ("output_dt_s", -1.0, r"solver\.output_dt_s must be in \(0\.0, 10000\.0\]"),
+    ("max_node_steps", 0, r"solver\.max_node_steps must be in \(0\.0, 1000000000000000\.0\]"),
+    ("max_output_mb", "lots", r"solver\.max_output_mb must be a number"),
+])
+def test_solver_limit_garbage(key, value, message):
+    with pytest.raises(InputError, match=message):
+        load_plant(PLANT_HLA339, {f"solver.{key}": value})
+
+
+def test_ctrl_c_stops_a_long_run_within_about_a_second(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    base = [sys.executable, "-m", "hillsim.cli", "run", str(PLANT_HLA339), "--no-plot", "--set",
+            "turbine.characteristics=ideal", "--set", "penstock.reaches=800"]
+    # warm the compiled-loop cache with a short run of the same combination
+    subprocess.run(base + ["--out", str(tmp_path / "warm"), "--set", "scenario.t_end_s=3"], env=env, check=True,
+                   capture_output=True, timeout=600)
+    dt = (180.0 / 1180.0) / 800
+    proc = subprocess.Popen(base + ["--out", str(tmp_path / "long"), "--set", "scenario.t_end_s=1000", "--set",
+                                    f"solver.output_dt_s={100 * dt!r}"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # the stage line comes after imports and the steady state; then the cached loop loads and runs for minutes
+    assert proc.stderr.readline().startswith("simulating load-rejection, 1000 s")
+    time.sleep(2.0)
+    assert proc.poll() is None
+    sent = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    waited = time.perf_counter() - sent
+    assert proc.returncode == 130, err
+    # one line about the interrupt (a progress line may precede it on a non-terminal)
+    last = err.strip().splitlines()[-1]
+    assert "interrupted" in last and "no outputs written" in last and err.count("interrupted") == 1
+    assert "Traceback" not in err
+    assert not (tmp_path / "long").exists()
+    # chunks of about 0.25 s of work: honoured within about a second (3 s allowed on a loaded 2-core machine)
+    print(f"Ctrl-C honoured after {waited:.2f} s")
+    assert waited < 3.0, waited
+
+
+def test_absurd_penstock_gives_a_clean_error_not_a_math_domain_error():
+    """Issue 10: a penstock of 1e9 m ended in 'math domain error' in the steady state."""
+    with pytest.raises(InputError, match=r"penstock\.segments\.length_m must be in \(0\.0, 100000\.0\], got 1000000000\.0 "
+                                         r"\(segment 0"):
+        load_plant(PLANT_HLA339, {"penstock.segments": [
+            {"length_m": 1e9, "diameter_m": 6.0, "wave_speed_m_s": 1100.0, "darcy_friction": 0.012}]})
+    # the longest allowed pipe, narrow and rough: the friction loss dwarfs the static head
+    plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.segments": [
+        {"length_m": 1e5, "diameter_m": 0.5, "wave_speed_m_s": 1100.0, "darcy_friction": 0.2}]})
+    with pytest.raises(InputError, match=r"steady state: .* friction loss K Q\|Q\| = .* is not small against "
+                                         r"penstock\.static_head_m: no plausible steady flow; check the penstock "
+                                         r"segments' length_m, diameter_m and darcy_friction"):
+        run_simulation(plant)
