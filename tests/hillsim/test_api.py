@@ -12,7 +12,7 @@ import pytest
 import hillsim
 from hillchart.io.tidy import tidy_float, tidy_floats
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_import_hillsim_is_light():

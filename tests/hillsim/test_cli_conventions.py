@@ -9,7 +9,7 @@ from pathlib import Path
 from hillsim.cli import build_parser, main
 from hillsim.progress import Stages
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 NETS = REPO / "data_synthetic" / "francis" / "nets.json"
 
 

@@ -16,7 +16,7 @@ from hillchart.errors import InputError
 from hillsim.cli import main, run_command
 from hillsim.outputs import MANIFEST, OutputLockedError, OutputSet
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 PLANT = REPO / "data_synthetic" / "plant_hla339.toml"
 ENV = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
 

@@ -14,7 +14,7 @@ import pytest
 
 from hillsim import cli
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _modules_after(code: str, names, cwd) -> dict:

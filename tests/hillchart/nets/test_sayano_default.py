@@ -4,6 +4,7 @@ Skips without the external data."""
 import warnings
 
 import numpy as np
+import pytest
 from matplotlib.path import Path as MplPath
 
 from hillchart.nets import chartplot
