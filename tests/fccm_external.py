@@ -1,4 +1,4 @@
-"""The real data in ``../shared/external/`` as hillchart.fccm.core test-table folders (validation only, never shipped).
+"""The real data in ``../shared/external/`` as hillchart.fccm test-table folders (validation only, never shipped).
 
 The files are found by ``tests/external_charts.py``'s :func:`require_external`, which skips cleanly when they are
 absent (and checks that the calling test carries the ``external`` marker).

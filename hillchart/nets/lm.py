@@ -26,7 +26,7 @@ Parameter vector layout (``theta``, length ``4 H + 1``)::
 
     theta = [W1 (H x 2, row-major: w_n11, w_opening per neuron), b1 (H), W2 (H), b2]
 
-General n_in-H-n_out nets (paper 003's full-characteristic net, :mod:`hillchart.fccm.core`) use the same functions with
+General n_in-H-n_out nets (paper 003's full-characteristic net, :mod:`hillchart.fccm`) use the same functions with
 ``n_inputs`` / ``n_outputs`` (defaults 2 and 1 give the layout above unchanged)::
 
     theta = [W1 (H x n_in, row-major), b1 (H), W2 (n_out x H, row-major), b2 (n_out)]   length H (n_in + 1 + n_out) + n_out

@@ -57,8 +57,10 @@ def _split(text: str) -> tuple:
 
 def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
-    from hillchart.fccm.core import (FCCMNet, analyse_fccm, format_grey_relational_table, load_test_table,
-                                read_truth_csv)
+    from hillchart.fccm.analysis import analyse_fccm
+    from hillchart.fccm.maps import format_grey_relational_table, read_truth_csv
+    from hillchart.fccm.net import FCCMNet
+    from hillchart.fccm.table import load_test_table
 
     inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.output_columns)
     if args.hidden is not None and not 1 <= args.hidden <= 100:

@@ -1,4 +1,4 @@
-"""Paper 003's analyses (hillchart.fccm.core) and ``hillsim fccm``: grey relations, image similarity, maps, the truth
+"""Paper 003's analyses (hillchart.fccm) and ``hillsim fccm``: grey relations, image similarity, maps, the truth
 comparison and its acceptance."""
 
 import json
@@ -9,9 +9,10 @@ from scipy.spatial import distance
 
 from hillchart.synthetic.bulb import write_bulb_table
 from hillchart.errors import InputError
-from hillchart.fccm.core import (FCCMNet, analyse_fccm, efficiency_maps, grey_images, grey_relational_analysis,
-                            image_similarity, load_fccm_nets, load_test_table, read_truth_csv, truth_acceptance,
-                            truth_comparison)
+from hillchart.fccm.analysis import analyse_fccm
+from hillchart.fccm.maps import efficiency_maps, grey_images, grey_relational_analysis, image_similarity, read_truth_csv, truth_acceptance, truth_comparison
+from hillchart.fccm.net import FCCMNet, load_fccm_nets
+from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
 
 INPUTS = "blade_angle_deg,guide_vane_deg"
@@ -30,7 +31,7 @@ def run(tmp_path_factory):
 
 
 def direct_grey_relational(table_path, outputs, controls, rho=0.5):
-    """Table 1 computed straight from the CSV with loops (independent of hillchart.fccm.core)."""
+    """Table 1 computed straight from the CSV with loops (independent of hillchart.fccm)."""
     data = np.genfromtxt(table_path, delimiter=",", names=True)
     out = {}
     for o in outputs:

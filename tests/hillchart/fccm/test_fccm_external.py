@@ -1,11 +1,11 @@
-"""Real double-regulated / bulb data through hillchart.fccm.core (skips when ../shared/external is absent)."""
+"""Real double-regulated / bulb data through hillchart.fccm (skips when ../shared/external is absent)."""
 
 import json
 
 import numpy as np
 import pytest
 
-from hillchart.fccm.core import load_test_table
+from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
 from tests.fccm_external import write_bulb_137kw_table, write_kaplan_table
 

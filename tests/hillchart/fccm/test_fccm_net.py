@@ -1,4 +1,4 @@
-"""The multi-output BP net of paper 003 (hillchart.fccm.core.FCCMNet), the generalized LM code and fccm_nets.json."""
+"""The multi-output BP net of paper 003 (hillchart.fccm.net.FCCMNet), the generalized LM code and fccm_nets.json."""
 
 import json
 import subprocess
@@ -10,7 +10,7 @@ import pytest
 
 from hillchart.nets import lm
 from hillchart.errors import InputError
-from hillchart.fccm.core import FCCMNet, FCCMWeights, hidden_size, load_fccm_nets, split_indices
+from hillchart.fccm.net import FCCMNet, FCCMWeights, hidden_size, load_fccm_nets, split_indices
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -136,7 +136,7 @@ def test_json_round_trip_and_the_documented_formula(fitted, tmp_path):
 
 def test_evaluating_a_saved_net_does_not_import_torch(fitted, tmp_path):
     path = fitted[2].weights_.save(tmp_path / "fccm_nets.json")
-    code = ("import sys; from hillchart.fccm.core import load_fccm_nets; w = load_fccm_nets(sys.argv[1]); "
+    code = ("import sys; from hillchart.fccm.net import load_fccm_nets; w = load_fccm_nets(sys.argv[1]); "
             "w.predict([[0.0, 50.0]]); w.predict_columns(blade_angle_deg=0.0, guide_vane_deg=50.0); "
             "assert 'torch' not in sys.modules, 'torch was imported'")
     done = subprocess.run([sys.executable, "-c", code, str(path)], cwd=REPO, capture_output=True, text=True,

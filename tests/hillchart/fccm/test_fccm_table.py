@@ -1,10 +1,10 @@
-"""Test-table folders (table.csv + table.toml) of hillchart.fccm.core: derivation of n11/Q11 and garbage input."""
+"""Test-table folders (table.csv + table.toml) of hillchart.fccm: derivation of n11/Q11 and garbage input."""
 
 import numpy as np
 import pytest
 
 from hillchart.errors import InputError
-from hillchart.fccm.core import load_test_table
+from hillchart.fccm.table import load_test_table
 
 TOML = 'name = "rig"\nrunner_diameter_m = 0.5\nspeed_rpm = 600.0\ncontrols = ["blade_angle_deg", "guide_vane_deg"]\n'
 CSV = ("blade_angle_deg,guide_vane_deg,efficiency,head_m,power_kw,flow_m3_s,comment\n"

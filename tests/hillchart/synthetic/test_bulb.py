@@ -8,7 +8,7 @@ from hillchart.synthetic.bulb import (BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, TAB
                             SyntheticBulb, write_bulb_table)
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError
-from hillchart.fccm.core import load_test_table
+from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
 
 

@@ -1,0 +1,256 @@
+"""Test tables of a double-regulated turbine: a folder with ``table.csv`` and ``table.toml`` -> :class:`TestTable` (n11 and Q11 derived by eqs. (1)-(2) of Wu et al. when the table has head, flow and speed)."""
+
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+# ----------------------------------------------------------------------------------------------------------------
+# test-table folder
+# ----------------------------------------------------------------------------------------------------------------
+TABLE_FILE = "table.csv"
+INFO_FILE = "table.toml"
+REQUIRED_KEYS = ("name", "controls")
+OPTIONAL_KEYS = ("runner_diameter_m", "speed_rpm")
+#: Columns with a meaning (units in the names) and the values they allow; any other column is allowed too.
+KNOWN_COLUMNS = {
+    "blade_angle_deg": ("runner-blade angle, deg", lambda v: np.abs(v) <= 180.0, "[-180, 180] deg"),
+    "guide_vane_deg": ("guide-vane angle, deg", lambda v: np.abs(v) <= 180.0, "[-180, 180] deg"),
+    "n11_rpm": ("unit speed n D / sqrt(H), r/min", lambda v: v >= 0, ">= 0 r/min"),
+    "q11_m3_s": ("unit flow Q / (D^2 sqrt(H)), m^3/s", lambda v: v >= 0, ">= 0 m^3/s"),
+    "efficiency": ("efficiency, fraction", lambda v: (v >= 0) & (v <= 1), "[0, 1] (a fraction, not percent)"),
+    "head_m": ("net head, m", lambda v: v > 0, "> 0 m"),
+    "power_kw": ("shaft power, kW", lambda v: np.isfinite(v), "finite kW"),
+    "flow_m3_s": ("discharge, m^3/s", lambda v: v >= 0, ">= 0 m^3/s"),
+    "speed_rpm": ("rotational speed, r/min", lambda v: v > 0, "> 0 r/min"),
+}
+
+
+@dataclass(frozen=True)
+class TableInfo:
+    """The contents of ``table.toml``.
+
+    Attributes
+    ----------
+    name : str
+    controls : tuple of str
+        Column names of the controls (e.g. blade and guide-vane angle), the comparison sequences of the grey
+        relational analysis.
+    runner_diameter_m : float or None
+        D for eqs. (1)-(2) of paper 003 when the table has no n11 / Q11 columns.
+    speed_rpm : float or None
+        Constant test speed when the table has no ``speed_rpm`` column.
+    """
+
+    name: str
+    controls: tuple
+    runner_diameter_m: float | None = None
+    speed_rpm: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise InputError(f"{INFO_FILE}: name must be a non-empty string, got {self.name!r}")
+        controls = self.controls
+        if (not isinstance(controls, (list, tuple)) or not controls
+                or not all(isinstance(c, str) and c.strip() for c in controls)):
+            raise InputError(f"{INFO_FILE}: controls must be a non-empty list of column names, got {controls!r}")
+        if len(set(controls)) != len(controls):
+            raise InputError(f"{INFO_FILE}: controls must be distinct, got {list(controls)!r}")
+        object.__setattr__(self, "controls", tuple(controls))
+        for key in OPTIONAL_KEYS:
+            value = getattr(self, key)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                      or not math.isfinite(value) or value <= 0):
+                raise InputError(f"{INFO_FILE}: {key} must be a finite number > 0, got {value!r}")
+
+
+def read_table_info(path) -> TableInfo:
+    """Read and validate ``table.toml`` (exactly the keys name, controls, optional runner_diameter_m, speed_rpm)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
+    if unknown:
+        raise InputError(f"{path}: unknown key(s) {unknown}; valid keys are {list(REQUIRED_KEYS + OPTIONAL_KEYS)}")
+    missing = [key for key in REQUIRED_KEYS if key not in data]
+    if missing:
+        raise InputError(f"{path}: missing required key(s) {missing}")
+    try:
+        return TableInfo(**data)
+    except InputError as exc:
+        raise InputError(f"{path}: {str(exc).removeprefix(INFO_FILE + ': ')}") from None
+
+
+@dataclass(frozen=True)
+class TestTable:
+    """A validated test table: numeric columns by name (units in the names), the table.toml contents.
+
+    Attributes
+    ----------
+    info : TableInfo
+    columns : dict of str -> ndarray (n,)
+        Every numeric column of ``table.csv`` plus the derived ones.
+    derived : tuple of str
+        Columns computed by the loader (``n11_rpm``, ``q11_m3_s``), not read.
+    text_columns : tuple of str
+        Extra columns that are not numeric (kept out of ``columns``).
+    folder : Path
+    """
+
+    __test__ = False  # not a pytest test class
+
+    info: TableInfo
+    columns: dict
+    derived: tuple
+    text_columns: tuple
+    folder: Path
+
+    @property
+    def n_rows(self) -> int:
+        return int(next(iter(self.columns.values())).size)
+
+    def column(self, name: str) -> np.ndarray:
+        """One numeric column; the error names what is available."""
+        if name in self.columns:
+            return self.columns[name]
+        why = " (it is not numeric)" if name in self.text_columns else ""
+        hint = ""
+        if name in ("n11_rpm", "q11_m3_s"):
+            hint = ("; it is derived only when the table has head_m and flow_m3_s (Q11) or a speed (n11: speed_rpm "
+                    "column or key) and table.toml has runner_diameter_m")
+        raise InputError(f"{self.folder / TABLE_FILE}: no numeric column {name!r}{why}; available: "
+                         f"{', '.join(self.columns)}{hint}")
+
+    def matrix(self, names) -> np.ndarray:
+        """Columns ``names`` side by side, (n, len(names))."""
+        return np.column_stack([self.column(n) for n in names])
+
+
+def _parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
+    try:
+        value = float(cell)
+    except ValueError:
+        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r}") from None
+    if not math.isfinite(value):
+        raise InputError(f"{path}: row {line_no}, column {column!r}: value must be finite, got {cell!r}")
+    return value
+
+
+def load_test_table(folder) -> TestTable:
+    """Read a test-table folder (``table.csv`` + ``table.toml``) into a validated :class:`TestTable`.
+
+    ``table.csv``: one header line naming the columns (units in the names, any order, extra columns allowed;
+    lines starting with ``#`` are comments), one row per measured operating point. Known columns
+    (:data:`KNOWN_COLUMNS`) must be numeric and in range; efficiency is a fraction. When ``n11_rpm`` is absent it is
+    derived as ``n D / sqrt(H)`` (eq. (2), paper 003) from ``head_m``, the speed (``speed_rpm`` column or key) and
+    ``runner_diameter_m``; ``q11_m3_s`` as ``Q / (D^2 sqrt(H))`` (eq. (1)) from ``flow_m3_s`` and ``head_m``.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the row (line number, header = 1) and the column: missing file, bad TOML key, empty
+        file, repeated or empty column name, a row with the wrong number of fields, a non-numeric or non-finite
+        value in a known column, a value out of range, a control that is not a numeric column or is constant,
+        a speed given both as column and key.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "table.toml").write_text('name = "t"\\nrunner_diameter_m = 2.0\\nspeed_rpm = 100.0\\n'
+    ...                                   'controls = ["guide_vane_deg"]\\n')
+    >>> _ = (d / "table.csv").write_text("guide_vane_deg,head_m,flow_m3_s\\n40,4,8\\n50,9,12\\n")
+    >>> t = load_test_table(d)
+    >>> t.column("n11_rpm").tolist(), t.column("q11_m3_s").tolist(), t.derived
+    ([100.0, 66.66666666666667], [1.0, 1.0], ('n11_rpm', 'q11_m3_s'))
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a test-table folder (no such directory)")
+    info = read_table_info(folder / INFO_FILE)
+    path = folder / TABLE_FILE
+    if not path.is_file():
+        raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
+    try:
+        with path.open(newline="", encoding="utf-8") as handle:
+            lines = [(no, line) for no, line in enumerate(handle, start=1) if not line.lstrip().startswith("#")]
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc})") from None
+    rows = [(no, row) for (no, _), row in zip(lines, csv.reader(line for _, line in lines))]
+    rows = [(no, row) for no, row in rows if row and any(cell.strip() for cell in row)]
+    if not rows:
+        raise InputError(f"{path}: empty file; expected a header line such as "
+                         "blade_angle_deg,guide_vane_deg,efficiency,head_m,power_kw,flow_m3_s")
+    header_no, header = rows[0]
+    header = [name.strip() for name in header]
+    if any(not name for name in header):
+        raise InputError(f"{path}: row {header_no}: empty column name in header {header}")
+    repeated = sorted({name for name in header if header.count(name) > 1})
+    if repeated:
+        raise InputError(f"{path}: row {header_no}: repeated column name(s) {repeated}")
+    cells = {name: [] for name in header}
+    line_numbers = []
+    for line_no, row in rows[1:]:
+        if len(row) != len(header):
+            raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
+        line_numbers.append(line_no)
+        for name, cell in zip(header, row):
+            cells[name].append(cell.strip())
+    if not line_numbers:
+        raise InputError(f"{path}: no data rows below the header")
+    columns, text_columns = {}, []
+    for name in header:
+        if name in KNOWN_COLUMNS:
+            values = np.array([_parse_cell(path, no, name, c) for no, c in zip(line_numbers, cells[name])])
+            _, ok, allowed = KNOWN_COLUMNS[name]
+            bad = np.flatnonzero(~ok(values))
+            if bad.size:
+                i = bad[0]
+                raise InputError(f"{path}: row {line_numbers[i]}, column {name!r}: {float(values[i])!r} is out of "
+                                 f"range; allowed {allowed}")
+            columns[name] = values
+        else:  # extra column: numeric if every cell is a finite number, else kept out as text
+            try:
+                values = np.array([float(c) for c in cells[name]])
+            except ValueError:
+                text_columns.append(name)
+                continue
+            if np.all(np.isfinite(values)):
+                columns[name] = values
+            else:
+                text_columns.append(name)
+    derived = []
+    if "speed_rpm" in columns and info.speed_rpm is not None:
+        raise InputError(f"{folder / INFO_FILE}: speed_rpm = {info.speed_rpm!r} is given but {path} also has a "
+                         "speed_rpm column; give the speed in one place only")
+    speed = columns.get("speed_rpm", info.speed_rpm)  # column or key; None when neither (no n11 derivation)
+    d = info.runner_diameter_m
+    if "head_m" in columns and d is not None:
+        sqrt_h = np.sqrt(columns["head_m"])
+        if "n11_rpm" not in columns and speed is not None:
+            columns["n11_rpm"] = np.broadcast_to(speed, sqrt_h.shape) * d / sqrt_h  # eq. (2), paper 003
+            derived.append("n11_rpm")
+        if "q11_m3_s" not in columns and "flow_m3_s" in columns:
+            columns["q11_m3_s"] = columns["flow_m3_s"] / (d * d * sqrt_h)  # eq. (1), paper 003
+            derived.append("q11_m3_s")
+    table = TestTable(info=info, columns=columns, derived=tuple(derived), text_columns=tuple(text_columns),
+                      folder=folder)
+    for control in info.controls:
+        if control not in columns:
+            raise InputError(f"{folder / INFO_FILE}: controls: {control!r} is not a numeric column of {path} "
+                             f"(columns: {', '.join(columns)})")
+        if np.ptp(columns[control]) == 0:
+            raise InputError(f"{path}: column {control!r} (a control) is constant ({columns[control][0]!r}); a "
+                             "control must vary over the test")
+    return table
