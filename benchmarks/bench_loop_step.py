@@ -1,6 +1,6 @@
 """Per-step cost of the assembled loop (issue 10: the component loop against the old monolithic one).
 
-    PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15]
+    PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15] [--substeps N]
 
 60 s load rejection of the shipped plant, 3147 steps, for the nets and the ideal turbine on the MOC penstock and the
 ideal turbine on the rigid one. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
@@ -24,6 +24,7 @@ CASES = (("francis/nets.json", "moc"), ("ideal", "moc"), ("ideal", "rigid"))
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=15)
+    parser.add_argument("--substeps", type=int, help="pin solver.substeps (default: chosen by the solver)")
     args = parser.parse_args(argv)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     print(f"load average {load[0]:.2f}; best / median of {args.repeat}")
@@ -31,7 +32,8 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|")
     for turbine, penstock in CASES:
         plant = load_plant(PLANT_FILE, {"turbine.characteristics": turbine, "penstock.model": penstock,
-                                        "scenario.t_end_s": 60.0})
+                                        "scenario.t_end_s": 60.0,
+                                        **({} if args.substeps is None else {"solver.substeps": args.substeps})})
         steps = run_simulation(plant).time_s.size - 1  # warm-up: loads (or compiles) the loop
         walls = [run_simulation(plant).wall_time_s for _ in range(args.repeat)]
         best, median = min(walls), statistics.median(walls)

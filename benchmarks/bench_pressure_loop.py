@@ -34,7 +34,8 @@ def main() -> None:
                     for alpha in ((1.0, 0.5) if loop != "newton" else (1.0,)):
                         plant = load_plant(PLANT_FILE, {**overrides, "turbine.characteristics": turbine,
                                                         "penstock.model": model, "solver.pressure_loop": loop,
-                                                        "solver.relaxation": alpha})
+                                                        "solver.relaxation": alpha,
+                                                        "solver.fallback": False})  # the loop alone
                         r = run_simulation(plant, raise_on_failure=False)
                         it = r.iterations[1:]
                         solved = it[it > 0]  # steps with the vanes shut need no iteration

@@ -15,7 +15,7 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  opening_time_s, stroke_min, stroke_max
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
     [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation], [output_dt_s],
-                 [max_node_steps], [max_output_mb]
+                 [max_node_steps], [max_output_mb], [fallback], [substeps]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
     [excitation], [grid]  with generator.model = "subtransient" (simulate.components.control.excitation.ExcitationConfig,
@@ -321,7 +321,10 @@ class SolverConfig:
     steps x nodes exceed ``max_node_steps`` (default 3e10, about 100 s of loop) or whose stored series exceed
     ``max_output_mb`` (default 2000) is refused before it starts, with the estimate.
     ``tolerance`` is on the head residual as a fraction of the rated head. ``relaxation`` alpha is used by the
-    traditional and improved loops (xi <- alpha D_h(xi) + (1 - alpha) xi).
+    traditional and improved loops (xi <- alpha D_h(xi) + (1 - alpha) xi). ``fallback`` (default true): a step the
+    loop does not solve is retried with half the relaxation, then by Newton, before the run fails (false: the loop
+    alone, as the paper states it). ``substeps`` (optional): sub-steps per step of the controls and the shaft
+    (default: chosen from their time scales, see :mod:`simulate.loop.timestep`).
     """
 
     dt_s: float | None = None
@@ -332,6 +335,8 @@ class SolverConfig:
     output_dt_s: float | None = None
     max_node_steps: float = 3e10
     max_output_mb: float = 2000.0
+    fallback: bool = True
+    substeps: int | None = None
 
     def __post_init__(self):
         if self.dt_s is not None:
@@ -344,6 +349,10 @@ class SolverConfig:
         check_number("solver.tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
         check_int("solver.max_iterations", self.max_iterations, 1, 100000)
         check_number("solver.relaxation", self.relaxation, low=0.0, high=1.0, low_open=True)
+        if self.substeps is not None:
+            check_int("solver.substeps", self.substeps, 1, 10000)
+        if not isinstance(self.fallback, bool):
+            raise InputError(f"solver.fallback must be true or false, got {self.fallback!r}")
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,10 @@ def register(subparsers) -> None:
                         help="override a plant-file key; the value is parsed as TOML (repeatable), "
                              "e.g. --set penstock.model=\"rigid\" --set scenario.t_end_s=30")
     parser.add_argument("--no-plot", action="store_true", help="do not write transient.png and envelope.png")
+    parser.add_argument("--check-step", action="store_true",
+                        help="rerun at half the time step (twice penstock.reaches for moc) and report the change of "
+                             "each summary figure (stdout and summary.json \"step_check\"): a converged result "
+                             "changes by little")
     parser.add_argument("--uncertainty", action="store_true",
                         help="also run the scenario once per ensemble member of the nets and add the 5-95 %% band "
                              "of max speed rise and max/min head to summary.json (issue 9)")
@@ -198,6 +202,13 @@ def run_command(args: argparse.Namespace) -> int:
             progress.start("simulating once per ensemble member")
             ensemble = run_ensemble(plant)  # (summary band, trace band): N runs for N members
             progress.done()
+        step_check = None
+        if getattr(args, "check_step", False) and result.success:
+            from simulate.studies.step_check import check_step
+
+            progress.start("simulating again at half the step")
+            step_check = check_step(plant, result)
+            progress.done()
         write_run_outputs(result, out, plot=not args.no_plot, figures=figures,
                           band=None if ensemble is None else ensemble[1])
     finally:
@@ -212,6 +223,8 @@ def run_command(args: argparse.Namespace) -> int:
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
     if ensemble is not None:
         _add_uncertainty(ensemble[0], out / "summary.json")
+    if step_check is not None:
+        _add_step_check(step_check, out / "summary.json")
     if summary.get("frequency_recovery_time_s") is not None:  # the sub-transient generator after a load change
         print(f"frequency back within +-{summary['frequency_recovery_band_hz']} Hz of rated "
               f"{summary['frequency_recovery_time_s']:.2f} s after the load change at "
@@ -222,6 +235,21 @@ def run_command(args: argparse.Namespace) -> int:
         from hillchart.errors import NumericalError
         raise NumericalError(raise_message)
     return 0
+
+
+def _add_step_check(check: dict, summary_path: Path) -> None:
+    """The comparison of :func:`simulate.studies.step_check.check_step` goes into summary.json and onto stdout."""
+    import json
+
+    from hillchart.io.tidy import tidy_floats
+
+    print(f"step check: dt = {check['dt_s']:.6g} s against dt = {check['half_dt_s']:.6g} s; largest change "
+          f"{check['max_change_points']:.3g} points of percent")
+    for name, fig in check["figures"].items():
+        print(f"  {name}: {fig['value']:.6g} -> {fig['half_step']:.6g} (change {fig['change']:+.3g} {fig['unit']})")
+    summary = json.loads(summary_path.read_text(encoding="utf-8"))
+    summary["step_check"] = tidy_floats(check)
+    summary_path.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def _add_uncertainty(band: dict, summary_path: Path) -> None:

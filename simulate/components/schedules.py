@@ -6,6 +6,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+#: Who drives the guide vanes: the governor, or a prescribed law (the schedules' ``mode``).
+GOVERNOR, PRESCRIBED = 0, 1
+
 
 @numba.njit(cache=True)
 def piecewise_linear(times, values, t):

@@ -21,7 +21,7 @@ import time as _time
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
-from simulate.components.turbine.boundary import STATUS_TEXT, turbine_parameters, turbine_state
+from simulate.components.turbine.boundary import FALLBACK_DAMPING, STATUS_TEXT, turbine_parameters, turbine_state
 from simulate.config import PlantConfig, load_characteristics
 from simulate.results.result import SimulationResult
 from simulate.scenarios import GOVERNOR, build_schedules, initial_target
@@ -34,6 +34,28 @@ HEAD_FLOOR_FRACTION = 1e-4
 #: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
 #: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
 CLOSED_STROKE = 1e-6
+
+#: What a failed pressure loop's message tells the user to change.
+FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
+                  "or a looser solver.tolerance")
+#: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
+SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
+                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
+                     "penstock's size")
+SEPARATION_FRACTION = 0.05
+
+
+def _failure_advice(status: int, solver, c_l_m: float, rated_head_m: float) -> str:
+    """The end of a pressure-loop failure message: what was tried and what to change."""
+    from simulate.components.turbine.boundary import NAN, NO_POSITIVE_HEAD, NOT_CONVERGED
+
+    tried = ""
+    if status in (NOT_CONVERGED, NAN):
+        tried = (f"; the step was retried with relaxation {FALLBACK_DAMPING * solver.relaxation:g} and by Newton"
+                 if solver.fallback else "; solver.fallback = false")
+    if status == NO_POSITIVE_HEAD or c_l_m < SEPARATION_FRACTION * rated_head_m:
+        return f"{tried}): {SEPARATION_ADVICE}"
+    return f"{tried}): {FAILURE_ADVICE}"
 
 #: Wall time of work per call into the compiled loop; Ctrl-C is honoured between calls.
 CHUNK_WALL_S = 0.25
@@ -72,21 +94,26 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
                         stroke_max=plant.governor.stroke_max, **initial_target(plant.scenario))
 
 
-def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float) -> dict:
-    """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries."""
+def plant_schedules(plant: PlantConfig, steady: SteadyState):
+    """The scenario's schedules from the steady state ``steady``."""
+    return build_schedules(plant, steady.stroke, steady.torque_nm / plant.turbine.rated_torque_nm)
+
+
+def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: int = 1) -> dict:
+    """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries.
+    Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`)."""
     from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
 
-    turbine = plant.turbine
-    load0 = steady.torque_nm / turbine.rated_torque_nm
-    schedules = build_schedules(plant, steady.stroke, load0)
+    schedules = plant_schedules(plant, steady)
+    sub_dt = dt_s / substeps
     upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
     head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
     parts = {
         "upstream": upstream,
         "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
         "control": CONTROLS.builder("governor" if schedules.mode == GOVERNOR else "prescribed")(
-            plant, steady, dt_s, schedules),
-        "shaft": SHAFTS.builder(shaft_section(plant)[0])(plant, steady, dt_s, schedules),
+            plant, steady, sub_dt, schedules),
+        "shaft": SHAFTS.builder(shaft_section(plant)[0])(plant, steady, sub_dt, schedules),
     }
     return parts, schedules
 
@@ -123,24 +150,27 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     from simulate.loop import guards
     from simulate.loop.assembly import assemble
     from simulate.components.registry import compile_characteristics
+    from simulate.loop.timestep import plan_step
 
-    dt = plant.time_step_s  # Courant check before anything heavier
+    plant.time_step_s  # noqa: B018  (the Courant check of the grid before anything heavier)
+    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    compiled_chars = compile_characteristics(chars)
+    turbine, pen = plant.turbine, plant.penstock
+    from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
+
+    domain = plant_domain(plant, chars)
+    steady = initial_state(plant, chars)
+    plan = plan_step(plant, plant_schedules(plant, steady))  # the step from the components' time scales
+    dt, n_sub = plan.dt_s, plan.substeps
     n_steps = int(round(plant.scenario.t_end_s / dt))
     if n_steps < 1:
         raise InputError(f"scenario.t_end_s = {plant.scenario.t_end_s!r} is shorter than one step "
                          f"(dt = {dt:.6g} s)")
     stride = guards.output_stride(plant, dt)
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    compiled_chars = compile_characteristics(chars)
-    turbine, pen = plant.turbine, plant.penstock
     guards.check_run_size(plant, dt, n_steps, stride)
-    from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
-
-    domain = plant_domain(plant, chars)
-    steady = initial_state(plant, chars)
     guards.check_initial_state(plant, steady, domain)
-    warnings = guards.check_time_step(plant, dt, steady)
-    parts, schedules = build_parts(plant, steady, dt)
+    warnings = list(plan.warnings)
+    parts, schedules = build_parts(plant, steady, dt, n_sub)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
                             closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max])
@@ -179,7 +209,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     while k < n_steps:
         k_end = min(n_steps, k + chunk)
         t0 = _time.perf_counter()
-        status, k_done = loop(k, k_end, dt, stride, *args)
+        status, k_done = loop(k, k_end, dt, n_sub, stride, *args)
         if status != 0:
             break
         k = k_done
@@ -209,7 +239,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                    f"{diag[0]:.6g} s (step {failed_step + 1}): speed {diag[1]:.6g} r/min, opening {diag[2]:.6g} "
                    f"(chart units), head guess {diag[3]:.6g} m, penstock relation H = {diag[4]:.6g} + "
                    f"({diag[5]:.6g}) Q, last head residual {diag[6]:.3g} m (tolerance {tp[0][2]:.3g} m, "
-                   f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation})")
+                   f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation}"
+                   + _failure_advice(int(status), plant.solver, diag[4], turbine.rated_head_m))
         for part in parts.values():  # a component that failed first (e.g. the generator's network) says why
             why = part.meta.get("failure", lambda: "")()
             if why:
@@ -232,7 +263,10 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
             schedules.ref_times_s, schedules.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
     tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
-            "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "water_time_s": tw,
+            "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "substeps": n_sub,
+            "dt_chosen": plan.chosen, "dt_limited_by": plan.limited_by,
+            "aligned_event_times_s": list(plan.aligned_events_s),
+            "pressure_loop_fallback_steps": int(diag[7]), "water_time_s": tw,
             "travel_time_s": pen.travel_time_s, "compiled": compiled,
             "steady_state_max_residual": max(abs(v) for v in steady.residuals.values())}
     if stride != 1:
@@ -249,6 +283,11 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     for part in parts.values():
         warnings += part.meta.get("warnings_after", lambda signals: [])(
             {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)})
+    if diag[7] > 0:
+        warnings.append(f"the pressure loop '{plant.solver.pressure_loop}' did not converge at {int(diag[7])} of "
+                        f"{n_steps} steps and its fallback (relaxation "
+                        f"{FALLBACK_DAMPING * plant.solver.relaxation:g}, then Newton) solved them: set "
+                        f"solver.pressure_loop = \"newton\" or a smaller solver.relaxation for a faster run")
     meta["warnings"] = warnings
     signals = {name: out_signals[:n_rows, j].copy() for j, name in enumerate(signal_names)}
     return SimulationResult(

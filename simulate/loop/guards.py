@@ -1,5 +1,5 @@
-"""Checks before a run starts (issue 10 section 5, issue 14): the size of the run, the time step against the
-plant's dynamics, and the initial operating point against the characteristics.
+"""Checks before a run starts (issue 10 section 5, issue 14): the size of the run and the initial operating point
+against the characteristics (the time step against the plant's dynamics: :mod:`simulate.loop.timestep`).
 
 Every refusal is an :class:`InputError` naming the estimate or the value, the bound, and the key to change.
 """
@@ -10,10 +10,6 @@ import math
 
 from hillchart.errors import InputError
 
-#: dt above this fraction of a time constant is refused (the explicit rotor step and the sampled governor are
-#: unstable or meaningless there); above :data:`DT_WARN_FRACTION` a warning is recorded with the result.
-DT_REFUSE_FRACTION = 0.5
-DT_WARN_FRACTION = 0.1
 #: The loop's cost per step beyond its nodes, in node-equivalents (measured: the shipped plant's 3147 steps of 26
 #: MOC nodes take about 1 ms, i.e. ~0.3 us a step where a node costs ~3 ns).
 STEP_OVERHEAD_NODES = 100
@@ -64,41 +60,6 @@ def check_run_size(plant, dt_s: float, n_steps: int, stride: int) -> dict:
             f"{dt_s * max(2, math.ceil(mb / sol.max_output_mb)):.3g} s) to store a decimated series, or raise "
             f"solver.max_output_mb")
     return est
-
-
-def time_constants(plant, steady=None) -> dict:
-    """The plant's time constants the step must resolve, by the key that sets them (s)."""
-    t, pen, gov = plant.turbine, plant.penstock, plant.governor
-    out = {"generator.inertia_time_s (Ta)": plant.generator.inertia_time_s,
-           "penstock water time Tw (lengths, diameters, rated flow and head)":
-               pen.water_time_s(t.rated_flow_m3_s, t.rated_head_m)}
-    if plant.scenario.kind in ("load-rejection", "frequency-steps", "load-step"):  # governor in control
-        out["governor.servo_time_s"] = gov.servo_time_s
-        if gov.kd > 0.0 and gov.derivative_filter_s > 0.0:
-            out["governor.derivative_filter_s"] = gov.derivative_filter_s
-        if gov.ki > 0.0 and gov.kp > 0.0:
-            out["governor integral time kp/ki"] = gov.kp / gov.ki
-    from simulate.components.registry import upstream_section
-
-    upstream = upstream_section(plant)[1]
-    if upstream is not None and hasattr(upstream, "time_constants"):
-        out.update(upstream.time_constants())
-    return out
-
-
-def check_time_step(plant, dt_s: float, steady=None) -> list[str]:
-    """Refuse dt > 0.5 T of any time constant T; return warnings for dt > 0.1 T (naming which)."""
-    warnings = []
-    for name, value in time_constants(plant, steady).items():
-        if dt_s > DT_REFUSE_FRACTION * value:
-            raise InputError(
-                f"time step dt = {dt_s:.6g} s is not small against {name} = {value:.6g} s (allowed dt <= "
-                f"{DT_REFUSE_FRACTION} x {value:.6g} = {DT_REFUSE_FRACTION * value:.6g} s): set solver.dt_s, or "
-                f"penstock.reaches for moc (check the wave speed and lengths: m/s and m)")
-        if dt_s > DT_WARN_FRACTION * value:
-            warnings.append(f"time step dt = {dt_s:.6g} s is more than {DT_WARN_FRACTION} x {name} = {value:.6g} s; "
-                            f"results may be inaccurate")
-    return warnings
 
 
 def check_initial_state(plant, steady, domain=None) -> None:

@@ -10,8 +10,8 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_float_list, check_number
+from simulate.components.schedules import GOVERNOR, PRESCRIBED  # noqa: F401  (the control modes, re-exported)
 
-GOVERNOR, PRESCRIBED = 0, 1
 
 SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps", "short-circuit",
                   "field-step")

@@ -25,7 +25,9 @@ def test_run_writes_timeseries_summary_and_plot(tmp_path, capsys):
         rows = list(csv.reader(fh))
     assert tuple(rows[0]) == CSV_COLUMNS  # exactly the columns, in order
     data = np.array(rows[1:], dtype=float)
-    dt = (180.0 / 1180.0) / 8
+    # the z-domain model's step: 0.05 x the governor's derivative filter (0.2 s), shortened to put the rejection (2 s)
+    # on a step: 2 s / 200
+    dt = 2.0 / 200
     assert data.shape == (int(round(6.0 / dt)) + 1, len(CSV_COLUMNS))
     assert data[1, 0] == pytest.approx(dt, abs=1e-6)
     assert data[0, 1] == pytest.approx(200.0) and data[0, 8] == 0 and data[1:, 8].min() >= 1
@@ -60,7 +62,8 @@ def test_bad_input_prints_error_and_exits_2(tmp_path, capsys, args, message):
 def test_pressure_loop_failure_writes_partial_series_and_exits_2(tmp_path, capsys):
     out = tmp_path / "fail"
     code = main(["run", PLANT_FILE, "--out", str(out), "--no-plot", "--set", "turbine.characteristics=\"ideal\"",
-                 "--set", "solver.pressure_loop=\"traditional\"", "--set", "scenario.t_end_s=5"])
+                 "--set", "solver.pressure_loop=\"traditional\"", "--set", "solver.fallback=false",
+                 "--set", "scenario.t_end_s=5"])
     assert code == 2
     assert "failed (no convergence)" in capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())

@@ -15,7 +15,7 @@ import numpy as np
 from hillchart.errors import InputError
 from simulate.components.control.discrete_servo import (check_servo_step, discrete_servo_parameters,
                                                        discrete_servo_step, initial_servo_state)
-from simulate.components.schedules import piecewise_constant, piecewise_linear
+from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
 
 #: Layout of the governor parameter vector passed to the compiled loop.
 GOVERNOR_PARAMS = ("kp", "ki", "kd", "derivative_filter_s", "permanent_droop", "initial_stroke", "stroke_min",
@@ -206,3 +206,23 @@ def build_discrete_governor(plant, steady, dt_s: float, schedules):
                         params=params, state=state, signals=(),
                         meta={"summary": {"servo_model": "discrete (paper 000 eq. (37))",
                                           "servo_sample_time_s": config.sample_time_s}})
+
+
+def time_scales(plant, schedules) -> list:
+    """The governor's servo, derivative filter and integral time while it is in control (a prescribed law has
+    none); sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
+    from simulate.components.timescale import TimeScale
+
+    gov = plant.governor
+    if schedules.mode != GOVERNOR:
+        return []
+    out = []
+    if gov.servo_model != "discrete":
+        out.append(TimeScale("governor.servo_time_s", gov.servo_time_s))
+    if gov.kd > 0.0 and gov.derivative_filter_s > 0.0:
+        # implicit Euler (first order, unlike the servo's exact exponential): 0.05 x T_f keeps the step-halving
+        # change of the head rise below 0.1 point on the shipped plant
+        out.append(TimeScale("governor.derivative_filter_s", gov.derivative_filter_s, resolve_fraction=0.05))
+    if gov.ki > 0.0 and gov.kp > 0.0:
+        out.append(TimeScale("governor integral time kp/ki", gov.kp / gov.ki))
+    return out

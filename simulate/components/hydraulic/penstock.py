@@ -373,3 +373,16 @@ def _build_iir(model: str):
 build_zdomain = _build_iir("zdomain")
 build_lumped = _build_iir("lumped")
 build_rigid = _build_iir("rigid")
+
+
+def time_scales(plant, schedules) -> list:
+    """What the step must resolve of the penstock (see :mod:`simulate.loop.timestep`): the water time Tw for the rigid,
+    lumped and z-domain models (one relation per step for the whole column); nothing for the method of
+    characteristics, which is exact on its own grid."""
+    from simulate.components.timescale import TimeScale
+
+    if plant.penstock.model == "moc":
+        return []
+    t = plant.turbine
+    return [TimeScale("penstock water time Tw (lengths, diameters, rated flow and head)",
+                      plant.penstock.water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]

@@ -100,3 +100,10 @@ def build_surge_tank(plant, steady, dt_s: float):
         meta={"initial_head_m": z0, "initial_signals": [z0, q0], "warnings_after": warnings_after,
               "error_after": error_after,
               "summary": {"surge_tank_period_s": tank.period_s}})
+
+
+def time_scales(plant, schedules) -> list:
+    """The mass-oscillation period, exchanged with the penstock every step (see :mod:`simulate.loop.timestep`)."""
+    from simulate.components.timescale import TimeScale
+
+    return [TimeScale(label, value, coupled=True) for label, value in plant.surge_tank.time_constants().items()]

@@ -61,6 +61,21 @@ def _inputs(scal, load_times, load_values, t_s):
 
 
 @numba.njit(cache=True)
+def _event_within(scal, load_times, t_s, dt_s):
+    """The first electrical event (load change, fault, field step) strictly inside (t_s, t_s + dt_s), or
+    t_s + dt_s when there is none."""
+    eps = scal[C_EPS]
+    first = t_s + dt_s
+    for t_e in (scal[C_FAULT_T], scal[C_FIELD_T]):
+        if t_s + eps < t_e < first - eps:
+            first = t_e
+    for t_e in load_times:
+        if t_s + eps < t_e < first - eps:
+            first = t_e
+    return first
+
+
+@numba.njit(cache=True)
 def _network_and_field(scal, gp, ep, load_times, load_values, gs, es, out, misc, x, t_s, dt_s):
     """Steps 1-2 at ``t_s``: the network outputs into ``out`` and the field voltage for [t_s, t_s + dt) into
     ``misc``. Returns the status."""
@@ -96,7 +111,17 @@ def subtransient_shaft_step(p, s, turbine_torque_nm, t_s, dt_s):
         # the swing equation; its load is the air-gap torque on the turbine torque base
         x_next = rotor_step(x, turbine_torque_nm / scal[C_MR], out[O_TE] * gp[P_TORQUE_RATIO], 0.0, scal[C_TA], dt_s)
     breaker, scale, fault = _inputs(scal, load_times, load_values, t_s)
-    status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, dt_s, work)  # eq. (10)
+    t_event = _event_within(scal, load_times, t_s, dt_s)
+    if t_event < t_s + dt_s:  # an event inside the step: the fluxes meet it at its time (the step is split)
+        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, t_event - t_s, work)
+        if status == 0:
+            breaker, scale, fault = _inputs(scal, load_times, load_values, t_event)
+            field = misc[M_FIELD]
+            if scal[C_FIELD_HELD] > 0.5 and t_event >= scal[C_FIELD_T] - scal[C_EPS]:
+                field = scal[C_FIELD0] + scal[C_FIELD_STEP]
+            status = generator_step(gp, gs, x_next, field, breaker, scale, fault, t_s + dt_s - t_event, work)
+    else:
+        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, dt_s, work)  # eq. (10)
     if status == 0:
         status = _network_and_field(scal, gp, ep, load_times, load_values, gs, es, out, misc, x_next, t_s + dt_s,
                                     dt_s)
@@ -227,3 +252,22 @@ def electromechanical_step_check(plant, arrays, dt_s: float, schedules) -> list[
     if product > OMEGA_DT_WARN:
         return [f"{text} > {OMEGA_DT_WARN}: the mode's frequency is off by about {100 * product ** 2 / 24:.2g} %"]
     return []
+
+
+def time_scales(plant, schedules) -> list:
+    """The sub-transient machine's fastest modes (T''d = T''d0 X''d/X'd, T''q = T''q0 X''q/Xq), its transient
+    constant T'd = T'd0 X'd/Xd and the excitation filter, all sub-stepped within the MOC step; and the inertia time
+    Ta unless the speed is held (see :mod:`simulate.loop.timestep`)."""
+    from simulate.components.timescale import TimeScale
+
+    gen = plant.generator.subtransient
+    out = [TimeScale("generator sub-transient d-axis time T''d = T''d0 X''d/X'd (generator.td0_st_s)",
+                     gen.td0_st_s * gen.xd_st / gen.xd_t),
+           TimeScale("generator sub-transient q-axis time T''q = T''q0 X''q/Xq (generator.tq0_st_s)",
+                     gen.tq0_st_s * gen.xq_st / gen.xq),
+           TimeScale("generator transient time T'd = T'd0 X'd/Xd (generator.td0_t_s)", gen.td0_t_s * gen.xd_t / gen.xd)]
+    if plant.excitation.filter_s > 0.0:
+        out.append(TimeScale("excitation.filter_s (T_f)", plant.excitation.filter_s))
+    if not schedules.speed_held:
+        out.append(TimeScale("generator.inertia_time_s (Ta)", plant.generator.inertia_time_s, coupled=True))
+    return out

@@ -56,3 +56,10 @@ def build_rotor(plant, steady, dt_s: float, schedules):
     params = (scal, schedules.load_times_s, schedules.load_values, schedules.self_regulation_values)
     return CompiledPart(kind="shaft", name="rotor", functions={"speed": rotor_speed, "step": rotor_shaft_step},
                         params=params, state=(np.array([steady.speed_rpm]),))
+
+
+def time_scales(plant, schedules) -> list:
+    """The inertia time Ta: the rotor meets the turbine torque once per step (see :mod:`simulate.loop.timestep`)."""
+    from simulate.components.timescale import TimeScale
+
+    return [TimeScale("generator.inertia_time_s (Ta)", plant.generator.inertia_time_s, coupled=True)]

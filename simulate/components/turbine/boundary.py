@@ -67,7 +67,9 @@ def quadratic_flow(unit_flow, d1_m, c_l, k):
         return 0.0, False
     root = math.sqrt(disc)
     if unit_flow > 0.0:
-        return 0.5 * (c * k + root), True  # eq. (32)
+        # eq. (32), 0.5 (c k + root), written as 2 c C_L / (root - c k): with k <= 0 nothing cancels (a stiff
+        # rigid column at a small step has |c k| >> Q, where the textbook form loses all its digits)
+        return 2.0 * c * c_l / (root - c * k), True
     return 0.5 * (c * k - root), True  # reverse flow: the negative root
 
 
@@ -151,6 +153,13 @@ def solve_newton(kernel, params, c_l, k, speed_rpm, opening, head_guess_m, d1_m,
 
 SOLVERS = {"improved": solve_improved, "traditional": solve_traditional, "newton": solve_newton}
 
+#: The head of a step is accepted within max(``solver.tolerance`` x rated head, this x (|C_L| + |k Q|)): the penstock
+#: relation H = C_L + k Q cannot be evaluated closer than a few ulp of its terms (a rigid column at dt = 1e-4 s has
+#: |k Q| ~ 1e6 m); 64 eps leaves room for the rounding of the turbine equation.
+ROUNDOFF_TOLERANCE = 64 * 2.220446049250313e-16
+#: Relaxation factor applied to ``solver.relaxation`` by the first fallback of a step that did not converge.
+FALLBACK_DAMPING = 0.5
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # The turbine boundary as a component of the time loop
@@ -162,7 +171,8 @@ def turbine_parameters(turbine, solver, *, head_floor_m: float, closed_stroke: f
     import numpy as np
 
     scalars = np.array([turbine.runner_diameter_m, head_floor_m, solver.tolerance * turbine.rated_head_m,
-                        closed_stroke, float(solver.max_iterations), solver.relaxation])
+                        closed_stroke, float(solver.max_iterations), solver.relaxation,
+                        1.0 if solver.fallback else 0.0])
     return scalars, np.asarray(control_scales, dtype=float)
 
 
@@ -180,9 +190,14 @@ def turbine_signals(state):
     return signals[0], signals[1], signals[2]
 
 
-def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):  # template: globals kernel, pressure_loop
+# a template: it calls the globals kernel, pressure_loop and newton_loop of the assembled loop module
+def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):
     """Solve the turbine boundary at ``speed_rpm`` and ``controls`` (fractions of stroke; control 0 the guide vane)
     against the penstock relation H = C_L + k Q; store head, flow and torque M11 D1^3 H in ``ts``.
+
+    The head tolerance is the larger of the configured one and :data:`ROUNDOFF_TOLERANCE` x (|C_L| + |k Q|). A step
+    that does not converge (or meets NaN) is retried with the same loop damped by :data:`FALLBACK_DAMPING` and
+    4 x the iterations, then by Newton; ``diag[7]`` counts the steps a fallback solved.
 
     Shut guide vanes (stroke <= closed stroke) are a closed valve: Q = 0, H = C_L, no iteration. Returns
     ``(status, iterations)``; on failure ``diag[1:7]`` = speed, opening (chart units), head guess, C_L, k,
@@ -200,8 +215,25 @@ def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):  # template
         if head < floor:
             status = NO_POSITIVE_HEAD
     else:
+        # the head H = C_L + k Q is a sum of terms of size |C_L| and |k Q|: it is known to a few ulp of them only
+        tol = max(tol, ROUNDOFF_TOLERANCE * (abs(c_l) + abs(slope * signals[1])))
         head, flow, iters, residual, status = pressure_loop(  # noqa: F821 (a template global, bound by the loop)
             cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor, tol, max_iterations, relaxation)
+        if (status == NOT_CONVERGED or status == NAN) and scalars[6] > 0.5:
+            # what a careful engineer tries before giving up: the same loop damped, then Newton
+            first = status
+            head, flow, more, residual, status = pressure_loop(  # noqa: F821 (a template global)
+                cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor, tol, 4 * max_iterations,
+                FALLBACK_DAMPING * relaxation)
+            iters += more
+            if status != OK:
+                head, flow, more, residual, status = newton_loop(  # noqa: F821 (a template global)
+                    cp, c_l, slope, speed_rpm, chart, head_guess, d1, floor, tol, 4 * max_iterations, 1.0)
+                iters += more
+            if status == OK:
+                diag[7] += 1.0
+            else:
+                status = first
     if status != OK:
         diag[1] = speed_rpm
         diag[2] = chart[0]

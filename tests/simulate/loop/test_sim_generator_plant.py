@@ -116,7 +116,9 @@ def test_breaker_open_kinds_give_the_swing_models_speed(kind, extra):
     # the generator's torque equals the turbine's to the steady-state residual (1e-16). So the two models give the
     # same speed to rounding: 1e-9 relative (a missing torque-base ratio rated_mva / P_r = 1.11 would be off by
     # 10 % of the load at once)
-    over = {"scenario.kind": kind, "scenario.t_end_s": 8.0, **extra}
+    # 160 reaches: a step of 0.95 ms resolves the generator's T''q (10 ms) without sub-steps, so both shafts take the
+    # same steps (the sub-transient machine is sub-stepped on the default grid, the swing rotor is not)
+    over = {"scenario.kind": kind, "scenario.t_end_s": 8.0, "penstock.reaches": 160, **extra}
     if kind != "frequency-steps":
         over["scenario.initial_power_mw"] = 180.0
     sub = run_simulation(grid_plant(**over))
@@ -342,13 +344,16 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
            "grid.frequency_p": None, "grid.frequency_q": None, "grid.x_line_pu": 0.3, "grid.bus_voltage_pu": 1.0,
            "scenario.kind": "opening-steps", "scenario.t_end_s": 2.0, "penstock.model": "rigid"}
     # omega_n = 7.15 rad/s here (1.14 Hz, the mode measured in tests/simulate/components/test_generator.py at P 0.8: 1.145 Hz)
-    assert run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.02})).summary()["warnings"] == []
+    assert not any("electromechanical" in w for w in
+                   run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.02})).summary()["warnings"])
     warned = run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.05})).summary()["warnings"]
+    warned = [w for w in warned if "electromechanical" in w]  # (the others: the step against T''d, T''q, T_f)
     assert len(warned) == 1 and "omega_n = 7.15 rad/s" in warned[0] and "omega_n dt = 0.358 > 0.3" in warned[0]
     with pytest.raises(InputError, match=r"omega_n dt = 1\.43 > 1\.0 \(allowed dt <= 0\.14 s\); set solver\.dt_s"):
         run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.2}))
     # the island has no such mode (one machine, its own load): no warning at a dt the bus warns about
-    assert "omega_n dt = 0.715" in run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.1})).summary()["warnings"][0]
+    assert any("omega_n dt = 0.715" in w
+               for w in run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.1})).summary()["warnings"])
     island = run_simulation(grid_plant(**{"penstock.model": "rigid", "solver.dt_s": 0.1, "scenario.t_end_s": 2.0,
                                           "scenario.event_time_s": 1.0}))
     assert not any("electromechanical" in w for w in island.summary()["warnings"])
