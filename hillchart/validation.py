@@ -91,8 +91,25 @@ def check_float_list(name: str, value: Any, *, low: float, high: float) -> tuple
 
 
 def check_finite(name: str, value: Any, *, max_abs: float | None = None) -> float:
-    """A finite number, of magnitude at most ``max_abs`` when given (stored weights, file values)."""
-    return check_number(name, value, low=None if max_abs is None else -max_abs, high=max_abs)
+    """A finite number, of magnitude at most ``max_abs`` when given (stored weights, file values).
+
+    >>> check_finite("flow.b2", float("nan"))
+    Traceback (most recent call last):
+    ...
+    hillchart.errors.InputError: flow.b2 must be finite, got nan
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, _REAL):
+        raise InputError(f"{name} must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise InputError(f"{name} must be a number of magnitude <= {max_abs or 1.8e308:g}, got an integer of "
+                         f"{len(str(abs(value)))} digits") from None
+    if not math.isfinite(number):
+        raise InputError(f"{name} must be finite, got {value!r}")
+    if max_abs is not None and abs(number) > max_abs:
+        raise InputError(f"{name} must have magnitude <= {max_abs:g}, got {value!r}")
+    return number
 
 
 def check_vector(name: str, value: Any, length: int | None = None, *, max_abs: float | None = None) -> np.ndarray:

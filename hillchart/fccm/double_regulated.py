@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
-from hillchart.fccm.net import FCCMNet, FCCMWeights, _finite_float
+from hillchart.fccm.net import FCCMNet, FCCMWeights
+from hillchart.validation import check_finite
 from hillchart.fccm.plots import _figure
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -39,7 +40,7 @@ def _weights_from_block(block, key: str, output: str) -> FCCMWeights:
     if block["output"] != output:
         raise InputError(f"{key}.output must be {output!r}, got {block['output']!r}")
     for name in ("y_min", "y_max", "b2"):
-        _finite_float(block[name], f"{key}.{name}")
+        check_finite(f"{key}.{name}", block[name])
     if not isinstance(block["W2"], list):
         raise InputError(f"{key}.W2 must be a list of numbers, got {block['W2']!r}")
     try:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
+from hillchart.validation import check_vector
 
 # ----------------------------------------------------------------------------------------------------------------
 # the exported net: fccm_nets.json (numpy evaluation, no torch)
@@ -20,25 +21,6 @@ NETS_FILE = "fccm_nets.json"
 METRICS_FILE = "metrics.json"
 
 
-def _finite_float(value, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise InputError(f"{key} must be a number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise InputError(f"{key} must be finite, got {value!r}")
-    return value
-
-
-def _float_vector(value, key: str, length: int | None = None) -> np.ndarray:
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if not isinstance(value, (list, tuple)):
-        raise InputError(f"{key} must be a list of numbers, got {value!r}")
-    if length is not None and len(value) != length:
-        raise InputError(f"{key} must have {length} entries, got {len(value)}")
-    return np.array([_finite_float(v, f"{key}[{i}]") for i, v in enumerate(value)], dtype=float)
-
-
 def _float_matrix(value, key: str, rows: int | None, cols: int) -> np.ndarray:
     if isinstance(value, np.ndarray):
         value = value.tolist()
@@ -46,7 +28,7 @@ def _float_matrix(value, key: str, rows: int | None, cols: int) -> np.ndarray:
         raise InputError(f"{key} must be a non-empty list of rows, got {value!r}")
     if rows is not None and len(value) != rows:
         raise InputError(f"{key} must have {rows} rows, got {len(value)}")
-    return np.array([_float_vector(row, f"{key}[{i}]", cols) for i, row in enumerate(value)])
+    return np.array([check_vector(f"{key}[{i}]", row, cols) for i, row in enumerate(value)])
 
 
 def _names(value, key: str) -> tuple:
@@ -123,23 +105,23 @@ class FCCMWeights:
         inputs = _names(self.inputs, f"{prefix}inputs")
         outputs = _names(self.outputs, f"{prefix}outputs")
         n_in, n_out = len(inputs), len(outputs)
-        x_min = _float_vector(self.x_min, f"{prefix}x_min", n_in)
-        x_max = _float_vector(self.x_max, f"{prefix}x_max", n_in)
+        x_min = check_vector(f"{prefix}x_min", self.x_min, n_in)
+        x_max = check_vector(f"{prefix}x_max", self.x_max, n_in)
         for j, name in enumerate(inputs):
             if not x_max[j] > x_min[j]:
                 raise InputError(f"{prefix}x_max[{j}] ({name}) must be > {prefix}x_min[{j}] = {x_min[j]!r}, "
                                  f"got {x_max[j]!r}")
-        y_min = _float_vector(self.y_min, f"{prefix}y_min", n_out)
-        y_max = _float_vector(self.y_max, f"{prefix}y_max", n_out)
+        y_min = check_vector(f"{prefix}y_min", self.y_min, n_out)
+        y_max = check_vector(f"{prefix}y_max", self.y_max, n_out)
         for j, name in enumerate(outputs):
             if not y_max[j] > y_min[j]:
                 raise InputError(f"{prefix}y_max[{j}] ({name}) must be > {prefix}y_min[{j}] = {y_min[j]!r}, "
                                  f"got {y_max[j]!r}")
         w1 = _float_matrix(self.W1, f"{prefix}W1", None, n_in)
         hidden = w1.shape[0]
-        b1 = _float_vector(self.b1, f"{prefix}b1", hidden)
+        b1 = check_vector(f"{prefix}b1", self.b1, hidden)
         w2 = _float_matrix(self.W2, f"{prefix}W2", n_out, hidden)
-        b2 = _float_vector(self.b2, f"{prefix}b2", n_out)
+        b2 = check_vector(f"{prefix}b2", self.b2, n_out)
         training = self.training if self.training is not None else {}
         if not isinstance(training, dict):
             raise InputError(f"{prefix}training must be an object, got {type(training).__name__}")

@@ -56,6 +56,7 @@ import numpy as np
 
 from hillchart.nets import lm
 from hillchart.errors import InputError
+from hillchart.validation import check_finite, check_vector
 
 FORMAT = "hillsim.nets"
 VERSION = 1
@@ -152,31 +153,6 @@ def _evaluate(packed: np.ndarray, n11, opening):
 MAX_ABS_NET_VALUE = 1e9
 
 
-def _finite_float(value, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise InputError(f"{key} must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except OverflowError:  # an integer with hundreds of digits
-        raise InputError(f"{key} must be a number of magnitude <= {MAX_ABS_NET_VALUE:g}, got an integer of "
-                         f"{len(str(abs(value)))} digits") from None
-    if not math.isfinite(value):
-        raise InputError(f"{key} must be finite, got {value!r}")
-    if abs(value) > MAX_ABS_NET_VALUE:
-        raise InputError(f"{key} must have magnitude <= {MAX_ABS_NET_VALUE:g}, got {value!r}")
-    return value
-
-
-def _float_vector(value, key: str, length: int | None = None) -> np.ndarray:
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if not isinstance(value, (list, tuple)):
-        raise InputError(f"{key} must be a list of numbers, got {value!r}")
-    if length is not None and len(value) != length:
-        raise InputError(f"{key} must have {length} entries, got {len(value)}")
-    return np.array([_finite_float(v, f"{key}[{i}]") for i, v in enumerate(value)], dtype=float)
-
-
 @dataclass(frozen=True, eq=False)
 class NetWeights:
     """Weights of one 2-H-1 logsig/purelin net and its input/output scaling (one ``NET`` block of ``nets.json``).
@@ -222,24 +198,25 @@ class NetWeights:
 
     def _set_validated(self, key: str):
         put = object.__setattr__
-        x_min = _float_vector(self.x_min, f"{key}x_min", 2)
-        x_max = _float_vector(self.x_max, f"{key}x_max", 2)
+        x_min = check_vector(f"{key}x_min", self.x_min, 2, max_abs=MAX_ABS_NET_VALUE)
+        x_max = check_vector(f"{key}x_max", self.x_max, 2, max_abs=MAX_ABS_NET_VALUE)
         for j, name in enumerate(("n11", "opening")):
             if not x_max[j] > x_min[j]:
                 raise InputError(f"{key}x_max[{j}] ({name}) must be > {key}x_min[{j}] = {x_min[j]!r}, "
                                  f"got {x_max[j]!r}")
-        y_min = _finite_float(self.y_min, f"{key}y_min")
-        y_max = _finite_float(self.y_max, f"{key}y_max")
+        y_min = check_finite(f"{key}y_min", self.y_min, max_abs=MAX_ABS_NET_VALUE)
+        y_max = check_finite(f"{key}y_max", self.y_max, max_abs=MAX_ABS_NET_VALUE)
         if not y_max > y_min:
             raise InputError(f"{key}y_max must be > {key}y_min = {y_min!r}, got {y_max!r}")
         w1_raw = self.W1.tolist() if isinstance(self.W1, np.ndarray) else self.W1
         if not isinstance(w1_raw, (list, tuple)) or len(w1_raw) == 0:
             raise InputError(f"{key}W1 must be a non-empty list of H rows [w_n11, w_opening], got {w1_raw!r}")
-        w1 = np.array([_float_vector(row, f"{key}W1[{i}]", 2) for i, row in enumerate(w1_raw)])
+        w1 = np.array([check_vector(f"{key}W1[{i}]", row, 2, max_abs=MAX_ABS_NET_VALUE)
+                       for i, row in enumerate(w1_raw)])
         hidden = w1.shape[0]
-        b1 = _float_vector(self.b1, f"{key}b1", hidden)
-        w2 = _float_vector(self.W2, f"{key}W2", hidden)
-        b2 = _finite_float(self.b2, f"{key}b2")
+        b1 = check_vector(f"{key}b1", self.b1, hidden, max_abs=MAX_ABS_NET_VALUE)
+        w2 = check_vector(f"{key}W2", self.W2, hidden, max_abs=MAX_ABS_NET_VALUE)
+        b2 = check_finite(f"{key}b2", self.b2, max_abs=MAX_ABS_NET_VALUE)
         for name, value in (("x_min", x_min), ("x_max", x_max), ("W1", w1), ("b1", b1), ("W2", w2)):
             value.setflags(write=False)
             put(self, name, value)

@@ -208,6 +208,8 @@ def test_arma_round_trip(ey, e, eqh, tw, dt):
         ("wave_time_s", -0.3, "wave_time_s must be finite and >= 0"),
         ("alpha", 0.0, "alpha must be finite and > 0"),
         ("friction_slope", "abc", "friction_slope must be a number"),
+        ("water_time_s", True, "water_time_s must be a number, got True"),  # a bool is not a number
+        ("water_time_s", "3", "water_time_s must be a number, got '3'"),  # nor is a numeric string
         ("ex", float("inf"), "coefficient ex must be finite"),
         ("eqh", 0.0, "eqh must be != 0"),
     ],
