@@ -1,9 +1,10 @@
 """Per-step cost of the assembled loop (issue 10: the component loop against the old monolithic one).
 
-    PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15] [--substeps N]
+    PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15] [--substeps N] [--hydraulic]
 
 60 s load rejection of the shipped plant, 3147 steps, for the nets and the ideal turbine on the MOC penstock and the
-ideal turbine on the rigid one. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
+ideal turbine on the rigid one. ``--hydraulic``: a hydraulic-only run instead (the closure-law scenario: the vanes
+follow a prescribed 10 s closure, no governor), whose step and cost depend on the penstock alone. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
 its chunk driver, nothing else), best and median of ``--repeat`` runs after one warm-up run, and ns per step.
 """
 
@@ -25,14 +26,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=15)
     parser.add_argument("--substeps", type=int, help="pin solver.substeps (default: chosen by the solver)")
+    parser.add_argument("--hydraulic", action="store_true", help="closure-law scenario (no governor)")
     args = parser.parse_args(argv)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
     print(f"load average {load[0]:.2f}; best / median of {args.repeat}")
     print("| turbine | penstock | steps | loop wall best / median (ms) | ns per step (best) |")
     print("|---|---|---|---|---|")
     for turbine, penstock in CASES:
+        scenario = {"scenario.kind": "closure-law", "scenario.closing_time_s": 10.0} if args.hydraulic else {}
         plant = load_plant(PLANT_FILE, {"turbine.characteristics": turbine, "penstock.model": penstock,
-                                        "scenario.t_end_s": 60.0,
+                                        "scenario.t_end_s": 60.0, **scenario,
                                         **({} if args.substeps is None else {"solver.substeps": args.substeps})})
         steps = run_simulation(plant).time_s.size - 1  # warm-up: loads (or compiles) the loop
         walls = [run_simulation(plant).wall_time_s for _ in range(args.repeat)]
