@@ -17,17 +17,15 @@ from hillchart.io.samples import load_chart
 from hillchart.synthetic.francis import SyntheticFrancis
 
 
-def main() -> None:
+def table(extended=None) -> str:
+    """The markdown table of each boundary family's error against the exact turbine, and K of eq. (8)."""
     turbine = SyntheticFrancis()
-    t0 = time.perf_counter()
-    extended = extend_samples(load_chart(FRANCIS_DIR))
-    elapsed = time.perf_counter() - t0
+    if extended is None:
+        extended = extend_samples(load_chart(FRANCIS_DIR))
     truth = np.loadtxt(FRANCIS_DIR / "truth.csv", delimiter=",", skiprows=1)
     spans = {"q11": np.ptp(truth[:, 2]), "m11": np.ptp(truth[:, 3])}
     units = {"q11": "m3/s", "m11": "N*m"}
-    print(f"load + extend: {elapsed:.2f} s; efficiency surface degree {extended.efficiency_surface.degree}")
-    print("| target | origin | samples | RMS error | max error | max / truth range |")
-    print("|---|---|---|---|---|---|")
+    lines = ["| target | origin | samples | RMS error | max error | max / truth range |", "|---|---|---|---|---|---|"]
     for target in TARGETS:
         x, y, origin = extended.select(target)
         exact = (turbine.q11 if target == "q11" else turbine.m11)(x[:, 0], x[:, 1])
@@ -36,13 +34,21 @@ def main() -> None:
             if not m.any():
                 continue
             err = y[m] - exact[m]
-            print(
+            lines.append(
                 f"| {target} | {o} | {int(m.sum())} | {np.sqrt(np.mean(err**2)):.4g} {units[target]} | "
                 f"{np.abs(err).max():.4g} {units[target]} | {100 * np.abs(err).max() / spans[target]:.2f} % |"
             )
-    print(
-        f"K (eq. 8): fitted {extended.k_zero_opening:.4g}, true {turbine.params.k_disc_friction:.4g} N*m/(r/min)^2"
-    )
+    lines += ["", f"K (eq. 8): fitted {extended.k_zero_opening:.4g}, true {turbine.params.k_disc_friction:.4g} "
+                  f"N*m/(r/min)^2"]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    t0 = time.perf_counter()
+    extended = extend_samples(load_chart(FRANCIS_DIR))
+    elapsed = time.perf_counter() - t0
+    print(f"load + extend: {elapsed:.2f} s; efficiency surface degree {extended.efficiency_surface.degree}")
+    print(table(extended))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Pressure-loop study (issue 4 section 8): iterations per step and failures of the three turbine-boundary solvers.
+"""Pressure-loop study: iterations per step and failures of the three turbine-boundary solvers.
 
 Cases: a full closure to a = 0 (closure-law, 10 s full-stroke closure from rated power) and no-load operation
 (frequency-steps, +4/-8/+4 % at 10/40/70 s), on the shipped HLA339-like plant with its nets and with the ideal
@@ -24,9 +24,10 @@ CASES = {
 }
 
 
-def main() -> None:
-    print("| turbine | penstock | case | loop | alpha | result | mean it/step | max it/step | steps with > 10 it |")
-    print("|---|---|---|---|---|---|---|---|---|")
+def table() -> str:
+    """The markdown table: one row per turbine, penstock, case, loop and relaxation."""
+    lines = ["| turbine | penstock | case | loop | alpha | result | mean it/step | max it/step | steps with > 10 it |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for turbine in ("francis/nets.json", "ideal"):
         for model in ("moc", "rigid"):
             for case, overrides in CASES.items():
@@ -43,8 +44,13 @@ def main() -> None:
                         mean = f"{solved.mean():.2f}" if solved.size else "-"
                         top = int(solved.max()) if solved.size else 0
                         name = "nets" if turbine != "ideal" else "ideal"
-                        print(f"| {name} | {model} | {case} | {loop} | {alpha} | {status} | {mean} | {top} | "
-                              f"{int(np.sum(solved > 10))} |")
+                        lines.append(f"| {name} | {model} | {case} | {loop} | {alpha} | {status} | {mean} | {top} | "
+                                     f"{int(np.sum(solved > 10))} |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    print(table(), end="")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The papers' printed identification results put through hillsim's linear models (issue 12 section 4).
 
-Run: ``python benchmarks/paper_numbers.py`` (under a second). Prints the markdown tables of the README section
-"The papers' identified numbers through our models"; ``tests/hillsim/test_paper_numbers.py`` checks that the README holds
+Run: ``python benchmarks/paper_numbers.py`` (under a second). Prints the markdown tables of the docs section
+"The papers' identified numbers through our models" (docs/identification.md); ``tests/test_docs.py`` checks that it holds
 exactly this output, so the table cannot go stale.
 
 Inputs (printed in the papers):
@@ -88,7 +88,7 @@ def paper_000() -> tuple[str, dict]:
          + f"; poles {', '.join(f'{z.real:.4f}' for z in head_poles)}; eq. (68): c_h Tw = "
            f"{THETA_H_000[2] * TW_000_S:.4f} (printed 0.0035)"),
     ]
-    lines = ["| paper 000 | through our models |", "|---|---|"] + [f"| {a} | {b} |" for a, b in rows]
+    lines = ["| Wang et al. (2023) | through our models |", "|---|---|"] + [f"| {a} | {b} |" for a, b in rows]
     return "\n".join(lines), {"dc_arx": dc_arx, "dc_six": dc_six, "j_fit": j_fit, "step_difference": diff,
                               "poles": poles, "eh_implied": eh_implied, "eqh_implied": eqh_implied}
 
@@ -122,12 +122,12 @@ def paper_002() -> tuple[str, dict]:
         ("implied eqy eh = ey (e + eqh)", f"{eqy_eh:.4f} (ideal 1.5)"),
         ("implied eqx from eqh = 1/2 - eqx/2", f"{eqx_implied:.4f}"),
     ]
-    lines = ["| paper 002 | through our models |", "|---|---|"] + [f"| {a} | {b} |" for a, b in rows]
+    lines = ["| Wei et al. (2016) | through our models |", "|---|---|"] + [f"| {a} | {b} |" for a, b in rows]
     return "\n".join(lines), {"zero": zero, "pole": pole, "initial": initial, "eqy_eh": eqy_eh}
 
 
 def markdown() -> str:
-    """Both tables, as the README holds them."""
+    """Both tables, as the identification page holds them (a generated block)."""
     return paper_000()[0] + "\n\n" + paper_002()[0] + "\n"
 
 

@@ -300,9 +300,9 @@ def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
     rows = [[label] + [Value(sims[s][k], fmt, f"{s}/summary.json:{k}") for s in sims] for k, label, fmt in keys]
     report.table(["quantity", "load rejection (governor)", "load rejection (closure law)", "no-load frequency steps"],
                  rows, "Summary figures (fractions of the initial values)")
-    for name, caption in (("load_rejection", "100 % load rejection with the governor (paper 004 Fig. 11b)"),
+    for name, caption in (("load_rejection", "100 % load rejection with the governor (Li et al. 2017, Fig. 11b)"),
                           ("closure_law", "100 % load rejection with the prescribed closure law"),
-                          ("frequency_steps", "No-load frequency steps +4 %, -8 %, +4 % (paper 004 Fig. 11a)")):
+                          ("frequency_steps", "No-load frequency steps +4 %, -8 %, +4 % (Li et al. 2017, Fig. 11a)")):
         report.figure(out / name / "transient.png", caption)
 
     report.heading("4. Six coefficients: nets vs exact vs batch least squares")
@@ -316,7 +316,7 @@ def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
                    f"identification/identification.json:six_coefficients.batch_ls.{k}")]
             for k in names]
     report.table(["coefficient", "nets, scenario point", "exact turbine, scenario point", "nets, identification point",
-                  "batch LS (paper 000 eqs. 69-70)"], rows,
+                  "batch LS (Wang et al. 2023, eqs. 69-70)"], rows,
                  "Relative coefficients at the scenario's initial point (the plant's initial load; not the chart's "
                  "design rated N11 of the README's linearize example) and at the identification point")
     report.figure(out / "coefficient_maps.png", "The six coefficients over the chart")
@@ -336,7 +336,7 @@ def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
     for png, caption in (("six_coefficients.png", "Six coefficients: nets vs batch LS vs exact"),
                          ("step_response.png", "Step responses: identified vs nets' ZOH model"),
                          ("theta_convergence.png", "theta(k) convergence of RLS and dead-zone RLS"),
-                         ("simulation_mode.png", "Simulation-mode speed output (paper 000 eqs. 62-64)")):
+                         ("simulation_mode.png", "Simulation-mode speed output (Wang et al. 2023, eqs. 62-64)")):
         path = out / "identification" / png
         if path.is_file():
             report.figure(path, caption)

@@ -529,7 +529,7 @@ class FCCMNet:
         self._check_fitted()
         return {"seed": self.seed, "split": list(self.split), "restarts": self.restarts,
                 "hidden": self.hidden_, "c": self.c_,
-                "hidden_rule": ("eq. (3) of paper 003: round(sqrt(n_in + n_out) + C)" if self.c_ is not None
+                "hidden_rule": ("eq. (3) of Wu et al.: round(sqrt(n_in + n_out) + C)" if self.c_ is not None
                                 else "fixed"),
                 "selection": self.selection_,
                 "n_train": int(self.train_index_.size), "n_validation": int(self.val_index_.size),

@@ -929,11 +929,11 @@ def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, bound
 def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None = None, restarts: int = 10,
                seed: int = 0, boundary_weight: float | None = None, regularization: float | None = None,
                ensemble: int = 0, record_time: bool = False, progress=None, **net_params) -> HillNets:
-    """Train the flow and torque nets on the extended samples (paper 004, eq. (12) and section 2.6 steps (5)-(6)).
+    """Train the flow and torque nets on the extended samples (Li et al. 2017, eq. (12) and section 2.6 steps (5)-(6)).
 
     The measured (digitized) samples carry the fit; derived boundary samples are soft constraints whose weight, the
     hidden size (3-10) and a weight-decay regularization are chosen by the validation error on measured samples
-    (issue 9, sections 2-3). Give ``hidden``, ``boundary_weight`` or ``regularization`` to fix them instead.
+    (see the docs page on the nets). Give ``hidden``, ``boundary_weight`` or ``regularization`` to fix them instead.
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ def register(subparsers) -> None:
         help="draw a manufacturer-style hill chart and the Q11/M11 surfaces from nets.json",
         description="Hill chart from the nets (N11 vs Q11, iso-efficiency contours, iso-opening lines, runaway "
                     "curve), filled contours of Q11(N11, a) and M11(N11, a) and, with --samples, the digitized "
-                    "points and the net errors at every extended sample (BP hill-chart paper, Figs. 5-8).",
+                    "points and the net errors at every extended sample (Li et al. 2017, Figs. 5-8).",
     )
     parser.add_argument("nets", metavar="NETS_JSON", help="nets.json written by 'hillsim train'")
     parser.add_argument("--out", required=True, help="PNG to write")

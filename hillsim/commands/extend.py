@@ -8,7 +8,7 @@ import warnings
 
 def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of :class:`hillchart.extension.extend.ExtensionOptions` (shared by ``extend`` and ``train``)."""
-    group = parser.add_argument_group("extension (BP hill-chart paper, sections 2.1 and 2.6)")
+    group = parser.add_argument_group("extension (Li et al. 2017, sections 2.1 and 2.6)")
     group.add_argument("--no-runaway", action="store_true", help="do not add the runaway boundary")
     group.add_argument("--no-zero-opening", action="store_true", help="do not add the zero-opening boundary")
     group.add_argument("--no-zero-speed", action="store_true", help="do not add the zero-speed boundary")

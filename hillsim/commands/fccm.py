@@ -12,7 +12,7 @@ def register(subparsers) -> None:
         help="double-regulated turbine test table -> multi-output BP net, maps, image similarity, grey relations",
         description="Train one logsig BP net (Levenberg-Marquardt, 30/35/35 split, validation stop, hidden size "
                     "from eq. (3) with C chosen by validation) from a test-table folder (table.csv, table.toml) and "
-                    "run the analyses of paper 003: efficiency maps over (Q11, n11) from interpolation and from the "
+                    "run the analyses of Wu et al.: efficiency maps over (Q11, n11) from interpolation and from the "
                     "net, their image similarity, the maps over the inputs, the operating characteristic and the "
                     "grey relational analysis of the controls.",
     )
@@ -23,11 +23,11 @@ def register(subparsers) -> None:
                         "efficiency,head_m,power_kw,flow_m3_s")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
-                        help="hidden neurons (default: eq. (3) of paper 003 with C in 1..10 chosen by validation)")
+                        help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split and the initialisations (default 0)")
     parser.add_argument("--restarts", type=int, default=5, help="initialisations per hidden size (default 5)")
     parser.add_argument("--split", default="0.30,0.35,0.35",
-                        help="train,validation,test fractions (default 0.30,0.35,0.35 as paper 003)")
+                        help="train,validation,test fractions (default 0.30,0.35,0.35 as Wu et al.)")
     parser.add_argument("--truth", default=None, help="exact grid CSV (e.g. truth.csv of hillsim synth --turbine "
                         "bulb): net and linear interpolation against it")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")

@@ -62,8 +62,8 @@ def register(subparsers) -> None:
                      help="dead zone of the dead-zone RLS (default: (1 + sum|a|) x noise, or 1e-7 without noise)")
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
     est.add_argument("--arx", choices=("zoh", "paper"), default="zoh",
-                     help="ARX structure: exact zero-order hold (default) or paper 000 eq. (53) as printed")
-    grid = parser.add_argument_group("paper 000 head model and closed loop (simulate.identification.head_model)")
+                     help="ARX structure: exact zero-order hold (default) or eq. (53) of Wang et al. 2023 as printed")
+    grid = parser.add_argument_group("head model and closed loop of Wang et al. 2023 (simulate.identification.head_model)")
     grid.add_argument("--head-model", choices=("interval", "paper"), default=None,
                       help="also learn the head ARX (eqs. 60-61) and the speed/head/flow estimates (eqs. 62-68): "
                            "head_model.json, head_model.png")
@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
                                                operating_point=series.operating_point)
         except InputError as exc:  # e.g. sampled too coarsely for paper 002's 0.04 s: the rest stands
             arma_series = None
-            notes.append(f"paper 002's ARMA fit uses the series at {settings.arma_sample_time_s} s: {exc}")
+            notes.append(f"the ARMA fit of Wei et al. 2016 uses the series at {settings.arma_sample_time_s} s: {exc}")
         progress.start("identifying from the measured series")
         report = identify_measured(series, settings, plant=plant, exact=exact, arma_series=arma_series)
     else:

@@ -47,8 +47,8 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "linearize",
         help="six transfer coefficients (ex, ey, eh, eqx, eqy, eqh) from the nets at an operating point",
-        description="Six coefficients of the linear turbine model from the nets' analytic derivatives (paper 000, "
-                    "eqs. 4-7). Prints JSON; --map draws each coefficient over (N11, a).",
+        description="Six coefficients of the linear turbine model from the nets' analytic derivatives "
+                    "(Wang et al. 2023, eqs. 4-7). Prints JSON; --map draws each coefficient over (N11, a).",
     )
     parser.add_argument("nets", metavar="NETS",
                         help="nets.json, 'synthetic' for the exact synthetic turbine, or with --plant 'ideal' (the "

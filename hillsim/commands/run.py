@@ -33,7 +33,7 @@ def register(subparsers) -> None:
                              "changes by little")
     parser.add_argument("--uncertainty", action="store_true",
                         help="also run the scenario once per ensemble member of the nets and add the 5-95 %% band "
-                             "of max speed rise and max/min head to summary.json (issue 9)")
+                             "of max speed rise and max/min head to summary.json")
     parser.set_defaults(func=run_command)
 
 

@@ -22,7 +22,7 @@ def register(subparsers) -> None:
         help="train the Q11 and M11 nets (2-H-1 logsig, Levenberg-Marquardt) and write nets.json",
         description="Load a chart folder, check it, extend its samples (torque from efficiency; runaway, zero "
                     "opening, zero speed from a physical model fitted to the chart) and train the flow net "
-                    "Q11(N11, a) and the torque net M11(N11, a) as in the BP hill-chart paper (Levenberg-Marquardt). "
+                    "Q11(N11, a) and the torque net M11(N11, a) as in Li et al. 2017 (Levenberg-Marquardt). "
                     "The boundary samples' weight, the hidden size and the regularization are chosen by "
                     "cross-validation on the measured samples; an ensemble gives the uncertainty band. Every check "
                     "runs before anything is written.",

@@ -193,7 +193,8 @@ def _arma(series: RelativeSeries, arma_series, reference: LinearPlant, reference
     """Paper 002 ARMA on the torque at constant speed (speed term removed with the batch-LS ex)."""
     # paper 002 assumes rigid water hammer (its eq. (2)); with an elastic penstock the first-order model misfits
     if reference.elastic:
-        return ArmaSkipped(skipped="paper 002 assumes rigid water hammer; run with the rigid model")
+        return ArmaSkipped(skipped="the ARMA model of Wei et al. (2016) assumes rigid water hammer; "
+                                    "run with the rigid model")
     sa = arma_series if arma_series is not None else series
     m_const_speed = sa.m - ex_batch_ls * sa.x
     try:

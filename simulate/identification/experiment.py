@@ -24,7 +24,7 @@ class ExperimentSettings:
     Attributes
     ----------
     sample_time_s : float
-        tau, the sampling of the identification data (paper 000: 0.2 s).
+        tau, the sampling of the identification data (Wang et al. 2023: 0.2 s).
     step_amplitude : float
         Size of the opening steps: +A at ``lead_s``, back, -A, back, each held ``step_hold_s``.
     step_hold_s : float
@@ -49,12 +49,12 @@ class ExperimentSettings:
         Dead zone on the a-priori residual; None: 2 (1 + sum |a_i|) noise_level (the equation-error bound, doubled),
         or 1e-7 without noise.
     dead_zone_delta : float
-        delta of paper 001 eq. (8).
+        delta of eq. (8) of Wang, Ahmed et al..
     arx_structure : str
         ``"zoh"`` (n_a = n_b = model order, no delay: the exact zero-order hold) or ``"paper"`` (eq. (53) as printed:
         n_a = 3, n_b = 2, one sample delay). The other one is always reported too.
     arma_sample_time_s : float
-        Sampling of the paper 002 ARMA fit (its eq. (6) is a backward difference, biased by about
+        Sampling of the ARMA fit of Wei et al. 2016 (its eq. (6) is a backward difference, biased by about
         Dt / (2 eqh Tw): 0.04 s keeps that near 2 % where tau = 0.2 s would give ~15 %).
     """
 

@@ -137,7 +137,7 @@ class HeadModelReport:
         axes[-1].set_ylabel("opening y, %")
         axes[-1].set_xlabel("time (s)")
         axes[-1].grid(alpha=0.3)
-        fig.suptitle(title or "paper 000 estimates: speed (eqs. 62-63), head (eq. 65), flow (eq. 5)")
+        fig.suptitle(title or "Wang et al. (2023) estimates: speed (eqs. 62-63), head (eq. 65), flow (eq. 5)")
         fig.tight_layout()
         fig.savefig(path, dpi=100)
         plt.close(fig)

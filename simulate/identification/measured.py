@@ -109,7 +109,7 @@ class RelativeSeries:
 
 
 def load_measured_series(path, *, sample_time_s: float, operating_point: OperatingPoint | None = None):
-    """Read a measured series CSV and resample it (paper 000 section 5).
+    """Read a measured series CSV and resample it (Wang et al. 2023, section 5).
 
     The file has one header line naming the columns with their units (:data:`MEASURED_COLUMNS`: ``time_s,
     speed_rpm, head_m, opening, torque_nm, flow_m3_s``; other columns are ignored, so ``timeseries.csv`` from

@@ -115,7 +115,7 @@ def plot_report(report, out_dir) -> dict[str, Path]:
         for ax in (ax1, ax2):
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
-        fig.suptitle("simulation mode (paper 000 eqs. 62-64), final theta")
+        fig.suptitle("simulation mode (Wang et al. 2023, eqs. 62-64), final theta")
         fig.tight_layout()
         paths["simulation_mode_png"] = out / "simulation_mode.png"
         fig.savefig(paths["simulation_mode_png"], dpi=100)

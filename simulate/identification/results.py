@@ -1,4 +1,4 @@
-"""Typed records of an identification: what :func:`simulate.identification.compare_identification` and
+"""Typed records of an identification: what :func:`simulate.identification.compare.compare_identification` and
 :func:`simulate.identification.compare.identify_measured` found.
 
 Every record is a frozen dataclass; :func:`to_json_dict` is the one function that turns a record into the JSON of

@@ -92,7 +92,7 @@ def markdown_tables(summary: IdentificationSummary) -> str:
     if isinstance(summary.arma_paper002, ArmaFit):
         a = summary.arma_paper002
         lines.append("")
-        lines.append(f"| paper 002 (Dt = {a.sample_time_s} s) | ARMA LS (eqs. 9-12, 8) | nets | nets with the "
+        lines.append(f"| Wei et al. 2016 (Dt = {a.sample_time_s} s) | ARMA LS (eqs. 9-12, 8) | nets | nets with the "
                      "penstock friction folded in |")
         lines.append("|---|---|---|---|")
         for k in ("ey", "e", "eqh"):

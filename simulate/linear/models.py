@@ -276,7 +276,7 @@ class LinearPlant:
         _positive("alpha", self.alpha)
         _positive("friction_slope", self.friction_slope, allow_zero=True)
         if self.eqh == 0:
-            raise InputError("eqh must be != 0: the head equation divides by eqh (paper 000 eq. (12))")
+            raise InputError("eqh must be != 0: the head equation divides by eqh (Wang et al. 2023, eq. (12))")
 
     @classmethod
     def from_coefficients(cls, coefficients, **parameters) -> "LinearPlant":

@@ -34,7 +34,7 @@ def test_zero_opening_k_comes_from_the_data(result):
     name, res = result
     # K of eq. (8) from the fitted physical model, against the turbine's disc friction. Measured at seed 0:
     # slow 1.03, medium 1.44, fast 1.93 (the paper's polynomial extrapolation gives 7x, 3.4x and 18x). The issue's
-    # factor 1.5 holds for slow and medium; the fast turbine's disc friction is over-estimated (README, "K").
+    # factor 1.5 holds for slow and medium; the fast turbine's disc friction is over-estimated (docs/nets.md, "Limits").
     bound = 2.0 if name == "fast" else 1.5
     assert 1.0 / bound <= res.k_ratio <= bound
 

@@ -204,7 +204,7 @@ def build_discrete_governor(plant, steady, dt_s: float, schedules):
     state = (np.zeros(3), np.array([steady.stroke]), initial_servo_state(steady.stroke))
     return CompiledPart(kind="control", name="governor", functions={"step": governor_discrete_servo_step},
                         params=params, state=state, signals=(),
-                        meta={"summary": {"servo_model": "discrete (paper 000 eq. (37))",
+                        meta={"summary": {"servo_model": "discrete (Wang et al. 2023, eq. (37))",
                                           "servo_sample_time_s": config.sample_time_s}})
 
 

@@ -54,7 +54,7 @@ def test_measured_region_covers_the_digitized_lines(truth_and_mask):
 def test_shipped_nets_meet_the_accuracy_bounds(truth_and_mask):
     truth, inside = truth_and_mask
     errs = assert_issue_bounds(load_nets(CHART / "nets.json"), truth, inside)
-    # measured 2026-11 (see the README, section "Accuracy on the synthetic chart"): Q11 0.23 % RMS, 0.40 % max; M11 0.19 % RMS. A regression that
+    # measured 2026-11 (see docs/nets.md, "Accuracy on the synthetic chart"): Q11 0.23 % RMS, 0.40 % max; M11 0.19 % RMS. A regression that
     # doubles them would still pass the issue's bounds, so also pin them loosely (x2) to catch a degraded retrain.
     assert errs["q11"]["rms_measured_pct"] < 0.46 and errs["m11"]["rms_measured_pct"] < 0.40
 

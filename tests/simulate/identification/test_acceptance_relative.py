@@ -16,7 +16,7 @@ def _summary(**kw):
 
 
 def test_noisy_identification_that_is_119_percent_off_fails_and_the_noise_free_one_passes():
-    noisy = _summary(noise_level=2e-5, seed=3)  # README: forgetting RLS 119 % off in step response
+    noisy = _summary(noise_level=2e-5, seed=3)  # docs/identification.md: forgetting RLS 119 % off in step response
     forgetting = noisy.arx.rls_forgetting
     assert forgetting.step_error_vs_nets > 1.0  # measured 1.19
     sim = forgetting.simulation_mode_final_theta

@@ -1,0 +1,230 @@
+"""The documentation says what the code does: generated reference pages, generated numbers and figures, no work
+history in user-facing text, a short README whose commands are the CI's.
+
+``docs/gen_reference.py`` writes the command-line and plant-file reference pages; ``docs/regenerate_docs.py`` the
+generated blocks (numbers and tables from running the code) and the figures. These tests fail when a page differs
+from what those scripts produce now.
+"""
+
+import argparse
+import dataclasses
+import importlib.util
+import re
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+DOCS = REPO / "docs"
+
+
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return _script("gen_reference")
+
+
+@pytest.fixture(scope="module")
+def regenerate():
+    return _script("regenerate_docs")
+
+
+# ---------------------------------------------------------------------------------------------------- reference pages
+
+
+def test_cli_reference_page_is_generated_from_the_parsers(reference, monkeypatch):
+    page = reference.CLI_PAGE.read_text(encoding="utf-8")
+    assert page == reference.cli_page(), "run: PYTHONPATH=. python docs/gen_reference.py"
+    for name in ("synth", "run", "optimize-closure", "fccm"):
+        assert f"## hillsim {name}\n" in page
+    # the check can fail: a new option of `hillsim run` without a regenerated page
+    import hillsim.cli
+
+    build = hillsim.cli.build_parser
+
+    def with_new_option(only=None):
+        parser = build(only)
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        sub.choices["run"].add_argument("--new-option", help="an option the page does not have")
+        return parser
+
+    monkeypatch.setattr(hillsim.cli, "build_parser", with_new_option)
+    assert reference.cli_page() != page and "--new-option" in reference.cli_page()
+
+
+def test_plant_file_reference_page_is_generated_from_the_config_classes(reference, monkeypatch):
+    page = reference.PLANT_PAGE.read_text(encoding="utf-8")
+    assert page == reference.plant_file_page(), "run: PYTHONPATH=. python docs/gen_reference.py"
+    # the ranges are the ones the validation enforces (probed): governor.kp and penstock.reaches
+    assert "| `kp` | number | **required** | in [0.0, 1000.0] |" in page
+    assert "| `reaches` | integer | **required** | an integer in [1, 10000] |" in page
+    # the check can fail: a new [solver] key without a regenerated page
+    import simulate.config as config
+
+    extended = dataclasses.make_dataclass("SolverConfig", [("new_key_s", float, dataclasses.field(default=1.0))],
+                                          bases=(config.SolverConfig,), frozen=True)
+    extended.__doc__ = config.SolverConfig.__doc__
+    monkeypatch.setattr(config, "SolverConfig", extended)
+    changed = reference.plant_file_page()
+    assert changed != page and "`new_key_s`" in changed
+
+
+# ---------------------------------------------------------------------------------------------------- generated blocks
+
+
+#: Which test checks each generated block: the cheap ones here, the re-run examples in tests/test_docs_examples.py.
+CHEAP_BLOCKS = ("demo-summary", "linearize-example", "nets-accuracy", "extension-errors", "paper-numbers",
+                "linear-plant-example", "eq14-table", "surge-tank-example")
+EXAMPLE_BLOCKS = ("uncertainty-example", "sweep-example", "closure-example", "report-example")
+IDENTIFY_BLOCKS = ("identify-comparison", "closed-loop-table", "head-model-table")
+PRESSURE_LOOP_BLOCKS = ("pressure-loop",)
+
+
+def test_every_generated_block_has_a_producer_a_page_and_a_test(regenerate):
+    found = regenerate.blocks_in_docs()
+    assert set(found) == set(regenerate.BLOCKS), (sorted(found), sorted(regenerate.BLOCKS))
+    checked = CHEAP_BLOCKS + EXAMPLE_BLOCKS + IDENTIFY_BLOCKS + PRESSURE_LOOP_BLOCKS
+    assert sorted(checked) == sorted(regenerate.BLOCKS), "a generated block that no test compares"
+
+
+def test_numbers_are_compared_to_their_last_written_digit(regenerate):
+    same = regenerate.same_text
+    assert same("max 0.4206 at 225 MW", "max 0.4207 at 225 MW")  # a rounding tie moved by one unit: another CPU
+    assert not same("max 0.4206 at 225 MW", "max 0.4217 at 225 MW")  # the stale figure of an older version
+    assert not same("max 0.4206 at 225 MW", "max 0.4206 at 226 MW")
+    assert not same("27 ok", "27 failed")
+    assert not same("theta 1.697", "theta 1.7")  # a number written with fewer digits than the code prints
+    assert same("T1 13.07 s", "T1 13.11 s", relative=5e-3) and not same("T1 13.07 s", "T1 13.30 s", relative=5e-3)
+
+
+def _assert_current(regenerate, ctx, names):
+    expected = regenerate.expected_blocks(ctx, names)
+    stale = {}
+    for path in regenerate.doc_files():
+        names_here = regenerate.stale_blocks(path.read_text(encoding="utf-8"), expected)
+        if names_here:
+            stale[str(path.relative_to(REPO))] = names_here
+    assert not stale, f"stale generated blocks {stale}; run: PYTHONPATH=. python docs/regenerate_docs.py"
+    return expected
+
+
+def test_cheap_generated_blocks_are_current(regenerate, demo_fast_dir, tmp_path):
+    """The demo summary, the linearize examples, the nets' accuracy, the extension errors, the papers' numbers, the
+    generator's load step (a few seconds in all, the demo run shared with the other tests)."""
+    ctx = regenerate.Context(tmp_path, demo_fast_dir)
+    expected = _assert_current(regenerate, ctx, CHEAP_BLOCKS)
+    # the check can fail: the stale figure the old README showed for ey at the scenario point
+    page = (DOCS / "getting-started.md").read_text(encoding="utf-8")
+    line = next(x for x in expected["demo-summary"].splitlines() if x.startswith("ey at the scenario point"))
+    edited = page.replace(line, re.sub(r"nets \d\.\d+", "nets 0.4217", line))
+    assert edited != page and regenerate.stale_blocks(edited, expected) == ["demo-summary"]
+
+
+def test_every_figure_in_the_docs_comes_from_a_script(regenerate):
+    images = regenerate.images_in_docs()
+    assert images, "no images found: the pattern is broken"
+    missing = sorted(set(images) - set(regenerate.FIGURES))
+    assert not missing, f"images without a command in docs/regenerate_docs.py FIGURES: {missing}"
+    for name in regenerate.FIGURES:
+        assert (DOCS / name).stat().st_size > 10_000, name
+    # the check can fail: an image nobody can redraw
+    assert "hand_drawn.png" not in regenerate.FIGURES
+
+
+# ---------------------------------------------------------------------------------------------------- user-facing text
+
+#: Issue numbers, branches, commit hashes, dates of work, and the papers' file numbers instead of their authors.
+WORK_HISTORY = re.compile(r"\bissue\s*\d+|\bissue'?s\b|\bthe issue\b|\bbranch(?:es)?\b"
+                          r"|\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,40}\b|\b20\d\d-\d\d-\d\d\b|\bpaper 00\d\b",
+                          re.I)
+
+
+def _user_pages():
+    return [REPO / "README.md"] + [p for p in sorted(DOCS.rglob("*.md")) if p.name != "changelog.md"]
+
+
+def test_no_work_history_in_the_docs():
+    hits = []
+    for path in _user_pages():
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            for match in WORK_HISTORY.finditer(line):
+                hits.append(f"{path.relative_to(REPO)}:{number}: {match.group(0)!r}")
+    assert not hits, "\n".join(hits)
+    # the pattern finds what it must
+    for text in ("the defaults since issue 9", "(issue 9)", "main at f06c698", "measured 2026-11-22",
+                 "the nets branch's", "paper 000 eq. (53)"):
+        assert WORK_HISTORY.search(text), text
+    assert not WORK_HISTORY.search("Wang et al. (2023) eq. (53), 1e-9 relative, 225 MW at 176 m")
+
+
+def test_no_work_history_in_help():
+    from hillsim.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    texts = {"hillsim": parser.format_help(), **{name: p.format_help() for name, p in sub.choices.items()}}
+    hits = [f"{name}: {m.group(0)!r}" for name, text in texts.items() for m in WORK_HISTORY.finditer(text)]
+    assert not hits, hits
+
+
+def test_api_page_documents_every_entry_point():
+    import hillsim
+
+    page = (DOCS / "reference" / "api.md").read_text(encoding="utf-8")
+    documented = set(re.findall(r"^::: ([\w.]+)$", page, re.M))
+    assert documented == {f"{module}.{name}" for name, module in hillsim.ENTRY_POINTS.items()}
+
+
+def test_getting_started_shows_the_quickstart_file():
+    text = (DOCS / "getting-started.md").read_text(encoding="utf-8")
+    start = text.index("```python\n", text.index("`examples/quickstart.py`")) + len("```python\n")
+    block = text[start:text.index("```\n", start)]
+    source = (REPO / "examples" / "quickstart.py").read_text(encoding="utf-8")
+    code = source[source.index('"""', 3) + 3:].lstrip("\n")  # the page shows the file without its docstring
+    assert block == code
+
+
+# ---------------------------------------------------------------------------------------------------- README and CI
+
+INSTALL_AND_DEMO = "pip install . && hillsim demo"
+INSTALL_AND_TEST = "pip install torch==2.13.0 && pip install -e '.[test]' && python -m pytest -q"
+
+
+def test_readme_is_a_front_door():
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 200
+    blocks = re.findall(r"```bash\n(.*?)```", text, re.S)
+    assert blocks[:2] == [INSTALL_AND_DEMO + "\n", INSTALL_AND_TEST + "\n"]  # the two quick-start commands
+    assert len(re.findall(r"!\[[^\]]*\]\(", text)) == 1  # one picture
+    for link in re.findall(r"\]\((docs/[^)#]+)", text):
+        assert (REPO / link).exists(), link
+
+
+def test_readme_example_commands_parse():
+    from hillsim.cli import build_parser
+
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    example = re.findall(r"```bash\n(.*?)```", text, re.S)[2]
+    commands = [line.split("#")[0].split() for line in example.splitlines() if line.startswith("hillsim ")]
+    assert len(commands) >= 2
+    for words in commands:
+        words = [w.replace("'", "") for w in words[1:]]
+        args = build_parser().parse_args(words)
+        assert args.command == words[0]
+    with pytest.raises(SystemExit):  # the check can fail: a misspelt option
+        build_parser().parse_args(["run", "plant.toml", "--outt", "x"])
+
+
+def test_ci_runs_the_readme_test_command_and_the_strict_docs_build():
+    ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
+    assert INSTALL_AND_TEST in ci.splitlines()
+    assert "mkdocs build --strict" in ci
+    pyproject = (REPO / "pyproject.toml").read_text(encoding="utf-8")
+    docs_extra = re.search(r"^docs = \[(.*?)\]", pyproject, re.M)
+    assert docs_extra and all(p in docs_extra.group(1) for p in ("mkdocs", "mkdocs-material", "mkdocstrings"))
