@@ -32,6 +32,10 @@ CROSSING_FRACTION = 0.02
 HULL_MARGIN_FRACTION = 0.10
 #: Nets' efficiency may exceed the best digitized contour by this much inside the digitized region.
 EFFICIENCY_MARGIN = 0.01
+#: A chart with fewer opening lines, flow points or contour levels than these is thin: it trains, with warnings.
+THIN_OPENING_LINES = 6
+THIN_FLOW_POINTS = 30
+THIN_CONTOUR_LEVELS = 5
 
 
 def _row(chart, name: str, index: int) -> str:
@@ -150,6 +154,34 @@ def check_chart(chart) -> None:
     check_units(chart)
     check_lines(chart)
     check_contours(chart)
+
+
+def thin_chart_notes(chart) -> list[str]:
+    """What a sparse chart lacks, one note each with what to digitize (empty for a chart that is not thin).
+
+    A thin chart is consistent but leaves the nets more to interpolate: fewer than :data:`THIN_OPENING_LINES`
+    opening lines, :data:`THIN_FLOW_POINTS` flow points or :data:`THIN_CONTOUR_LEVELS` efficiency contours.
+
+    Examples
+    --------
+    >>> from data_synthetic import FRANCIS_DIR
+    >>> from hillchart.io.samples import load_chart
+    >>> thin_chart_notes(load_chart(FRANCIS_DIR))
+    []
+    """
+    notes = []
+    lines, points = int(np.asarray(chart.openings).size), int(np.asarray(chart.flow_n11).size)
+    levels = int(np.unique(chart.eff_efficiency).size)
+    if lines < THIN_OPENING_LINES:
+        notes.append(f"{lines} opening lines (digitize {THIN_OPENING_LINES} or more, the smallest opening drawn "
+                     "included: between lines the nets interpolate)")
+    if points < THIN_FLOW_POINTS:
+        notes.append(f"{points} points on the opening lines (digitize {THIN_FLOW_POINTS} or more, each line to its "
+                     "ends)")
+    if levels < THIN_CONTOUR_LEVELS:
+        notes.append(f"{levels} efficiency contours (digitize {THIN_CONTOUR_LEVELS} or more, the best one included: "
+                     "the torque comes from them)")
+    return notes
 
 
 def efficiency_plausibility(nets, chart, *, margin: float = EFFICIENCY_MARGIN) -> str | None:

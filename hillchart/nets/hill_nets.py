@@ -63,7 +63,7 @@ VERSION = 1
 #: Units fixed by the format (the opening unit is the chart's).
 FIXED_UNITS = {"n11": "r/min", "q11": "m^3/s", "m11": "N*m"}
 #: Origin families of the extended samples (see :mod:`hillchart.extension.extend`).
-ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed")
+ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed", "silent-region")
 
 
 # ----------------------------------------------------------------------------------------------------------------

@@ -15,6 +15,9 @@ def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--boundaries", choices=("model", "polynomial"), default="model",
                        help="where the zero-opening / zero-speed (and missing runaway) samples come from: a physical "
                             "turbine model fitted to the chart (default) or the paper's polynomial extrapolations")
+    group.add_argument("--no-silent-regions", action="store_true",
+                       help="do not add the fitted model's samples where the chart is silent (small openings below "
+                            "the lowest line, overspeed up to runaway; only with --boundaries model)")
     group.add_argument("--degree", type=int, default=2,
                        help="degree of the polynomial boundary extrapolations, 1-4 (default 2)")
     group.add_argument(
@@ -33,6 +36,7 @@ def extension_options(args: argparse.Namespace):
         extrapolation_degree=args.degree,
         zero_opening_k=args.zero_opening_k,
         boundaries=args.boundaries,
+        silent_regions=not args.no_silent_regions,
     )
 
 

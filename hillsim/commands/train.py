@@ -45,7 +45,8 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=0,
                         help="seed of the splits and initialisations (flow net: seed, torque net: seed + 1)")
     parser.add_argument("--allow-implausible", action="store_true",
-                        help="report the efficiency plausibility check as a warning instead of an error")
+                        help="report the efficiency plausibility check as a warning instead of an error (on a thin "
+                             "chart, too few lines, points or contours, it is always a warning)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     parser.add_argument("--record-time", action="store_true",
                         help="store training times in nets.json (off by default: the file is then byte-for-byte "
@@ -100,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
     from hillchart.extension.extend import extend_samples
     from hillchart.nets.hill_nets import train_nets
-    from hillchart.extension.plausibility import efficiency_plausibility
+    from hillchart.extension.plausibility import efficiency_plausibility, thin_chart_notes
 
     options = parse_options(args)
     extension = extension_options(args)
@@ -130,11 +131,14 @@ def run(args: argparse.Namespace) -> int:
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
     problem = efficiency_plausibility(nets, chart)  # checked before anything is written
-    if problem and not args.allow_implausible:
+    thin = thin_chart_notes(chart)
+    if problem and not (args.allow_implausible or thin):
         raise InputError(f"{problem} (--allow-implausible writes the nets anyway)")
     nets.save(out)
+    for note in thin:
+        print(f"warning: thin chart: {note}")
     if problem:
-        print(f"warning: {problem}")
+        print(f"warning: {problem}" + ("; on this thin chart digitize what the warnings above name" if thin else ""))
     hidden = "selected" if options["hidden"] is None else options["hidden"]
     print(f"chart {chart.info.name!r}: {len(extended.value)} extended samples ({extension.boundaries} boundaries); "
           f"2-H-1 logsig nets (H {hidden}), Levenberg-Marquardt, ensemble of {options['ensemble']} (seed "

@@ -167,13 +167,24 @@ def _intervals(time_s: np.ndarray, mask: np.ndarray) -> list[list[float]]:
     return out
 
 
-def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke) -> dict:
+def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke, *, figure_times=None) -> dict:
     """Per kind: fraction of the time outside, first time, extreme N11 and opening reached outside; plus the merged
-    intervals (for the plot) and the list of kinds checked."""
+    intervals (for the plot) and the list of kinds checked.
+
+    ``figure_times`` (``{figure: time_s}``, e.g. when the maximum speed and head come) adds ``figures``:
+    per figure and kind, the share of the trajectory up to that time that ran outside (the figure's
+    "extrapolation share": how much of what decided it the chart did not show)."""
     time_s = np.asarray(time_s, float)
     masks = domain.masks(n11, opening, stroke)
     dt = np.diff(time_s)
     record = {"checked": sorted(masks), "intervals_s": []}
+    if figure_times:
+        record["figures"] = {}
+        for name, t_figure in figure_times.items():
+            until = time_s[1:] <= t_figure  # steps ending by the figure's time
+            span = float(dt[until].sum())
+            record["figures"][name] = {"time_s": float(t_figure), **{
+                kind: (float(dt[until & mask[1:]].sum() / span) if span > 0 else 0.0) for kind, mask in masks.items()}}
     any_mask = np.zeros(time_s.shape, dtype=bool)
     for kind, mask in masks.items():
         if not mask.any():

@@ -278,7 +278,10 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     meta.update(pen_part.meta)
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
-    meta["extrapolation"] = extrapolation_record(domain, time_s, n11, stroke * turbine.opening_max, stroke)
+    figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
+                    "max_head_rise": float(time_s[int(np.argmax(head))])}
+    meta["extrapolation"] = extrapolation_record(domain, time_s, n11, stroke * turbine.opening_max, stroke,
+                                                 figure_times=figure_times)
     warnings += extrapolation_warnings(meta["extrapolation"])
     for part in parts.values():
         warnings += part.meta.get("warnings_after", lambda signals: [])(

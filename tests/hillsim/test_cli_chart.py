@@ -18,7 +18,7 @@ def test_extend_writes_table_and_plot(tmp_path, capsys):
     out, png = tmp_path / "ext.csv", tmp_path / "ext.png"
     assert main(["extend", str(FRANCIS_DIR), "--out", str(out), "--plot", str(png)]) == 0
     table = np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")
-    assert set(table["origin"]) == {"measured", "runaway", "zero-opening", "zero-speed"}
+    assert set(table["origin"]) == {"measured", "runaway", "zero-opening", "zero-speed", "silent-region"}
     assert set(table["target"]) == {"q11", "m11"}
     assert png.stat().st_size > 10_000  # a real figure, not an empty canvas
     assert "K =" in capsys.readouterr().out
@@ -26,7 +26,8 @@ def test_extend_writes_table_and_plot(tmp_path, capsys):
 
 def test_extend_switches(tmp_path):
     out = tmp_path / "ext.csv"
-    assert main(["extend", str(FRANCIS_DIR), "--out", str(out), "--no-zero-speed", "--no-runaway"]) == 0
+    assert main(["extend", str(FRANCIS_DIR), "--out", str(out), "--no-zero-speed", "--no-runaway",
+                 "--no-silent-regions"]) == 0
     origins = set(np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")["origin"])
     assert origins == {"measured", "zero-opening"}
 

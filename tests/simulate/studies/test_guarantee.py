@@ -1,0 +1,162 @@
+"""Guarantee figures of a load rejection with trained nets against the exact turbine (synthetic family), and the
+physical model's samples where the chart is silent. The whole grid: benchmarks/bench_guarantee.py."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from data_synthetic import FRANCIS_DIR
+from hillchart.extension.extend import ExtensionOptions, extend_samples, silent_region_points
+from hillchart.io.samples import load_chart
+from simulate.studies.guarantee import ACCEPTANCE, evaluate_chart, family_plant_dict
+
+
+@pytest.fixture(scope="module")
+def shipped_chart():
+    return load_chart(FRANCIS_DIR)
+
+
+def test_silent_region_samples_lie_where_the_chart_is_silent(shipped_chart):
+    ext = extend_samples(shipped_chart)
+    model = ext.boundary_model
+    rows = ext.origin == "silent-region"
+    a_low = float(shipped_chart.openings.min())
+    small = rows & (ext.opening < a_low)
+    assert small.sum() == 2 * 4 * 12  # q11 and m11 at 4 openings x 12 speeds
+    assert ext.opening[small].max() < a_low and ext.opening[small].min() > 0
+    over = rows & (ext.opening >= a_low)
+    for a in np.unique(ext.opening[over]):
+        line_end = shipped_chart.flow_n11[shipped_chart.flow_opening == a].max()
+        n = ext.n11[over & (ext.opening == a)]
+        assert n.min() > line_end and n.max() < model.runaway_n11(float(a))  # strictly inside the gap
+    # values are the fitted model's, and they weigh like measured samples (not soft boundary samples)
+    q = rows & (ext.target == "q11")
+    np.testing.assert_allclose(ext.value[q], model.q11(ext.n11[q], ext.opening[q]), rtol=1e-12)
+    assert not ext.derived[rows].any()
+    assert len(silent_region_points(shipped_chart, model)) == small.sum() // 2 + over.sum() // 2
+
+
+def test_silent_regions_can_be_switched_off(shipped_chart):
+    for options in (ExtensionOptions(silent_regions=False), ExtensionOptions(boundaries="polynomial")):
+        assert "silent-region" not in set(extend_samples(shipped_chart, options).origin.tolist())
+
+
+def test_the_plant_is_sized_from_each_turbine():
+    for name in ("slow", "medium", "fast"):
+        turbine = family_plant_dict(name)["turbine"]
+        # the HLA339 unit for the medium turbine: D1 4.5 m, 200 r/min, 142.5 m^3/s (ours: rated point at 1.046 x the
+        # best N11 and 73.3 % opening of the exact turbine, so a few % off the paper's rounded figures)
+        if name == "medium":
+            assert turbine["runner_diameter_m"] == pytest.approx(4.5, rel=0.06)
+            assert turbine["rated_speed_rpm"] == pytest.approx(200.0, rel=0.06)
+            assert turbine["rated_flow_m3_s"] == pytest.approx(142.5, rel=0.06)
+        assert 0.85 < 225e6 / (9810 * turbine["rated_flow_m3_s"] * 176.0) < 0.95  # rated efficiency of the chart
+
+
+CASES = dict(noise_pct=0.3, runaway=True, seed=0, closing_times_s=(8.0, 14.0))
+FAMILY_CHARTS = [(t, d) for t in ("slow", "medium", "fast") for d in ("dense", "sparse")]
+
+
+@pytest.fixture(scope="module")
+def family_results():
+    """One seed per turbine, dense and sparse: 4 load rejections each with the nets, the ensemble and the exact
+    turbine (about 30 s on a quiet 2-core machine)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return {key: evaluate_chart(key[0], density=key[1], **CASES) for key in FAMILY_CHARTS}
+
+
+@pytest.mark.parametrize("key", FAMILY_CHARTS, ids=["-".join(k) for k in FAMILY_CHARTS])
+def test_guarantee_figures_match_the_exact_turbine(family_results, key):
+    result = family_results[key]
+    # the issue's bounds: max speed rise within 1.0 point, max head rise within 2.0 points of the exact turbine, for
+    # load rejections from 100 % and 60 % load with closures of 8 and 14 s (measured worst over the six charts:
+    # 0.48 and 1.77 points; the same charts without the silent-region samples: 0.48 and 2.41, see below)
+    assert result.worst_error_pt("max_speed_rise") <= ACCEPTANCE["speed_pt"]
+    assert result.worst_error_pt("max_head_rise") <= ACCEPTANCE["head_pt"]
+
+
+def test_the_band_covers_the_exact_turbine_and_stays_narrow(family_results):
+    from simulate.studies.uncertainty import figure_band
+
+    cases = [c for g in family_results.values() for c in g.cases]
+    judged = [(c, f) for c in cases for f in ("max_speed_rise", "max_head_rise")]
+    coverage = np.mean([c.covered(f) for c, f in judged])
+    width = np.median([c.width_pt("max_head_rise") for c in cases])
+    # the issue's targets: >= 90 % of the 48 figures inside the 5-95 % band, median head band <= 5 points
+    # (measured 100 % and 3.6 points with the calibrated widening; docs/guarantee-benchmark.md)
+    assert coverage >= ACCEPTANCE["coverage"] and width <= ACCEPTANCE["head_band_median_pt"]
+    # the failing case: the members' plain 5-95 % spread (no widening) misses more (measured 90 %, 5 of 48)
+    plain = np.mean([(lambda b: b[0] <= c.exact[f] <= b[1])(figure_band(c.members[f], inflation=1.0))
+                     for c, f in judged])
+    assert plain < coverage
+
+
+def test_without_the_silent_regions_the_head_rise_misses():
+    """The failing case beside the passing one: the nets' sigmoids below the lowest line decide the head rise."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = evaluate_chart("medium", density="dense", extension=ExtensionOptions(silent_regions=False),
+                                band=False, **CASES)
+    assert result.worst_error_pt("max_head_rise") > ACCEPTANCE["head_pt"]
+
+
+@pytest.mark.parametrize("turbine", ["slow", "medium", "fast"])
+def test_sparse_family_charts_train_by_default(turbine, tmp_path, capsys):
+    from hillchart.extension.plausibility import thin_chart_notes
+    from hillchart.synthetic.francis import write_synthetic_chart
+    from hillsim.cli import main
+    from simulate.studies.guarantee import digitization
+
+    folder = tmp_path / "chart"
+    # seed 0: 4 lines of 4 points; on the fast turbine its nets overshoot the best contour (0.922 > 0.91 + 0.01),
+    # which refused the chart before thin charts were told apart from inconsistent ones
+    write_synthetic_chart(folder, seed=0, turbine=turbine,
+                          options=digitization("sparse", noise_pct=0.3, runaway=True, seed=0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        notes = thin_chart_notes(load_chart(folder))
+    assert len(notes) == 2 and "4 opening lines" in notes[0] and "16 points" in notes[1]
+    out = tmp_path / "nets.json"
+    assert main(["train", str(folder), "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert out.is_file() and text.count("warning: thin chart:") == 2 and "digitize 6 or more" in text
+
+
+def test_a_dense_chart_is_not_thin():
+    from hillchart.extension.plausibility import thin_chart_notes
+
+    assert thin_chart_notes(load_chart(FRANCIS_DIR)) == []  # 12 lines, 84 points, 9 contours
+
+
+def test_each_guarantee_figure_reports_its_extrapolation_share():
+    import importlib.resources as ir
+
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml", {"scenario.t_end_s": 20.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = run_simulation(plant)
+    record = result.summary()["extrapolation"]
+    figures = record["figures"]
+    assert figures["max_head_rise"]["time_s"] == pytest.approx(result.summary()["t_max_head_s"])
+    # by hand: the share of the steps up to the maximum head that end outside the digitized region (the closure
+    # ends below the shipped chart's lowest line, 10 mm, so it is neither 0 nor 1)
+    t = result.time_s
+    n11 = result.speed_rpm * plant.turbine.runner_diameter_m / np.sqrt(result.head_m)
+    from simulate.loop.domain import plant_domain
+
+    outside = plant_domain(plant, _shipped_nets()).masks(n11, result.opening_chart, result.opening)["digitized_region"]
+    until = t[1:] <= figures["max_head_rise"]["time_s"]
+    want = np.diff(t)[until & outside[1:]].sum() / np.diff(t)[until].sum()
+    assert figures["max_head_rise"]["digitized_region"] == pytest.approx(want, abs=1e-12)
+    assert 0.0 < want < 1.0
+
+
+def _shipped_nets():
+    from hillchart.nets.hill_nets import load_nets
+
+    return load_nets(FRANCIS_DIR / "nets.json")
