@@ -1,4 +1,4 @@
-"""Acceptance of issue 9 on the synthetic family: nets trained with default options on charts nobody tuned them to.
+"""Accuracy bounds on the synthetic family: nets trained with default options on charts nobody tuned them to.
 
 Each turbine's chart is digitized as the issue's example (8 opening lines of 6 unevenly spaced points, 0.3 %
 noise, Q11 in l/s, efficiency in percent, runaway curve given), seed 0, and trained with ``hillsim train``'s
@@ -24,7 +24,8 @@ def result(request):
 
 def test_default_pipeline_meets_the_acceptance_bounds(result):
     name, res = result
-    # bounds of issue 9 (Q11 RMS 0.5 %, max 2 %, M11 RMS 1 %, <= 1.2 x measured-only, coefficients 0.05);
+    # the accuracy bounds the product promises (Q11 RMS 0.5 %, max 2 %, M11 RMS 1 %, <= 1.2 x measured-only,
+    # coefficients 0.05);
     # measured at seed 0: Q11 RMS 0.43 / 0.36 / 0.19 %, M11 RMS 0.22 / 0.22 / 0.33 % (slow / medium / fast);
     # measured-only nets: Q11 0.47 / 0.34 / 0.31 %, M11 0.28 / 0.32 / 0.33 %
     assert acceptance_failures(res) == [], (name, acceptance_failures(res))
