@@ -1,4 +1,4 @@
-"""Headrace tunnel + surge tank as a new component (issue 10, section 2): analytic mass oscillation, friction decay,
+"""Headrace tunnel + surge tank as a pluggable component: analytic mass oscillation, friction decay,
 the example plant through the CLI, and garbage in the [surge_tank] section."""
 
 import csv

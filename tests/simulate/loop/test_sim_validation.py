@@ -1,4 +1,4 @@
-"""Validation of the transient simulator (issue 4, section 7): analytic truth and cross-checks."""
+"""Validation of the transient simulator: analytic truth and cross-checks."""
 
 from dataclasses import replace
 from importlib import resources
@@ -76,7 +76,8 @@ def test_three_pressure_loops_give_the_same_trajectory(turbine):
     chars = SyntheticFrancis() if turbine == "synthetic" else None
     runs = {}
     for loop in ("improved", "newton", "traditional"):
-        plant = example(**{"turbine.characteristics": "ideal" if turbine != "nets" else "francis/nets.json","solver.pressure_loop": loop, "solver.relaxation": 0.5 if loop == "traditional" else 1.0,
+        plant = example(**{"turbine.characteristics": "ideal" if turbine != "nets" else "francis/nets.json",
+                           "solver.pressure_loop": loop, "solver.relaxation": 0.5 if loop == "traditional" else 1.0,
                            "scenario.t_end_s": 30.0 if turbine == "ideal" else 15.0})
         runs[loop] = run_simulation(plant, chars)
     ref = runs["improved"]
