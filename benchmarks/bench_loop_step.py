@@ -40,7 +40,8 @@ def main(argv=None) -> int:
         steps = run_simulation(plant).time_s.size - 1  # warm-up: loads (or compiles) the loop
         walls = [run_simulation(plant).wall_time_s for _ in range(args.repeat)]
         best, median = min(walls), statistics.median(walls)
-        print(f"| {turbine} | {penstock} | {steps} | {1e3 * best:.3f} / {1e3 * median:.3f} | {1e9 * best / steps:.0f} |")
+        print(f"| {turbine} | {penstock} | {steps} | {1e3 * best:.3f} / {1e3 * median:.3f} "
+              f"| {1e9 * best / steps:.0f} |")
     return 0
 
 
