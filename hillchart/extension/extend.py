@@ -14,10 +14,11 @@ Every extended point carries its origin (``measured``, ``runaway``, ``zero-openi
 can be switched off.
 
 Efficiency surface: a total-degree polynomial in standardized (N11, Q11), least squares, degree chosen by 5-fold
-cross-validation among 2..6 (seeded folds; the lowest degree within 5 % of the best error). The paper names polynomial surfaces for eq. (4); a low-degree polynomial
-is smooth, averages the digitization noise of the contour points and extrapolates gently to the ends of the opening
-lines that lie just outside the lowest contour. On the synthetic chart it picks degree 3, with torque errors below
-0.5 % of the M11 range (``benchmarks/bench_extension.py``); a thin-plate RBF was tried and was about 40 % worse.
+cross-validation among 2..6 (seeded folds; the lowest degree within 5 % of the best error). The paper names
+polynomial surfaces for eq. (4); a low-degree polynomial is smooth, averages the digitization noise of the contour
+points and extrapolates gently to the ends of the opening lines that lie just outside the lowest contour. On the
+synthetic chart it picks degree 3, with torque errors below 0.5 % of the M11 range (``benchmarks/bench_extension.py``);
+a thin-plate RBF was tried and was about 40 % worse.
 """
 
 from __future__ import annotations
@@ -67,8 +68,8 @@ class ExtensionOptions:
         ``"model"`` (default) a low-order physical turbine model fitted to the chart
         (:mod:`hillchart.extension.turbine_model`), ``"polynomial"`` the paper's per-line polynomial extrapolations.
     check_chart : bool
-        Run :func:`hillchart.extension.plausibility.check_chart` first (default). Off only for contrived test charts that
-        exercise a later step.
+        Run :func:`hillchart.extension.plausibility.check_chart` first (default). Off only for contrived test charts
+        that exercise a later step.
     """
 
     runaway: bool = True
