@@ -3,8 +3,9 @@
 Runs the nonlinear simulator in open loop around the plant's operating point (opening steps and a seeded PRBS,
 sampled at tau), identifies the six coefficients (batch least squares) and the ARX speed model (RLS, RLS with
 forgetting, dead-zone RLS), and compares them with the nets' analytic coefficients and the zero-order hold of the
-linear model they imply (:mod:`simulate.identification.compare`). Writes ``identification.json``, ``identified_series.csv`` and
-figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured series instead.
+linear model they imply (:mod:`simulate.identification.compare`). Writes ``identification.json``,
+``identified_series.csv`` and figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured
+series instead.
 """
 
 from __future__ import annotations
