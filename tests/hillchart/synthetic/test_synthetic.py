@@ -1,4 +1,4 @@
-"""The synthetic Francis turbine: physics sanity against the issue's HLA339 targets, exact derivatives, and the
+"""The synthetic Francis turbine: physics sanity against HLA339-like targets, exact derivatives, and the
 shipped chart regenerating (to a tolerance across CPUs, bit for bit on one machine)."""
 
 import filecmp

@@ -16,7 +16,7 @@ from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 
 DATA = Path(__file__).resolve().parents[2] / "data"
-#: 1e-12 relative: the issue's bound. Round-off of a reordered but equivalent sum is ~1e-15 per operation and the
+#: 1e-12 relative: the promised bound. Round-off of a reordered but equivalent sum is ~1e-15 per operation and the
 #: trajectory is not chaotic, so any change of the model (even one ulp-level constant) exceeds it over 3147 steps.
 RTOL = 1e-12
 
