@@ -4,8 +4,9 @@
 
 60 s load rejection of the shipped plant, 3147 steps, for the nets and the ideal turbine on the MOC penstock and the
 ideal turbine on the rigid one. ``--hydraulic``: a hydraulic-only run instead (the closure-law scenario: the vanes
-follow a prescribed 10 s closure, no governor), whose step and cost depend on the penstock alone. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
-its chunk driver, nothing else), best and median of ``--repeat`` runs after one warm-up run, and ns per step.
+follow a prescribed 10 s closure, no governor), whose step and cost depend on the penstock alone. Prints the loop's
+wall time (``SimulationResult.wall_time_s``: the compiled loop and its chunk driver, nothing else), best and median of
+``--repeat`` runs after one warm-up run, and ns per step.
 """
 
 from __future__ import annotations
