@@ -1,5 +1,5 @@
-"""Batch throughput (issue 15 section 1): case-steps per second of :func:`simulate.studies.batch.run_batch` on the shipped
-plant (nets, MOC, 8 reaches, 60 s load rejection, 3147 steps a case) at N = 1, 10, 100, 1000 cases, against N
+"""Batch throughput (issue 15 section 1): case-steps per second of :func:`simulate.studies.batch.run_batch` on the
+shipped plant (nets, MOC, 8 reaches, 60 s load rejection, 3147 steps a case) at N = 1, 10, 100, 1000 cases, against N
 sequential ``run_simulation`` calls in one process (the same variants, plant built per case the same way).
 
 Every mechanism is timed after the loop is compiled in this process (compile time is start-up, reported once).

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from simulate.components.electrical.generator import (GridConfig, classical_short_circuit_current, field_step_test, generator_step,
+from simulate.components.electrical.generator import (GridConfig, classical_short_circuit_current, field_step_test,
+                                generator_step,
                                 initial_generator_state, load_electrical, short_circuit_test, simulate_generator,
                                 simulate_unit, transient_synchronizing_torque)
 

@@ -63,8 +63,8 @@ def table(charts) -> str:
 
 
 def calibration(charts) -> str:
-    """Split calibration of :data:`simulate.studies.uncertainty.BAND_INFLATION`: the smallest factor (steps of 0.1) whose
-    band covers >= 90 % of the max speed / max head rise cases on all seeds but the last; its coverage and median
+    """Split calibration of :data:`simulate.studies.uncertainty.BAND_INFLATION`: the smallest factor (steps of 0.1)
+    whose band covers >= 90 % of the max speed / max head rise cases on all seeds but the last; its coverage and median
     head band width on the held-out last seed."""
     from simulate.studies.guarantee import BAND_JUDGED
     from simulate.studies.uncertainty import figure_band
@@ -155,7 +155,8 @@ def main(argv=None) -> int:
                f"{ACCEPTANCE['head_band_median_pt']}); {len(failures)} pipeline failures; "
                f"{s['refused']} charts refused by train; mean training {np.mean([g.train_s for g in charts]):.1f} s"
                + ("" if args.from_json else f"; {elapsed / 60:.1f} min"))
-    command = "PYTHONPATH=. python benchmarks/bench_guarantee.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = ("PYTHONPATH=. python benchmarks/bench_guarantee.py "
+               + " ".join(argv if argv is not None else sys.argv[1:]))
     print()
     print(text)
     print(verdict)

@@ -4,8 +4,9 @@
 
 60 s load rejection of the shipped plant, 3147 steps, for the nets and the ideal turbine on the MOC penstock and the
 ideal turbine on the rigid one. ``--hydraulic``: a hydraulic-only run instead (the closure-law scenario: the vanes
-follow a prescribed 10 s closure, no governor), whose step and cost depend on the penstock alone. Prints the loop's wall time (``SimulationResult.wall_time_s``: the compiled loop and
-its chunk driver, nothing else), best and median of ``--repeat`` runs after one warm-up run, and ns per step.
+follow a prescribed 10 s closure, no governor), whose step and cost depend on the penstock alone. Prints the loop's
+wall time (``SimulationResult.wall_time_s``: the compiled loop and its chunk driver, nothing else), best and median of
+``--repeat`` runs after one warm-up run, and ns per step.
 """
 
 from __future__ import annotations
@@ -40,7 +41,8 @@ def main(argv=None) -> int:
         steps = run_simulation(plant).time_s.size - 1  # warm-up: loads (or compiles) the loop
         walls = [run_simulation(plant).wall_time_s for _ in range(args.repeat)]
         best, median = min(walls), statistics.median(walls)
-        print(f"| {turbine} | {penstock} | {steps} | {1e3 * best:.3f} / {1e3 * median:.3f} | {1e9 * best / steps:.0f} |")
+        print(f"| {turbine} | {penstock} | {steps} | {1e3 * best:.3f} / {1e3 * median:.3f} "
+              f"| {1e9 * best / steps:.0f} |")
     return 0
 
 

@@ -2,7 +2,8 @@
 
 On the same extended samples of ``data_synthetic/francis`` and the same stratified 80/20 split:
 
-* ``LM net (ours)``   : :class:`hillchart.nets.hill_nets.HillNet`, trainlm-style Levenberg-Marquardt, best of 10 restarts.
+* ``LM net (ours)``   : :class:`hillchart.nets.hill_nets.HillNet`, trainlm-style Levenberg-Marquardt, best of 10
+                        restarts.
 * ``MLP lbfgs``       : scikit-learn ``MLPRegressor`` (5 logistic neurons, lbfgs), best validation of 10 seeds.
 * ``2-5-1 Adam``      : the same net trained by torch Adam (lr 1e-2, 3000 full-batch epochs), best of 3 seeds.
 * ``RBF thin-plate``  : scipy ``RBFInterpolator`` (thin-plate spline) exact interpolant, the paper's RBF option.

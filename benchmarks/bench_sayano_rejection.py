@@ -4,9 +4,9 @@
 
 Trains nets on the real chart (``../shared/external``, ``hillsim train`` with its defaults, about a minute) unless
 ``--nets`` gives them, then rejects the load from 100, 80 and 60 % of the stroke on the shipped plant's waterway
-scaled to the unit (penstock 7.5/7.0 m, H_r 194 m, n_r 142.86 r/min, D1 6.77 m, P_r 640 MW), with the point nets and with each of the
-ensemble's members (``--uncertainty``). Prints, per run, success, the steps the pressure loop's fallback
-(damping, then Newton) solved, and max speed rise / max head rise. Skips (exit 0 with a line) without the data.
+scaled to the unit (penstock 7.5/7.0 m, H_r 194 m, n_r 142.86 r/min, D1 6.77 m, P_r 640 MW), with the point nets and
+with each of the ensemble's members (``--uncertainty``). Prints, per run, success, the steps the pressure loop's
+fallback (damping, then Newton) solved, and max speed rise / max head rise. Skips (exit 0 with a line) without the data.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
 """Step convergence of the chosen time step: every shipped plant, every scenario kind, at the step the solver chooses
-and at half of it (twice ``penstock.reaches`` for MOC, half ``solver.dt_s`` otherwise; :func:`simulate.studies.step_check.check_step`).
+and at half of it (twice ``penstock.reaches`` for MOC, half ``solver.dt_s`` otherwise;
+:func:`simulate.studies.step_check.check_step`).
 
     PYTHONPATH=$PWD python benchmarks/bench_time_step.py [--markdown docs/time-step.md]
 

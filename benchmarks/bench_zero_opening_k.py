@@ -4,9 +4,9 @@
 
 Part 1: K / true for the 36 charts of ``bench_generalization.py`` (3 turbines x noise 0.15 / 0.3 % x seeds 0-2 x
 with / without runaway curve; 8 opening lines of 6 uneven points, l/s, percent), from
-:func:`hillchart.extension.extend.extend_samples` with default options. Part 2: the same fit on the fast turbine's seed-0
-chart with the prior's median disc-friction share and width changed (``hillchart.extension.turbine_model``): when K follows
-the prior one to one, the chart does not identify it.
+:func:`hillchart.extension.extend.extend_samples` with default options. Part 2: the same fit on the fast turbine's
+seed-0 chart with the prior's median disc-friction share and width changed (``hillchart.extension.turbine_model``):
+when K follows the prior one to one, the chart does not identify it.
 """
 
 from __future__ import annotations

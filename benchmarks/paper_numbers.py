@@ -1,8 +1,8 @@
 """The papers' printed identification results put through hillsim's linear models (issue 12 section 4).
 
 Run: ``python benchmarks/paper_numbers.py`` (under a second). Prints the markdown tables of the docs section
-"The papers' identified numbers through our models" (docs/identification.md); ``tests/test_docs.py`` checks that it holds
-exactly this output, so the table cannot go stale.
+"The papers' identified numbers through our models" (docs/identification.md); ``tests/test_docs.py`` checks that it
+holds exactly this output, so the table cannot go stale.
 
 Inputs (printed in the papers):
 

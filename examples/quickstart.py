@@ -41,7 +41,8 @@ coefficients = six_coefficients(nets, n11=steady.unit_speed_rpm, opening=steady.
 
 print(f"initial opening {steady.stroke:.3f} of stroke, head {steady.head_m:.2f} m")
 print(f"max speed rise {summary['max_speed_rise']:.1%}, max head rise {summary['max_head_rise']:.1%}")
-print("six coefficients:", {k: round(v, 4) for k, v in coefficients.to_dict().items() if k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")})
+print("six coefficients:",
+      {k: round(v, 4) for k, v in coefficients.to_dict().items() if k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")})
 
 # the same plant on a rigid penstock, for comparison
 rigid = replace(plant, penstock=replace(plant.penstock, model="rigid"))

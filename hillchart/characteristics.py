@@ -109,8 +109,8 @@ class IdealTurbine:
 
     ``Q11 = q11_max_m3_s * a / opening_max`` (independent of N11) and constant efficiency, so
     ``M11 = rho g Q11 eta 60 / (2 pi N11)``: in plant terms ``Q = Q_r y sqrt(H/H_r)`` and
-    ``P = P_r y (H/H_r)^1.5``. Its six coefficients are exactly ``(ex, ey, eh, eqx, eqy, eqh) = (-1, 1, 1.5, 0, 1, 0.5)``.
-    M11 is singular at N11 = 0; use it away from standstill.
+    ``P = P_r y (H/H_r)^1.5``. Its six coefficients are exactly
+    ``(ex, ey, eh, eqx, eqy, eqh) = (-1, 1, 1.5, 0, 1, 0.5)``. M11 is singular at N11 = 0; use it away from standstill.
 
     Parameters
     ----------

@@ -141,7 +141,8 @@ def acceptance_failures(result: GeneralizationResult) -> list[str]:
         for t in ("q11", "m11"):
             ours, base = e[t]["rms_measured_pct"], result.baseline[t]["rms_measured_pct"]
             if not ours <= ACCEPTANCE["baseline_factor"] * base:
-                out.append(f"{t.upper()} RMS {ours:.3f} % > {ACCEPTANCE['baseline_factor']} x measured-only {base:.3f} %")
+                out.append(f"{t.upper()} RMS {ours:.3f} % > {ACCEPTANCE['baseline_factor']} x "
+                           f"measured-only {base:.3f} %")
     for name, value in result.coefficient_errors.items():
         if not value <= ACCEPTANCE["coefficient_abs"]:
             out.append(f"six coefficients at {name}: max |error| {value:.3f} > {ACCEPTANCE['coefficient_abs']}")

@@ -156,8 +156,9 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     bar.start(STEPS[4])
     closure = replace(
         plant,
-        scenario=ScenarioConfig(kind="closure-law", t_end_s=scenario.t_end_s, initial_power_mw=scenario.initial_power_mw,
-                                event_time_s=scenario.event_time_s, closing_time_s=plant.governor.closing_time_s),
+        scenario=ScenarioConfig(kind="closure-law", t_end_s=scenario.t_end_s,
+                                initial_power_mw=scenario.initial_power_mw, event_time_s=scenario.event_time_s,
+                                closing_time_s=plant.governor.closing_time_s),
     )
     closure_summary = _simulate(closure, nets, out / "closure_law")
     plt.close("all")
@@ -282,10 +283,14 @@ def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
     for target, unit in (("q11", "m3/s"), ("m11", "N*m")):
         e = fit["truth_errors"][target]
         rows.append([target, unit,
-                     Value(e["rms_measured_pct"], "{:.3f} %", f"fit_errors.json:truth_errors.{target}.rms_measured_pct"),
-                     Value(e["max_measured_pct"], "{:.3f} %", f"fit_errors.json:truth_errors.{target}.max_measured_pct"),
-                     Value(e["rms_extended_pct"], "{:.3f} %", f"fit_errors.json:truth_errors.{target}.rms_extended_pct"),
-                     Value(e["max_extended_pct"], "{:.3f} %", f"fit_errors.json:truth_errors.{target}.max_extended_pct")])
+                     Value(e["rms_measured_pct"], "{:.3f} %",
+                           f"fit_errors.json:truth_errors.{target}.rms_measured_pct"),
+                     Value(e["max_measured_pct"], "{:.3f} %",
+                           f"fit_errors.json:truth_errors.{target}.max_measured_pct"),
+                     Value(e["rms_extended_pct"], "{:.3f} %",
+                           f"fit_errors.json:truth_errors.{target}.rms_extended_pct"),
+                     Value(e["max_extended_pct"], "{:.3f} %",
+                           f"fit_errors.json:truth_errors.{target}.max_extended_pct")])
     report.table(["net", "unit", "RMS, measured region", "max, measured region", "RMS, extended region",
                   "max, extended region"], rows,
                  "Error against truth.csv as % of the truth range in the measured region "

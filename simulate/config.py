@@ -18,8 +18,10 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  [max_node_steps], [max_output_mb], [fallback], [substeps]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
-    [excitation], [grid]  with generator.model = "subtransient" (simulate.components.control.excitation.ExcitationConfig,
-                 simulate.components.electrical.generator.GridConfig); [generator] then also takes the machine keys SUBTRANSIENT_KEYS
+    [excitation], [grid]  with generator.model = "subtransient"
+                 (simulate.components.control.excitation.ExcitationConfig,
+                 simulate.components.electrical.generator.GridConfig); [generator] then also takes the machine keys
+                 SUBTRANSIENT_KEYS
 """
 
 from __future__ import annotations
@@ -97,8 +99,9 @@ class PenstockSegment:
 
     def __post_init__(self):
         if (self.elevation_start_m is None) != (self.elevation_end_m is None):
-            raise InputError(f"penstock.segments.elevation_start_m and elevation_end_m go together (the pipe axis above "
-                             f"the tailwater datum, m); got {self.elevation_start_m!r} and {self.elevation_end_m!r}")
+            raise InputError(f"penstock.segments.elevation_start_m and elevation_end_m go together "
+                             f"(the pipe axis above the tailwater datum, m); "
+                             f"got {self.elevation_start_m!r} and {self.elevation_end_m!r}")
         for key in ("elevation_start_m", "elevation_end_m"):
             if getattr(self, key) is not None:
                 check_number(f"penstock.segments.{key}", getattr(self, key), low=-3000.0, high=3000.0)
@@ -188,10 +191,10 @@ class GeneratorConfig:
     """Rotor and load: ``inertia_time_s`` Ta = J w_r^2 / P_r; ``self_regulation`` e_g (per unit torque per unit
     speed) of the connected load, active only while the breaker is closed.
 
-    ``model``: the shaft component (registry :data:`simulate.components.registry.SHAFTS`): ``"swing"`` (default, the swing
-    equation with load self-regulation) or ``"subtransient"`` (paper 001's machine, eq. (10), with ``[excitation]``
-    and ``[grid]``; its keys :data:`SUBTRANSIENT_KEYS` are required then (``ra`` optional) and rejected otherwise;
-    the load's frequency dependence is ``grid.frequency_p``, so ``self_regulation`` must be 0).
+    ``model``: the shaft component (registry :data:`simulate.components.registry.SHAFTS`): ``"swing"`` (default, the
+    swing equation with load self-regulation) or ``"subtransient"`` (paper 001's machine, eq. (10), with
+    ``[excitation]`` and ``[grid]``; its keys :data:`SUBTRANSIENT_KEYS` are required then (``ra`` optional) and
+    rejected otherwise; the load's frequency dependence is ``grid.frequency_p``, so ``self_regulation`` must be 0).
     """
 
     inertia_time_s: float
@@ -233,7 +236,8 @@ class GeneratorConfig:
 
     @property
     def subtransient(self):
-        """:class:`simulate.components.electrical.generator.SubtransientGeneratorConfig` of the sub-transient keys (model "subtransient")."""
+        """:class:`simulate.components.electrical.generator.SubtransientGeneratorConfig` of the sub-transient keys
+        (model "subtransient")."""
         from simulate.components.electrical.generator import SubtransientGeneratorConfig
 
         if self.model != "subtransient":
@@ -300,7 +304,8 @@ class GovernorConfig:
 
     @property
     def discrete_servo(self):
-        """:class:`simulate.components.control.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys (servo_model "discrete")."""
+        """:class:`simulate.components.control.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys
+        (servo_model "discrete")."""
         from simulate.components.control.discrete_servo import DiscreteServoConfig
 
         keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
@@ -460,8 +465,8 @@ class PlantConfig:
 
     @property
     def electrical(self):
-        """:class:`simulate.components.electrical.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``, ``[grid]`` (model
-        "subtransient"; None for the swing model)."""
+        """:class:`simulate.components.electrical.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``,
+        ``[grid]`` (model "subtransient"; None for the swing model)."""
         if self.generator.model != "subtransient":
             return None
         from simulate.components.electrical.generator import ElectricalConfig
@@ -496,7 +501,8 @@ _SECTIONS = {
     "scenario": ScenarioConfig,
     "solver": SolverConfig,
     "surge_tank": SurgeTankConfig,
-    "excitation": "simulate.components.control.excitation:ExcitationConfig",  # imported only when the section is present
+    # imported only when the section is present
+    "excitation": "simulate.components.control.excitation:ExcitationConfig",
     "grid": "simulate.components.electrical.generator:GridConfig",
 }
 

@@ -10,8 +10,8 @@ BP hill-chart paper (004), section 2.1 steps (d)-(f) and section 2.6 boundaries 
   by least squares to the per-N11 polynomial extrapolation of the torque samples to a = 0;
 * 2.6 (4) at zero speed, per-opening polynomial extrapolation of Q11 and M11 to N11 = 0.
 
-Beyond the paper, with the physical-model boundaries (:mod:`hillchart.extension.turbine_model`), the model also fills the
-regions where the chart is silent but a load rejection decides its guarantee figures: the small openings between
+Beyond the paper, with the physical-model boundaries (:mod:`hillchart.extension.turbine_model`), the model also fills
+the regions where the chart is silent but a load rejection decides its guarantee figures: the small openings between
 a = 0 and the lowest digitized line (the end of the closure, where the maximum head comes) and the overspeed band
 between each line's last point and its runaway speed (origin ``silent-region``,
 :func:`silent_region_points`). On the synthetic family this cut the worst max-head-rise error of a load rejection
@@ -22,10 +22,11 @@ Every extended point carries its origin (``measured``, ``runaway``, ``zero-openi
 ``silent-region``); each boundary can be switched off.
 
 Efficiency surface: a total-degree polynomial in standardized (N11, Q11), least squares, degree chosen by 5-fold
-cross-validation among 2..6 (seeded folds; the lowest degree within 5 % of the best error). The paper names polynomial surfaces for eq. (4); a low-degree polynomial
-is smooth, averages the digitization noise of the contour points and extrapolates gently to the ends of the opening
-lines that lie just outside the lowest contour. On the synthetic chart it picks degree 3, with torque errors below
-0.5 % of the M11 range (``benchmarks/bench_extension.py``); a thin-plate RBF was tried and was about 40 % worse.
+cross-validation among 2..6 (seeded folds; the lowest degree within 5 % of the best error). The paper names
+polynomial surfaces for eq. (4); a low-degree polynomial is smooth, averages the digitization noise of the contour
+points and extrapolates gently to the ends of the opening lines that lie just outside the lowest contour. On the
+synthetic chart it picks degree 3, with torque errors below 0.5 % of the M11 range (``benchmarks/bench_extension.py``);
+a thin-plate RBF was tried and was about 40 % worse.
 """
 
 from __future__ import annotations
@@ -81,8 +82,8 @@ class ExtensionOptions:
         ``"model"`` (default) a low-order physical turbine model fitted to the chart
         (:mod:`hillchart.extension.turbine_model`), ``"polynomial"`` the paper's per-line polynomial extrapolations.
     check_chart : bool
-        Run :func:`hillchart.extension.plausibility.check_chart` first (default). Off only for contrived test charts that
-        exercise a later step.
+        Run :func:`hillchart.extension.plausibility.check_chart` first (default). Off only for contrived test charts
+        that exercise a later step.
     silent_regions : bool
         With ``boundaries="model"``: samples of the fitted physical model where the chart is silent and a load
         rejection runs (origin ``silent-region``): the small openings between a = 0 and the lowest digitized line

@@ -1,4 +1,5 @@
-"""The whole analysis of a test table (what ``hillsim fccm`` runs): net, maps, similarity, grey relational analysis, figures."""
+"""The whole analysis of a test table (what ``hillsim fccm`` runs): net, maps, similarity, grey relational analysis,
+figures."""
 
 from __future__ import annotations
 

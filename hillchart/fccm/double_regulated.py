@@ -1,4 +1,5 @@
-"""Beyond Wu et al.: a three-input hill chart Q11(N11, a, phi), M11(N11, a, phi) of a double-regulated turbine and its on-cam relation."""
+"""Beyond Wu et al.: a three-input hill chart Q11(N11, a, phi), M11(N11, a, phi) of a double-regulated turbine and its
+on-cam relation."""
 
 from __future__ import annotations
 

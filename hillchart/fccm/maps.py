@@ -1,4 +1,5 @@
-"""Analyses of the full characteristic curve map: efficiency maps (Fig. 4), grey images and their similarity (eqs. (4)-(5)), grey relational analysis (Table 1), net against interpolation against an exact grid."""
+"""Analyses of the full characteristic curve map: efficiency maps (Fig. 4), grey images and their similarity
+(eqs. (4)-(5)), grey relational analysis (Table 1), net against interpolation against an exact grid."""
 
 from __future__ import annotations
 

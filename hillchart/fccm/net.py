@@ -1,4 +1,5 @@
-"""The multi-output BP net of the full characteristic curve map: exported weights (``fccm_nets.json``), the estimator :class:`FCCMNet` (Levenberg-Marquardt, hidden size from eq. (3), the seeded 30/35/35 split)."""
+"""The multi-output BP net of the full characteristic curve map: exported weights (``fccm_nets.json``), the estimator
+:class:`FCCMNet` (Levenberg-Marquardt, hidden size from eq. (3), the seeded 30/35/35 split)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Figures of the full characteristic curve map: efficiency maps, control maps (Fig. 7), the operating characteristic (Fig. 8)."""
+"""Figures of the full characteristic curve map: efficiency maps, control maps (Fig. 7), the operating characteristic
+(Fig. 8)."""
 
 from __future__ import annotations
 

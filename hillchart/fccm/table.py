@@ -1,4 +1,5 @@
-"""Test tables of a double-regulated turbine: a folder with ``table.csv`` and ``table.toml`` -> :class:`TestTable` (n11 and Q11 derived by eqs. (1)-(2) of Wu et al. when the table has head, flow and speed)."""
+"""Test tables of a double-regulated turbine: a folder with ``table.csv`` and ``table.toml`` -> :class:`TestTable`
+(n11 and Q11 derived by eqs. (1)-(2) of Wu et al. when the table has head, flow and speed)."""
 
 from __future__ import annotations
 

@@ -233,7 +233,8 @@ def load_chart(folder) -> ChartSamples:
                 tables[name] = {c: np.empty(0) for c in columns}
                 line_numbers[name] = np.zeros(0, int)
                 continue
-            raise InputError(f"{path}: missing file (a chart folder needs {', '.join(n for n in FILES if n != 'runaway.csv')})")
+            raise InputError(f"{path}: missing file "
+                             f"(a chart folder needs {', '.join(n for n in FILES if n != 'runaway.csv')})")
         table, line_numbers[name] = _read_csv(path, columns)
         _validate_points(path, table, info, line_numbers[name])
         tables[name] = table

@@ -13,17 +13,17 @@ Q11 is in m^3/s and M11 in N*m whatever the chart's units; N11 in r/min; the ope
 Pieces
 ------
 :class:`HillNet`
-    scikit-learn style estimator for one net, trained by Levenberg-Marquardt (:mod:`hillchart.nets.lm`, a compiled loop) with a
-    seeded, origin-stratified 80/20 split and a multi-start "loop control" (section 2.3).
+    scikit-learn style estimator for one net, trained by Levenberg-Marquardt (:mod:`hillchart.nets.lm`, a compiled
+    loop) with a seeded, origin-stratified 80/20 split and a multi-start "loop control" (section 2.3).
 :class:`NetWeights`
     The exported weights of one net (the ``NET`` block of ``nets.json``), validated on construction.
 :class:`HillNets`
     The flow and torque nets together; implements the :class:`hillchart.characteristics.Characteristics`
     protocol and ``numba_kernel()`` for the simulator, ``to_json()``/``save()``; :func:`load_nets` reads it back.
 :func:`train_nets`
-    Both nets from the extended-samples table of :mod:`hillchart.extension.extend`: derived boundary samples weighted as soft
-    constraints, boundary weight / hidden size / weight decay chosen by cross-validation on the measured samples,
-    optionally an ensemble whose mean is distilled into the point nets (issue 9).
+    Both nets from the extended-samples table of :mod:`hillchart.extension.extend`: derived boundary samples weighted
+    as soft constraints, boundary weight / hidden size / weight decay chosen by cross-validation on the measured
+    samples, optionally an ensemble whose mean is distilled into the point nets (issue 9).
 
 There is exactly one implementation of eq. (11) and its analytic gradient at evaluation time, the numba function
 ``_net_value_grad``; the vectorized methods loop over it in compiled code. Torch is used only for training.
@@ -881,8 +881,8 @@ def _derived_mask(extended, origin: np.ndarray) -> np.ndarray:
     return derived
 
 
-def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, boundary_weight, regularization, seed, n_threads,
-            lm_params, progress, label):
+def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, boundary_weight, regularization, seed,
+            n_threads, lm_params, progress, label):
     """Choose boundary weight, hidden size and regularization by validation MSE on the measured samples."""
     table = []
     # K-fold cross-validation over the validated (measured) samples; every other sample always trains. A single

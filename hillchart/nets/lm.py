@@ -29,7 +29,8 @@ Parameter vector layout (``theta``, length ``4 H + 1``)::
 General n_in-H-n_out nets (paper 003's full-characteristic net, :mod:`hillchart.fccm`) use the same functions with
 ``n_inputs`` / ``n_outputs`` (defaults 2 and 1 give the layout above unchanged)::
 
-    theta = [W1 (H x n_in, row-major), b1 (H), W2 (n_out x H, row-major), b2 (n_out)]   length H (n_in + 1 + n_out) + n_out
+    theta = [W1 (H x n_in, row-major), b1 (H), W2 (n_out x H, row-major), b2 (n_out)]
+    length H (n_in + 1 + n_out) + n_out
 
 with targets of shape (n, n_out); the residual vector is the (n, n_out) error array flattened row-major and the
 performance is its mean square (``trainlm``'s ``mse`` over all outputs).

@@ -294,7 +294,8 @@ CHART_EFFICIENCY_FLOOR = 0.80
 
 #: The family (``hillsim synth --turbine NAME``). Specific speed n_s ~ N11_best sqrt(Q11_best eta_best): slow 28,
 #: medium 43 (the shipped turbine), fast 64. Best efficiency and runaway/best N11 ratios are held by
-#: ``tests/hillchart/synthetic/test_synthetic_family.py``: slow 0.942 / 1.6-1.8, medium 0.936 / 1.6-1.9, fast 0.913 / 1.5-2.0.
+#: ``tests/hillchart/synthetic/test_synthetic_family.py``: slow 0.942 / 1.6-1.8, medium 0.936 / 1.6-1.9,
+#: fast 0.913 / 1.5-2.0.
 FAMILY = {
     "slow": FamilyTurbine(
         params=FrancisParameters(d2=0.70, b1=0.12, beta1_deg=70.0, beta2_deg=15.0, opening_max=24.0),

@@ -19,8 +19,8 @@ def register(subparsers) -> None:
     parser.add_argument("table", metavar="TABLE_DIR", help="test-table folder (table.csv + table.toml)")
     parser.add_argument("--inputs", required=True, help="comma-separated input columns, e.g. "
                         "blade_angle_deg,guide_vane_deg")
-    parser.add_argument("--outputs", dest="output_columns", required=True, metavar="COLUMNS", help="comma-separated output columns, e.g. "
-                        "efficiency,head_m,power_kw,flow_m3_s")
+    parser.add_argument("--outputs", dest="output_columns", required=True, metavar="COLUMNS",
+                        help="comma-separated output columns, e.g. efficiency,head_m,power_kw,flow_m3_s")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
                         help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation)")

@@ -3,8 +3,9 @@
 Runs the nonlinear simulator in open loop around the plant's operating point (opening steps and a seeded PRBS,
 sampled at tau), identifies the six coefficients (batch least squares) and the ARX speed model (RLS, RLS with
 forgetting, dead-zone RLS), and compares them with the nets' analytic coefficients and the zero-order hold of the
-linear model they imply (:mod:`simulate.identification.compare`). Writes ``identification.json``, ``identified_series.csv`` and
-figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured series instead.
+linear model they imply (:mod:`simulate.identification.compare`). Writes ``identification.json``,
+``identified_series.csv`` and figures into DIR, prints the tables. ``--data series.csv`` identifies from a measured
+series instead.
 """
 
 from __future__ import annotations
@@ -63,7 +64,8 @@ def register(subparsers) -> None:
     est.add_argument("--delta", type=float, default=0.01, help="delta of the dead-zone RLS (default 0.01)")
     est.add_argument("--arx", choices=("zoh", "paper"), default="zoh",
                      help="ARX structure: exact zero-order hold (default) or eq. (53) of Wang et al. 2023 as printed")
-    grid = parser.add_argument_group("head model and closed loop of Wang et al. 2023 (simulate.identification.head_model)")
+    grid = parser.add_argument_group(
+        "head model and closed loop of Wang et al. 2023 (simulate.identification.head_model)")
     grid.add_argument("--head-model", choices=("interval", "paper"), default=None,
                       help="also learn the head ARX (eqs. 60-61) and the speed/head/flow estimates (eqs. 62-68): "
                            "head_model.json, head_model.png")

@@ -18,8 +18,8 @@ from hillsim import progress
 
 def load_characteristics(source: str, plant=None):
     """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
-    (:func:`simulate.components.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"`` (needs
-    ``--plant``: the ideal turbine from the plant's rated values)."""
+    (:func:`simulate.components.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"``
+    (needs ``--plant``: the ideal turbine from the plant's rated values)."""
     from simulate.components.registry import resolve_characteristics
 
     characteristics = resolve_characteristics(source, turbine=plant.turbine if plant is not None else None,

@@ -51,7 +51,8 @@ class Verdict(Value):
 
 def read_envelope(result) -> dict | None:
     """The head envelope of a run as ``{position_m, max_head_m, min_head_m[, min_pressure_head_m]}`` lists (from
-    :func:`simulate.results.envelope.envelope_table`), or None when the run has no envelope (a lumped or rigid penstock)."""
+    :func:`simulate.results.envelope.envelope_table`), or None when the run has no envelope (a lumped or rigid
+    penstock)."""
     if getattr(result, "envelope_max_m", None) is None:
         return None
     from simulate.results.envelope import envelope_table
@@ -447,7 +448,8 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         rows = []
         for name in ("law", "best_linear"):
             d = cl[name]
-            rows.append(({"law": "two-stage optimum", "best_linear": "best linear closure"}[name], _v(d["closing_time_s"], f"closure.{name}.closing_time_s"),
+            rows.append(({"law": "two-stage optimum", "best_linear": "best linear closure"}[name],
+                         _v(d["closing_time_s"], f"closure.{name}.closing_time_s"),
                          "-" if d["break_opening"] is None else _v(d["break_opening"], f"closure.{name}.break_opening"),
                          "-" if d["break_time_s"] is None else _v(d["break_time_s"], f"closure.{name}.break_time_s"),
                          _v(d["max_speed_rise"], f"closure.{name}.max_speed_rise", "{:.4f}"),

@@ -178,7 +178,8 @@ def run_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
     from simulate.loop.engine import run_simulation
 
-    out = args.outputs.folder("--out", args.out, stale=("transient.png", "envelope.png"))  # checked now, in place at the end
+    out = args.outputs.folder("--out", args.out,
+                              stale=("transient.png", "envelope.png"))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
     reached = [0.0]

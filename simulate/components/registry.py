@@ -71,8 +71,9 @@ class Registry:
         return getattr(importlib.import_module(module), func)
 
     def time_scales(self, name: str, plant, schedules) -> list:
-        """The :class:`simulate.components.timescale.TimeScale` list of component ``name``: the ``time_scales(plant, schedules)``
-        function of its builder's module (none when the module has no such function)."""
+        """The :class:`simulate.components.timescale.TimeScale` list of component ``name``: the
+        ``time_scales(plant, schedules)`` function of its builder's module (none when the module has no such
+        function)."""
         if name not in self._entries:
             raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
         module = importlib.import_module(self._entries[name].split(":")[0])

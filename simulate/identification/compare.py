@@ -1,8 +1,8 @@
 """What the nets say the linear turbine is, against what identification finds from the nonlinear transient.
 
-:func:`compare_identification` runs the open-loop experiment on the simulator (:mod:`simulate.identification.experiment`: opening
-steps of +-1 % and a seeded PRBS, then a quiet tail, sampled at tau = 0.2 s, optionally with seeded bounded noise)
-and identifies:
+:func:`compare_identification` runs the open-loop experiment on the simulator
+(:mod:`simulate.identification.experiment`: opening steps of +-1 % and a seeded PRBS, then a quiet tail, sampled at
+tau = 0.2 s, optionally with seeded bounded noise) and identifies:
 
 - the six coefficients by batch least squares (paper 000 eqs. (69)-(70)) from (x, h, y, m, q), against the nets'
   analytic values (:func:`hillchart.linearize.six_coefficients`) and, for the synthetic chart, the exact turbine's;
@@ -12,8 +12,8 @@ and identifies:
   and, for the simulator, batch-LS ARX models of order 2-6 against the simulator's own first step;
 - paper 002's (ey, e, eqh) by ARMA least squares (eqs. (9)-(12)) on the torque with the speed term removed.
 
-:func:`identify_measured` does the identification part on a measured series (:mod:`simulate.identification.measured`). Both return
-an :class:`IdentificationReport`: the numbers as a typed
+:func:`identify_measured` does the identification part on a measured series (:mod:`simulate.identification.measured`).
+Both return an :class:`IdentificationReport`: the numbers as a typed
 :class:`~simulate.identification.results.IdentificationSummary`, the series, and the traces for the figures
 (:mod:`simulate.identification.plots`); tables are :func:`simulate.identification.tables.markdown_tables`. Files are
 written only by :meth:`IdentificationReport.write`.

@@ -12,8 +12,8 @@ Two regressor structures (:func:`head_regressors`):
                 the mean of -Tw dq/dt over [j tau, (j+1) tau]. For the lumped penstock alpha Te^2 h'' + h = -Tw q'
                 (eq. (16)) and a flow that is linear between samples this is the exact discretization with n_a = n_b
                 = 2; q(k+1) carries the steady friction loss h = h_w - r_f q (an extension, as in
-                :mod:`simulate.linear.models`). The printed structure lacks v(k), the water hammer of the current interval,
-                which is why it lags every opening step (measured in the README). Default.
+                :mod:`simulate.linear.models`). The printed structure lacks v(k), the water hammer of the current
+                interval, which is why it lags every opening step (measured in the README). Default.
 
 Estimates in simulation mode (own past outputs fed back, measured inputs; eqs. (62)-(63) and (65)):
 
@@ -36,7 +36,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
-from simulate.identification.estimators import RecursiveLeastSquares, SixCoefficientLeastSquares, arx_regressors, simulation_mode_output
+from simulate.identification.estimators import (RecursiveLeastSquares, SixCoefficientLeastSquares, arx_regressors,
+                                               simulation_mode_output)
 from simulate.linear.models import ArxModel
 
 HEAD_STRUCTURES = ("interval", "paper")
@@ -178,8 +179,8 @@ def head_model_report(time_s, x, h, y, q, m=None, *, water_time_s: float, sample
 
 
 def relative_series(result, *, sample_time_s: float):
-    """``(time_s, x, h, y, q, m)`` of a :class:`~simulate.results.result.SimulationResult` resampled to tau and relative to
-    its first row (paper 000 eq. (3)); m is None when the initial torque is zero (no load)."""
+    """``(time_s, x, h, y, q, m)`` of a :class:`~simulate.results.result.SimulationResult` resampled to tau and relative
+    to its first row (paper 000 eq. (3)); m is None when the initial torque is zero (no load)."""
     t = result.time_s
     grid = np.arange(0.0, t[-1] + 1e-9 * sample_time_s, sample_time_s)
 
@@ -193,8 +194,8 @@ def relative_series(result, *, sample_time_s: float):
 
 def open_loop_head_study(plant, *, penstock_model: str = "lumped", settings=None, initial_opening: float = 0.68,
                          structure: str = "interval", characteristics=None) -> HeadModelReport:
-    """The open-loop experiment of :mod:`simulate.identification.experiment` (opening steps + PRBS) on the nonlinear simulator,
-    then :func:`head_model_report` (paper 000 Figs. 9-10)."""
+    """The open-loop experiment of :mod:`simulate.identification.experiment` (opening steps + PRBS) on the nonlinear
+    simulator, then :func:`head_model_report` (paper 000 Figs. 9-10)."""
     from simulate.identification.experiment import ExperimentSettings, experiment_plant
     from simulate.loop.engine import run_simulation
 
@@ -232,9 +233,10 @@ def closed_loop_eigenvalues(linear, *, kp_relative: float, ti_s: float, servo_ti
 def linear_closed_loop(linear, *, kp_relative: float, ti_s: float, sample_time_s: float, n_samples: int,
                        reference=None, load=None, servo=None) -> dict:
     """Discrete closed loop on the ZOH of the linear plant at tau: PI on e = r - x (rectangle integral), the eq. (37)
-    servo (:mod:`simulate.components.control.discrete_servo`, default the printed one) driving the relative opening, ``load`` the
-    relative load torque m_g0(k). Returns {"x", "y", "r", "d"} arrays (n_samples + 1)."""
-    from simulate.components.control.discrete_servo import DiscreteServoConfig, discrete_servo_parameters, discrete_servo_step
+    servo (:mod:`simulate.components.control.discrete_servo`, default the printed one) driving the relative opening,
+    ``load`` the relative load torque m_g0(k). Returns {"x", "y", "r", "d"} arrays (n_samples + 1)."""
+    from simulate.components.control.discrete_servo import (DiscreteServoConfig, discrete_servo_parameters,
+                                                            discrete_servo_step)
 
     servo = servo or DiscreteServoConfig(sample_time_s=sample_time_s)
     ss = linear.state_space()

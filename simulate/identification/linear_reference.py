@@ -1,8 +1,9 @@
 """The linear model the nets predict at a plant's operating point: the reference identification is compared with.
 
 :func:`linear_reference` gives the six coefficients (:func:`hillchart.linearize.six_coefficients`) and the
-:class:`simulate.linear.models.LinearPlant` at a verified steady state; :func:`plant_linearization` is the same at a plant's
-initial operating point, as JSON-ready numbers (``hillsim linearize --plant``, the demo's ``linearization.json``).
+:class:`simulate.linear.models.LinearPlant` at a verified steady state; :func:`plant_linearization` is the same at a
+plant's initial operating point, as JSON-ready numbers (``hillsim linearize --plant``, the demo's
+``linearization.json``).
 
 The simulator's per-unit rotor ``Ta dx/dt = (M - M_g)/M_r - e_g x`` (torque base M_r = P_r/omega_r) becomes paper
 000's ``J dx/dt = m - m_L`` with ``J = Ta M_r / M0`` and grid damping ``e_g M_r / M0``; the water time at O is

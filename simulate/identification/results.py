@@ -392,8 +392,8 @@ class IdentificationSummary:
     order).
 
     ``source`` is ``"simulation"`` or ``"measured"``; ``operating_point`` is an :class:`ExperimentOperatingPoint`
-    (simulated) or the measured series' :class:`simulate.identification.measured.OperatingPoint`; ``warnings`` are the review's
-    notes (``hillsim identify``).
+    (simulated) or the measured series' :class:`simulate.identification.measured.OperatingPoint`; ``warnings`` are the
+    review's notes (``hillsim identify``).
     """
 
     source: str

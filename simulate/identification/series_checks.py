@@ -59,9 +59,11 @@ def check_time(path, time_s: np.ndarray, rows: np.ndarray, *, sample_time_s: flo
     Examples
     --------
     >>> check_time("s.csv", np.array([0.0, 0.1, 0.1]), np.array([2, 3, 4]), sample_time_s=0.2)
+    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     ...
-    hillchart.errors.InputError: s.csv: column 'time_s' must be strictly increasing: row 4 has 0.1 s after 0.1 s at row 3
+    hillchart.errors.InputError: s.csv: column 'time_s' must be strictly increasing: row 4 has 0.1 s after 0.1 s
+    at row 3
     """
     t = np.asarray(time_s, dtype=float)
     bad = np.flatnonzero(np.diff(t) <= 0)
@@ -101,7 +103,8 @@ def hampel_outliers(values: np.ndarray, *, half_width: int = HAMPEL_HALF_WIDTH, 
                     range_fraction: float = HAMPEL_RANGE_FRACTION) -> np.ndarray:
     """Indices of isolated outliers: samples farther from the median of their window (2 half_width + 1) than both
     ``sigmas`` robust standard deviations (1.4826 MAD) of the window and ``range_fraction`` of the range of the
-    window medians (at least 0.1 % of the column's median). A step or a ramp is followed by the window median and never flagged.
+    window medians (at least 0.1 % of the column's median). A step or a ramp is followed by the window median and never
+    flagged.
 
     Examples
     --------

@@ -19,7 +19,8 @@ Equations used (paper 000 unless said otherwise)::
 Extension (not in the paper, off by default): ``friction_slope`` r_f = 2 h_f0 / H0 adds the linearized steady
 penstock friction, ``h = -r_f q + h_w`` with ``D_p h_w = -Tw s q`` (as the simulator applies friction to the lumped and
 rigid models); it folds into effective coefficients (:meth:`LinearPlant.effective_coefficients`), so with or without
-it the matrices have the paper's form, and with r_f = 0 they are exactly the paper's. The grid self-regulation e_g enters as ``ex - e_g`` (eq. (13) substituted in eq. (8)).
+it the matrices have the paper's form, and with r_f = 0 they are exactly the paper's. The grid self-regulation e_g
+enters as ``ex - e_g`` (eq. (13) substituted in eq. (8)).
 
 About the B2 dy/dt input of eq. (32): with a piecewise-constant opening, dy/dt is a sum of Dirac impulses, so eq. (32)
 cannot be used with a sampled dy/dt. Writing ``X~ = X - B2 y`` gives the single-input system

@@ -194,7 +194,8 @@ def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke, *,
         # fraction of time: a step counts when it ends outside (row k covers (t_{k-1}, t_k])
         frac = float(dt[mask[1:]].sum() / (time_s[-1] - time_s[0])) if time_s.size > 1 else 1.0
         record[kind] = {"fraction_of_time": frac, "first_time_s": float(time_s[np.argmax(mask)]),
-                        "n11_min": float(np.min(np.asarray(n11)[mask])), "n11_max": float(np.max(np.asarray(n11)[mask])),
+                        "n11_min": float(np.min(np.asarray(n11)[mask])),
+                        "n11_max": float(np.max(np.asarray(n11)[mask])),
                         "opening_min": float(np.min(np.asarray(opening)[mask])),
                         "opening_max": float(np.max(np.asarray(opening)[mask])),
                         "stroke_max": float(np.max(np.asarray(stroke)[mask]))}

@@ -1,4 +1,5 @@
-"""The time loop, assembled from compiled components (see :mod:`simulate.components.registry`, :mod:`simulate.loop.assembly`).
+"""The time loop, assembled from compiled components (see :mod:`simulate.components.registry`,
+:mod:`simulate.loop.assembly`).
 
 Per step k -> k+1 (t = k dt):
 

@@ -74,8 +74,8 @@ class SimulationResult:
         1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
         ``max_head_m``/``min_head_m`` at the turbine (m) and when; the head envelope along the penstock
         (``envelope_*``; with a profile ``min_pressure_head_m`` and where, ``column_separation``);
-        ``extrapolation`` (per kind of :mod:`simulate.loop.domain`: fraction of the time outside the trusted domain and the
-        extremes reached); ``warnings`` (time step, extrapolation, column separation);
+        ``extrapolation`` (per kind of :mod:`simulate.loop.domain`: fraction of the time outside the trusted domain and
+        the extremes reached); ``warnings`` (time step, extrapolation, column separation);
         ``mean_iterations``/``max_iterations`` over the steps (row 0 excluded; steps with the vanes shut count 0,
         there is nothing to solve); plus the initial point, success,
         message and the run settings from ``meta``.
@@ -135,8 +135,9 @@ class SimulationResult:
         >>> t = np.array([0.0, 0.5])
         >>> r = SimulationResult(t, t + 200, t + 100, t, t, t, t, t, np.array([0, 3]), 200.0, 200.0)
         >>> path = r.to_csv(pathlib.Path(tempfile.mkdtemp()) / "timeseries.csv")
-        >>> path.read_text().splitlines()[:2]
-        ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations', '0,200,100,0,0,0,0,0,0']
+        >>> path.read_text().splitlines()[:2]  # doctest: +NORMALIZE_WHITESPACE
+        ['time_s,speed_rpm,head_m,flow_m3_s,opening,opening_chart,torque_nm,power_mw,iterations',
+         '0,200,100,0,0,0,0,0,0']
         """
         path = Path(path)
         columns = self.columns()
@@ -163,8 +164,8 @@ class SimulationResult:
         """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
 
         Intervals where the trajectory leaves the characteristics' trusted domain (``meta["extrapolation"]``) are
-        shaded. ``band``: a :class:`simulate.studies.uncertainty.TraceBand` (``hillsim run --uncertainty``), drawn as the
-        ensemble's percentile band behind each trace it covers. Uses matplotlib's object API with the Agg canvas
+        shaded. ``band``: a :class:`simulate.studies.uncertainty.TraceBand` (``hillsim run --uncertainty``), drawn as
+        the ensemble's percentile band behind each trace it covers. Uses matplotlib's object API with the Agg canvas
         (no pyplot, no display; imported here, not with the module). Returns the figure.
         """
         from matplotlib.backends.backend_agg import FigureCanvasAgg

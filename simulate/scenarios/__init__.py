@@ -18,7 +18,8 @@
 """
 
 from simulate.scenarios.base import (  # noqa: F401  (the public names of the package)
-    GOVERNOR, PRESCRIBED, SCENARIO_CLASSES, SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig, Schedules, build_schedules, check_steps, initial_target, steady_schedules)
+    GOVERNOR, PRESCRIBED, SCENARIO_CLASSES, SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig, Schedules, build_schedules,
+    check_steps, initial_target, steady_schedules)
 from simulate.scenarios.load_rejection import LoadRejection  # noqa: F401  (each kind registers itself)
 from simulate.scenarios.closure_law import ClosureLaw  # noqa: F401
 from simulate.scenarios.frequency_steps import FrequencySteps  # noqa: F401

@@ -1,9 +1,9 @@
 """Guide-vane closure-law optimization over a plant's load cases, with batched evaluations.
 
-The law is the plant's ``closure-law`` scenario (:func:`simulate.components.control.governor.closure_law`): from the initial stroke
-y0 the vanes close at the first-stage rate (a full stroke per ``closing_time_s`` T1) down to ``break_opening`` y_b,
-then at the second-stage rate (a full stroke per ``break_time_s`` T2). The linear closure is the family with
-y_b >= y0 (first stage only).
+The law is the plant's ``closure-law`` scenario (:func:`simulate.components.control.governor.closure_law`): from the
+initial stroke y0 the vanes close at the first-stage rate (a full stroke per ``closing_time_s`` T1) down to
+``break_opening`` y_b, then at the second-stage rate (a full stroke per ``break_time_s`` T2). The linear closure is the
+family with y_b >= y0 (first stage only).
 
 Problem (``mode="head"``): minimize the worst max head rise over the load cases (and ensemble members) subject to
 worst max speed rise <= limit; ``mode="speed"`` is the reverse. Every candidate law is a batch of
@@ -117,8 +117,8 @@ class LawEvaluation:
 
 class ClosureEvaluator:
     """Evaluates laws in batches over ``load_cases`` x ``members`` (characteristics) of one closure plant, on a
-    :class:`simulate.studies.batch.BatchPool` kept for all batches (``workers=1``: in this process). Close it (or use it as a
-    context manager) when done."""
+    :class:`simulate.studies.batch.BatchPool` kept for all batches (``workers=1``: in this process). Close it (or use it
+    as a context manager) when done."""
 
     def __init__(self, plant: PlantConfig, load_cases: tuple[LoadCase, ...], members: list | None = None, *,
                  workers: int | None = 1):

@@ -115,8 +115,8 @@ class CaseResult:
 
     @property
     def band(self) -> dict:
-        """Figure -> (low, high): the ``run --uncertainty`` 5-95 % band (:func:`simulate.studies.uncertainty.figure_band`);
-        NaN without members."""
+        """Figure -> (low, high): the ``run --uncertainty`` 5-95 % band
+        (:func:`simulate.studies.uncertainty.figure_band`); NaN without members."""
         from simulate.studies.uncertainty import figure_band
 
         return {k: tuple(float(v) for v in figure_band(vals)) if len(vals) else (np.nan, np.nan)

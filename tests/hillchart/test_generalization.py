@@ -1,6 +1,6 @@
-"""Acceptance of issue 9 on the synthetic family: nets trained with default options on charts nobody tuned them to.
+"""Accuracy bounds on the synthetic family: nets trained with default options on charts nobody tuned them to.
 
-Each turbine's chart is digitized as the issue's example (8 opening lines of 6 unevenly spaced points, 0.3 %
+Each turbine's chart is digitized as a typical hand-digitized chart (8 opening lines of 6 unevenly spaced points, 0.3 %
 noise, Q11 in l/s, efficiency in percent, runaway curve given), seed 0, and trained with ``hillsim train``'s
 defaults (model boundaries, selection by cross-validation, ensemble of 10). The benchmark
 ``benchmarks/bench_generalization.py`` runs the whole grid (noise, seeds, with/without runaway).
@@ -24,7 +24,8 @@ def result(request):
 
 def test_default_pipeline_meets_the_acceptance_bounds(result):
     name, res = result
-    # bounds of issue 9 (Q11 RMS 0.5 %, max 2 %, M11 RMS 1 %, <= 1.2 x measured-only, coefficients 0.05);
+    # the accuracy bounds the product promises (Q11 RMS 0.5 %, max 2 %, M11 RMS 1 %, <= 1.2 x measured-only,
+    # coefficients 0.05);
     # measured at seed 0: Q11 RMS 0.43 / 0.36 / 0.19 %, M11 RMS 0.22 / 0.22 / 0.33 % (slow / medium / fast);
     # measured-only nets: Q11 0.47 / 0.34 / 0.31 %, M11 0.28 / 0.32 / 0.33 %
     assert acceptance_failures(res) == [], (name, acceptance_failures(res))
@@ -33,7 +34,7 @@ def test_default_pipeline_meets_the_acceptance_bounds(result):
 def test_zero_opening_k_comes_from_the_data(result):
     name, res = result
     # K of eq. (8) from the fitted physical model, against the turbine's disc friction. Measured at seed 0:
-    # slow 1.03, medium 1.44, fast 1.93 (the paper's polynomial extrapolation gives 7x, 3.4x and 18x). The issue's
+    # slow 1.03, medium 1.44, fast 1.93 (the paper's polynomial extrapolation gives 7x, 3.4x and 18x). The promised
     # factor 1.5 holds for slow and medium; the fast turbine's disc friction is over-estimated (docs/nets.md, "Limits").
     bound = 2.0 if name == "fast" else 1.5
     assert 1.0 / bound <= res.k_ratio <= bound

@@ -207,7 +207,7 @@ def test_nets_trained_on_an_ideal_chart_give_the_ideal_coefficients():
         for opening in (8.0, 14.0, 20.0, 26.0):
             c = six_coefficients(nets, n11=n11, opening=opening)
             worst = max(worst, np.max(np.abs(np.array(c.as_tuple()) - (-1.0, 1.0, 1.5, 0.0, 1.0, 0.5))))
-    # issue 5 bound 0.02; measured 0.002 inside the band (0.019 at a corner sample, outside this grid)
+    # the accuracy bound 0.02; measured 0.002 inside the band (0.019 at a corner sample, outside this grid)
     assert worst < 0.02
 
 
@@ -221,5 +221,5 @@ def test_shipped_synthetic_nets_at_rated_point_match_the_exact_turbine():
     for n11, opening in ((67.8, 23.46), (67.3, 21.7), (60.0, 18.0), (75.0, 26.0)):  # rated (chart, plant) + nearby
         c_nets = six_coefficients(nets, n11=n11, opening=opening).as_tuple()
         c_true = six_coefficients(SyntheticFrancis(), n11=n11, opening=opening).as_tuple()
-        # issue 5 bound 0.05; measured max 0.017 over these points (eqx and ex, the N11 slopes, are the hardest)
+        # the accuracy bound 0.05; measured max 0.017 over these points (eqx and ex, the N11 slopes, are the hardest)
         np.testing.assert_allclose(c_nets, c_true, atol=0.05)

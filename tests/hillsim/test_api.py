@@ -1,4 +1,4 @@
-"""Issue 13 "Python API" and "Outputs": lazy entry points in ``import hillsim``, SimulationResult.to_json with the
+"""The Python API and its outputs: lazy entry points in ``import hillsim``, SimulationResult.to_json with the
 series, tidy floats in result files, one name for the forgetting factor."""
 
 import json
@@ -58,7 +58,8 @@ def test_tidy_floats_rounds_noise_and_keeps_meaningful_digits():
 
 
 def test_demo_result_files_have_tidy_floats(demo_fast_dir):
-    """Issue 13: "inertia_time_s": 8.999999999999988, "final_opening": 3.719570726996532e-111."""
+    """Result files hold tidy floats, never "inertia_time_s": 8.999999999999988 or
+    "final_opening": 3.719570726996532e-111."""
     for file in ("linearization.json", "load_rejection/summary.json", "identification/identification.json"):
         data = json.loads((demo_fast_dir / file).read_text())
         assert tidy_floats(data) == data, file
@@ -76,7 +77,7 @@ def test_forgetting_factor_has_one_name():
 
 
 def test_summary_json_has_tidy_floats(tmp_path):
-    """Issue 13: "final_opening": 3.719570726996532e-111 in summary.json."""
+    """summary.json holds tidy floats, never "final_opening": 3.719570726996532e-111."""
     from simulate.results.result import SimulationResult
 
     t = np.array([0.0, 0.5, 1.0])

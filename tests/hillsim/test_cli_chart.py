@@ -61,7 +61,7 @@ def test_unknown_option_is_an_argparse_error(capsys):
 @pytest.mark.external
 def test_train_refuses_nets_whose_efficiency_exceeds_the_chart(tmp_path, capsys):
     """Sayano-Shushenskaya: its opening lines start at N11 = 56, so the paper's polynomial zero-speed extrapolation
-    is poor and those nets reach eta 1.04 inside the digitized region: an error by default (issue 9 section 5),
+    is poor and those nets reach eta 1.04 inside the digitized region: an error by default,
     nothing written; --allow-implausible writes them with a warning. The default (physical-model boundaries,
     weighted by cross-validation) trains this chart without error or warning."""
     from tests.external_charts import write_sayano_chart

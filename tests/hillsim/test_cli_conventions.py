@@ -1,4 +1,4 @@
-"""Issue 13 "CLI": --version, the same names for the same things in --help, defaults shown, progress lines."""
+"""CLI conventions: --version, the same names for the same things in --help, defaults shown, progress lines."""
 
 import argparse
 import io
@@ -26,7 +26,7 @@ def test_same_thing_same_name_in_every_command():
             if action.dest in ("chart", "samples", "plant", "nets", "data"):
                 seen.setdefault(action.dest.replace("samples", "chart"), set()).add(action.metavar)
             if action.dest == "out":
-                # issue 13: `demo --help` said "into DIR" while the option read `--out OUT`
+                # help text and metavar agree (`demo --help` once said "into DIR" while the option read `--out OUT`)
                 assert action.metavar not in (None, "OUT"), name
                 description = sub.description or ""
                 if "DIR" in description:
@@ -42,7 +42,7 @@ def test_every_default_is_shown_and_every_command_has_quiet():
             if action.option_strings and action.default not in (None, False, argparse.SUPPRESS) \
                     and action.dest != "help":
                 assert "default" in (action.help or "").lower() or "(default: " in text, (name, action.dest)
-    # issue 13: `train --seed` showed no default
+    # every option shows its default (`train --seed` once showed none)
     train_help = " ".join(_subparsers()["train"].format_help().split())
     assert "torque net: seed + 1) (default: 0)" in train_help
 

@@ -56,7 +56,7 @@ def test_summary_matches_step_files(demo_dir):
     summary = json.loads((demo_dir / "demo_summary.json").read_text())
     rejection = json.loads((demo_dir / "load_rejection" / "summary.json").read_text())
     assert summary["load_rejection_max_speed_rise"] == rejection["max_speed_rise"]
-    # the shipped nets meet issue 3's accuracy bounds (RMS 0.5 % of the Q11 range in the measured region)
+    # the shipped nets meet the accuracy bounds the product promises (RMS 0.5 % of the Q11 range in the measured region)
     assert summary["q11_rms_measured_pct"] < 0.5 and summary["m11_rms_measured_pct"] < 1.0
     # a 100 % load rejection must overspeed the unit and raise the head (water hammer of the closing vanes)
     assert 0.05 < rejection["max_speed_rise"] < 0.8 and rejection["max_head_rise"] > 0.02

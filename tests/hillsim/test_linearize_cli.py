@@ -68,8 +68,8 @@ def test_linearize_ideal_turbine_needs_a_plant_and_is_exact_with_one(capsys):
     assert main(["linearize", "ideal", "--plant", str(PLANT_HLA339), "--stroke", "0.68"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["source"].startswith("ideal turbine")
-    # the ideal turbine's coefficients are exactly (-1, 1, 1.5, 0, 1, 0.5) (docs/identification.md, six coefficients); 1e-9 leaves
-    # room for the rounding of the analytic derivatives at the plant's operating point
+    # the ideal turbine's coefficients are exactly (-1, 1, 1.5, 0, 1, 0.5) (docs/identification.md, six
+    # coefficients); 1e-9 leaves room for the rounding of the analytic derivatives at the plant's operating point
     got = [out["coefficients"][k] for k in ("ex", "ey", "eh", "eqx", "eqy", "eqh")]
     np.testing.assert_allclose(got, [-1.0, 1.0, 1.5, 0.0, 1.0, 0.5], atol=1e-9)
 

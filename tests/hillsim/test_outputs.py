@@ -1,4 +1,4 @@
-"""hillsim.outputs and the CLI's handling of outputs, errors and signals (issue 10 section 5, issue 14)."""
+"""hillsim.outputs and the CLI's handling of outputs, errors and signals."""
 
 import argparse
 import os
@@ -56,7 +56,8 @@ def test_folder_output_that_is_a_file_is_refused(tmp_path):
 def test_read_only_folder_is_refused(tmp_path, monkeypatch):
     # the tests may run as root, which ignores permission bits: emulate a read-only folder through os.access
     real = os.access
-    monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p) == tmp_path and mode & os.W_OK else real(p, mode))
+    monkeypatch.setattr(os, "access",
+                        lambda p, mode: False if Path(p) == tmp_path and mode & os.W_OK else real(p, mode))
     with pytest.raises(InputError, match=r"--out '.*x.csv': the folder '.*' is read-only"):
         OutputSet().file("--out", tmp_path / "x.csv")
     with pytest.raises(InputError, match=r"read-only"):
@@ -68,7 +69,8 @@ def test_folder_output_needs_a_writable_parent(tmp_path, monkeypatch):
     # the temporary folder and the lock live beside the target: an existing, writable target is not enough
     (tmp_path / "run").mkdir()
     real = os.access
-    monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p) == tmp_path and mode & os.W_OK else real(p, mode))
+    monkeypatch.setattr(os, "access",
+                        lambda p, mode: False if Path(p) == tmp_path and mode & os.W_OK else real(p, mode))
     with pytest.raises(InputError, match=r"--out '.*run': the folder '.*' is read-only"):
         OutputSet().folder("--out", tmp_path / "run")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
@@ -181,8 +183,8 @@ def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 60) -> None:
 
 
 def test_a_second_writer_is_refused_while_the_first_writes(tmp_path):
-    """Issue 14: two runs into the same --out corrupted each other and both exited 0. Two processes: a writer
-    holding the folder, and a hillsim command writing into the same folder."""
+    """Two runs into the same --out: the second is refused rather than both corrupting it and exiting 0. Two
+    processes: a writer holding the folder, and a hillsim command writing into the same folder."""
     out = tmp_path / "rejection"
     holder = _start_holder(out, tmp_path / "ready", 30)
     try:
@@ -194,7 +196,8 @@ def test_a_second_writer_is_refused_while_the_first_writes(tmp_path):
         second = subprocess.run([sys.executable, "-m", "hillsim.cli", "synth", str(out)],
                                 env=ENV, capture_output=True, text=True, timeout=120)
         assert second.returncode == 2 and "Traceback" not in second.stderr
-        assert "hillsim synth: error: OUT_DIR" in second.stderr and "is being written by another hillsim" in second.stderr
+        assert ("hillsim synth: error: OUT_DIR" in second.stderr
+                and "is being written by another hillsim" in second.stderr)
         assert not out.exists()  # the first writer's files are still private; nothing of the second's
     finally:
         holder.kill()
@@ -220,7 +223,7 @@ def test_the_first_writer_finishes_intact_beside_a_refused_second(tmp_path):
 
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 def test_signal_while_writing_exits_cleanly_and_leaves_nothing(tmp_path, sig, code, word):
-    """Issue 10: SIGTERM/SIGINT while writing left a truncated timeseries.csv."""
+    """SIGTERM/SIGINT while writing leaves no truncated timeseries.csv."""
     holder = _start_holder(tmp_path / "run", tmp_path / "ready", 30)
     holder.send_signal(sig)
     _, err = holder.communicate(timeout=60)
@@ -282,7 +285,7 @@ def test_write_error_names_the_option(tmp_path, capsys):
 
 
 def test_extend_with_a_bad_plot_path_writes_nothing(tmp_path, capsys):
-    """Issue 14: `extend --out ext.csv --plot missing_parent/p.png` exited 2 but left ext.csv."""
+    """`extend --out ext.csv --plot missing_parent/p.png` exits 2 and leaves no ext.csv."""
     code = main(["extend", str(REPO / "data_synthetic" / "francis"), "--out", str(tmp_path / "ext.csv"),
                  "--plot", str(tmp_path / "missing_parent" / "p.png")])
     assert code == 2
@@ -291,7 +294,7 @@ def test_extend_with_a_bad_plot_path_writes_nothing(tmp_path, capsys):
 
 
 def test_run_checks_out_before_simulating(tmp_path, capsys, monkeypatch):
-    """Issue 14: `run` found an unusable --out only after the simulation."""
+    """`run` finds an unusable --out before the simulation, not after it."""
     import simulate.loop.engine
 
     def never(*args, **kwargs):
@@ -313,7 +316,7 @@ def test_version(capsys):
 
 
 def test_an_unexpected_error_keeps_its_traceback_and_writes_nothing(tmp_path):
-    """Issue 14: `train ... --out n.json` wrote n.json, then crashed (QhullError): nothing may be left."""
+    """A command that crashes after writing (`train ... --out n.json`, QhullError) leaves nothing behind."""
     def func(args):
         args.outputs.file("--out", tmp_path / "n.json").write_text("{}")
         raise RuntimeError("QhullError: initial simplex is flat")  # a bug, not bad input: the traceback stays

@@ -23,7 +23,7 @@ def test_run_writes_timeseries_summary_and_plot(tmp_path, capsys):
     assert "load-rejection" in capsys.readouterr().out
     with open(out / "timeseries.csv", newline="") as fh:
         rows = list(csv.reader(fh))
-    assert tuple(rows[0]) == CSV_COLUMNS  # exactly the columns, in order
+    assert tuple(rows[0]) == CSV_COLUMNS  # exactly the documented columns, in order
     data = np.array(rows[1:], dtype=float)
     # the z-domain model's step: 0.05 x the governor's derivative filter (0.2 s), shortened to put the rejection (2 s)
     # on a step: 2 s / 200

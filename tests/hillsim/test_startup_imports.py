@@ -1,4 +1,4 @@
-"""Start-up levers of issue 10, section 3: the CLI imports only the command it runs, a run imports no
+"""Start-up levers: the CLI imports only the command it runs, a run imports no
 scipy.optimize. Each import check runs a fresh interpreter (``sys.modules`` of the test process holds whatever other
 tests imported)."""
 

@@ -1,4 +1,4 @@
-"""``hillsim train`` options (issue 9 sections 3-4, issue 14): bounded options, selection reported, nothing written on
+"""``hillsim train`` options: bounded options, selection reported, nothing written on
 any error, progress on stderr."""
 
 import json

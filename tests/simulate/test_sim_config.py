@@ -76,7 +76,7 @@ def test_missing_section_and_unknown_section(raw):
     del raw["generator"]
     _error(raw, r"missing section \[generator\]")
     raw["generator"] = {"inertia_time_s": 9.0}
-    raw["tailrace_tunnel"] = {}  # (was [surge_tank], which issue 10 made a real section)
+    raw["tailrace_tunnel"] = {}  # (was [surge_tank], which is now a real section)
     _error(raw, r"unknown section \[tailrace_tunnel\]")
 
 

@@ -73,7 +73,8 @@ def excitation_parameters(config: ExcitationConfig, *, voltage_setpoint_pu: floa
     >>> excitation_parameters(c).tolist()
     [20.0, 10.0, 0.02, 0.0, 5.0, 1.0]
     """
-    vset = config.voltage_setpoint_pu if voltage_setpoint_pu is None else check_number("excitation.voltage_setpoint_pu", voltage_setpoint_pu, low=0.5, high=1.5)
+    vset = (config.voltage_setpoint_pu if voltage_setpoint_pu is None
+            else check_number("excitation.voltage_setpoint_pu", voltage_setpoint_pu, low=0.5, high=1.5))
     return np.array([config.kp, config.ki, config.filter_s, config.field_min_pu, config.field_max_pu, vset])
 
 

@@ -565,9 +565,9 @@ class ElectricalArrays:
     """Everything the plant loop needs from the electrical sections, compiled at a verified steady state.
 
     ``generator_params`` (:data:`GEN_PARAMS`), ``generator_state`` (:data:`GEN_STATE`, mutated by the loop),
-    ``excitation_params`` / ``excitation_state`` (:mod:`simulate.components.control.excitation` layouts), ``field_voltage_pu`` (steady
-    field), ``outputs`` (8 floats, :data:`GEN_OUTPUTS`) and ``work`` (28 floats) scratch for the jitted steps,
-    ``breaker`` (1.0 / 0.0 initial), ``steady`` (the :class:`GeneratorSteadyState`).
+    ``excitation_params`` / ``excitation_state`` (:mod:`simulate.components.control.excitation` layouts),
+    ``field_voltage_pu`` (steady field), ``outputs`` (8 floats, :data:`GEN_OUTPUTS`) and ``work`` (28 floats) scratch
+    for the jitted steps, ``breaker`` (1.0 / 0.0 initial), ``steady`` (the :class:`GeneratorSteadyState`).
     """
 
     generator_params: np.ndarray
@@ -712,9 +712,9 @@ def simulate_generator(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_
     """Run the generator alone at a constant per-unit speed deviation ``speed_dev``.
 
     Per step k (the order the plant loop uses, see the README): inputs at t_k; outputs of state k
-    (:func:`network_solution`); field voltage for [t_k, t_k+1) from the excitation (:func:`simulate.components.control.excitation.
-    excitation_step`, on V_k) or held at the steady value (+ ``field_step`` = (time_s, delta_pu) when reached);
-    :func:`generator_step` to t_k+1.
+    (:func:`network_solution`); field voltage for [t_k, t_k+1) from the excitation
+    (:func:`simulate.components.control.excitation.excitation_step`, on V_k) or held at the steady value
+    (+ ``field_step`` = (time_s, delta_pu) when reached); :func:`generator_step` to t_k+1.
 
     Parameters
     ----------
@@ -786,8 +786,9 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
                   steady: GeneratorSteadyState, inertia_time_s: float, excitation=None,
                   torque_step: tuple[float, float] | None = None, load_step: tuple[float, float] | None = None,
                   fault_window: tuple[float, float] | None = None, jit: bool = True) -> GeneratorRun:
-    """Generator + rotor with a prescribed mechanical torque: the swing equation of :mod:`simulate.components.shaft.rotor` with the
-    generator's air-gap torque as its load (how the plant loop couples the two; see the README).
+    """Generator + rotor with a prescribed mechanical torque: the swing equation of
+    :mod:`simulate.components.shaft.rotor` with the generator's air-gap torque as its load (how the plant loop couples
+    the two; see the README).
 
     The mechanical torque (turbine torque base P_r/omega_r) equals the steady electrical torque, then steps by
     ``torque_step = (time_s, delta_pu)``. ``inertia_time_s`` Ta on the turbine base (``steady`` must have been built
@@ -795,8 +796,9 @@ def simulate_unit(gen: SubtransientGeneratorConfig, grid: GridConfig, *, t_end_s
     ``off_s`` (the machine stays connected). Extra columns ``speed_dev``, ``current_d_pu``, ``current_q_pu``.
 
     Per step k: (1) :func:`network_solution` at (state_k, x_k) -> Te_k, V_k; (2) field voltage from
-    :func:`simulate.components.control.excitation.excitation_step` on V_k (or held); (3) ``x_k+1 = rotor_step(x_k, m_t, Te_k *
-    torque_base_ratio, 0, Ta, dt)`` (self-regulation 0: the load's frequency dependence is in the grid);
+    :func:`simulate.components.control.excitation.excitation_step` on V_k (or held); (3)
+    ``x_k+1 = rotor_step(x_k, m_t, Te_k * torque_base_ratio, 0, Ta, dt)`` (self-regulation 0: the load's frequency
+    dependence is in the grid);
     (4) :func:`generator_step` (state_k -> state_k+1 at x_k).
     """
     from simulate.components.control.excitation import excitation_parameters, excitation_step, initial_excitation_state

@@ -2,8 +2,8 @@
 
     H = C_L + k Q,   k <= 0   (H head above tailwater in m, Q flow in m^3/s),
 
-which the turbine boundary (:mod:`simulate.components.turbine.boundary`) solves together with the turbine equation, and then an update
-of its own state with the solved (H, Q). Four models:
+which the turbine boundary (:mod:`simulate.components.turbine.boundary`) solves together with the turbine equation,
+and then an update of its own state with the solved (H, Q). Four models:
 
 ``moc``      method of characteristics on every segment (Courant number 1, quadratic friction, segments in series
              joined at junctions with equal head and flow); k = -B = -a/(g A) of the last reach (the C+ line
@@ -334,7 +334,8 @@ def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
 
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
-    """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes), [current])."""
+    """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes),
+    [current])."""
     from simulate.components.registry import CompiledPart
 
     grid = build_moc_grid(plant.penstock, dt_s)

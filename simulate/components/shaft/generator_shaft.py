@@ -1,9 +1,10 @@
 """The sub-transient generator on the shaft: registry kind "shaft", name ``subtransient`` (``[generator] model =
 "subtransient"``; see :mod:`simulate.components.registry`).
 
-It joins the pieces of :mod:`simulate.components.electrical.generator` (paper 001 eq. (10) and its grid), :mod:`simulate.components.control.excitation`
-(eqs. (11)-(13)) and the swing equation of :mod:`simulate.components.shaft.rotor` into one shaft component with the kind's fixed
-signature, so the assembled time loop runs it without naming it. Per loop step k -> k+1 (the order of
+It joins the pieces of :mod:`simulate.components.electrical.generator` (paper 001 eq. (10) and its grid),
+:mod:`simulate.components.control.excitation` (eqs. (11)-(13)) and the swing equation of
+:mod:`simulate.components.shaft.rotor` into one shaft component with the kind's fixed signature, so the assembled
+time loop runs it without naming it. Per loop step k -> k+1 (the order of
 :func:`simulate.components.electrical.generator.simulate_unit`):
 
 1. network solution at (state_k, x_k) with the inputs at t_k -> air-gap torque Te_k, terminal voltage V_k;
@@ -11,8 +12,8 @@ signature, so the assembled time loop runs it without naming it. Per loop step k
    steady field, plus ``field_step_pu`` from ``event_time_s``);
 3. rotor: ``x_k+1 = rotor_step(x_k, m_t_k, Te_k * rated_mva / P_r, 0, Ta, dt)`` (the swing equation with the
    generator's air-gap torque as its load; the load's frequency dependence is in the grid), or x held at 0;
-4. :func:`simulate.components.electrical.generator.generator_step` from t_k to t_k+1 at the NEW speed x_k+1 (semi-implicit: the angle
-   integrates x_k+1, see the README).
+4. :func:`simulate.components.electrical.generator.generator_step` from t_k to t_k+1 at the NEW speed x_k+1
+   (semi-implicit: the angle integrates x_k+1, see the README).
 
 Steps 1-2 of step k+1 are done at the end of step k (same order, shifted), so the record of row k+1 shows the
 network at t_k+1 and the field voltage applied from t_k+1 on, the convention of the standalone drivers.
@@ -31,12 +32,14 @@ import numba
 import numpy as np
 
 from simulate.components.control.excitation import excitation_step
-from simulate.components.electrical.generator import (O_ID, O_IQ, O_PE, O_TE, O_VT, P_TORQUE_RATIO, RUN_COLUMNS, S_ED_ST, S_EQ_ST, S_EQ_T,
+from simulate.components.electrical.generator import (O_ID, O_IQ, O_PE, O_TE, O_VT, P_TORQUE_RATIO, RUN_COLUMNS,
+                                S_ED_ST, S_EQ_ST, S_EQ_T,
                                 STATUS_TEXT, generator_step, network_solution)
 from simulate.components.schedules import piecewise_constant
 from simulate.components.shaft.rotor import rotor_step
 
-#: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.generator.RUN_COLUMNS` without time).
+#: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.generator.RUN_COLUMNS`
+#: without time).
 SIGNALS = tuple(c for c in RUN_COLUMNS if c != "time_s")
 
 #: Layout of the scalar parameter vector.
@@ -151,8 +154,8 @@ def subtransient_record(p, s, row):
 
 def build_subtransient(plant, steady, dt_s: float, schedules):
     """The shaft of ``[generator] model = "subtransient"``, ``[excitation]``, ``[grid]`` at the turbine's steady
-    state (:func:`simulate.components.electrical.generator.compile_electrical`: the generator takes the scenario's initial load, the
-    terminal voltage is the excitation's set point; residuals checked < 1e-9)."""
+    state (:func:`simulate.components.electrical.generator.compile_electrical`: the generator takes the scenario's
+    initial load, the terminal voltage is the excitation's set point; residuals checked < 1e-9)."""
     from hillchart.errors import InputError
     from simulate.components.registry import CompiledPart
     from simulate.components.electrical.generator import compile_electrical, frequency_recovery_time
@@ -226,9 +229,10 @@ OMEGA_DT_REFUSE, OMEGA_DT_WARN = 1.0, 0.3
 
 def electromechanical_step_check(plant, arrays, dt_s: float, schedules) -> list[str]:
     """On an infinite bus with the breaker closed: the electromechanical mode omega_n = sqrt(omega_b K_s (S/P_r) /
-    Ta) (K_s of the classical E'q-behind-X'd model, :func:`simulate.components.electrical.generator.transient_synchronizing_torque`)
-    against the step. Refuses omega_n dt > :data:`OMEGA_DT_REFUSE` (InputError naming the keys), warns above
-    :data:`OMEGA_DT_WARN`; returns the warnings."""
+    Ta) (K_s of the classical E'q-behind-X'd model,
+    :func:`simulate.components.electrical.generator.transient_synchronizing_torque`) against the step. Refuses
+    omega_n dt > :data:`OMEGA_DT_REFUSE` (InputError naming the keys), warns above :data:`OMEGA_DT_WARN`; returns the
+    warnings."""
     from hillchart.errors import InputError
     from simulate.components.electrical.generator import P_OMEGA_B, transient_synchronizing_torque
 

@@ -26,8 +26,8 @@ quadratic. Status 1: no convergence within ``max_iterations``. Status 3: the ker
 
 The solvers are *templates* with respect to the characteristics: called directly they take the kernel as their first
 argument (compiled once per process and kernel: numba cannot cache a function with a dispatcher-typed argument). The
-time loop does not call them that way: :mod:`simulate.loop.assembly` pastes their source into a generated loop module with
-the kernel bound as the module global ``kernel`` (first parameter removed), so the loop and everything it calls is
+time loop does not call them that way: :mod:`simulate.loop.assembly` pastes their source into a generated loop module
+with the kernel bound as the module global ``kernel`` (first parameter removed), so the loop and everything it calls is
 cached on disk. ``opening`` is passed through to the kernel unchanged: a scalar chart opening when called directly,
 the vector of controls (chart units) inside the loop, where ``kernel(params, n11, controls)`` returns
 ``(q11, dq11_dn11, m11, dm11_dn11)`` (the solvers read only the first two).

@@ -29,7 +29,7 @@ def test_measured_torque_within_2_percent_of_truth_range():
     # the M11 range over the measured region of the chart (its openings and N11 span), from the exact model
     n, a = np.meshgrid(np.linspace(CHART.flow_n11.min(), CHART.flow_n11.max(), 60), CHART.openings)
     span = np.ptp(TURBINE.m11(n, a))
-    # issue 2 acceptance: within 2 % of the truth M11 range; digitization noise (0.0015 m3/s on Q11, 0.15 r/min)
+    # the accuracy bound: within 2 % of the truth M11 range; digitization noise (0.0015 m3/s on Q11, 0.15 r/min)
     # alone is about 0.5 %, so 2 % leaves room only for a sound efficiency surface
     assert np.abs(m11[measured] - truth).max() < 0.02 * span
 
@@ -54,7 +54,7 @@ def test_zero_opening_boundary():
     xm, m11, om = EXTENDED.select("m11")
     assert np.all(q11[oq == "zero-opening"] == 0.0) and np.all(xq[oq == "zero-opening", 1] == 0.0)
     k = EXTENDED.k_zero_opening
-    assert k > 0  # issue 2 acceptance
+    assert k > 0  # a braking torque at zero opening
     n = xm[om == "zero-opening", 0]
     np.testing.assert_allclose(m11[om == "zero-opening"], -k * n**2, rtol=1e-15)
     assert n.min() == 0 and n.max() == pytest.approx(max(CHART.flow_n11.max(), CHART.runaway_n11.max()))
@@ -73,7 +73,8 @@ def test_zero_speed_boundary_is_rough_but_physical():
         assert np.abs(y[zs] - truth).max() < 0.15 * np.ptp(truth)
 
 
-@pytest.mark.parametrize("switch,origin", [("runaway", "runaway"), ("zero_opening", "zero-opening"), ("zero_speed", "zero-speed")])
+@pytest.mark.parametrize("switch,origin",
+                         [("runaway", "runaway"), ("zero_opening", "zero-opening"), ("zero_speed", "zero-speed")])
 def test_each_boundary_can_be_switched_off(switch, origin):
     ext = extend_samples(CHART, ExtensionOptions(**{switch: False}))
     assert ext.counts()["q11"][origin] == 0 and ext.counts()["m11"][origin] == 0

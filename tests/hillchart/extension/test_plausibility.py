@@ -1,4 +1,4 @@
-"""Plausibility checks of a digitized chart (issue 9 section 5, issue 14): each mistake a digitizer makes gives an
+"""Plausibility checks of a digitized chart: each mistake a digitizer makes gives an
 InputError naming the file, the row and what looks wrong; the clean charts of the family pass."""
 
 import shutil
@@ -60,8 +60,9 @@ def test_fraction_efficiency_declared_percent(chart_dir):
 
 def test_litres_declared_cubic_metres(chart_dir):
     for name in ("flow.csv", "efficiency.csv", "runaway.csv"):
-        _edit(chart_dir, name, lambda ls: [ls[0]] + [",".join(r.split(",")[:2] + [f"{1000 * float(r.split(',')[2]):.1f}"])
-                                                     for r in ls[1:]])
+        _edit(chart_dir, name,
+              lambda ls: [ls[0]] + [",".join(r.split(",")[:2] + [f"{1000 * float(r.split(',')[2]):.1f}"])
+                                    for r in ls[1:]])
     with pytest.raises(InputError, match=r"flow.csv: Q11 up to 601.8 looks like l/s.*set q11_unit = \"l/s\""):
         check_chart(load_chart(chart_dir))
 
@@ -139,7 +140,8 @@ def test_contours_outside_the_lines(chart_dir):
 
 def test_values_near_1e308_are_range_errors(chart_dir):
     _edit(chart_dir, "flow.csv", lambda ls: ls[:5] + ["20.00,1e308,0.5"] + ls[6:])
-    with pytest.raises(InputError, match=r"flow.csv: row 6, column 'n11': 1e\+308 is out of range; allowed n11 >= 0 and n11 <= 1000"):
+    with pytest.raises(InputError, match=r"flow.csv: row 6, column 'n11': 1e\+308 is out of range; "
+                                         r"allowed n11 >= 0 and n11 <= 1000"):
         load_chart(chart_dir)
 
 

@@ -10,7 +10,8 @@ from scipy.spatial import distance
 from hillchart.synthetic.bulb import write_bulb_table
 from hillchart.errors import InputError
 from hillchart.fccm.analysis import analyse_fccm
-from hillchart.fccm.maps import efficiency_maps, grey_images, grey_relational_analysis, image_similarity, read_truth_csv, truth_acceptance, truth_comparison
+from hillchart.fccm.maps import (efficiency_maps, grey_images, grey_relational_analysis, image_similarity,
+                                 read_truth_csv, truth_acceptance, truth_comparison)
 from hillchart.fccm.net import FCCMNet, load_fccm_nets
 from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
@@ -57,9 +58,9 @@ def test_grey_relational_degrees_equal_a_direct_computation(run):
 def test_grey_relational_order_follows_the_physics(run):
     """Flow and power follow the blade angle: turning the blades sets the runner's exit angle and with it the
     flow the runner swallows (7.2 x over the blade range at beta = 59 deg, against 2.1 x over the guide-vane range
-    at a0 = 0, tests/hillchart/synthetic/test_bulb.py), and power follows flow. Head (which falls with flow on the water system) and
-    efficiency (humped) are not monotone in either control: their degrees stay near 0.65, the degree of unrelated
-    uniform sequences (1.5 ln 3 - 1), so their order carries little information."""
+    at a0 = 0, tests/hillchart/synthetic/test_bulb.py), and power follows flow. Head (which falls with flow on the water
+    system) and efficiency (humped) are not monotone in either control: their degrees stay near 0.65, the degree of
+    unrelated uniform sequences (1.5 ln 3 - 1), so their order carries little information."""
     _, metrics = run
     order = metrics["grey_relational_order"]
     assert order["flow_m3_s"]["blade_angle_deg"] == 1 and order["power_kw"]["blade_angle_deg"] == 1
@@ -137,7 +138,7 @@ def test_fccm_command_writes_everything(run):
 
 
 def test_acceptance_on_the_synthetic_bulb(run):
-    """Issue 11: each output's RMS on the dense truth grid <= 1.5 % of its range, the net below linear
+    """Accuracy bounds: each output's RMS on the dense truth grid <= 1.5 % of its range, the net below linear
     interpolation for >= 3 of 4 outputs (seed 0; measured 1.43 / 0.57 / 1.03 / 0.37 % against 5.5 / 2.1 / 5.5 /
     2.0 %)."""
     _, metrics = run

@@ -8,7 +8,8 @@ import pytest
 
 from hillchart.synthetic.bulb import SyntheticBulb
 from hillchart.errors import InputError
-from hillchart.fccm.double_regulated import DoubleRegulatedNets, bulb_chart_samples, load_double_regulated_nets, on_cam_relation, plot_on_cam, train_double_regulated_nets
+from hillchart.fccm.double_regulated import (DoubleRegulatedNets, bulb_chart_samples, load_double_regulated_nets,
+                                             on_cam_relation, plot_on_cam, train_double_regulated_nets)
 from hillchart.nets.hill_nets import load_nets
 
 
@@ -122,7 +123,8 @@ def test_evaluating_the_three_input_nets_does_not_import_torch(trained, tmp_path
 
     repo = Path(__file__).resolve().parents[3]
     path = trained[1].save(tmp_path / "bulb_nets.json")
-    code = ("import sys; from hillchart.fccm.double_regulated import load_double_regulated_nets as L; n = L(sys.argv[1]); "
+    code = ("import sys; from hillchart.fccm.double_regulated import load_double_regulated_nets as L; "
+            "n = L(sys.argv[1]); "
             "n.efficiency(160.0, 55.0, 0.0); n.q11_grad(160.0, 55.0, 0.0); "
             "assert 'torch' not in sys.modules, 'torch was imported'")
     done = subprocess.run([sys.executable, "-c", code, str(path)], cwd=repo, capture_output=True, text=True,

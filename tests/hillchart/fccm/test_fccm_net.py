@@ -19,7 +19,8 @@ def smooth_data(n=150, seed=0):
     rng = np.random.default_rng(seed)
     X = np.column_stack([rng.uniform(-18, 16, n), rng.uniform(40, 78, n)])
     a, b = (X[:, 0] + 1) / 17, (X[:, 1] - 59) / 19
-    Y = np.column_stack([0.9 - 0.1 * (a - 0.2 * b) ** 2 - 0.05 * b ** 2, 12 - 2 * a * (1 + 0.3 * b), 5000 + 3000 * a + 800 * b,
+    Y = np.column_stack([0.9 - 0.1 * (a - 0.2 * b) ** 2 - 0.05 * b ** 2, 12 - 2 * a * (1 + 0.3 * b),
+                         5000 + 3000 * a + 800 * b,
                          60 + 40 * a + 15 * b + 5 * a * b])
     return X, Y
 
@@ -72,7 +73,8 @@ def test_hidden_size_rule_and_split():
 def fitted():
     X, Y = smooth_data()
     net = FCCMNet(seed=0, restarts=2, c_values=(2, 4, 6, 8)).fit(
-        X, Y, input_names=["blade_angle_deg", "guide_vane_deg"], output_names=["efficiency", "head_m", "power_kw", "flow_m3_s"])
+        X, Y, input_names=["blade_angle_deg", "guide_vane_deg"],
+        output_names=["efficiency", "head_m", "power_kw", "flow_m3_s"])
     return X, Y, net
 
 
@@ -125,7 +127,7 @@ def test_json_round_trip_and_the_documented_formula(fitted, tmp_path):
                               "b1", "W2", "b2"]
     assert doc["format"] == "hillsim.fccm" and doc["version"] == 1
     assert len(doc["W1"]) == net.hidden_ and len(doc["W1"][0]) == 2 and len(doc["W2"]) == 4
-    # the formula of issue 11, written out independently of the package
+    # the net's formula (normalize, tanh hidden layer, linear output), written out independently of the package
     x = X[:7]
     xn = 2 * (x - doc["x_min"]) / (np.array(doc["x_max"]) - doc["x_min"]) - 1
     h = 1 / (1 + np.exp(-(xn @ np.array(doc["W1"]).T + doc["b1"])))

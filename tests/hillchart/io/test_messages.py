@@ -1,4 +1,4 @@
-"""Issue 14 "Messages": byte-order marks, semicolon/tab files, one row convention, no numpy reprs, rows named."""
+"""Input messages: byte-order marks, semicolon/tab files, one row convention, no numpy reprs, rows named."""
 
 import shutil
 import warnings
@@ -90,7 +90,8 @@ def test_semicolon_file_with_mixed_separators_is_refused(chart_copy):
 
 
 def test_one_row_convention_the_file_line(tmp_path):
-    """Issue 14: a NaN reported 'row 300' where an empty cell on the same line reported 'line 302'."""
+    """A NaN and an empty cell on the same line report the same line (a NaN once reported 'row 300' where an
+    empty cell on the same line reported 'line 302')."""
     rows = [",".join(MEASURED_COLUMNS)] + [f"{0.1 * i:.1f},200,176,0.68,1.1e7,142" for i in range(400)]
     rows.insert(5, "")  # a blank line: rows below it keep their file line numbers
     for cell, expected in (("nan", "value must be finite, got 'nan'"), ("", "not a number: ''")):
@@ -124,7 +125,7 @@ def test_chart_row_numbers_are_file_lines(chart_copy):
 
 
 def test_no_numpy_reprs_in_messages():
-    """Issue 14: 'got np.float64(0.0)'."""
+    """Messages show plain numbers, never numpy reprs such as 'got np.float64(0.0)'."""
     t = np.arange(20) * 0.1
     with pytest.raises(InputError) as exc:
         RelativeSeries.from_physical(t, 200 + 0 * t, 176 + 0 * t, 0.5 + 0 * t, 0 * t, 140 + 0 * t,
@@ -160,7 +161,7 @@ def _with_blank_lines(path, edit):
 
 
 def test_chart_range_and_duplicate_messages_name_file_lines_below_blank_lines(chart_copy):
-    """Issue 14: one row convention (the file's line number) in every chart message, blank lines counted. Line 30
+    """One row convention (the file's line number) in every chart message, blank lines counted. Line 30
     is below three blank lines: a convention counting data rows would say row 26 or 27."""
     path = chart_copy / "flow.csv"
     original = path.read_text()

@@ -1,4 +1,5 @@
-"""Hill-chart figures and the plausibility checks behind them (synthetic chart and the real Sayano-Shushenskaya chart)."""
+"""Hill-chart figures and the plausibility checks behind them (synthetic chart and the real Sayano-Shushenskaya
+chart)."""
 
 import warnings
 from pathlib import Path

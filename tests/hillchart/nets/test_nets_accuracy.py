@@ -1,4 +1,4 @@
-"""Issue 3 section 4: the nets against the exact synthetic Francis turbine (truth.csv), and the shipped nets.json.
+"""Accuracy bounds: the nets against the exact synthetic Francis turbine (truth.csv), and the shipped nets.json.
 
 "Measured region" = convex hull, in (N11, a), of the digitized opening-line points; percentages are of the truth's
 Q11 (or M11) range inside that region (the stricter reading: the whole-domain range is about twice as large).
@@ -37,7 +37,7 @@ def truth_and_mask(chart):
 
 def assert_issue_bounds(nets, truth, inside):
     errs = truth_errors(nets, truth, inside)
-    # issue 3 section 4 bounds, as stated: Q11 RMS <= 0.5 %, max <= 2 %, M11 RMS <= 1 % of the range
+    # the accuracy bounds the product promises: Q11 RMS <= 0.5 %, max <= 2 %, M11 RMS <= 1 % of the range
     assert errs["q11"]["rms_measured_pct"] <= 0.5, errs["q11"]
     assert errs["q11"]["max_measured_pct"] <= 2.0, errs["q11"]
     assert errs["m11"]["rms_measured_pct"] <= 1.0, errs["m11"]
@@ -54,8 +54,9 @@ def test_measured_region_covers_the_digitized_lines(truth_and_mask):
 def test_shipped_nets_meet_the_accuracy_bounds(truth_and_mask):
     truth, inside = truth_and_mask
     errs = assert_issue_bounds(load_nets(CHART / "nets.json"), truth, inside)
-    # measured 2026-11 (see docs/nets.md, "Accuracy on the synthetic chart"): Q11 0.23 % RMS, 0.40 % max; M11 0.19 % RMS. A regression that
-    # doubles them would still pass the issue's bounds, so also pin them loosely (x2) to catch a degraded retrain.
+    # measured 2026-11 (see docs/nets.md, "Accuracy on the synthetic chart"): Q11 0.23 % RMS, 0.40 % max;
+    # M11 0.19 % RMS. A regression that doubles them would still pass the promised bounds, so also pin them loosely
+    # (x2) to catch a degraded retrain.
     assert errs["q11"]["rms_measured_pct"] < 0.46 and errs["m11"]["rms_measured_pct"] < 0.40
 
 

@@ -1,4 +1,4 @@
-"""nets.json with an ensemble (issue 9 section 4) and nets.json loading that never ends in a traceback (issue 10 s5)."""
+"""nets.json with an ensemble, and nets.json loading that never ends in a traceback."""
 
 import json
 

@@ -1,4 +1,5 @@
-"""Sayano-Shushenskaya (real chart, ../shared/external) with ``hillsim train``'s defaults (issue 9 acceptance).
+"""Sayano-Shushenskaya (real chart, ../shared/external) with ``hillsim train``'s defaults (acceptance
+bounds on a real chart).
 Skips without the external data."""
 
 import warnings
@@ -36,8 +37,9 @@ def test_sayano_trains_with_defaults_without_error_or_warning(tmp_path, capsys):
                        np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 120))
     inside = measured_region_mask(chart.flow_n11, chart.flow_opening, n, a)
     eta_best = float(np.nanmax(chartplot.efficiency_from_characteristics(nets, n[inside], a[inside])))
-    # issue 9: within 0.015 of the best digitized contour (0.922); measured 0.915. Above the contour + 0.01 would be
-    # the plausibility error that train raises; the paper's polynomial boundaries gave 1.04-1.12 here.
+    # the acceptance bound: within 0.015 of the best digitized contour (0.922); measured 0.915. Above the
+    # contour + 0.01 would be the plausibility error that train raises; the paper's polynomial boundaries gave
+    # 1.04-1.12 here.
     assert 0.922 - 0.015 <= eta_best <= 0.922 + 0.01
     # the trained nets run a full-gate load rejection with default solver settings (a unit of the chart's size on a
     # 7.5 m penstock): before the pressure loop's tolerance floor and fallback, the improved loop stopped at a head
@@ -51,7 +53,8 @@ def test_sayano_trains_with_defaults_without_error_or_warning(tmp_path, capsys):
         "turbine.runner_diameter_m": 6.77, "turbine.rated_power_mw": 640.0, "turbine.rated_flow_m3_s": 358.0,
         "turbine.opening_max": 58.0, "penstock.static_head_m": 198.0, "generator.inertia_time_s": 8.0,
         "penstock.segments": [{"length_m": 220.0, "diameter_m": 7.5, "wave_speed_m_s": 1100.0, "darcy_friction": 0.012},
-                              {"length_m": 100.0, "diameter_m": 7.0, "wave_speed_m_s": 1150.0, "darcy_friction": 0.012}],
+                              {"length_m": 100.0, "diameter_m": 7.0, "wave_speed_m_s": 1150.0,
+                               "darcy_friction": 0.012}],
         "scenario.initial_power_mw": None, "scenario.initial_opening": 1.0, "scenario.t_end_s": 30.0})
     run = run_simulation(plant)
     assert run.success and 0.3 < run.summary()["max_speed_rise"] < 0.8  # a rejection that did happen

@@ -1,5 +1,5 @@
 """Training, loading and evaluating nets must not import torch: torch is a test dependency only (the autograd check of
-the compiled Levenberg-Marquardt Jacobian); importing it costs about 1 s of start-up (issue 9, start-up time)."""
+the compiled Levenberg-Marquardt Jacobian); importing it costs about 1 s of start-up."""
 
 import os
 import subprocess

@@ -1,10 +1,12 @@
-"""The synthetic double-regulated bulb turbine and its model-test table (hillchart.synthetic.bulb, hillsim synth --turbine bulb)."""
+"""The synthetic double-regulated bulb turbine and its model-test table (hillchart.synthetic.bulb,
+hillsim synth --turbine bulb)."""
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from hillchart.synthetic.bulb import (BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, TABLE_COLUMNS, TRUTH_COLUMNS, BulbParameters,
+from hillchart.synthetic.bulb import (BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, TABLE_COLUMNS, TRUTH_COLUMNS,
+                                      BulbParameters,
                             SyntheticBulb, write_bulb_table)
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError

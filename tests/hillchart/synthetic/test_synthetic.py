@@ -1,4 +1,4 @@
-"""The synthetic Francis turbine: physics sanity against the issue's HLA339 targets, exact derivatives, and the
+"""The synthetic Francis turbine: physics sanity against HLA339-like targets, exact derivatives, and the
 shipped chart regenerating (to a tolerance across CPUs, bit for bit on one machine)."""
 
 import filecmp
@@ -31,7 +31,7 @@ def test_is_a_characteristics_object():
 
 def test_best_efficiency_in_the_issue_window():
     eta, n11, _ = _best_efficiency_point()
-    assert 0.92 <= eta <= 0.94  # issue 2: best efficiency 0.92-0.94 ...
+    assert 0.92 <= eta <= 0.94  # the HLA339-like target: best efficiency 0.92-0.94 ...
     assert 60 <= n11 <= 70  # ... at N11 60-70
 
 
@@ -39,7 +39,7 @@ def test_best_efficiency_in_the_issue_window():
 def test_runaway_ratio(opening):
     _, n11_best, _ = _best_efficiency_point()
     ratio = TURBINE.runaway_n11(opening) / n11_best
-    assert 1.6 <= ratio <= 2.2  # issue 2: runaway N11 1.6-2.2 times the best-efficiency N11
+    assert 1.6 <= ratio <= 2.2  # the HLA339-like target: runaway N11 1.6-2.2 times the best-efficiency N11
     assert abs(float(TURBINE.m11(TURBINE.runaway_n11(opening), opening))) < 1e-9
 
 

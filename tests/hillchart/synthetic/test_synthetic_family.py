@@ -1,4 +1,4 @@
-"""The synthetic Francis family (issue 9 section 1): three geometries spanning specific speed, digitization options,
+"""The synthetic Francis family: three geometries spanning specific speed, digitization options,
 byte-identical reproducibility, ``hillsim synth --turbine``."""
 
 import filecmp
@@ -27,7 +27,7 @@ def test_each_turbine_is_in_the_issue_window(name):
     member = FAMILY[name]
     turbine = member.turbine()
     eta, n11_best, _ = _best_point(turbine)
-    assert 0.90 <= eta <= 0.95  # issue 9 section 1: BEP efficiency 0.90-0.95
+    assert 0.90 <= eta <= 0.95  # the family's window: BEP efficiency 0.90-0.95
     ratios = [turbine.runaway_n11(a) / n11_best for a in member.layout.runaway_openings_mm]
     assert 1.5 <= min(ratios) and max(ratios) <= 2.6  # runaway/BEP N11 ratio 1.5-2.6 on the whole runaway curve
     # at least 8 contour levels exist on the chart (a level above the true best is simply not drawn)

@@ -5,7 +5,8 @@ import pytest
 import scipy.signal
 
 from hillchart.errors import InputError
-from simulate.components.control.discrete_servo import (DiscreteServoConfig, check_servo_step, discrete_servo_parameters,
+from simulate.components.control.discrete_servo import (DiscreteServoConfig, check_servo_step,
+                                                        discrete_servo_parameters,
                                      discrete_servo_step, initial_servo_state)
 
 

@@ -13,8 +13,10 @@ import scipy.integrate
 import scipy.linalg
 
 from hillchart.errors import InputError, NumericalError
-from simulate.components.control.excitation import ExcitationConfig, excitation_parameters, excitation_step, initial_excitation_state
-from simulate.components.electrical.generator import (GEN_OUTPUTS, O_ID, O_IQ, O_PE, O_TE, O_VT, GridConfig, SubtransientGeneratorConfig,
+from simulate.components.control.excitation import (ExcitationConfig, excitation_parameters, excitation_step,
+                                                    initial_excitation_state)
+from simulate.components.electrical.generator import (GEN_OUTPUTS, O_ID, O_IQ, O_PE, O_TE, O_VT, GridConfig,
+                                SubtransientGeneratorConfig,
                                 classical_short_circuit_current, electrical_from_dict, field_step_test,
                                 generator_derivatives, initial_generator_state, load_electrical, network_solution,
                                 short_circuit_test, simulate_generator)
@@ -459,7 +461,8 @@ def test_compiled_equals_pure_python_with_numba_disabled(tmp_path):
 
     script = (
         "import numpy as np, importlib.resources as ir, sys\n"
-        "from simulate.components.electrical.generator import load_electrical, initial_generator_state, simulate_generator\n"
+        "from simulate.components.electrical.generator import load_electrical, initial_generator_state, "
+        "simulate_generator\n"
         "e = load_electrical(ir.files('data_synthetic') / 'generator_table1.toml')\n"
         "st = initial_generator_state(e.generator, e.grid, airgap_power_pu=0.7, voltage_pu=1.0)\n"
         "r = simulate_generator(e.generator, e.grid, t_end_s=1.0, dt_s=0.02, steady=st, excitation=e.excitation,\n"

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from hillchart.errors import NumericalError
-from simulate.components.turbine.boundary import (NO_POSITIVE_HEAD, NOT_CONVERGED, OK, quadratic_flow, solve_improved, solve_newton,
+from simulate.components.turbine.boundary import (NO_POSITIVE_HEAD, NOT_CONVERGED, OK, quadratic_flow, solve_improved,
+                               solve_newton,
                                solve_traditional)
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation

@@ -1,4 +1,4 @@
-"""The component seams (issue 10, section 1): a characteristics kernel on the control vector, a loop that names no
+"""The component seams: a characteristics kernel on the control vector, a loop that names no
 model, registries, threads (nogil)."""
 
 import threading
@@ -117,7 +117,8 @@ def test_a_kernel_without_a_source_file_runs_uncached():
     sys.modules[mod.__name__] = mod
     try:
         src = ("import numba\n@numba.njit\ndef k(params, n11, controls):\n"
-               "    q = params[0] / params[1] * controls[0]\n    m = params[2] * q / n11\n    return q, 0.0, m, -m / n11\n")
+               "    q = params[0] / params[1] * controls[0]\n    m = params[2] * q / n11\n"
+               "    return q, 0.0, m, -m / n11\n")
         exec(src, mod.__dict__)
         mod.k.__module__ = mod.__name__
         plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 5.0})

@@ -7,7 +7,8 @@ import pytest
 from scipy import signal
 
 from simulate.config import PenstockConfig, PenstockSegment
-from simulate.components.hydraulic.penstock import (build_moc_grid, iir_coefficients, iir_step, iir_turbine_relation, moc_steady_state,
+from simulate.components.hydraulic.penstock import (build_moc_grid, iir_coefficients, iir_step, iir_turbine_relation,
+                               moc_steady_state,
                                moc_step, moc_turbine_relation, zdomain_coefficients, zdomain_original)
 
 

@@ -1,4 +1,4 @@
-"""Headrace tunnel + surge tank as a new component (issue 10, section 2): analytic mass oscillation, friction decay,
+"""Headrace tunnel + surge tank as a pluggable component: analytic mass oscillation, friction decay,
 the example plant through the CLI, and garbage in the [surge_tank] section."""
 
 import csv
@@ -17,7 +17,7 @@ from simulate.config import load_plant, plant_from_dict, to_dict
 from simulate.loop.engine import run_simulation
 
 SURGE_PLANT = Path(PLANT_HLA339).parent / "plant_hla339_surge_tank.toml"
-#: the issue's section, spelled as in the contract
+#: the [surge_tank] section, spelled as in the documented file layout
 TANK = {"surge_tank.area_m2": 100.0, "surge_tank.throttle_loss_coefficient": 0.0,
         "surge_tank.tunnel_length_m": 1000.0, "surge_tank.tunnel_diameter_m": 3.5,
         "surge_tank.tunnel_darcy_friction": 0.0}
@@ -58,7 +58,7 @@ def test_frictionless_mass_oscillation_matches_the_analytic_amplitude_and_period
     downs = times[direction < 0]
     measured_period = downs[1] - downs[0]
     errors = {"rise": rise / amplitude - 1, "fall": fall / amplitude - 1, "period": measured_period / period - 1}
-    # 0.5 %: the issue's bound; symplectic Euler at omega dt = 6e-4 is good to ~1e-4 (measured: 3e-8)
+    # 0.5 %: the promised accuracy; symplectic Euler at omega dt = 6e-4 is good to ~1e-4 (measured: 3e-8)
     assert max(abs(e) for e in errors.values()) < 5e-3, errors
     print("surge tank errors vs analytic:", errors)
 

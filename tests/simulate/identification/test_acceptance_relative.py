@@ -1,4 +1,4 @@
-"""Acceptance that can fail (issue 12 section 3): identification errors judged relative to the experiment."""
+"""Acceptance that can fail: identification errors judged relative to the experiment."""
 
 from data_synthetic import PLANT_HLA339
 from simulate.config import load_plant

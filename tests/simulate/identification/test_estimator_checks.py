@@ -1,4 +1,4 @@
-"""Issue 13: the identification estimators against scikit-learn's ``check_estimator``; every exception documented.
+"""The identification estimators against scikit-learn's ``check_estimator``; every exception documented.
 
 Each test runs the whole check suite; the checks listed below are expected to fail, for the reason given, and every
 other check must pass (a new failure, e.g. a lost ``n_features_in_``, fails the test).
@@ -10,7 +10,8 @@ import pytest
 
 sklearn_checks = pytest.importorskip("sklearn.utils.estimator_checks")
 
-from simulate.identification.estimators import ArmaLeastSquares, DeadZoneRLS, RecursiveLeastSquares, SixCoefficientLeastSquares  # noqa: E402
+from simulate.identification.estimators import (ArmaLeastSquares, DeadZoneRLS, RecursiveLeastSquares,  # noqa: E402
+                                               SixCoefficientLeastSquares)
 
 WORDING = ("hillsim raises InputError (a ValueError) naming the argument and the bad value; scikit-learn's check "
            "wants its own wording")
@@ -84,6 +85,6 @@ def test_check_estimator_with_documented_exceptions(estimator, expected):
     assert {"check_get_params_invariance", "check_set_params", "check_no_attributes_set_in_init",
             "check_parameters_default_constructible"} <= passed
     if isinstance(estimator, (RecursiveLeastSquares, DeadZoneRLS)):
-        # ... and, for the generic recursive estimators, n_features_in_ and the regression checks (issue 13)
+        # ... and, for the generic recursive estimators, n_features_in_ and the regression checks pass
         assert {"check_n_features_in", "check_regressors_train", "check_fit_idempotent",
                 "check_complex_data", "check_estimators_empty_data_messages"} <= passed

@@ -1,4 +1,4 @@
-"""Identification on the nonlinear simulator vs the nets' linear model (issue 5 acceptance) and ``hillsim identify``.
+"""Identification on the nonlinear simulator vs the nets' linear model (the acceptance bounds) and ``hillsim identify``.
 
 The shipped HLA339-like plant with the shipped synthetic nets, operating near rated opening (stroke 0.68, ~225 MW).
 A shortened experiment (steps held 25 s, 60 s of PRBS, 40 s quiet) keeps each run to a few seconds.
@@ -54,8 +54,8 @@ def test_acceptance_with_the_matching_penstock_model(reports, model):
     # each check carries the number it judged and its bound: the same numbers as above
     assert s.acceptance.batch_ls.value == six.max_abs_batch_ls_minus_nets and s.acceptance.batch_ls.bound == 0.02
     assert s.acceptance.rls_step_response.value == s.arx.rls.step_error_vs_nets
-    assert s.acceptance.rls_simulation_mode.bound == 0.05  # a fraction of the largest speed deviation (issue 12)
-    # and the nets agree with the exact turbine the chart was drawn from (issue 5: within 0.05)
+    assert s.acceptance.rls_simulation_mode.bound == 0.05  # a fraction of the largest speed deviation
+    # and the nets agree with the exact turbine the chart was drawn from (coefficients within 0.05)
     assert six.max_abs_nets_minus_exact < 0.05
     # the linear model is the one that matches the simulator's penstock
     assert s.linear_model.startswith("inelastic" if model == "rigid" else "elastic")

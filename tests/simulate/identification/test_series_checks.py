@@ -1,4 +1,4 @@
-"""Issue 14: measured series in the wrong units, outliers, memory; issue 13: identify's honest report."""
+"""Measured series in the wrong units, outliers, memory; identify's honest report."""
 
 import math
 from pathlib import Path
@@ -15,7 +15,8 @@ from simulate.identification.results import (ArxEstimate, ArxResults, ArxStructu
                                              SixCoefficientResult, to_json_dict)
 from simulate.identification.tables import markdown_tables
 from simulate.identification.measured import MEASURED_COLUMNS, OperatingPoint, load_measured_series
-from simulate.identification.series_checks import (check_against_plant, check_measured_table, check_time, hampel_outliers,
+from simulate.identification.series_checks import (check_against_plant, check_measured_table, check_time,
+                                    hampel_outliers,
                                     small_signal_warning)
 
 REPO = Path(__file__).resolve().parents[3]
@@ -46,7 +47,7 @@ def test_a_plausible_series_passes():
 
 @pytest.mark.parametrize("scale, unit", [(100.0, "%"), (32.0, "mm")])
 def test_opening_in_percent_or_chart_units_is_refused(scale, unit):
-    """Issue 14: opening at 68x full stroke gave eqy 4.8e-177 and exit 0."""
+    """An opening at 68x full stroke must be refused (it once gave eqy 4.8e-177 and exit 0)."""
     cols = _columns()
     cols["opening"] = cols["opening"] * scale
     with pytest.raises(InputError, match=r"s.csv: column 'opening' must be the stroke fraction in \[0, 1.5\].*"
@@ -56,7 +57,7 @@ def test_opening_in_percent_or_chart_units_is_refused(scale, unit):
 
 @pytest.mark.parametrize("factor, unit", [(1e3, "ms"), (1e6, "us")])
 def test_time_in_ms_or_us_is_refused_with_the_likely_unit(factor, unit):
-    """Issue 14: time in us was killed for memory at 24 GB."""
+    """Time in us must be refused before resampling (it once was killed for memory at 24 GB)."""
     cols = _columns()
     cols["time_s"] = cols["time_s"] * factor
     with pytest.raises(InputError, match=rf"median sampling interval is {0.02 * factor:g} s.*is time in {unit}\? "
@@ -72,7 +73,7 @@ def test_memory_estimate_refuses_a_huge_resampling():
 
 
 def test_outliers_are_named_by_row(tmp_path):
-    """Issue 14: samples of 1e308 or -200 r/min disappeared in resampling without a word."""
+    """Samples of 1e308 or -200 r/min are reported, never dropped in resampling without a word."""
     cols = _columns()
     cols["head_m"][100] = 1e308
     with pytest.raises(InputError, match=r"s.csv: column 'head_m': isolated outlier\(s\) at row 102 \(values 1e\+308"):
@@ -170,7 +171,7 @@ def _summary(theta, *, quiet_s=100.0):
 
 
 def test_unstable_model_is_said_not_printed_as_a_huge_number():
-    """Issue 13: an unstable identified model printed 332826844722642498355200.0000."""
+    """An unstable identified model is reported as unstable (it once printed 332826844722642498355200.0000)."""
     unstable = [2.1, -1.05, 0.0, 0.01, 0.0, 0.0]  # z^3 - 2.1 z^2 + 1.05 z: poles (2.1 +- sqrt(0.21)) / 2 and 0
     assert _summary(unstable).arx.rls.pole_modulus() == pytest.approx((2.1 + math.sqrt(0.21)) / 2, rel=1e-12)
     summary, notes = review_summary(_summary(unstable), _Series(0.01), ExperimentSettings())

@@ -1,4 +1,4 @@
-"""The sub-transient generator plugged into the plant loop (issue 12 section 1): ``[generator] model``, the
+"""The sub-transient generator plugged into the plant loop: ``[generator] model``, the
 ``[excitation]``/``[grid]`` sections, every scenario kind with both generator models, the short-circuit and
 field-step kinds against the standalone drivers, the extra columns, compiled = Python, paper 001 eq. (14) through
 the CLI, garbage in the new keys."""
@@ -14,7 +14,8 @@ from data_synthetic import PLANT_HLA339, PLANT_HLA339_GRID
 from hillchart.errors import InputError, NumericalError
 from simulate.config import load_plant, plant_from_dict, to_dict
 from simulate.loop.engine import run_simulation
-from simulate.components.electrical.generator import (classical_short_circuit_current, field_step_test, frequency_recovery_time,
+from simulate.components.electrical.generator import (classical_short_circuit_current, field_step_test,
+                                frequency_recovery_time,
                                 short_circuit_test)
 
 IDEAL = {"turbine.characteristics": "ideal"}
@@ -343,7 +344,8 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
     bus = {"grid.kind": "infinite-bus", "grid.load_model": None, "grid.load_power_factor": None,
            "grid.frequency_p": None, "grid.frequency_q": None, "grid.x_line_pu": 0.3, "grid.bus_voltage_pu": 1.0,
            "scenario.kind": "opening-steps", "scenario.t_end_s": 2.0, "penstock.model": "rigid"}
-    # omega_n = 7.15 rad/s here (1.14 Hz, the mode measured in tests/simulate/components/test_generator.py at P 0.8: 1.145 Hz)
+    # omega_n = 7.15 rad/s here (1.14 Hz, the mode measured in tests/simulate/components/test_generator.py at P 0.8:
+    # 1.145 Hz)
     assert not any("electromechanical" in w for w in
                    run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.02})).summary()["warnings"])
     warned = run_simulation(grid_plant(**bus, **{"solver.dt_s": 0.05})).summary()["warnings"]

@@ -1,5 +1,5 @@
 """Runs that cannot finish, cannot fit or cannot be trusted are refused before they start; long runs can be decimated
-and interrupted (issue 10 section 5, issue 14)."""
+and interrupted, with messages that name what to change."""
 
 import os
 import signal
@@ -21,7 +21,7 @@ IDEAL = {"turbine.characteristics": "ideal"}
 
 
 def test_tiny_wave_speed_is_refused_naming_the_inertia_time():
-    """Issue 14: wave speed 1 m/s gave '3 steps of 22.5 s, max speed rise 250 %'."""
+    """Wave speed 1 m/s is refused (it once gave '3 steps of 22.5 s, max speed rise 250 %')."""
     plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.segments": [
         {"length_m": 180.0, "diameter_m": 5.6, "wave_speed_m_s": 1.0, "darcy_friction": 0.012}]})
     with pytest.raises(InputError, match=r"time step dt = 22\.5 s is not small against generator\.inertia_time_s "
@@ -30,7 +30,7 @@ def test_tiny_wave_speed_is_refused_naming_the_inertia_time():
 
 
 def test_coarse_rigid_step_is_refused_and_a_moderate_one_warned():
-    """Issue 14: a rigid penstock with dt_s = 10 gave '6 steps of 10 s, max speed rise 111 %'."""
+    """A rigid penstock with dt_s = 10 is refused (it once gave '6 steps of 10 s, max speed rise 111 %')."""
     with pytest.raises(InputError, match=r"dt = 10 s is not small against penstock water time Tw .* = 1\.47\d* s "
                                          r"\(allowed dt <= 0\.5 x"):
         run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "penstock.model": "rigid", "solver.dt_s": 10.0}))
@@ -73,7 +73,7 @@ def test_a_fast_servo_on_the_moc_grid_is_sub_stepped_not_refused():
 
 
 def test_huge_runs_are_refused_with_the_estimate_and_the_key():
-    """Issue 10: 10 000 reaches and t_end 1e5 s tried to allocate 48.8 GiB."""
+    """10 000 reaches and t_end 1e5 s are refused before allocating (they once tried to allocate 48.8 GiB)."""
     plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.reaches": 10000, "scenario.t_end_s": 1e5})
     with pytest.raises(InputError, match=r"the run needs 6\.55\d*e\+09 steps x \(\d+ nodes \+ 100 for the step\) = "
                                          r".* more than solver\.max_node_steps = 3e\+10.*raise solver\.max_node_steps"):
@@ -144,8 +144,9 @@ def test_ctrl_c_stops_a_long_run_within_about_a_second(tmp_path):
 
 
 def test_absurd_penstock_gives_a_clean_error_not_a_math_domain_error():
-    """Issue 10: a penstock of 1e9 m ended in 'math domain error' in the steady state."""
-    with pytest.raises(InputError, match=r"penstock\.segments\.length_m must be in \(0\.0, 100000\.0\], got 1000000000\.0 "
+    """A penstock of 1e9 m is refused by name (it once ended in 'math domain error' in the steady state)."""
+    with pytest.raises(InputError, match=r"penstock\.segments\.length_m must be in \(0\.0, 100000\.0\], "
+                                         r"got 1000000000\.0 "
                                          r"\(segment 0"):
         load_plant(PLANT_HLA339, {"penstock.segments": [
             {"length_m": 1e9, "diameter_m": 6.0, "wave_speed_m_s": 1100.0, "darcy_friction": 0.012}]})

@@ -1,8 +1,8 @@
 """Known-good run with pinned settings: the shipped plant's load rejection against a stored CSV.
 
 ``tests/data/reference_nets.json`` is a pinned copy of the shipped nets (the shipped file may be retrained);
-``tests/data/reference_load_rejection.csv`` was written by the simulator before the component refactor (issue 10,
-section 1) with 17 significant digits. The refactor must not change the arithmetic: agreement to 1e-12 relative.
+``tests/data/reference_load_rejection.csv`` was written by the simulator before the component refactor
+with 17 significant digits. The refactor must not change the arithmetic: agreement to 1e-12 relative.
 """
 
 from pathlib import Path
@@ -16,7 +16,7 @@ from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 
 DATA = Path(__file__).resolve().parents[2] / "data"
-#: 1e-12 relative: the issue's bound. Round-off of a reordered but equivalent sum is ~1e-15 per operation and the
+#: 1e-12 relative: the promised bound. Round-off of a reordered but equivalent sum is ~1e-15 per operation and the
 #: trajectory is not chaotic, so any change of the model (even one ulp-level constant) exceeds it over 3147 steps.
 RTOL = 1e-12
 
@@ -59,7 +59,8 @@ def test_reference_check_detects_a_changed_model(result):
     from dataclasses import replace
 
     plant = load_plant(PLANT_HLA339, {"solver.substeps": 1})
-    plant = replace(plant, generator=replace(plant.generator, inertia_time_s=plant.generator.inertia_time_s * (1 + 1e-9)))
+    plant = replace(plant, generator=replace(plant.generator,
+                                             inertia_time_s=plant.generator.inertia_time_s * (1 + 1e-9)))
     changed = run_simulation(plant, characteristics=load_nets(DATA / "reference_nets.json"))
     header, ref = _reference()
     assert max(compare(changed, header, ref).values()) > RTOL

@@ -1,4 +1,4 @@
-"""Fast start (issue 10, section 3): what simulating, linearizing and identifying import, and the disk cache.
+"""Fast start: what simulating, linearizing and identifying import, and the disk cache.
 
 Each check runs a fresh interpreter, because ``sys.modules`` of the test process holds whatever other tests imported.
 """
@@ -39,7 +39,7 @@ def test_the_same_check_sees_an_import(tmp_path):
 
 
 def test_simulating_and_linearizing_with_the_shipped_nets_import_no_torch(tmp_path):
-    """Needs the nets branch (issue 9: hillchart.nets.hill_nets evaluates without importing torch); fails before that merge."""
+    """hillchart.nets.hill_nets evaluates the nets without importing torch."""
     loaded = _modules_after(
         "from data_synthetic import PLANT_HLA339\n"
         "from simulate.config import load_plant\nfrom simulate.loop.engine import run_simulation\n"

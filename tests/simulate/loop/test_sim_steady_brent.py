@@ -1,4 +1,5 @@
-"""simulate.loop.steady.brentq: scipy.optimize.brentq's algorithm without importing scipy.optimize (issue 10, section 3).
+"""simulate.loop.steady.brentq: scipy.optimize.brentq's algorithm without importing scipy.optimize
+(start-up time).
 
 The port must return scipy's root to the bit (the steady state, and so the stored reference run, depends on it),
 take the same number of function calls, and fail where scipy fails.

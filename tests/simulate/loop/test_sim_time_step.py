@@ -41,7 +41,7 @@ def tnet0_plant(reaches: int) -> PlantConfig:
 
 
 def test_tnet0_two_pipe_valve_runs_on_ten_reaches_without_warning():
-    # the valve's max / min head of a commercial code: 761.8 / 738.3 m; +-0.3 m is the bound (the closure
+    # the valve's max / min head of a commercial code: 761.8 / 738.3 m; +-0.3 m is the promised bound (the closure
     # takes 2 s against 1 s of travel per pipe, so 10 reaches per pipe resolve it). The MOC is exact on its grid: a
     # rigid-column yardstick (Tw = 0.04 s here) does not apply and nothing is refused or warned.
     run = run_simulation(tnet0_plant(10))
@@ -68,7 +68,7 @@ def _exact_fault_current(gen, e0, tau):
 def test_default_short_circuit_matches_eq10_from_5_ms_and_starts_at_the_event(model):
     # the sub-transient generator of Table 1 (generator_table1.toml's constants in the grid plant), fault at 0.5 s,
     # default solver settings. Rigid: the step is chosen from T''q (1.04 ms) and put on the event; MOC: the grid's
-    # 19 ms step, the generator sub-stepped and its step split at the fault. The bound is 1 % from 5 ms
+    # 19 ms step, the generator sub-stepped and its step split at the fault. The promised bound is 1 % from 5 ms
     # after the fault; measured 6e-10 (RK4 error only). Before: 43 ms steps, the fault at 0.522 s, 4.8 % off.
     plant = load_plant(PLANT_HLA339_GRID, {**IDEAL, "penstock.model": model, "scenario.kind": "short-circuit",
                                            "scenario.event_time_s": 0.5, "scenario.t_end_s": 1.5})

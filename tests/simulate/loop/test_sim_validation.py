@@ -1,4 +1,4 @@
-"""Validation of the transient simulator (issue 4, section 7): analytic truth and cross-checks."""
+"""Validation of the transient simulator: analytic truth and cross-checks."""
 
 from dataclasses import replace
 from importlib import resources
@@ -52,7 +52,7 @@ def test_joukowsky_head_rise_and_period(split):
     h0, q0 = result.head_m[0], result.flow_m3_s[0]
     v0 = q0 / (np.pi * diameter ** 2 / 4)
     rise = result.head_m.max() - h0
-    # 0.5 % is the issue's bound; frictionless MOC at Courant 1 is exact up to rounding
+    # 0.5 % is the promised accuracy; frictionless MOC at Courant 1 is exact up to rounding
     assert rise == pytest.approx(a * v0 / G_M_S2, rel=5e-3)
     assert rise == pytest.approx(a * v0 / G_M_S2, rel=1e-9)
     # period from the upward crossings of H0 (square wave): 4 L / a within one time step
@@ -71,12 +71,13 @@ def test_joukowsky_head_rise_and_period(split):
 @pytest.mark.parametrize("turbine", ["ideal", "synthetic", "nets"])
 def test_three_pressure_loops_give_the_same_trajectory(turbine):
     # The example load rejection (MOC): all three loops converge to 1e-10 of the rated head each step, so the
-    # trajectories agree far inside the issue's 1e-6 relative. The traditional loop needs relaxation 0.5 here
+    # trajectories agree far inside the promised 1e-6 relative. The traditional loop needs relaxation 0.5 here
     # (|k dQ/dH| ~ 1.9 with alpha = 1 diverges, see benchmarks/bench_pressure_loop.py).
     chars = SyntheticFrancis() if turbine == "synthetic" else None
     runs = {}
     for loop in ("improved", "newton", "traditional"):
-        plant = example(**{"turbine.characteristics": "ideal" if turbine != "nets" else "francis/nets.json","solver.pressure_loop": loop, "solver.relaxation": 0.5 if loop == "traditional" else 1.0,
+        plant = example(**{"turbine.characteristics": "ideal" if turbine != "nets" else "francis/nets.json",
+                           "solver.pressure_loop": loop, "solver.relaxation": 0.5 if loop == "traditional" else 1.0,
                            "scenario.t_end_s": 30.0 if turbine == "ideal" else 15.0})
         runs[loop] = run_simulation(plant, chars)
     ref = runs["improved"]
@@ -95,7 +96,7 @@ def test_three_pressure_loops_give_the_same_trajectory(turbine):
 @pytest.mark.parametrize("model", ["moc", "zdomain", "lumped", "rigid"])
 @pytest.mark.parametrize("loop", ["improved", "newton"])
 def test_undisturbed_steady_state_holds_for_100_s(model, loop):
-    # No event inside the 100 s: the verified initial state must not drift (issue: |dn/n| < 1e-9)
+    # No event inside the 100 s: the verified initial state must not drift (|dn/n| < 1e-9)
     plant = example(**{"penstock.model": model, "solver.pressure_loop": loop, "scenario.t_end_s": 100.0,
                        "scenario.event_time_s": 99.99})
     result = run_simulation(plant)
@@ -151,7 +152,7 @@ def _plant_partials(kernel, params, turbine, speed, opening, head):
 def test_small_opening_step_matches_linearized_response(characteristics):
     # Open-loop +0.005 stroke step at 1 s, rigid penstock with friction, constant load with self-regulation.
     # Linear model in deviations: I dQ/dt = -dH - 2 K Q0 dQ; Ta dx/dt = dM/M_r - e_g x; dQ = Qn dn + Qa da + QH dH,
-    # with the six plant partials by finite differences. Bound: 2 % of the peak speed deviation (issue). Measured
+    # with the six plant partials by finite differences. Bound: 2 % of the peak speed deviation. Measured
     # error/peak: ideal 0.20 %; synthetic Francis 0.93 %, growing in proportion to the step (0.47 %, 0.93 %, 1.85 %
     # for 0.0025, 0.005, 0.01), i.e. the characteristics' curvature, not the integration (Euler ~dt/Ta = 0.2 %).
     plant = example(**{"scenario.kind": "opening-steps", "scenario.opening_steps": [STEP],

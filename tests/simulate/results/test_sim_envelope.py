@@ -1,4 +1,4 @@
-"""Head envelope along the penstock and extrapolation tracking (issue 10, section 4)."""
+"""Head envelope along the penstock and extrapolation tracking."""
 
 import json
 from pathlib import Path
@@ -161,7 +161,7 @@ def test_overspeed_beyond_the_nets_range_is_warned_and_recorded(nets, tmp_path, 
 
 
 def test_start_with_negative_power_or_outside_the_training_range_is_an_error(nets):
-    """Issue 14: rated speed 380 r/min at full opening started at N11 128 with -21.6 MW and ran a 'load rejection'."""
+    """Rated speed 380 r/min at full opening (N11 128, -21.6 MW) is refused, not run as a 'load rejection'."""
     plant = load_plant(PLANT_HLA339, {"turbine.rated_speed_rpm": 380.0, "scenario.initial_power_mw": None,
                                       "scenario.initial_opening": 1.0})
     with pytest.raises(InputError, match=r"negative power -21\.6\d* MW \(N11 = 12[0-9.]+ r/min.*"
@@ -207,7 +207,7 @@ def test_linearize_warns_outside_the_domain(capsys):
 
 
 def test_extrapolation_warning_prints_no_subnormal_openings():
-    """Issue 13 float noise: a servo closing exponentially leaves openings like 1.1e-109; the warning says 0."""
+    """Float noise: a servo closing exponentially leaves openings like 1.1e-109; the warning says 0."""
     from simulate.loop.domain import extrapolation_warnings
 
     entry = {"fraction_of_time": 0.9, "first_time_s": 5.47, "n11_min": 82.27, "n11_max": 106.7,

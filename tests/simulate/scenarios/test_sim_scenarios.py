@@ -1,4 +1,4 @@
-"""Scenarios (issue 4 section 5) on the synthetic Francis turbine and the ideal turbine; governor and rotor steps."""
+"""Scenarios on the synthetic Francis turbine and the ideal turbine; governor and rotor steps."""
 
 from importlib import resources
 
@@ -109,7 +109,7 @@ def test_shipped_plant_with_its_nets_rejects_load_and_returns_to_rated_speed():
     # The example as shipped (nets.json, MOC, improved loop, compiled): the vanes shut at the closing-rate limit,
     # the shut boundary passes no flow (Q = 0 exactly, no iteration), the integral winds down during the overspeed
     # and the governor reopens to the no-load opening near rated speed (measured final error 1e-5 at 120 s).
-    # Since issue 9 the shipped nets carry the turbine's true zero-opening torque (K 1.1 x true, was 3.4 x): with the
+    # The shipped nets carry the turbine's true zero-opening torque (K 1.1 x true, was 3.4 x): with the
     # vanes shut only disc friction brakes the runner, so at 120 s the unit is still decelerating. The final speed
     # must be the exact synthetic turbine's (measured: exact 0.2208 above rated); the nets' runaway/no-load region
     # decides it, so a wrong zero-opening boundary fails here. Since the silent-region samples (small openings) the

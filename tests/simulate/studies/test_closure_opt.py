@@ -215,7 +215,7 @@ def test_optimize_closure_cli_writes_law_front_and_a_verification_that_agrees(tm
     doc = json.loads((out / "closure.json").read_text())
     assert doc["mode"] == "head" and doc["limit"] == 0.5  # from [limits] of the file
     assert doc["law"]["max_speed_rise"] <= 0.5 and len(doc["verification"]) == 3
-    assert doc["verification_max_abs_difference"] <= 1e-9  # hillsim run == batch (issue: 1e-9)
+    assert doc["verification_max_abs_difference"] <= 1e-9  # hillsim run == batch (promised: 1e-9)
     # every case leaves the digitized region once the vanes close below the lowest digitized opening (the
     # simulator's extrapolation record says so, and the optimizer passes it on); none leaves the nets' training range
     assert len(doc["extrapolated_cases"]) == 3 and all(c["beyond_nets_range"] is False for c in doc["cases"])

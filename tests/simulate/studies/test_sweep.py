@@ -1,4 +1,5 @@
-"""hillsim sweep / simulate.studies.sweep: --vary parsing, cases.csv, results.csv, Dask equals local, garbage refused."""
+"""hillsim sweep / simulate.studies.sweep: --vary parsing, cases.csv, results.csv, Dask equals local, garbage
+refused."""
 
 import csv
 import io

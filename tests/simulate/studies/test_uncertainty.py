@@ -1,4 +1,4 @@
-"""``hillsim run --uncertainty``: the scenario once per ensemble member (issue 9 section 4)."""
+"""``hillsim run --uncertainty``: the scenario once per ensemble member of the nets."""
 
 import json
 
@@ -65,7 +65,7 @@ def test_cli_writes_the_band_into_summary_json(tmp_path, capsys):
 
 
 def test_trace_band_is_drawn_on_the_transient_figure(tmp_path):
-    """``run --uncertainty`` draws the members' 5-95 % band behind the point run (issue 9 section 4)."""
+    """``run --uncertainty`` draws the members' 5-95 % band behind the point run."""
     plant = load_plant(PLANT_HLA339, SHORT)
     band, traces = uncertainty.run_ensemble(plant)
     assert traces.members == band["members"] == 10
