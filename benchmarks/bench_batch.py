@@ -1,4 +1,4 @@
-"""Batch throughput (issue 15 section 1): case-steps per second of :func:`simulate.studies.batch.run_batch` on the
+"""Batch throughput: case-steps per second of :func:`simulate.studies.batch.run_batch` on the
 shipped plant (nets, MOC, 8 reaches, 60 s load rejection, 3147 steps a case) at N = 1, 10, 100, 1000 cases, against N
 sequential ``run_simulation`` calls in one process (the same variants, plant built per case the same way).
 

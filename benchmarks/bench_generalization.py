@@ -1,11 +1,11 @@
-"""Generalization of the chart -> nets pipeline over the synthetic Francis family (issue 9).
+"""Generalization of the chart -> nets pipeline over the synthetic Francis family.
 
 Grid: 3 turbines (slow, medium, fast) x 2 noise levels (0.15 %, 0.3 %) x 3 seeds x {with, without runaway curve};
 each chart digitized as the issue's example (8 opening lines of 6 unevenly spaced points, Q11 in l/s, efficiency in
 percent). For each chart two pipelines are trained:
 
-* before: the paper's pipeline as hillsim had it before issue 9 (polynomial boundaries, one 2-5-1 net, all samples
-  weighted 1, best of 10 restarts);
+* before: the paper's pipeline as hillsim had it before the physical-model boundaries and the cross-validated
+  selection (polynomial boundaries, one 2-5-1 net, all samples weighted 1, best of 10 restarts);
 * after: ``hillsim train``'s defaults (physical-model boundaries, boundary weight / hidden size / regularization by
   cross-validation on the measured samples, ensemble of 10 with a distilled point net).
 

@@ -1,4 +1,4 @@
-"""Per-step cost of the assembled loop (issue 10: the component loop against the old monolithic one).
+"""Per-step cost of the assembled loop (the component loop against the old monolithic one).
 
     PYTHONPATH=$PWD OMP_NUM_THREADS=1 python benchmarks/bench_loop_step.py [--repeat 15] [--substeps N] [--hydraulic]
 

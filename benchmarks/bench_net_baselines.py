@@ -1,4 +1,4 @@
-"""Side-by-side: our LM-trained 2-5-1 nets against the usual alternatives (issue 3, section 5).
+"""Side-by-side: our LM-trained 2-5-1 nets against the usual alternatives.
 
 On the same extended samples of ``data_synthetic/francis`` and the same stratified 80/20 split:
 

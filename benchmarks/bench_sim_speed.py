@@ -1,4 +1,4 @@
-"""Simulation speed (issue 4 section 8): real-time factor (simulated s per wall s) and steps/s of the 60 s example
+"""Simulation speed: real-time factor (simulated s per wall s) and steps/s of the 60 s example
 load rejection with the MOC penstock, compiled loop, one core. Compile time (first call in a process) is reported
 separately; the timed runs are the best and median of 7.
 

@@ -1,4 +1,4 @@
-"""Start-up time of whole processes (issue 10, section 3): wall time, median of N runs, warm and cold cache.
+"""Start-up time of whole processes: wall time, median of N runs, warm and cold cache.
 
     python benchmarks/bench_startup.py [--repeat 5] [--cold 2]
 

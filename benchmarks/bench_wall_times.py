@@ -1,4 +1,4 @@
-"""Wall times a user sees: ``hillsim demo --fast`` and the whole test suite (issue 13), median and range of N runs.
+"""Wall times a user sees: ``hillsim demo --fast`` and the whole test suite, median and range of N runs.
 
     PYTHONPATH=. python benchmarks/bench_wall_times.py [--runs 3] [--skip-suite] [--skip-demo]
 

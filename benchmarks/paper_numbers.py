@@ -1,4 +1,4 @@
-"""The papers' printed identification results put through hillsim's linear models (issue 12 section 4).
+"""The papers' printed identification results put through hillsim's linear models.
 
 Run: ``python benchmarks/paper_numbers.py`` (under a second). Prints the markdown tables of the docs section
 "The papers' identified numbers through our models" (docs/identification.md); ``tests/test_docs.py`` checks that it

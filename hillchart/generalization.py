@@ -1,4 +1,4 @@
-"""How well the chart -> nets pipeline generalizes: one synthetic-family chart against its exact turbine (issue 9).
+"""How well the chart -> nets pipeline generalizes: one synthetic-family chart against its exact turbine.
 
 Used by ``benchmarks/bench_generalization.py`` (the whole grid) and by the acceptance tests (one seed per turbine),
 so that both report the same numbers. Errors are percentages of the truth's range inside the measured region (the
@@ -118,7 +118,8 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
                                 coefficient_errors=coefficient_errors, nets=nets, truth=truth, inside=inside)
 
 
-#: Acceptance bounds of issue 9 (percent of the measured-region range; coefficient differences absolute).
+#: Acceptance bounds of the chart -> nets pipeline (percent of the measured-region range; coefficient differences
+#: absolute).
 ACCEPTANCE = {"q11_rms_pct": 0.5, "q11_max_pct": 2.0, "m11_rms_pct": 1.0, "baseline_factor": 1.2,
               "coefficient_abs": 0.05}
 

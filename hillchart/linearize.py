@@ -208,7 +208,7 @@ def six_coefficients_at(
 
 
 def six_coefficients_band(nets, *, n11: float, opening: float, percentiles=(5.0, 95.0)) -> dict:
-    """Mean and percentile band of the six coefficients over the ensemble members of ``nets`` (issue 9 section 4).
+    """Mean and percentile band of the six coefficients over the ensemble members of ``nets``.
 
     Parameters
     ----------

@@ -90,7 +90,7 @@ def _command_module(argv: list[str]) -> str | None:
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The ``hillsim`` parser with every command, or with the one command module ``only`` (what ``main`` uses when
     the command line names a command: importing every command module and its dependencies costs a third of a
-    second of start-up, issue 10 section 3)."""
+    second of start-up)."""
     parser = argparse.ArgumentParser(
         prog="hillsim",
         description="Francis turbine hill chart -> BP nets -> nonlinear transient simulation.",

@@ -377,7 +377,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
 
     options = options or ExtensionOptions()
     if options.check_chart:
-        check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit (issue 9 section 5)
+        check_chart(chart)  # what a digitizer gets wrong, by file and row, before any fit
     rows: list[tuple[str, str, float, float, float]] = []
 
     # (d) torque on the flow lines from the efficiency surface, eqs. (4)-(5)

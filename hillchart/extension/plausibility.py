@@ -1,4 +1,4 @@
-"""Plausibility checks of a digitized chart before training, and of the trained nets (issue 9 section 5, issue 14).
+"""Plausibility checks of a digitized chart before training, and of the trained nets.
 
 What a digitizer typically gets wrong, each reported as an :class:`~hillchart.errors.InputError` that names the file,
 the row (line number in the file) and what looks wrong:

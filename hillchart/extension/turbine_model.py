@@ -1,4 +1,4 @@
-"""A low-order physical turbine model fitted to a chart: consistent boundaries for the extension (issue 9, section 2).
+"""A low-order physical turbine model fitted to a chart: consistent boundaries for the extension.
 
 The model is the one-dimensional Euler model of :mod:`hillchart.synthetic.francis` (velocity triangles, guide-vane,
 incidence, runner-friction, draft-tube and exit-swirl losses, disc friction: 11 parameters), fitted by least squares

@@ -339,7 +339,7 @@ def truth_comparison(weights: FCCMWeights, table: TestTable, truth: dict) -> dic
 
 
 def truth_acceptance(comparison: dict, outputs, *, bound_pct: float = 1.5, min_better: int = 3) -> dict:
-    """Issue 11's acceptance on a truth comparison: every output's net RMS <= ``bound_pct`` % of its range, and the
+    """The acceptance of a truth comparison: every output's net RMS <= ``bound_pct`` % of its range, and the
     net below interpolation for at least ``min_better`` outputs. Returns the checks and ``passed``."""
     within = {o: comparison[o]["net_rms_pct"] <= bound_pct for o in outputs}
     better = sum(comparison[o]["net_better"] for o in outputs)

@@ -330,7 +330,7 @@ def plot_sample_errors(nets, extended, axes=None):
 
 def plot_truth_errors(nets, truth: dict, inside: np.ndarray, axes=None, *, opening_unit: str = ""):
     """Error maps ``net - truth`` (in % of the measured-region range) over a regular (N11, a) truth grid, the
-    measured region outlined (issue 3 section 4: errors in the extended region, with a plot).
+    measured region outlined (errors in the extended region, with a plot).
 
     Parameters
     ----------
@@ -395,7 +395,7 @@ def trust_map(nets, *, grid: int = 81, percentiles=(5.0, 95.0)):
 
 
 def plot_trust_map(nets, ax=None, *, samples=None, grid: int = 81):
-    """The trust map (issue 9 section 4): shaded width of the 5-95 % ensemble band over (N11, a), with the
+    """The trust map: shaded width of the 5-95 % ensemble band over (N11, a), with the
     digitized region (hull of the opening-line points) outlined. Returns the Axes."""
     plt = _pyplot()
     if ax is None:

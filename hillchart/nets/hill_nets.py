@@ -23,7 +23,7 @@ Pieces
 :func:`train_nets`
     Both nets from the extended-samples table of :mod:`hillchart.extension.extend`: derived boundary samples weighted
     as soft constraints, boundary weight / hidden size / weight decay chosen by cross-validation on the measured
-    samples, optionally an ensemble whose mean is distilled into the point nets (issue 9).
+    samples, optionally an ensemble whose mean is distilled into the point nets.
 
 There is exactly one implementation of eq. (11) and its analytic gradient at evaluation time, the numba function
 ``_net_value_grad``; the vectorized methods loop over it in compiled code. Torch is used only for training.
@@ -35,7 +35,7 @@ There is exactly one implementation of eq. (11) and its analytic gradient at eva
     {"format": "hillsim.nets", "version": 1,
      "units": {"n11": "r/min", "opening": "<chart unit>", "q11": "m^3/s", "m11": "N*m"},
      "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...},
-     "ensemble": [{"flow": NET, "torque": NET}, ...]}    # optional (issue 9): the members of the band
+     "ensemble": [{"flow": NET, "torque": NET}, ...]}    # optional: the members of the band
     NET = {"inputs": ["n11", "opening"], "output": "q11" | "m11",
            "x_min": [n11_min, opening_min], "x_max": [n11_max, opening_max], "y_min": float, "y_max": float,
            "W1": [[w_n11, w_opening], ... H rows], "b1": [... H], "W2": [... H], "b2": float}
@@ -644,7 +644,7 @@ class HillNets:
         return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit) for f, t in self.ensemble]
 
     def band(self, quantity: str, n11, opening, *, percentiles=(5.0, 95.0)) -> dict:
-        """Mean and percentile band of ``quantity`` over the ensemble members (issue 9 section 4).
+        """Mean and percentile band of ``quantity`` over the ensemble members.
 
         Parameters
         ----------
@@ -768,7 +768,7 @@ class HillNets:
         if not isinstance(training, dict):
             raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
         ensemble = []
-        if "ensemble" in doc:  # optional (issue 9 section 4); a file without it is the version-1 file of before
+        if "ensemble" in doc:  # optional; a file without it is the version-1 file of before
             members = doc["ensemble"]
             if not isinstance(members, list):
                 raise InputError(f"nets.json: ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
@@ -851,7 +851,7 @@ def _column(table, name):
     raise InputError(f"extended samples: column {name!r} is missing (need target, origin, n11, opening, value)")
 
 
-#: Candidates of the model selection (issue 9 section 3), each scored by the validation MSE on measured samples.
+#: Candidates of the model selection, each scored by the validation MSE on measured samples.
 BOUNDARY_WEIGHTS = (0.03, 0.1, 0.3, 1.0)
 HIDDEN_SIZES = (3, 4, 5, 6, 8, 10)
 REGULARIZATIONS = (0.0, 1e-5, 1e-4)

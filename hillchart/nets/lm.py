@@ -362,7 +362,7 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
         As ``net.trainParam`` of ``trainlm``.
     sample_weight : ndarray (n,), optional
         Weights of the training residuals (weighted least squares: ``perf = mean(w e^2)``); None: all 1, the
-        unweighted ``trainlm``. hillsim gives boundary samples a weight < 1 (soft constraints, issue 9).
+        unweighted ``trainlm``. hillsim gives boundary samples a weight < 1 (soft constraints).
     regularization : float >= 0
         lambda of a weight-decay term: ``perf = mean(w e^2) + lambda mean(theta^2)`` (as MATLAB's ``msereg``
         mixes the MSE with the mean squared weights). 0: none.

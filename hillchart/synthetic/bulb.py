@@ -38,8 +38,8 @@ r_m = D/2 sqrt((1 + nu^2)/2) (the radius that halves the annulus area), blade sp
 
 Operation: two closures fix the operating point of a setting (a0, beta) at constant speed n.
 
-* ``"water-system"`` (:meth:`SyntheticBulb.operate`, the default of the synthetic test table, as issue 11
-  asks): the head is set by the plant's water system,
+* ``"water-system"`` (:meth:`SyntheticBulb.operate`, the default of the synthetic test table, as a model
+  test on a real water system runs): the head is set by the plant's water system,
   ``H = H_static - K_sys Q^2`` (headwater minus a tailwater that rises with discharge, plus intake and conduit
   losses, lumped as one quadratic). Because u is fixed at constant speed, the system curve only adds
   ``g K_sys A^2`` to the quadratic's leading coefficient: closed form, no iteration. But then n11 and Q11 are both

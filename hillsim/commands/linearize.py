@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from simulate.loop.domain import point_warnings  # issue 10 section 4: never extrapolate silently
+    from simulate.loop.domain import point_warnings  # never extrapolate silently
 
     domain_dir = None if args.nets == "synthetic" else Path(args.nets).parent
     warnings = point_warnings(characteristics, record["n11_rpm"], args.opening, chart_dir=domain_dir)
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         "e": coeffs.e,  # paper 002: e = eqy eh / ey - eqh
         "warnings": warnings,
     }
-    if getattr(characteristics, "ensemble", None):  # uncertainty band of the ensemble (issue 9 section 4)
+    if getattr(characteristics, "ensemble", None):  # uncertainty band of the ensemble
         from hillchart.linearize import six_coefficients_band
 
         band = six_coefficients_band(characteristics, n11=coeffs.n11_rpm, opening=args.opening)

@@ -40,7 +40,7 @@ def register(subparsers) -> None:
 class FigureProcess:
     """Draws a run's two figures in a forked child process (POSIX), so that on a multi-core machine matplotlib's
     import (about 0.5 s) runs while this process imports numba and simulates, and the drawing (about 0.5 s) while
-    it writes the data files (issue 10, section 3: ``hillsim run`` <= 2 s). Matplotlib is not thread-safe and its
+    it writes the data files (``hillsim run`` <= 2 s). Matplotlib is not thread-safe and its
     work holds the GIL, hence a process; forked, it needs no second interpreter start-up and sees the same modules.
 
     The child reads the result (pickled, without the characteristics object) from a pipe, writes the PNGs and

@@ -298,7 +298,7 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
         for name in JUDGED_ESTIMATORS:
             estimate = getattr(arx, name)
             # the 5 % step bound applies when the data come from the penstock model the linear model is (rigid /
-            # lumped); for moc / zdomain the step error is reported, not judged (issue 5)
+            # lumped); for moc / zdomain the step error is reported, not judged
             judged[f"{name}_step_response"] = AcceptanceCheck(
                 name=f"{name}_step_response_within_5pct", value=estimate.step_error_vs_nets,
                 bound=STEP_RESPONSE_TOLERANCE,

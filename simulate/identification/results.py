@@ -24,11 +24,11 @@ from simulate.identification.experiment import ExperimentSettings
 from simulate.identification.measured import OperatingPoint
 from simulate.results.result import json_default
 
-#: Acceptance bounds of issue 5 (checked and reported, never silently relaxed).
+#: Acceptance bounds of the identification (checked and reported, never silently relaxed).
 BATCH_LS_TOLERANCE = 0.02  # absolute, each of the six coefficients, noise-free small signal
 STEP_RESPONSE_TOLERANCE = 0.05  # max |step_rls - step_nets| / max |step_nets|
 SIMULATION_MODE_TOLERANCE = 0.05  # max |x - x_hat| / max |x|: a fraction of the largest measured speed deviation
-#: Recursive estimators the acceptance judges (each on step response and simulation mode; issue 12 section 3).
+#: Recursive estimators the acceptance judges (each on step response and simulation mode).
 JUDGED_ESTIMATORS = ("rls", "rls_forgetting", "dead_zone_rls")
 
 
@@ -300,7 +300,8 @@ class ArmaSkipped:
 
 @dataclass(frozen=True)
 class AcceptanceCheck:
-    """One acceptance check of issue 5: ``value`` against ``bound``; ``passed`` None = reported, not judged."""
+    """One acceptance check of the identification: ``value`` against ``bound``; ``passed`` None = reported, not
+    judged."""
 
     name: str
     value: float
@@ -310,9 +311,9 @@ class AcceptanceCheck:
 
 @dataclass(frozen=True)
 class Acceptance:
-    """The checks against the nets' linear model: batch LS within 0.02 (issue 5), and for each recursive estimator
+    """The checks against the nets' linear model: batch LS within 0.02, and for each recursive estimator
     the step-response error as a fraction of the step's peak and the simulation-mode error as a fraction of the
-    largest deviation of the measured speed, both within 5 % (issue 12: bounds a bad identification fails)."""
+    largest deviation of the measured speed, both within 5 % (bounds a bad identification fails)."""
 
     batch_ls: AcceptanceCheck
     rls_step_response: AcceptanceCheck

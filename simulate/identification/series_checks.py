@@ -1,4 +1,4 @@
-"""Plausibility checks of a measured series before identification (``hillsim identify --data``, issue 14).
+"""Plausibility checks of a measured series before identification (``hillsim identify --data``).
 
 Pure functions on the columns as read (physical units named by the header, rows numbered as the file's lines):
 

@@ -129,7 +129,7 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
     modules = {"simulate.components.turbine.boundary"}
     if compiled:
         # the templates (pressure loop, turbine step) inlined into time_loop at numba-IR level: one function, so
-        # numba's reference-count pruning sees the arrays they unpack (about 0.05 us a step less, issue 10)
+        # numba's reference-count pruning sees the arrays they unpack (about 0.05 us a step less)
         lines += [f"_jit = numba.njit(cache={cache}, nogil=True)",
                   f"_jit_inner = numba.njit(cache={cache}, inline='always')"]
     else:

@@ -1,4 +1,4 @@
-"""Where the characteristics can be trusted, and where a trajectory leaves that domain (issue 10, section 4).
+"""Where the characteristics can be trusted, and where a trajectory leaves that domain.
 
 Three kinds of extrapolation, each reported separately:
 

@@ -1,4 +1,4 @@
-"""Checks before a run starts (issue 10 section 5, issue 14): the size of the run and the initial operating point
+"""Checks before a run starts: the size of the run and the initial operating point
 against the characteristics (the time step against the plant's dynamics: :mod:`simulate.loop.timestep`).
 
 Every refusal is an :class:`InputError` naming the estimate or the value, the bound, and the key to change.

@@ -10,7 +10,7 @@ P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_
 
 Brent's method is :func:`brentq`, a line-by-line port of scipy's ``brentq.c`` (scipy.optimize.brentq): importing
 scipy.optimize costs about a quarter of a second of start-up (it pulls in linprog, scipy.fft and scipy.special), an
-eighth of the 2 s budget of ``hillsim run`` (issue 10, section 3), for two scalar root searches. The port takes the
+eighth of the 2 s budget of ``hillsim run``, for two scalar root searches. The port takes the
 same steps as scipy's, so it returns the same root to the bit (``tests/simulate/loop/test_sim_steady_brent.py`` checks
 it against scipy.optimize.brentq).
 """

@@ -1,4 +1,4 @@
-"""Head envelope along the penstock (issue 10, section 4): max and min piezometric head at every computing node,
+"""Head envelope along the penstock: max and min piezometric head at every computing node,
 and, with a penstock profile (``[[penstock.segments]] elevation_start_m/elevation_end_m``, m above the tailwater
 datum of the heads), the pressure head H - z, its minimum and where, and a column-separation warning when the
 minimum falls below the vapour pressure.

@@ -201,7 +201,7 @@ class SimulationResult:
         fig.suptitle(f"{title}  penstock {self.meta.get('penstock_model', '')}, pressure loop "
                      f"{self.meta.get('pressure_loop', '')}" + ("" if self.success else "  (FAILED)"))
         # fixed margins (what tight_layout finds for these labels) instead of tight_layout, which draws the figure
-        # once more to measure the text: about a third of the figure's time (issue 10, section 3)
+        # once more to measure the text: about a third of the figure's time
         fig.subplots_adjust(left=0.095, right=0.98, bottom=0.065, top=0.945, hspace=0.1)
         if path is not None:
             save_png(fig, path)

@@ -1,4 +1,4 @@
-"""The scenario once per ensemble member: the band of the regulating-guarantee figures (issue 9 section 4).
+"""The scenario once per ensemble member: the band of the regulating-guarantee figures.
 
 Only the public seams are used: :func:`simulate.config.load_plant` and
 :func:`simulate.loop.engine.run_simulation(plant, characteristics)`; each member of the nets' ensemble (see
