@@ -173,6 +173,35 @@ def test_no_work_history_in_help():
     assert not hits, hits
 
 
+def test_no_work_history_in_the_api_docstrings():
+    """The API page renders the entry points' docstrings: they are user-facing text too."""
+    import importlib
+    import inspect
+
+    import hillsim
+
+    hits = []
+    for name, module in hillsim.ENTRY_POINTS.items():
+        obj = getattr(importlib.import_module(module), name)
+        members = inspect.getmembers(obj, callable) if inspect.isclass(obj) else []
+        for label, doc in [(name, inspect.getdoc(obj))] + [(f"{name}.{m}", inspect.getdoc(f)) for m, f in members
+                                                            if not m.startswith("_")]:
+            hits += [f"{label}: {m.group(0)!r}" for m in WORK_HISTORY.finditer(doc or "")]
+    assert not hits, hits
+
+
+def test_no_tracker_numbers_in_the_code():
+    """Docstrings, comments and messages state what they mean, not which work item asked for them."""
+    tracker = re.compile(r"\bissues? \d+", re.I)
+    hits = []
+    for package in ("hillchart", "simulate", "hillsim", "data_synthetic", "benchmarks", "examples", "docs"):
+        for path in sorted((REPO / package).rglob("*.py")):
+            for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+                hits += [f"{path.relative_to(REPO)}:{number}" for _ in tracker.finditer(line)]
+    assert not hits, hits
+    assert tracker.search("boundary samples (issue 9)") and not tracker.search("the 9 issues a digitizer makes")
+
+
 def test_api_page_documents_every_entry_point():
     import hillsim
 
