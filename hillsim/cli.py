@@ -18,6 +18,7 @@ What every command gets from here:
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -68,7 +69,13 @@ class HelpFormatter(argparse.HelpFormatter):
 
 
 class Terminated(BaseException):
-    """SIGTERM arrived (raised from the signal handler so outputs are cleaned up on the way out)."""
+    """SIGTERM, SIGHUP (terminal closed) or SIGXCPU (CPU time limit) arrived (raised from the signal handler so
+    outputs are cleaned up on the way out); ``args[0]`` is the signal number when known."""
+
+
+#: Signals that end a command like SIGTERM (exit code 128 + the signal number; SIGINT ends it with 130).
+TERMINATING_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP", "SIGXCPU")
+                            if hasattr(signal, name))
 
 
 def _version() -> str:
@@ -113,8 +120,25 @@ def _harmonize(name: str, parser: argparse.ArgumentParser) -> None:
             action.metavar = METAVARS[action.dest]
         elif action.dest == "out" and action.option_strings and (name in OUT_METAVARS or action.metavar is None):
             action.metavar = OUT_METAVARS.get(name) or _out_metavar(action.help or "")
+    for action in parser._actions:
+        if action.dest in OUTPUT_DESTS:
+            action.type = _non_empty(action.type)
     if "quiet" not in {a.dest for a in parser._actions}:
         parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+#: Destinations of output paths: an empty value is refused by the parser (``Path("")`` would silently be ".").
+OUTPUT_DESTS = ("out", "out_dir", "plot", "map")
+
+
+def _non_empty(convert):
+    def parse(text: str):
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"is empty ({text!r}); give a path")
+        return text if convert is None else convert(text)
+
+    parse.__name__ = getattr(convert, "__name__", "path")  # argparse names the type in its messages
+    return parse
 
 
 def _out_metavar(help_text: str) -> str:
@@ -131,10 +155,16 @@ def _out_metavar(help_text: str) -> str:
 
 @contextmanager
 def _signals(state: dict):
-    """SIGINT -> KeyboardInterrupt, SIGTERM -> :class:`Terminated`, each also recorded in ``state["signal"]`` (a
-    KeyboardInterrupt raised inside a finalizer is swallowed by Python; the record still ends the command)."""
+    """SIGINT -> KeyboardInterrupt, SIGTERM/SIGHUP/SIGXCPU -> :class:`Terminated`, each also recorded in
+    ``state["signal"]`` (a KeyboardInterrupt raised inside a finalizer is swallowed by Python; the record still
+    ends the command). While ``state["deferred"]`` is set (cleaning up, or putting the outputs in place) a signal is
+    only recorded: a second Ctrl-C during the cleanup must not cut the cleanup short nor print a traceback."""
 
     def handler(signum, frame):
+        if state.get("deferred"):
+            if state["signal"] is None:
+                state["signal"] = signum
+            return
         state["signal"] = signum
         if signum == signal.SIGINT:
             raise KeyboardInterrupt
@@ -142,7 +172,9 @@ def _signals(state: dict):
 
     previous = {}
     try:
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, *TERMINATING_SIGNALS):
+            if sig == getattr(signal, "SIGHUP", None) and signal.getsignal(sig) is signal.SIG_IGN:
+                continue  # nohup: the user asked the run to survive the terminal closing
             previous[sig] = signal.signal(sig, handler)
     except ValueError:  # not the main thread: leave the handlers alone
         pass
@@ -162,11 +194,50 @@ def _output_option(outputs, exc: OSError) -> str | None:
         return None
     path = os.path.abspath(str(name))
     for target in outputs._targets:
-        for root in (target.final, target.temporary):
+        for root in (target.final, target.real, target.temporary):
             root = os.path.abspath(root)
             if path == root or path.startswith(root + os.sep):
                 return f"{target.option} {str(target.final)!r}"
     return None
+
+
+#: errno values of a failed write (full disk, quota, file too large, read-only file system).
+_WRITE_ERRNOS = {getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG", "EROFS") if hasattr(errno, name)}
+
+#: Namespace entries that are never paths.
+_NOT_PATHS = {"func", "outputs", "command", "_options"}
+
+
+def input_paths(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """``(option, path)`` for every argument value naming an existing file or folder (the command's inputs; an
+    output option's own earlier result is skipped by :class:`~hillsim.outputs.OutputSet` by its option name)."""
+    out = []
+    for dest, value in vars(args).items():
+        if dest in _NOT_PATHS:
+            continue
+        values = value if isinstance(value, (list, tuple)) else [value]
+        for v in values:
+            if isinstance(v, (str, os.PathLike)) and not isinstance(v, bool):
+                text = os.fspath(v)
+                try:
+                    exists = text.strip() != "" and os.path.lexists(text)
+                except (ValueError, OSError):  # a NUL byte, a name too long
+                    exists = False
+                if exists:
+                    names = getattr(args, "_options", {})
+                    out.append((names.get(dest) or "--" + dest.replace("_", "-"), text))
+    return out
+
+
+def _option_names(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, str]:
+    """``{dest: how --help names it}`` for the command ``args`` runs (``--data``, ``CHART_DIR``)."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    command = sub.choices.get(args.command) if sub is not None else None
+    names = {}
+    for action in (command._actions if command is not None else []):
+        names[action.dest] = (max(action.option_strings, key=len) if action.option_strings
+                              else str(action.metavar or action.dest.upper()))
+    return names
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -175,31 +246,44 @@ def run_command(args: argparse.Namespace) -> int:
     from hillsim.outputs import OutputSet
 
     command = args.command
-    outputs = OutputSet(command)
+    outputs = OutputSet(command, inputs=input_paths(args))
     args.outputs = outputs
     progress.configure(enabled=not getattr(args, "quiet", False))
-    state = {"signal": None}
+    state = {"signal": None, "deferred": False}
 
     def fail(message: str, code: int) -> int:
+        state["deferred"] = True  # a repeated signal during the cleanup is recorded, not raised
         outputs.discard()
         progress.current().abort()
         print(f"hillsim {command}: {message}", file=sys.stderr)
         return code
 
+    def terminated_code() -> int:
+        sig = state["signal"]
+        return EXIT_TERMINATED if sig in (None, signal.SIGTERM) else 128 + int(sig)
+
     with _signals(state):
         try:
             code = int(args.func(args) or 0)
             if state["signal"] is not None:  # a signal swallowed on the way (e.g. in a finalizer)
-                raise Terminated() if state["signal"] == signal.SIGTERM else KeyboardInterrupt
+                raise KeyboardInterrupt if state["signal"] == signal.SIGINT else Terminated(state["signal"])
             if code == 0:
+                state["deferred"] = True  # putting the outputs in place is not cut in half by a signal
                 outputs.commit()
+                if state["signal"] is not None:
+                    name = "interrupted" if state["signal"] == signal.SIGINT else "terminated"
+                    print(f"hillsim {command}: {name} after the outputs were written", file=sys.stderr)
+                    return EXIT_INTERRUPTED if state["signal"] == signal.SIGINT else terminated_code()
             else:
                 outputs.discard()
             return code
         except BaseException as exc:
+            state["deferred"] = True
             # a signal wins over whatever it turned into on the way (a library may wrap the KeyboardInterrupt)
-            if isinstance(exc, Terminated) or state["signal"] == signal.SIGTERM:
-                return fail("terminated; no outputs written", EXIT_TERMINATED)
+            if isinstance(exc, Terminated) or state["signal"] in TERMINATING_SIGNALS:
+                if state["signal"] is None and isinstance(exc, Terminated) and exc.args:
+                    state["signal"] = exc.args[0]
+                return fail("terminated; no outputs written", terminated_code())
             if isinstance(exc, KeyboardInterrupt) or state["signal"] is not None:
                 where = f" {exc.args[0]}" if isinstance(exc, KeyboardInterrupt) and exc.args else ""
                 return fail(f"interrupted{where}; no outputs written", EXIT_INTERRUPTED)
@@ -208,6 +292,10 @@ def run_command(args: argparse.Namespace) -> int:
             if isinstance(exc, OSError):
                 where = _output_option(outputs, exc)
                 reason = exc.strerror or str(exc)
+                if where is None and exc.errno in _WRITE_ERRNOS and outputs._targets:
+                    # a write into an open file names no path: name the outputs being written
+                    names = ", ".join(f"{t.option} {str(t.final)!r}" for t in outputs._targets)
+                    return fail(f"error: {names}: cannot write: {reason}", EXIT_INPUT)
                 if where:
                     return fail(f"error: {where}: cannot write {exc.filename!s}: {reason}", EXIT_INPUT)
                 target = f"{exc.filename}: " if exc.filename else ""
@@ -220,7 +308,22 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(only=_command_module(argv))
     args = parser.parse_args(argv)
+    args._options = _option_names(parser, args)
     return run_command(args)
+
+
+def _starting_signals() -> None:
+    def handler(signum, frame):
+        word = "interrupted" if signum == signal.SIGINT else "terminated"
+        os.write(2, f"hillsim: {word} while starting; nothing written\n".encode())
+        os._exit(EXIT_INTERRUPTED if signum == signal.SIGINT else 128 + int(signum))
+
+    try:
+        for sig in (signal.SIGINT, *TERMINATING_SIGNALS):
+            if signal.getsignal(sig) is not signal.SIG_IGN:  # ignored by the caller (nohup, a background job): kept
+                signal.signal(sig, handler)
+    except ValueError:  # pragma: no cover - not the main thread
+        pass
 
 
 def console_main() -> None:
@@ -229,9 +332,14 @@ def console_main() -> None:
     After an interrupt the process ends through ``os._exit`` (streams flushed, outputs already discarded): CPython
     3.11 marks a KeyboardInterrupt that passed through code run by ``exec`` of a string (numba's generated wrappers
     are) as unhandled even when this module caught it, and then ends the process by SIGINT at exit instead of
-    with the code 130 the CLI returned (seen about once in 15 interrupted runs)."""
+    with the code 130 the CLI returned (seen about once in 15 interrupted runs).
+
+    A signal that arrives while the command is still starting (importing numpy and the command's modules, before
+    :func:`run_command` installs its handlers) ends the process at once with the same codes: nothing has been
+    written yet."""
+    _starting_signals()
     code = main()
-    if code in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+    if code >= 128:
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(code)

@@ -704,12 +704,19 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is accepted
+    except UnicodeDecodeError as exc:
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"plant file {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     except OSError as exc:
         raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"plant file {str(path)!r} is not a plant file: arrays or tables nested thousands of "
+                         "levels deep") from None
     if overrides:
         apply_overrides(raw, overrides)
     return plant_from_dict(raw, base_dir=path.resolve().parent)

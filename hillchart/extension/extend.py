@@ -461,6 +461,17 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
                 "paper does, or switch the zero-opening boundary off"
             )
         n11_max = max(chart.flow_n11.max(), chart.runaway_n11.max() if chart.has_runaway else 0.0)
+        measured = [abs(r[4]) for r in rows if r[0] == "m11" and r[1] == "measured"]
+        if options.zero_opening_k is not None and measured and n11_max > 0:
+            # disc friction with closed vanes is a fraction of the working torque; 10 x the largest measured
+            # |M11| at the highest N11 is far beyond any turbine (typo or wrong unit)
+            k_max = 10.0 * max(measured) / n11_max**2
+            if k_used > k_max:
+                raise InputError(
+                    f"zero_opening_k = {k_used:.4g} N*m/(r/min)^2 gives M11 = {-k_used * n11_max**2:.4g} N*m at "
+                    f"N11 = {n11_max:.4g} r/min, more than 10 x the largest measured |M11| ({max(measured):.4g} "
+                    f"N*m); a plausible K is below {k_max:.3g}"
+                    + (f" (the chart's own extrapolation gives {k_fitted:.3g})" if k_fitted else ""))
         for n in np.linspace(0.0, n11_max, options.zero_opening_points):
             add("q11", "zero-opening", n, 0.0, 0.0, False)  # exact, not derived: closed vanes pass no flow (eq. 6)
             # weight 1 like the measured samples: the zero-opening torque decides the no-load opening and the
@@ -489,8 +500,9 @@ def read_extended_csv(path, *, opening_unit: str, opening_max: float) -> Extende
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: missing file")
-    with path.open(newline="", encoding="utf-8") as handle:
-        rows = list(csv.reader(handle))
+    from hillchart.io.tabular import csv_rows, read_text
+
+    rows = csv_rows(read_text(path, "extended-samples CSV"), path)
     if not rows or tuple(c.strip() for c in rows[0]) != CSV_COLUMNS:
         raise InputError(f"{path}: the header must be {','.join(CSV_COLUMNS)}, got {rows[0] if rows else 'nothing'}")
     cols = {c: [] for c in CSV_COLUMNS}

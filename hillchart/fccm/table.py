@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,9 +79,15 @@ def read_table_info(path) -> TableInfo:
     if not path.is_file():
         raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is accepted
+    except UnicodeDecodeError as exc:
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"{path}: not a UTF-8 text file {not_utf8_detail(exc)}") from None
+    except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{path}: not a table.toml: arrays or tables nested thousands of levels deep") from None
     unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
     if unknown:
         raise InputError(f"{path}: unknown key(s) {unknown}; valid keys are {list(REQUIRED_KEYS + OPTIONAL_KEYS)}")
@@ -148,6 +155,36 @@ def _parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
     return value
 
 
+#: Plausible ranges of the quantities a model-test table gives in fixed units: unit flow Q11 (m^3/s, eq. (1) of
+#: paper 003), efficiency P / (rho g Q H) from the power column, angles (deg).
+Q11_PLAUSIBLE_M3_S = 10.0
+ANGLE_SPAN_MIN_DEG = 3.2
+
+
+def unit_warnings(columns: dict, path) -> list[str]:
+    """Warnings for columns whose values look like another unit than their name says: flow in l/s (Q11 1000 x too
+    large), power in W or MW (efficiency 1000 x off), angles in radians (a control spanning less than pi)."""
+    out = []
+    q11 = columns.get("q11_m3_s")
+    if q11 is not None and np.median(np.abs(q11)) > Q11_PLAUSIBLE_M3_S:
+        out.append(f"{path}: flow_m3_s gives a median unit flow Q11 = {float(np.median(q11)):.4g} m^3/s; turbines "
+                   f"have Q11 below about {Q11_PLAUSIBLE_M3_S:g}: is the flow in l/s (divide by 1000)?")
+    if all(k in columns for k in ("power_kw", "flow_m3_s", "head_m")):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            eta = columns["power_kw"] * 1e3 / (1000.0 * 9.81 * columns["flow_m3_s"] * columns["head_m"])
+        median = float(np.nanmedian(eta)) if np.any(np.isfinite(eta)) else float("nan")
+        if median > 2.0 or median < 0.02:
+            guess = "W (divide by 1000)" if median > 2.0 else "MW (multiply by 1000)"
+            out.append(f"{path}: power_kw gives a median efficiency P / (rho g Q H) = {median:.4g}, not 0.3-0.95: "
+                       f"is the power in {guess}?")
+    for name, values in columns.items():
+        if name.endswith("_deg") and values.size > 1 and 0 < np.ptp(values) and np.max(np.abs(values)) < \
+                ANGLE_SPAN_MIN_DEG:
+            out.append(f"{path}: column {name!r} spans {float(np.min(values)):.4g} to {float(np.max(values)):.4g}, "
+                       "less than pi: are the angles in radians (multiply by 180/pi)?")
+    return out
+
+
 def load_test_table(folder) -> TestTable:
     """Read a test-table folder (``table.csv`` + ``table.toml``) into a validated :class:`TestTable`.
 
@@ -184,11 +221,16 @@ def load_test_table(folder) -> TestTable:
     if not path.is_file():
         raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
+        with path.open(newline="", encoding="utf-8-sig") as handle:  # a byte-order mark is accepted
             lines = [(no, line) for no, line in enumerate(handle, start=1) if not line.lstrip().startswith("#")]
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file ({exc})") from None
-    rows = [(no, row) for (no, _), row in zip(lines, csv.reader(line for _, line in lines))]
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"{path}: not a UTF-8 text file {not_utf8_detail(exc)}") from None
+    try:
+        rows = [(no, row) for (no, _), row in zip(lines, csv.reader(line for _, line in lines))]
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a readable CSV table ({exc})") from None
     rows = [(no, row) for no, row in rows if row and any(cell.strip() for cell in row)]
     if not rows:
         raise InputError(f"{path}: empty file; expected a header line such as "
@@ -247,6 +289,8 @@ def load_test_table(folder) -> TestTable:
             derived.append("q11_m3_s")
     table = TestTable(info=info, columns=columns, derived=tuple(derived), text_columns=tuple(text_columns),
                       folder=folder)
+    for text in unit_warnings(columns, path):
+        warnings.warn(text, UserWarning, stacklevel=2)
     for control in info.controls:
         if control not in columns:
             raise InputError(f"{folder / INFO_FILE}: controls: {control!r} is not a numeric column of {path} "

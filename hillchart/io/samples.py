@@ -25,6 +25,10 @@ import numpy as np
 from hillchart.errors import InputError
 
 OPENING_UNITS = ("mm", "deg", "%")
+#: Largest plausible full-stroke opening per unit (the largest units open their guide vanes about 1 m, 45 deg).
+OPENING_MAX_PLAUSIBLE = {"mm": 3000.0, "deg": 90.0, "%": 150.0}
+#: Efficiencies above this are implausible for a turbine (the best reach about 0.96): warned, not refused.
+EFFICIENCY_PLAUSIBLE = 0.98
 Q11_UNITS = {"m3/s": 1.0, "l/s": 1e-3}
 EFFICIENCY_UNITS = {"fraction": 1.0, "percent": 1e-2}
 REQUIRED_KEYS = ("name", "opening_unit", "opening_max", "q11_unit", "efficiency_unit")
@@ -58,6 +62,12 @@ class ChartInfo:
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name.strip():
             raise InputError(f"chart.toml: name must be a non-empty string, got {self.name!r}")
+        for key in ("opening_unit", "q11_unit", "efficiency_unit"):
+            value = getattr(self, key)
+            if not isinstance(value, str):  # a list or table would fail the lookups below with a TypeError
+                allowed = {"opening_unit": OPENING_UNITS, "q11_unit": tuple(Q11_UNITS),
+                           "efficiency_unit": tuple(EFFICIENCY_UNITS)}[key]
+                raise InputError(f"chart.toml: {key} must be a string, one of {allowed}, got {value!r}")
         if self.opening_unit not in OPENING_UNITS:
             raise InputError(f"chart.toml: opening_unit must be one of {OPENING_UNITS}, got {self.opening_unit!r}")
         if self.q11_unit not in Q11_UNITS:
@@ -67,6 +77,11 @@ class ChartInfo:
                 f"chart.toml: efficiency_unit must be one of {tuple(EFFICIENCY_UNITS)}, got {self.efficiency_unit!r}"
             )
         _positive_number("chart.toml: opening_max", self.opening_max)
+        top = OPENING_MAX_PLAUSIBLE[self.opening_unit]
+        if self.opening_max > top:  # a typo or another unit (1e5 mm is a 100 m guide-vane opening)
+            raise InputError(f"chart.toml: opening_max = {self.opening_max!r} {self.opening_unit} is implausible: a "
+                             f"guide-vane opening in {self.opening_unit} is at most about {top:g}; check the value "
+                             "and opening_unit")
         if self.runner_diameter_m is not None:
             _positive_number("chart.toml: runner_diameter_m", self.runner_diameter_m)
 
@@ -122,10 +137,14 @@ def read_chart_info(path) -> ChartInfo:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: missing file (a chart folder needs chart.toml)")
+    from hillchart.io.tabular import read_text
+
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))  # a byte-order mark is accepted
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        data = tomllib.loads(read_text(path, "chart.toml"))  # a byte-order mark is accepted
+    except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{path}: not a chart.toml: arrays or tables nested thousands of levels deep") from None
     unknown = sorted(set(data) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
     if unknown:
         raise InputError(
@@ -203,6 +222,14 @@ def _validate_points(path: Path, table: dict[str, np.ndarray], info: ChartInfo, 
         full = "1" if info.efficiency_unit == "fraction" else "100"
         allowed = f"(0, {full}] ({info.efficiency_unit})"
         _check_range(path, "efficiency", table["efficiency"], (eta > 0) & (eta <= 1), allowed, rows)
+        _check_range(path, "n11", table["n11"], table["n11"] > 0,
+                     "n11 > 0 on an efficiency contour (the efficiency is 0 at standstill)", rows)
+        high = np.flatnonzero(eta > EFFICIENCY_PLAUSIBLE)
+        if high.size:
+            row = int(rows[high[0]]) if rows is not None else int(high[0]) + 2
+            warnings.warn(f"{path}: row {row}: efficiency {float(table['efficiency'][high[0]])!r} is implausible "
+                          f"(the best turbines reach about 0.96; above {EFFICIENCY_PLAUSIBLE} is kept but suspect): "
+                          "check the contour value", UserWarning, stacklevel=3)
     _check_duplicates(path, table, rows)
 
 

@@ -56,12 +56,33 @@ def read_text(path: Path, what: str = "file") -> str:
     try:
         return Path(path).read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); save it as UTF-8 "
-                         "(CSV UTF-8 in a spreadsheet)") from None
+        raise InputError(f"{path}: not a UTF-8 text file {not_utf8_detail(exc)}") from None
     except IsADirectoryError:
         raise InputError(f"{path}: is a folder, expected a {what}") from None
     except OSError as exc:
         raise InputError(f"cannot read {what} {str(path)!r}: {exc.strerror}") from None
+
+
+def not_utf8_detail(exc: UnicodeDecodeError) -> str:
+    """Why a file is not UTF-8 and how to fix it, in parentheses (UTF-16, as Notepad's "Unicode" writes it, and a
+    binary file are named as such)."""
+    data = exc.object if isinstance(exc.object, (bytes, bytearray)) else b""
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        kind = "it is UTF-16, Notepad's \"Unicode\""
+    elif b"\x00" in data[:4096]:
+        kind = "it looks like a binary file"
+    else:
+        kind = f"byte 0x{data[exc.start]:02x} at offset {exc.start}: {exc.reason}" if data else exc.reason
+    return f"({kind}); save it as UTF-8 (\"CSV UTF-8\" in a spreadsheet, \"UTF-8\" in an editor)"
+
+
+def csv_rows(text: str, path, *, delimiter: str = ",") -> list[list[str]]:
+    """``csv.reader`` over ``text``; a malformed file (a cell over the csv module's 128 KiB limit, a NUL byte)
+    is an InputError naming the file instead of a ``_csv.Error`` traceback."""
+    try:
+        return list(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a readable CSV table ({exc}); is this the right file?") from None
 
 
 def detect_delimiter(header_line: str) -> str:
@@ -120,7 +141,7 @@ def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example:
     if first is None:
         raise InputError(f"{path}: empty file; expected a header {expected}")
     delimiter = detect_delimiter(lines_text[first])
-    rows = list(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter))
+    rows = csv_rows(text, path, delimiter=delimiter)
     header = [name.strip() for name in rows[first]]
     missing = [c for c in columns if c not in header]
     if missing:

@@ -35,7 +35,8 @@ There is exactly one implementation of eq. (11) and its analytic gradient at eva
     {"format": "hillsim.nets", "version": 1,
      "units": {"n11": "r/min", "opening": "<chart unit>", "q11": "m^3/s", "m11": "N*m"},
      "flow": NET (output "q11"), "torque": NET (output "m11"), "training": {...},
-     "ensemble": [{"flow": NET, "torque": NET}, ...]}    # optional: the members of the band
+     "ensemble": [{"flow": NET, "torque": NET}, ...],    # optional: the members of the uncertainty band
+     "digitized_region": [[n11, opening], ...]}         # optional: the hull of the digitized chart points
     NET = {"inputs": ["n11", "opening"], "output": "q11" | "m11",
            "x_min": [n11_min, opening_min], "x_max": [n11_max, opening_max], "y_min": float, "y_max": float,
            "W1": [[w_n11, w_opening], ... H rows], "b1": [... H], "W2": [... H], "b2": float}
@@ -622,7 +623,7 @@ class HillNets:
     """
 
     def __init__(self, flow: NetWeights, torque: NetWeights, opening_unit: str, training: dict | None = None,
-                 ensemble=None):
+                 ensemble=None, digitized_region=None):
         if not isinstance(flow, NetWeights) or not isinstance(torque, NetWeights):
             raise InputError("HillNets.flow and HillNets.torque must be NetWeights")
         if not isinstance(opening_unit, str) or not opening_unit:
@@ -637,11 +638,16 @@ class HillNets:
                     and all(isinstance(w, NetWeights) for w in pair)):
                 raise InputError(f"HillNets.ensemble[{i}] must be a (flow, torque) pair of NetWeights")
         self.ensemble = [tuple(p) for p in pairs]
+        #: Vertices (k, 2) of the convex hull of the digitized (N11 r/min, opening) points the nets were trained
+        #: on, or None (files written before it was recorded): what a run needs to say when it leaves the chart,
+        #: wherever the nets.json is kept.
+        self.digitized_region = None if digitized_region is None else _region(digitized_region, "digitized_region")
 
     # ensemble: uncertainty band ------------------------------------------------------------------------------------
     def members(self) -> list["HillNets"]:
         """The ensemble members as HillNets (empty when the file has no ensemble)."""
-        return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit) for f, t in self.ensemble]
+        return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit, digitized_region=self.digitized_region)
+                for f, t in self.ensemble]
 
     def band(self, quantity: str, n11, opening, *, percentiles=(5.0, 95.0)) -> dict:
         """Mean and percentile band of ``quantity`` over the ensemble members.
@@ -714,6 +720,8 @@ class HillNets:
                "training": self.training}
         if self.ensemble:
             doc["ensemble"] = [{"flow": f.to_dict("q11"), "torque": t.to_dict("m11")} for f, t in self.ensemble]
+        if self.digitized_region is not None:
+            doc["digitized_region"] = self.digitized_region.tolist()
         return doc
 
     def to_json(self) -> str:
@@ -724,6 +732,9 @@ class HillNets:
             if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
                 inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
                 lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
+            elif key == "digitized_region":  # one line per vertex
+                vertices = ",\n".join(f"  {json.dumps(v, allow_nan=False)}" for v in value)
+                lines.append(f" {json.dumps(key)}: [\n{vertices}\n ]")
             elif key == "ensemble":  # one line per member NET
                 members = ",\n".join(
                     "  {" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in m.items()) + "}"
@@ -779,7 +790,9 @@ class HillNets:
                                      f"torque, got {member if not isinstance(member, dict) else sorted(member)!r}")
                 ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
                                  NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
-        return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training, ensemble=ensemble)
+        region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
+        return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training, ensemble=ensemble,
+                   digitized_region=region)
 
     @classmethod
     def from_json(cls, text: str) -> "HillNets":
@@ -794,6 +807,19 @@ class HillNets:
         except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
             raise InputError(f"nets.json: not a valid nets file ({exc})") from None
         return cls.from_dict(doc)
+
+
+def _region(value, key: str) -> np.ndarray:
+    """A digitized region: at least 3 finite (N11, opening) vertices."""
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{key} must be a list of [n11, opening] pairs, got {str(value)[:80]}") from None
+    if array.ndim != 2 or array.shape[1] != 2 or len(array) < 3:
+        raise InputError(f"{key} must be a list of at least 3 [n11, opening] pairs, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise InputError(f"{key} must hold finite numbers")
+    return array
 
 
 def load_nets(path) -> HillNets:

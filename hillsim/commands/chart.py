@@ -29,6 +29,9 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.nets.chartplot import chart_figure
     from hillchart.nets.hill_nets import load_nets
 
+    from hillsim.outputs import check_picture_suffix
+
+    check_picture_suffix("--out", args.out)
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place at the end
     nets = load_nets(args.nets)
     chart = extended = None

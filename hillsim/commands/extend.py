@@ -74,6 +74,9 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.extension.extend import extend_samples
 
+    from hillsim.outputs import check_picture_suffix
+
+    check_picture_suffix("--plot", args.plot)
     out, plot = args.outputs.file("--out", args.out), args.outputs.file("--plot", args.plot)  # checked first
     options = extension_options(args)
     chart = load_chart_reporting_warnings(args.chart, options.boundaries)

@@ -71,7 +71,13 @@ def run(args: argparse.Namespace) -> int:
     net = FCCMNet(hidden=args.hidden, seed=args.seed, restarts=args.restarts, split=_split(args.split))
     net._validate_params()  # bad --split before any file is read
     out = args.outputs.folder("--out", args.out)  # checked (and locked) before the work; in place at the end
-    table = load_test_table(args.table)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = load_test_table(args.table)
+    for w in caught:  # unit look-alikes (flow in l/s, power in W, angles in radians): said before the training
+        print(f"warning: {w.message}", flush=True)
     truth = read_truth_csv(args.truth) if args.truth else None
     report = analyse_fccm(table, inputs, outputs, net=net, truth=truth)
     written = report.write(out, plots=not args.no_plots)

@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
     if args.data is not None:
         if args.penstock_model is not None or args.initial_opening is not None:
             raise InputError("--penstock-model and --initial-opening apply to the simulated experiment, not to --data")
-        from simulate.identification.series_checks import check_against_plant
+        from simulate.identification.series_checks import check_against_plant, check_duration_against_plant
 
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -133,9 +133,12 @@ def run(args: argparse.Namespace) -> int:
         for w in caught:
             print(f"warning: {w.message}")
         check_against_plant(args.data, series.operating_point, plant)
+        check_duration_against_plant(args.data, series.time_s, plant)
         try:
-            arma_series = load_measured_series(args.data, sample_time_s=settings.arma_sample_time_s,
-                                               operating_point=series.operating_point)
+            with warnings.catch_warnings():  # the same file again: its notes were printed above
+                warnings.simplefilter("ignore")
+                arma_series = load_measured_series(args.data, sample_time_s=settings.arma_sample_time_s,
+                                                   operating_point=series.operating_point)
         except InputError as exc:  # e.g. sampled too coarsely for paper 002's 0.04 s: the rest stands
             arma_series = None
             notes.append(f"the ARMA fit of Wei et al. 2016 uses the series at {settings.arma_sample_time_s} s: {exc}")

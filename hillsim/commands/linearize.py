@@ -79,6 +79,9 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients, six_coefficients_at
 
+    from hillsim.outputs import check_picture_suffix
+
+    check_picture_suffix("--map", args.map)
     map_png = args.outputs.file("--map", args.map)  # checked now, renamed into place at the end
     if args.plant is not None:
         return _run_plant(args)

@@ -148,6 +148,11 @@ def optimize_command(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and 0.0 < value <= 5.0):
             raise InputError(f"--{name.replace('_', '-')} must be a fraction in (0, 5], got {value!r}")
+    from hillsim.commands.sweep import cap_workers
+
+    if not 0 <= args.seed <= 2**32 - 1:  # numpy's generators take no negative seed
+        raise InputError(f"--seed must be an integer in [0, 4294967295], got {args.seed}")
+    args.workers = cap_workers(args.workers)
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
     if args.max_speed_rise is not None:
@@ -170,6 +175,15 @@ def optimize_command(args: argparse.Namespace) -> int:
         if not extra:
             raise InputError(f"--ensemble: {plant.turbine.characteristics!r} has no \"ensemble\" list")
         members += extra
+    from simulate.studies.batch import variant_overrides
+    from simulate.loop.engine import initial_state
+
+    for lc in study.load_cases:  # a load case the unit cannot start from is named now, not as "no law runs"
+        try:
+            initial_state(plant.with_overrides(variant_overrides(lc.overrides)) if lc.overrides else plant, base)
+        except InputError as exc:
+            keys = ", ".join(sorted(lc.overrides)) or "no key"
+            raise InputError(f"load case {lc.name!r} (setting {keys}): {exc}") from None
     print(f"optimize-closure: {len(study.load_cases)} load case(s) x {len(members)} characteristics; minimize "
           f"max {mode} rise with max {'speed' if mode == 'head' else 'head'} rise <= {limit:g}", flush=True)
 

@@ -292,7 +292,11 @@ def build_report(args) -> tuple[dict, Path]:
         folder = f"cases/{i}"
         (out / folder).mkdir(parents=True, exist_ok=True)
         case_plant = plant.with_overrides(variant_overrides(lc.overrides)) if lc.overrides else plant
-        result = run_simulation(case_plant, characteristics=chars, raise_on_failure=False)
+        try:
+            result = run_simulation(case_plant, characteristics=chars, raise_on_failure=False)
+        except InputError as exc:  # e.g. an initial power the unit cannot give at this load case's head
+            keys = ", ".join(sorted(lc.overrides)) or "no key"
+            raise InputError(f"load case {lc.name!r} (setting {keys}): {exc}") from None
         result.to_csv(out / folder / "timeseries.csv")
         result.to_json(out / folder / "summary.json")
         case = case_from_result(i, lc.overrides, case_plant, result, domain)
@@ -484,5 +488,5 @@ def report_command(args: argparse.Namespace) -> int:
     (out / "report.json").write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
     path = write_html(report, out, args.closure, args.sweep)
     print(f"report: {len(report['cases'])} load case(s), overall {report['overall_verdict']}, "
-          f"{len(report['warnings'])} warning(s); wrote {path}")
+          f"{len(report['warnings'])} warning(s); wrote {Path(args.out) / Path(path).relative_to(out)}")
     return 0

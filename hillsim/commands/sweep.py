@@ -34,7 +34,15 @@ def register(subparsers) -> None:
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="override a plant-file key for every case (as in hillsim run)")
     parser.add_argument("--no-plot", action="store_true", help="do not write sweep.png")
+    parser.add_argument("--allow-large", action="store_true",
+                        help=f"run a sweep of more than {LARGE_SWEEP_CASES} cases or {LARGE_SWEEP_STEPS:.0e} time "
+                             "steps in all (refused otherwise, after the estimate is printed)")
     parser.set_defaults(func=sweep_command)
+
+
+#: A sweep above either bound is refused unless --allow-large (hours of work started by a typo in COUNT).
+LARGE_SWEEP_CASES = 20_000
+LARGE_SWEEP_STEPS = 2e9
 
 
 class Progress:
@@ -65,6 +73,19 @@ def parse_scheduler(values: list[str]) -> tuple[str, str | None]:
     return kind, (values[1] if len(values) == 2 else None)
 
 
+def cap_workers(workers: int | None, option: str = "--workers") -> int | None:
+    """``workers`` capped at the cores this process may use (a warning on stderr says so): more local workers than
+    cores only slow each other down and multiply the memory."""
+    from simulate.studies.batch import default_workers
+
+    cores = default_workers()
+    if workers is not None and workers > cores:
+        print(f"warning: {option} {workers} is more than the {cores} core(s) available; using {cores}",
+              file=sys.stderr)
+        return cores
+    return workers
+
+
 def sweep_command(args: argparse.Namespace) -> int:
     from simulate.config import load_plant, parse_override
     from simulate.studies.sweep import build_variants, run_sweep, write_sweep
@@ -74,12 +95,20 @@ def sweep_command(args: argparse.Namespace) -> int:
         value = getattr(args, name)
         if value is not None and value < 1:
             raise InputError(f"--{name.replace('_', '-')} must be an integer >= 1, got {value}")
+    if scheduler == "local":
+        args.workers = cap_workers(args.workers)
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
     variants = build_variants(plant, args.vary, args.cases)
     where = f"Dask {'LocalCluster' if address is None else address}" if scheduler == "dask" else "local cores"
-    print(f"sweep: {len(variants)} cases on {where}", flush=True)
+    steps = len(variants) * max(1, round(plant.scenario.t_end_s / plant.time_step_s))
+    estimate = f"{len(variants)} cases of about {steps // len(variants)} time steps ({steps:.3g} steps in all)"
+    if (len(variants) > LARGE_SWEEP_CASES or steps > LARGE_SWEEP_STEPS) and not args.allow_large:
+        raise InputError(f"the sweep has {estimate}, more than {LARGE_SWEEP_CASES} cases or {LARGE_SWEEP_STEPS:.0e} "
+                         "steps (hours of computing); reduce COUNT or the values, or add --allow-large")
+    print(f"sweep: {len(variants)} cases on {where} (about {steps // len(variants)} time steps each, {steps:.3g} in "
+          "all)", flush=True)
     batch = run_sweep(plant, variants, scheduler=scheduler, address=address, workers=args.workers,
                       chunk_size=args.chunk_size, progress=Progress())
     statuses = [c.status for c in batch.cases]
@@ -89,5 +118,5 @@ def sweep_command(args: argparse.Namespace) -> int:
     paths = write_sweep(batch, out, plant_file=str(args.plant), plot=not args.no_plot,
                         extra={"vary": list(args.vary), "cases_file": None if args.cases is None else str(args.cases),
                                "overrides": list(args.overrides)})
-    print(f"sweep: wrote {', '.join(p.name for p in paths.values())} to {out}")
+    print(f"sweep: wrote {', '.join(p.name for p in paths.values())} to {args.out}")
     return 0

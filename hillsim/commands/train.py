@@ -130,6 +130,13 @@ def run(args: argparse.Namespace) -> int:
                                                           "m11": round(extended.boundary_model.m11_rms_pct, 4)}
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
+    import numpy as np
+
+    from simulate.loop.domain import convex_hull
+
+    # the digitized region travels with the nets: a run judges its domain wherever the nets.json is kept
+    hull = convex_hull(np.column_stack((chart.flow_n11, chart.flow_opening)))
+    nets.digitized_region = hull if len(hull) >= 3 else None
     problem = efficiency_plausibility(nets, chart)  # checked before anything is written
     thin = thin_chart_notes(chart)
     if problem and not (args.allow_implausible or thin):

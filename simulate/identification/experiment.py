@@ -108,6 +108,15 @@ class ExperimentSettings:
         if self.prbs_bit_s < self.sample_time_s - 1e-12:
             raise InputError(f"experiment.prbs_bit_s must be >= sample_time_s ({self.sample_time_s}), "
                              f"got {self.prbs_bit_s!r}")
+        # the same memory bound as a measured series (simulate.identification.series_checks): samples x bytes per sample
+        from simulate.identification.series_checks import BYTES_PER_SAMPLE, MAX_BYTES
+
+        samples = self.duration_s / self.sample_time_s + 1
+        if samples * BYTES_PER_SAMPLE > MAX_BYTES:
+            raise InputError(f"experiment.sample_time_s = {self.sample_time_s:g} s over the {self.duration_s:g} s "
+                             f"experiment is {samples:.3g} samples, about {samples * BYTES_PER_SAMPLE / 1024**3:.3g} "
+                             f"GiB to identify (limit {MAX_BYTES / 1024**3:.3g} GiB); give a larger --tau (the "
+                             f"default 0.2 s suits a hydro unit) or a shorter experiment")
 
     @property
     def duration_s(self) -> float:

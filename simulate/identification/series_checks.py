@@ -32,6 +32,9 @@ MAX_SAMPLING_RATIO = 5.0
 BYTES_PER_SAMPLE = 1024
 #: Default memory bound of the resampled series (bytes).
 MAX_BYTES = 2 * 1024**3
+#: A step between samples longer than this many median sampling intervals (and than MAX_SAMPLING_RATIO tau) is a
+#: hole in the record, refused.
+MAX_GAP_STEPS = 50.0
 #: Hampel outlier test: window half-width (samples) and threshold (robust standard deviations).
 HAMPEL_HALF_WIDTH = 3
 HAMPEL_SIGMAS = 10.0
@@ -75,6 +78,13 @@ def check_time(path, time_s: np.ndarray, rows: np.ndarray, *, sample_time_s: flo
         return
     tau = float(sample_time_s)
     step = float(np.median(np.diff(t)))
+    gaps = np.diff(t)
+    worst = int(np.argmax(gaps))
+    if gaps[worst] > max(MAX_SAMPLING_RATIO * tau, MAX_GAP_STEPS * step):
+        # interpolating across a hole in the record invents the data the estimators would fit
+        raise InputError(f"{path}: column 'time_s' jumps by {_num(gaps[worst])} s from row {int(rows[worst])} to "
+                         f"row {int(rows[worst + 1])} (the median sampling interval is {_num(step)} s): a hole in "
+                         "the record; identify the parts before and after it separately")
     duration = float(t[-1] - t[0])
     hint = _time_unit_hint(step, duration, tau)
     if step > MAX_SAMPLING_RATIO * tau:
@@ -166,6 +176,25 @@ UNIT_SLIPS = {
 }
 
 
+#: Speed at the first sample, as a fraction of the plant's rated speed: a unit under test runs near rated speed (a
+#: start-up or a runaway test is not an identification series); outside, the data are likely another unit's.
+SPEED_RANGE = (0.7, 1.4)
+
+
+def check_duration_against_plant(path, time_s, plant) -> None:
+    """A series much shorter than the unit's inertia time T_a cannot show its speed dynamics: most likely the time
+    column is in minutes (or hours). An InputError that says so."""
+    t = np.asarray(time_s, dtype=float)
+    if t.size < 2:
+        return
+    duration = float(t[-1] - t[0])
+    ta = float(plant.generator.inertia_time_s)
+    if duration < 0.5 * ta:
+        raise InputError(f"{path}: column 'time_s' spans {_num(duration)} s, less than half the unit's inertia time "
+                         f"generator.inertia_time_s = {ta:g} s, too short to identify the speed dynamics; is time "
+                         f"in minutes (then it spans {_num(duration * 60)} s)? the column must be in seconds")
+
+
 def check_against_plant(path, operating_point, plant, *, low: float = 0.2, high: float = 5.0) -> None:
     """The operating point (first sample) against the plant's rated values: an error when a value is what the
     rated one would be in another unit (within a factor 2 of :data:`UNIT_SLIPS`), or when speed or head are outside
@@ -187,6 +216,12 @@ def check_against_plant(path, operating_point, plant, *, low: float = 0.2, high:
         if name in ("speed_rpm", "head_m"):
             raise InputError(f"{start}: expected {low:g} to {high:g} x rated; is the column in {unit}, and is this "
                              "the plant the data come from?")
+    speed = float(operating_point.speed_rpm)
+    ratio = speed / tur.rated_speed_rpm
+    if not SPEED_RANGE[0] <= ratio <= SPEED_RANGE[1]:
+        raise InputError(f"{path}: column 'speed_rpm' starts at {_num(speed)} r/min, {_num(ratio)} x the plant's "
+                         f"rated {_num(tur.rated_speed_rpm)} r/min; a unit under test runs at {SPEED_RANGE[0]:g} to "
+                         f"{SPEED_RANGE[1]:g} x rated: is this the plant the data come from?")
 
 
 def small_signal_warning(series, *, limit: float = 0.1) -> str | None:

@@ -4,9 +4,10 @@ Three kinds of extrapolation, each reported separately:
 
 ``training_range``   outside the nets' training range: N11 or opening outside the input normalization
                      [x_min, x_max] of both nets (the samples they were fitted on, extension included);
-``digitized_region`` outside the digitized region: the convex hull of the (N11, opening) points of ``flow.csv`` in
-                     the chart folder the nets came from (the folder of the nets.json, when it holds a flow.csv),
-                     or of ``characteristics.digitized_region`` (vertices) when the object offers one;
+``digitized_region`` outside the digitized region: ``characteristics.digitized_region`` (the hull vertices that
+                     ``hillsim train`` records in nets.json, so the check travels with the file), else the convex
+                     hull of the (N11, opening) points of ``flow.csv`` beside the nets.json (files written before
+                     the region was recorded); when neither is known the record says so and the run warns;
 ``full_stroke``      beyond full stroke: the guide-vane stroke above 1 (``governor.stroke_max`` > 1).
 
 A run never extrapolates silently: :func:`extrapolation_record` goes into ``summary.json`` and the CLI warns.
@@ -78,6 +79,7 @@ class TrustedDomain:
     opening_range: tuple[float, float] | None = None
     hull: np.ndarray | None = None
     hull_source: str = ""
+    hull_unknown: str = ""  # why the digitized region cannot be checked (nets without a recorded region), or ""
 
     def masks(self, n11, opening, stroke) -> dict[str, np.ndarray]:
         """Boolean arrays per kind: True where the point is outside."""
@@ -142,7 +144,12 @@ def trusted_domain(characteristics, *, chart_dir=None) -> TrustedDomain:
     elif chart_dir is not None:
         hull = digitized_hull_from_folder(chart_dir)
         source = str(Path(chart_dir) / "flow.csv") if hull is not None else ""
-    return TrustedDomain(n11_range, opening_range, hull, source)
+    unknown = ""
+    if hull is None and n11_range is not None:  # nets without a recorded region, away from their chart folder
+        unknown = ("the digitized region of the chart is unknown (this nets.json records none and there is no "
+                   "flow.csv beside it), so leaving the digitized chart is not checked: retrain the nets with "
+                   "hillsim train to record it, or keep the nets.json in its chart folder")
+    return TrustedDomain(n11_range, opening_range, hull, source, unknown)
 
 
 def plant_domain(plant, characteristics) -> TrustedDomain:
@@ -204,6 +211,8 @@ def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke, *,
         record["training_opening_range"] = list(domain.opening_range)
     if domain.hull_source:
         record["digitized_region_source"] = domain.hull_source
+    if domain.hull_unknown:
+        record["digitized_region_unknown"] = domain.hull_unknown
     record["intervals_s"] = _intervals(time_s, any_mask)
     return record
 
@@ -212,7 +221,7 @@ def extrapolation_warnings(record: dict) -> list[str]:
     """One line per kind the trajectory entered."""
     from hillchart.io.tidy import tidy_float
 
-    lines = []
+    lines = [record["digitized_region_unknown"]] if record.get("digitized_region_unknown") else []
     for kind in KINDS:
         entry = record.get(kind)
         if not entry or entry.get("fraction_of_time", 0.0) <= 0.0 and "first_time_s" not in entry:

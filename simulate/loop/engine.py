@@ -170,7 +170,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     stride = guards.output_stride(plant, dt)
     guards.check_run_size(plant, dt, n_steps, stride)
     guards.check_initial_state(plant, steady, domain)
-    warnings = list(plan.warnings)
+    warnings = guards.plausibility_warnings(plant) + list(plan.warnings)
     parts, schedules = build_parts(plant, steady, dt, n_sub)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,

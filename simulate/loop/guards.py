@@ -83,3 +83,27 @@ def check_initial_state(plant, steady, domain=None) -> None:
                 f"{steady.unit_speed_rpm:.4g} r/min at {steady.speed_rpm:.4g} r/min, head {steady.head_m:.4g} m); "
                 f"check turbine.rated_speed_rpm, turbine.runner_diameter_m, penstock.static_head_m and the "
                 f"scenario's initial point")
+
+
+#: Bounds beyond which a valid plant value is implausible for a hydro unit (warned, not refused): the fastest
+#: guide-vane servos close in about 2 s, the best turbines reach about 0.96 efficiency at rated power.
+SHORTEST_PLAUSIBLE_STROKE_TIME_S = 1.0
+HIGHEST_PLAUSIBLE_RATED_EFFICIENCY = 0.98
+
+
+def plausibility_warnings(plant) -> list[str]:
+    """Warnings for values the config accepts but no real unit has (each names the value and what is plausible)."""
+    out = []
+    gov = plant.governor
+    for key in ("closing_time_s", "opening_time_s"):
+        value = getattr(gov, key)
+        if value < SHORTEST_PLAUSIBLE_STROKE_TIME_S:
+            out.append(f"governor.{key} = {value:.3g} s is implausibly short: guide-vane servos take about 2-30 s "
+                       "for the full stroke (the water hammer grows as the closing time shrinks); check the value "
+                       "and its unit (s)")
+    eta = plant.turbine.rated_efficiency
+    if eta > HIGHEST_PLAUSIBLE_RATED_EFFICIENCY:
+        out.append(f"the rated efficiency P_r/(rho g Q_r H_r) = {eta:.4g} from turbine.rated_power_mw, "
+                   f"rated_flow_m3_s and rated_head_m is implausible (turbines reach about 0.96 at rated power); "
+                   "check the three values")
+    return out

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import signal
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, fields
@@ -194,6 +195,11 @@ FIGURES = ("max_speed_rise", "max_speed_rpm", "t_max_speed_s", "max_head_m", "ma
            "extrapolated", "extrapolation", "steps", "error")
 
 
+#: Keys of the simulator's extrapolation record that describe it rather than name a kind of extrapolation.
+RECORD_METADATA = ("checked", "intervals_s", "training_n11_range", "training_opening_range",
+                   "digitized_region_source", "digitized_region_unknown")
+
+
 def extrapolation_kinds(record) -> dict[str, float] | None:
     """``{kind: time fraction}`` of the kinds with a positive fraction in the simulator's ``extrapolation`` record;
     None when there is no record.
@@ -206,13 +212,21 @@ def extrapolation_kinds(record) -> dict[str, float] | None:
     {'nets_range': 0.1}
     >>> extrapolation_kinds(None) is None
     True
+    >>> extrapolation_kinds({"checked": ["full_stroke"], "full_stroke": {"fraction_of_time": 0.0},
+    ...                      "intervals_s": [], "training_n11_range": [40.0, 110.0]})  # metadata is not a kind
+    {}
     """
     if record is None:
         return None
     if not isinstance(record, dict):
         return {"extrapolation": 1.0} if record else {}
     out = {}
-    for kind, value in record.items():
+    if "checked" in record:  # the simulator's record (simulate.loop.domain): the kinds it checked, beside metadata
+        kinds = [k for k in record["checked"] if isinstance(k, str)] if isinstance(record["checked"], list) else []
+        items = [(k, record[k]) for k in kinds if k in record]
+    else:
+        items = [(k, v) for k, v in record.items() if k not in RECORD_METADATA]
+    for kind, value in items:
         if isinstance(value, dict):
             frac = next((value[k] for k in ("fraction", "time_fraction", "fraction_of_time") if k in value), None)
             if frac is None:
@@ -355,7 +369,42 @@ def _cell(value) -> str:
 _WORKER: dict = {}
 
 
+_FORK_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP", "SIGXCPU") if hasattr(signal, n))
+
+
+class _SignalsBlockedWhileForking:
+    """Blocks SIGINT/SIGTERM/SIGHUP/SIGXCPU while a pool forks its workers: a worker is born with the parent's
+    Python handlers and keeps them until its initializer resets them (:func:`_worker_signals`, which unblocks); a
+    signal in between would end it with the parent's exception and a traceback. The parent receives what arrived
+    once the workers exist."""
+
+    def __enter__(self):
+        self.blocked = hasattr(signal, "pthread_sigmask")
+        if self.blocked:
+            self.previous = signal.pthread_sigmask(signal.SIG_BLOCK, _FORK_SIGNALS)
+        return self
+
+    def __exit__(self, *exc):
+        if self.blocked:
+            signal.pthread_sigmask(signal.SIG_SETMASK, self.previous)
+
+
+def _worker_signals() -> None:
+    """A forked worker must not keep the parent's signal handlers (the CLI's raise exceptions that end in a
+    traceback on stderr when the pool terminates its workers with SIGTERM): SIGTERM, SIGHUP and SIGXCPU end a
+    worker quietly, SIGINT is left to the parent (it stops the pool)."""
+    import signal
+
+    for name in ("SIGTERM", "SIGHUP", "SIGXCPU"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # blocked by the parent while it forked (_SignalsBlockedWhileForking)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _FORK_SIGNALS)
+
+
 def _init_worker(plant, characteristics, domain, keep_series):
+    _worker_signals()
     _WORKER.update(plant=plant, characteristics=characteristics, domain=domain, keep_series=keep_series)
 
 
@@ -481,8 +530,10 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
         else:
             ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
                                               else "spawn")
-            with ctx.Pool(processes=min(workers, max(1, len(chunks))), initializer=_init_worker,
-                          initargs=(plant, chars, domain, keep_series)) as pool:
+            with _SignalsBlockedWhileForking():
+                pool = ctx.Pool(processes=min(workers, max(1, len(chunks))), initializer=_init_worker,
+                                initargs=(plant, chars, domain, keep_series))
+            with pool:
                 for part in pool.imap_unordered(_run_chunk_in_worker, chunks):
                     cases.extend(part)
                     report(len(cases))
@@ -492,6 +543,7 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
 
 
 def _init_pool_worker(plant, members, domains):
+    _worker_signals()
     _WORKER.update(plant=plant, members=members, domains=domains)
 
 
@@ -524,8 +576,9 @@ class BatchPool:
             run_case(plant, self.members[0], 0, {})  # compile here, before the fork
             ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
                                               else "spawn")
-            self._pool = ctx.Pool(processes=self.workers, initializer=_init_pool_worker,
-                                  initargs=(plant, self.members, self.domains))
+            with _SignalsBlockedWhileForking():
+                self._pool = ctx.Pool(processes=self.workers, initializer=_init_pool_worker,
+                                      initargs=(plant, self.members, self.domains))
 
     def run(self, variants: Iterable[dict], *, member: int = 0, chunk_size: int | None = None,
             keep_series: bool = False) -> BatchResult:

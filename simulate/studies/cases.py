@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from hillchart.errors import InputError
-from simulate.studies.batch import CaseResult, check_key, check_value
+from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
 from simulate.config import PlantConfig, apply_overrides, plant_from_dict, to_dict
 
 STUDY_SECTIONS = ("limits", "load_cases")
@@ -132,6 +132,11 @@ def parse_load_cases(raw: Any, plant: PlantConfig) -> tuple[LoadCase, ...]:
                     raise InputError(f"{where} ({name!r}): {exc}") from None
         if not overrides:
             raise InputError(f"{where} ({name!r}) sets no plant key; give e.g. scenario.initial_power_mw = 225.0")
+        try:  # each key's range, and the plant it makes, checked now: the error names the load case
+            plant.with_overrides(variant_overrides(overrides))
+        except InputError as exc:
+            keys = ", ".join(sorted(overrides))
+            raise InputError(f"{where} ({name!r}, setting {keys}): {exc}") from None
         out.append(LoadCase(name=name, overrides=overrides))
     return tuple(out)
 
@@ -162,12 +167,17 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
         text = data.decode("utf-8")
     except OSError as exc:
         raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"plant file {str(path)!r} is not UTF-8 text") from None
+    except UnicodeDecodeError as exc:
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"plant file {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"plant file {str(path)!r} is not a plant file: arrays or tables nested thousands of "
+                         "levels deep") from None
     study_raw = {k: raw.pop(k) for k in STUDY_SECTIONS if k in raw}
     if overrides:
         apply_overrides(raw, overrides)

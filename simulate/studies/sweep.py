@@ -123,12 +123,17 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"--cases {str(path)!r} is not UTF-8 text") from None
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is accepted
+    except UnicodeDecodeError as exc:
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"--cases {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     except OSError as exc:
         raise InputError(f"cannot read --cases file {str(path)!r}: {exc.strerror}") from None
-    rows = [r for r in csv.reader(text.splitlines()) if any(cell.strip() for cell in r)]
+    try:
+        rows = [r for r in csv.reader(text.splitlines()) if any(cell.strip() for cell in r)]
+    except csv.Error as exc:
+        raise InputError(f"--cases {str(path)!r}: not a readable CSV table ({exc})") from None
     if not rows:
         raise InputError(f"--cases {str(path)!r} is empty; it needs a header of keys (section.key) and one row "
                          f"per case")

@@ -82,3 +82,11 @@ def test_train_refuses_nets_whose_efficiency_exceeds_the_chart(tmp_path, capsys)
 def test_train_synthetic_chart_gives_no_efficiency_warning(tmp_path, capsys):
     assert main(["train", str(FRANCIS_DIR), "--out", str(tmp_path / "n.json")]) == 0
     assert "efficiency reaches" not in capsys.readouterr().out
+    # the digitized region travels inside nets.json: the hull of flow.csv's (N11, opening) points
+    from hillchart.nets.hill_nets import load_nets
+    from hillchart.io.samples import load_chart
+    from simulate.loop.domain import convex_hull
+
+    chart = load_chart(FRANCIS_DIR)
+    hull = convex_hull(np.column_stack((chart.flow_n11, chart.flow_opening)))
+    np.testing.assert_array_equal(load_nets(tmp_path / "n.json").digitized_region, hull)  # the same points

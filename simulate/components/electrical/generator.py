@@ -266,11 +266,18 @@ def load_electrical(path: str | Path) -> ElectricalConfig:
     """
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except UnicodeDecodeError as exc:
+        from hillchart.io.tabular import not_utf8_detail
+
+        raise InputError(f"{str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     except OSError as exc:
         raise InputError(f"cannot read {str(path)!r}: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{str(path)!r} is not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{str(path)!r} is not a generator file: arrays or tables nested thousands of levels "
+                         "deep") from None
     return electrical_from_dict(raw)
 
 

@@ -69,14 +69,20 @@ def test_failing_cases_are_records_and_the_batch_goes_on(plant, nets):
 
 
 def test_a_start_beyond_the_chart_is_an_error_record_and_the_digitized_region_is_flagged(plant, nets):
-    batch = run_batch(plant, [{"governor.stroke_max": 1.5, "scenario.initial_opening": 1.2}, {}],
-                      characteristics=nets, mechanism="serial")
-    wide, base = batch.cases
+    from simulate.studies.batch import extrapolation_kinds
+
+    batch = run_batch(plant, [{"governor.stroke_max": 1.5, "scenario.initial_opening": 1.2}, {},
+                              {"scenario.t_end_s": 8.0}], characteristics=nets, mechanism="serial")
+    wide, base, longer = batch.cases
     # 38.4 mm on a 32 mm chart: the simulator refuses to start outside the characteristics; the batch goes on
     assert wide.status == "error" and "beyond full guide-vane stroke" in wide.error
     assert base.status == "ok" and base.beyond_nets_range is False
-    # the shut vanes take the rejection below the lowest digitized opening: flagged from the simulator's record
-    assert base.extrapolated is True
+    # the first 5 s stay on the chart: the record's metadata (checked, intervals_s, training ranges) is no kind of
+    # extrapolation, so nothing is flagged
+    assert base.extrapolated is False and extrapolation_kinds(base.extrapolation) == {}
+    # the shut vanes take the rejection below the lowest digitized opening from t = 5.47 s: flagged from the
+    # simulator's record, and only that kind
+    assert longer.extrapolated is True and set(extrapolation_kinds(longer.extrapolation)) == {"digitized_region"}
 
 
 def test_envelope_and_extrapolation_fields_are_read_when_the_summary_has_them(plant, nets):
