@@ -15,8 +15,17 @@ A command declares each output (a file or a folder) before it starts working::
 
 What a declaration checks (before any work, so a bad path costs nothing): the path is not an existing folder (for a
 file) or file (for a folder); the parent of a file exists and is a folder; the folder to write into is writable;
-no other hillsim process is writing the same output (see below). Each failure is an
-:class:`~hillchart.errors.InputError` naming the option and the path (the CLI exits 2).
+no other hillsim process is writing the same output (see below); the path is not empty; the output is not one of
+the command's inputs, nor a folder whose commit would replace or remove one (``identify --data r/timeseries.csv
+--out r``: the CLI passes every argument naming an existing path as an input). Each failure is an
+:class:`~hillchart.errors.InputError` naming the option and the path (the CLI exits 2). Before the commit, an output
+that would replace a file the command read (found by a ``sys.audit`` hook on ``open``: ``extend c --out
+c/flow.csv``) is refused too, and nothing is written.
+
+Special targets. A device, FIFO or socket (``/dev/null``, ``/dev/stdout``) is written in place, never replaced by a
+regular file; a symbolic link is followed (its target is replaced, the link kept). Files get the mode the umask
+asks for (or the mode of the file they replace), folders too. Temporaries an earlier run left behind (killed by
+SIGKILL or a power cut) are removed by the next run that takes the output's lock.
 
 Atomicity. A file is written as ``.STEM.hillsim-tmp-XXXX.SUFFIX`` beside its target and renamed onto it by
 :meth:`OutputSet.commit` (``os.replace``: atomic on POSIX and Windows). A folder is written as a private temporary
@@ -272,7 +281,6 @@ class OutputSet:
                 raise InputError(f"{_describe(option, final)} exists and is not writable")
             self._targets.append(_Target(option, final, final, "direct", None, real=final))
             return final
-        final_for_write = real
         parent = real.parent
         if not parent.exists():
             raise InputError(f"{_describe(option, final)}: the folder {str(parent)!r} does not exist")
@@ -281,22 +289,22 @@ class OutputSet:
         _writable_folder(option, parent, final)
         if final.exists() and not os.access(final, os.W_OK):
             raise InputError(f"{_describe(option, final)} exists and is read-only")
-        lock = self._lock(option, final, final_for_write)
-        _remove_stale(parent, _file_temporaries(final_for_write))
+        lock = self._lock(option, final, real)
+        _remove_stale(parent, _file_temporaries(real))
         try:
             # the suffix stays last: writers that choose the format by it (matplotlib's savefig) see the real one
-            fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{final_for_write.stem}{TMP_TAG}",
-                                       suffix=final_for_write.suffix)
+            fd, tmp = tempfile.mkstemp(dir=parent, prefix=f".{real.stem}{TMP_TAG}",
+                                       suffix=real.suffix)
         except OSError as exc:
             lock.release()
             raise InputError(f"{_describe(option, final)}: cannot write in {str(parent)!r}: {exc.strerror}") from None
         os.close(fd)
         try:  # mkstemp makes 0600: give the file the mode the user's umask (or the file it replaces) asks for
-            previous = os.stat(final_for_write).st_mode & 0o7777 if final_for_write.exists() else None
+            previous = os.stat(real).st_mode & 0o7777 if real.exists() else None
             os.chmod(tmp, previous if previous is not None else 0o666 & ~_umask())
         except OSError:
             pass
-        self._targets.append(_Target(option, final, Path(tmp), "file", lock, real=final_for_write))
+        self._targets.append(_Target(option, final, Path(tmp), "file", lock, real=real))
         return Path(tmp)
 
     def folder(self, option: str, path, *, stale: tuple[str, ...] = ()) -> Path:

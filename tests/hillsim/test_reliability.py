@@ -660,3 +660,23 @@ def test_the_campaign_page_matches_the_campaign_cases():
     assert counts["cases"] == len(cases)
     assert counts["traceback"] == counts["hang"] == counts["lost or damaged input"] == counts["left temporaries"] == 0
     assert "python benchmarks/bench_fault_campaign.py" in page
+
+
+def test_a_process_pool_sweep_prints_no_worker_traceback(tmp_path):
+    """The pool terminates its workers at the end with SIGTERM: workers that kept the CLI's handlers printed a
+    ``hillsim.cli.Terminated`` traceback each, even on a successful sweep."""
+    import subprocess
+    import sys
+
+    from simulate.batch import SERIAL_BELOW, default_workers
+
+    if default_workers() < 2:
+        pytest.skip("one core: the sweep runs serially, without a pool")
+    env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.run([sys.executable, "-m", "hillsim.cli", "sweep", str(PLANT), "--vary",
+                           f"governor.kp=1:3:{SERIAL_BELOW}", "--out", str(tmp_path / "sw"), "--workers", "2",
+                           "--no-plot", "--quiet", "--set", "scenario.t_end_s=2.5"],
+                          capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "(processes, 2 workers)" in proc.stdout
+    assert "Traceback" not in proc.stderr and "Terminated" not in proc.stderr
