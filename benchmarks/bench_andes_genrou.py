@@ -20,7 +20,8 @@ from importlib import resources
 
 import numpy as np
 
-from simulate.components.electrical.generator import GridConfig, initial_generator_state, load_electrical, simulate_unit
+from simulate.components.electrical.generator import GridConfig, initial_generator_state, load_electrical
+from simulate.components.electrical.standalone import simulate_unit
 
 P_PU, X_LINE, M_S, T_END = 0.8, 0.3, 8.1, 8.0
 

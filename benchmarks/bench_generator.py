@@ -16,10 +16,20 @@ from pathlib import Path
 
 import numpy as np
 
-from simulate.components.electrical.generator import (GridConfig, classical_short_circuit_current, field_step_test,
-                                generator_step,
-                                initial_generator_state, load_electrical, short_circuit_test, simulate_generator,
-                                simulate_unit, transient_synchronizing_torque)
+from simulate.components.electrical.generator import (
+    GridConfig,
+    generator_step,
+    initial_generator_state,
+    load_electrical,
+)
+from simulate.components.electrical.standalone import (
+    classical_short_circuit_current,
+    field_step_test,
+    short_circuit_test,
+    simulate_generator,
+    simulate_unit,
+    transient_synchronizing_torque,
+)
 
 
 def main() -> None:

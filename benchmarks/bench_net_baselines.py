@@ -2,7 +2,7 @@
 
 On the same extended samples of ``data_synthetic/francis`` and the same stratified 80/20 split:
 
-* ``LM net (ours)``   : :class:`hillchart.nets.hill_nets.HillNet`, trainlm-style Levenberg-Marquardt, best of 10
+* ``LM net (ours)``   : :class:`hillchart.nets.estimator.HillNet`, trainlm-style Levenberg-Marquardt, best of 10
                         restarts.
 * ``MLP lbfgs``       : scikit-learn ``MLPRegressor`` (5 logistic neurons, lbfgs), best validation of 10 seeds.
 * ``2-5-1 Adam``      : the same net trained by torch Adam (lr 1e-2, 3000 full-batch epochs), best of 3 seeds.
@@ -38,7 +38,8 @@ from tests.torch_reference import torch_forward  # noqa: E402  (the Adam baselin
 
 from hillchart.nets import lm  # noqa: E402
 from hillchart.extension.extend import extend_samples  # noqa: E402
-from hillchart.nets.hill_nets import HillNet, read_truth_csv  # noqa: E402
+from hillchart.nets.accuracy import read_truth_csv
+from hillchart.nets.estimator import HillNet  # noqa: E402
 from hillchart.io.samples import measured_region_mask
 from hillchart.io.samples import load_chart  # noqa: E402
 
@@ -201,7 +202,7 @@ def main(argv=None):
     print(f"training time of both default LM nets (10 restarts each, 1 thread): {total_ours:.2f} s")
     if args.plot:
         from hillchart.nets.chartplot import plot_truth_errors
-        from hillchart.nets.hill_nets import HillNets  # noqa: F401  (for the reader: the same evaluation)
+        from hillchart.nets.hill_nets import HillNets  # noqa: F401  (for the reader: the same evaluation
 
         class Pair:
             def q11(self, n, a):

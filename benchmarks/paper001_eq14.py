@@ -17,7 +17,7 @@ import numpy as np
 from data_synthetic import PLANT_HLA339, PLANT_HLA339_GRID
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
-from simulate.components.electrical.generator import frequency_recovery_time
+from simulate.components.electrical.standalone import frequency_recovery_time
 
 PAPER_RECOVERY_S = 9.6
 BANDS_HZ = (0.02, 0.05, 0.1, 0.2)

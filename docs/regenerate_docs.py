@@ -113,7 +113,8 @@ def linearize_example(ctx: Context) -> str:
 def nets_accuracy(ctx: Context) -> str:
     """The shipped nets against the synthetic turbine's exact ``truth.csv`` (% of the measured-region range)."""
     from data_synthetic import FRANCIS_DIR
-    from hillchart.nets.hill_nets import load_nets, read_truth_csv, truth_errors
+    from hillchart.nets.accuracy import read_truth_csv, truth_errors
+    from hillchart.nets.hill_nets import load_nets
     from hillchart.io.samples import measured_region_mask
     from hillchart.io.samples import load_chart
 

@@ -26,7 +26,7 @@ with warnings.catch_warnings():
 extended = extend_samples(chart)
 extended.to_csv(out / "extended.csv")
 
-# 2. the nets (hillchart.nets.hill_nets.train_nets(extended) trains new ones in a few seconds; here: the shipped ones)
+# 2. the nets (hillchart.nets.training.train_nets(extended) trains new ones in a few seconds; here: the shipped ones)
 nets = load_nets(FRANCIS_DIR / "nets.json")
 
 # 3. the example plant: steady state, then its scenario (100 % load rejection)

@@ -25,7 +25,7 @@ __version__ = "0.1.0"
 PUBLIC = {
     "load_chart": "hillchart.io.samples",
     "extend_samples": "hillchart.extension.extend",
-    "train_nets": "hillchart.nets.hill_nets",
+    "train_nets": "hillchart.nets.training",
     "load_nets": "hillchart.nets.hill_nets",
     "HillNets": "hillchart.nets.hill_nets",
     "six_coefficients": "hillchart.linearize",

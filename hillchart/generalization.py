@@ -2,7 +2,7 @@
 
 Used by ``benchmarks/bench_generalization.py`` (the whole grid) and by the acceptance tests (one seed per turbine),
 so that both report the same numbers. Errors are percentages of the truth's range inside the measured region (the
-convex hull of the digitized opening lines), as in :func:`hillchart.nets.hill_nets.truth_errors`.
+convex hull of the digitized opening lines), as in :func:`hillchart.nets.accuracy.truth_errors`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.linearize import COEFFICIENT_NAMES, six_coefficients
-from hillchart.nets.hill_nets import read_truth_csv, train_nets, truth_errors
+from hillchart.nets.accuracy import read_truth_csv, truth_errors
+from hillchart.nets.training import train_nets
 from hillchart.io.samples import measured_region_mask
 from hillchart.synthetic.francis import FAMILY, DigitizationOptions, synthetic_chart_texts
 
@@ -31,7 +32,7 @@ class GeneralizationResult:
     Attributes
     ----------
     errors : dict
-        :func:`hillchart.nets.hill_nets.truth_errors` of the default pipeline.
+        :func:`hillchart.nets.accuracy.truth_errors` of the default pipeline.
     baseline : dict or None
         The same for nets fitted to the measured samples alone (no boundary samples), when asked for.
     k_ratio : float or None
@@ -40,7 +41,7 @@ class GeneralizationResult:
         Point name -> max |nets - exact| over the six coefficients.
     nets : HillNets
     truth : dict of ndarray
-        The exact truth grid (:func:`hillchart.nets.hill_nets.read_truth_csv`).
+        The exact truth grid (:func:`hillchart.nets.accuracy.read_truth_csv`).
     inside : ndarray of bool
         Measured-region mask of the truth grid.
     """
@@ -80,7 +81,7 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
     options : DigitizationOptions, optional
     extension : ExtensionOptions, optional
     train_kwargs : dict, optional
-        Passed to :func:`hillchart.nets.hill_nets.train_nets`.
+        Passed to :func:`hillchart.nets.training.train_nets`.
     baseline : bool
         Also fit nets to the measured samples alone (the issue's "never worse than 1.2 x" reference).
     """

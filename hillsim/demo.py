@@ -103,7 +103,9 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     from hillchart.nets.chartplot import chart_figure
     from hillchart.extension.extend import extend_samples
     from hillchart.linearize import coefficient_maps, plot_coefficient_maps, six_coefficients
-    from hillchart.nets.hill_nets import load_nets, read_truth_csv, train_nets, truth_errors
+    from hillchart.nets.accuracy import read_truth_csv, truth_errors
+    from hillchart.nets.hill_nets import load_nets
+    from hillchart.nets.training import train_nets
     from hillchart.io.samples import measured_region_mask
     from hillchart.io.samples import load_chart
     from hillchart.synthetic.francis import SyntheticFrancis

@@ -10,8 +10,8 @@ import numpy as np
 
 from hillchart.errors import InputError, NumericalError
 from hillchart.fccm.net import FCCMNet, FCCMWeights
-from hillchart.validation import check_finite
 from hillchart.fccm.plots import _figure
+from hillchart.validation import check_finite
 
 # ----------------------------------------------------------------------------------------------------------------
 # beyond the paper: a three-input hill chart of a double-regulated turbine and its on-cam relation

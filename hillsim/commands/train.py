@@ -100,7 +100,7 @@ def parse_options(args: argparse.Namespace) -> dict:
 def run(args: argparse.Namespace) -> int:
     from hillchart.errors import InputError
     from hillchart.extension.extend import extend_samples
-    from hillchart.nets.hill_nets import train_nets
+    from hillchart.nets.training import train_nets
     from hillchart.extension.plausibility import efficiency_plausibility, thin_chart_notes
 
     options = parse_options(args)

@@ -255,7 +255,8 @@ def load_ensemble(path: str | Path) -> list:
         ``ensemble`` not a non-empty list, a member not an object or without flow/torque, a malformed NET (the
         message names ``ensemble[i].flow.KEY``).
     """
-    from hillchart.nets.hill_nets import HillNets, NetWeights, load_nets
+    from hillchart.nets.hill_nets import HillNets, load_nets
+    from hillchart.nets.weights import NetWeights
 
     path = Path(path)
     base = load_nets(path)

@@ -179,7 +179,7 @@ def evaluate_chart(turbine_name: str, *, density: str = "dense", noise_pct: floa
     import time
 
     from hillchart.extension.extend import ExtensionOptions, extend_samples
-    from hillchart.nets.hill_nets import train_nets
+    from hillchart.nets.training import train_nets
     from hillchart.extension.plausibility import efficiency_plausibility, thin_chart_notes
     from hillchart.io.samples import load_chart
     from simulate.loop.engine import run_simulation

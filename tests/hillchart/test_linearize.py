@@ -194,7 +194,8 @@ def test_synthetic_francis_at_rated_point_matches_finite_differences():
 
 
 def test_nets_trained_on_an_ideal_chart_give_the_ideal_coefficients():
-    from hillchart.nets.hill_nets import HillNet, HillNets
+    from hillchart.nets.estimator import HillNet
+    from hillchart.nets.hill_nets import HillNets
 
     # an ideal-turbine "chart" on a band of N11 away from 0 (Q11 = k a, M11 = c a / N11), both nets trained by LM
     n, a = np.meshgrid(np.linspace(50, 90, 15), np.linspace(5, 30, 12))

@@ -94,7 +94,7 @@ def test_few_point_net_evaluation_is_the_compiled_kernel_to_the_bit():
     kernel's values exactly (same operations in the same order, libm's exp either way)."""
     import numpy as np
 
-    from hillchart.nets import hill_nets as nets
+    from hillchart.nets import weights as nets
     from hillchart.nets.hill_nets import load_nets
 
     flow = load_nets(ROOT / "data_synthetic" / "francis" / "nets.json").flow

@@ -1,11 +1,11 @@
 """The sub-transient generator on the shaft: registry kind "shaft", name ``subtransient`` (``[generator] model =
 "subtransient"``; see :mod:`simulate.components.registry`).
 
-It joins the pieces of :mod:`simulate.components.electrical.generator` (paper 001 eq. (10) and its grid),
+It joins the pieces of :mod:`simulate.components.electrical` (paper 001 eq. (10) and its grid),
 :mod:`simulate.components.control.excitation` (eqs. (11)-(13)) and the swing equation of
 :mod:`simulate.components.shaft.rotor` into one shaft component with the kind's fixed signature, so the assembled
 time loop runs it without naming it. Per loop step k -> k+1 (the order of
-:func:`simulate.components.electrical.generator.simulate_unit`):
+:func:`simulate.components.electrical.standalone.simulate_unit`):
 
 1. network solution at (state_k, x_k) with the inputs at t_k -> air-gap torque Te_k, terminal voltage V_k;
 2. field voltage for [t_k, t_k+1): the excitation's PI on V_k, or held (``short-circuit``, ``field-step``: the
@@ -32,13 +32,25 @@ import numba
 import numpy as np
 
 from simulate.components.control.excitation import excitation_step
-from simulate.components.electrical.generator import (O_ID, O_IQ, O_PE, O_TE, O_VT, P_TORQUE_RATIO, RUN_COLUMNS,
-                                S_ED_ST, S_EQ_ST, S_EQ_T,
-                                STATUS_TEXT, generator_step, network_solution)
+from simulate.components.electrical.generator import (
+    O_ID,
+    O_IQ,
+    O_PE,
+    O_TE,
+    O_VT,
+    P_TORQUE_RATIO,
+    S_ED_ST,
+    S_EQ_ST,
+    S_EQ_T,
+    STATUS_TEXT,
+    generator_step,
+    network_solution,
+)
+from simulate.components.electrical.standalone import RUN_COLUMNS
 from simulate.components.schedules import piecewise_constant
 from simulate.components.shaft.rotor import rotor_step
 
-#: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.generator.RUN_COLUMNS`
+#: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.standalone.RUN_COLUMNS`
 #: without time).
 SIGNALS = tuple(c for c in RUN_COLUMNS if c != "time_s")
 
@@ -157,8 +169,9 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     state (:func:`simulate.components.electrical.generator.compile_electrical`: the generator takes the scenario's
     initial load, the terminal voltage is the excitation's set point; residuals checked < 1e-9)."""
     from hillchart.errors import InputError
+    from simulate.components.electrical.generator import compile_electrical
+    from simulate.components.electrical.standalone import frequency_recovery_time
     from simulate.components.registry import CompiledPart
-    from simulate.components.electrical.generator import compile_electrical, frequency_recovery_time
 
     t = plant.turbine
     electrical = plant.electrical
@@ -230,11 +243,12 @@ OMEGA_DT_REFUSE, OMEGA_DT_WARN = 1.0, 0.3
 def electromechanical_step_check(plant, arrays, dt_s: float, schedules) -> list[str]:
     """On an infinite bus with the breaker closed: the electromechanical mode omega_n = sqrt(omega_b K_s (S/P_r) /
     Ta) (K_s of the classical E'q-behind-X'd model,
-    :func:`simulate.components.electrical.generator.transient_synchronizing_torque`) against the step. Refuses
+    :func:`simulate.components.electrical.standalone.transient_synchronizing_torque`) against the step. Refuses
     omega_n dt > :data:`OMEGA_DT_REFUSE` (InputError naming the keys), warns above :data:`OMEGA_DT_WARN`; returns the
     warnings."""
     from hillchart.errors import InputError
-    from simulate.components.electrical.generator import P_OMEGA_B, transient_synchronizing_torque
+    from simulate.components.electrical.generator import P_OMEGA_B
+    from simulate.components.electrical.standalone import transient_synchronizing_torque
 
     grid = plant.grid
     if grid.kind != "infinite-bus" or arrays.breaker == 0.0 or schedules.speed_held:

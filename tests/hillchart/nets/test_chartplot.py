@@ -10,7 +10,8 @@ import pytest
 from hillchart.nets import chartplot
 from hillchart.characteristics import IdealTurbine
 from hillchart.extension.extend import ExtensionOptions, extend_samples
-from hillchart.nets.hill_nets import load_nets, train_nets
+from hillchart.nets.hill_nets import load_nets
+from hillchart.nets.training import train_nets
 from hillchart.io.samples import load_chart
 from hillsim.cli import main
 from tests.external_charts import write_sayano_chart

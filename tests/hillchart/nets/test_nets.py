@@ -10,7 +10,10 @@ import pytest
 from hillchart.nets import lm
 from hillchart.characteristics import Characteristics, scalar_kernel
 from hillchart.errors import InputError
-from hillchart.nets.hill_nets import HillNet, HillNets, NetWeights, stratified_split, train_nets
+from hillchart.nets.estimator import HillNet, stratified_split
+from hillchart.nets.hill_nets import HillNets
+from hillchart.nets.training import train_nets
+from hillchart.nets.weights import NetWeights
 
 
 def smooth_q11(n11, a):

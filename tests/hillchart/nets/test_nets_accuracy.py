@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 
 from hillchart.extension.extend import extend_samples
-from hillchart.nets.hill_nets import load_nets, read_truth_csv, train_nets, truth_errors
+from hillchart.nets.accuracy import read_truth_csv, truth_errors
+from hillchart.nets.hill_nets import load_nets
+from hillchart.nets.training import train_nets
 from hillchart.io.samples import measured_region_mask
 from hillchart.io.samples import load_chart
 from hillchart.synthetic.francis import SyntheticFrancis

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from hillchart.errors import InputError
-from hillchart.nets.hill_nets import HillNets, NetWeights, load_nets
+from hillchart.nets.hill_nets import HillNets, load_nets
+from hillchart.nets.weights import NetWeights
 
 
 def make_nets(hidden=5):

@@ -14,7 +14,9 @@ SCRIPT = textwrap.dedent(
     import sys
     import numpy as np
     from data_synthetic import FRANCIS_DIR
-    from hillchart.nets.hill_nets import HillNet, NetWeights, load_nets
+    from hillchart.nets.estimator import HillNet
+    from hillchart.nets.hill_nets import load_nets
+    from hillchart.nets.weights import NetWeights
     from hillchart.linearize import six_coefficients, coefficient_maps
     from hillchart.nets.chartplot import efficiency_from_characteristics
     nets = load_nets(FRANCIS_DIR / "nets.json")

@@ -13,13 +13,33 @@ import scipy.integrate
 import scipy.linalg
 
 from hillchart.errors import InputError, NumericalError
-from simulate.components.control.excitation import (ExcitationConfig, excitation_parameters, excitation_step,
-                                                    initial_excitation_state)
-from simulate.components.electrical.generator import (GEN_OUTPUTS, O_ID, O_IQ, O_PE, O_TE, O_VT, GridConfig,
-                                SubtransientGeneratorConfig,
-                                classical_short_circuit_current, electrical_from_dict, field_step_test,
-                                generator_derivatives, initial_generator_state, load_electrical, network_solution,
-                                short_circuit_test, simulate_generator)
+from simulate.components.control.excitation import (
+    ExcitationConfig,
+    excitation_parameters,
+    excitation_step,
+    initial_excitation_state,
+)
+from simulate.components.electrical.generator import (
+    GEN_OUTPUTS,
+    O_ID,
+    O_IQ,
+    O_PE,
+    O_TE,
+    O_VT,
+    GridConfig,
+    SubtransientGeneratorConfig,
+    electrical_from_dict,
+    generator_derivatives,
+    initial_generator_state,
+    load_electrical,
+    network_solution,
+)
+from simulate.components.electrical.standalone import (
+    classical_short_circuit_current,
+    field_step_test,
+    short_circuit_test,
+    simulate_generator,
+)
 
 TABLE1 = ir.files("data_synthetic") / "generator_table1.toml"
 ELEC = load_electrical(TABLE1)
@@ -359,7 +379,7 @@ def _mode(run):
 
 
 def test_electromechanical_mode_on_an_infinite_bus():
-    from simulate.components.electrical.generator import simulate_unit, transient_synchronizing_torque
+    from simulate.components.electrical.standalone import simulate_unit, transient_synchronizing_torque
 
     steady = initial_generator_state(GEN, BUS, airgap_power_pu=0.8, voltage_pu=1.0, turbine_rated_power_mw=225.0)
     runs = {dt: simulate_unit(GEN, BUS, t_end_s=15.0, dt_s=dt, steady=steady, inertia_time_s=9.0,
@@ -383,7 +403,7 @@ def test_electromechanical_mode_on_an_infinite_bus():
 
 
 def test_terminal_fault_with_the_rotor_accelerates_it_by_the_whole_mechanical_torque():
-    from simulate.components.electrical.generator import simulate_unit
+    from simulate.components.electrical.standalone import simulate_unit
 
     steady = initial_generator_state(GEN, BUS, airgap_power_pu=0.8, voltage_pu=1.0, turbine_rated_power_mw=250.0)
     run = simulate_unit(GEN, BUS, t_end_s=1.2, dt_s=0.002, steady=steady, inertia_time_s=8.1,
@@ -420,7 +440,7 @@ def test_compile_electrical_for_the_plant_loop():
 
 
 def test_frequency_recovery_time_band():
-    from simulate.components.electrical.generator import frequency_recovery_time
+    from simulate.components.electrical.standalone import frequency_recovery_time
 
     t = np.linspace(0.0, 60.0, 60001)
     f = 50.0 - 0.5 * np.exp(-(t - 10.0) / 4.0) * np.cos(0.5 * (t - 10.0)) * (t >= 10.0)
@@ -436,7 +456,7 @@ def test_frequency_recovery_time_band():
 
 
 def test_island_load_step_with_rotor_and_voltage_control_settles_where_the_load_balances_the_turbine():
-    from simulate.components.electrical.generator import simulate_unit
+    from simulate.components.electrical.standalone import simulate_unit
 
     p0, kpf = 0.8, ISLAND.island_frequency_p
     steady = initial_generator_state(GEN, ISLAND, airgap_power_pu=p0, voltage_pu=1.0,
@@ -461,8 +481,8 @@ def test_compiled_equals_pure_python_with_numba_disabled(tmp_path):
 
     script = (
         "import numpy as np, importlib.resources as ir, sys\n"
-        "from simulate.components.electrical.generator import load_electrical, initial_generator_state, "
-        "simulate_generator\n"
+        "from simulate.components.electrical.generator import load_electrical, initial_generator_state\n"
+        "from simulate.components.electrical.standalone import simulate_generator\n"
         "e = load_electrical(ir.files('data_synthetic') / 'generator_table1.toml')\n"
         "st = initial_generator_state(e.generator, e.grid, airgap_power_pu=0.7, voltage_pu=1.0)\n"
         "r = simulate_generator(e.generator, e.grid, t_end_s=1.0, dt_s=0.02, steady=st, excitation=e.excitation,\n"

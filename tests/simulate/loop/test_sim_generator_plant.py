@@ -12,11 +12,14 @@ import pytest
 
 from data_synthetic import PLANT_HLA339, PLANT_HLA339_GRID
 from hillchart.errors import InputError, NumericalError
+from simulate.components.electrical.standalone import (
+    classical_short_circuit_current,
+    field_step_test,
+    frequency_recovery_time,
+    short_circuit_test,
+)
 from simulate.config import load_plant, plant_from_dict, to_dict
 from simulate.loop.engine import run_simulation
-from simulate.components.electrical.generator import (classical_short_circuit_current, field_step_test,
-                                frequency_recovery_time,
-                                short_circuit_test)
 
 IDEAL = {"turbine.characteristics": "ideal"}
 COLUMNS = ("terminal_voltage_pu", "current_d_pu", "current_q_pu", "field_voltage_pu", "electrical_power_pu",
@@ -362,8 +365,8 @@ def test_time_step_is_checked_against_the_electromechanical_mode_on_an_infinite_
 
 
 def test_linear_models_take_the_islands_self_regulation_and_refuse_the_infinite_bus():
-    from simulate.identification.linear_reference import linear_reference
     from simulate.config import load_characteristics
+    from simulate.identification.linear_reference import linear_reference
     from simulate.loop.engine import initial_state
 
     sub = grid_plant(**{"grid.frequency_p": 1.5})

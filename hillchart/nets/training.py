@@ -1,0 +1,277 @@
+"""Training the nets from an extended chart: model selection by cross-validation on the measured samples, the ensemble
+of the band and its distilled point nets."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from hillchart.errors import InputError
+from hillchart.nets import lm
+from hillchart.nets.estimator import HillNet, _lm_runs, _split
+from hillchart.nets.hill_nets import HillNets
+from hillchart.nets.weights import ORIGINS, NetWeights
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# both nets from the extended samples
+# ----------------------------------------------------------------------------------------------------------------
+def _column(table, name):
+    try:
+        return np.asarray(table[name])
+    except (KeyError, IndexError, TypeError, ValueError):
+        pass
+    if hasattr(table, name):
+        return np.asarray(getattr(table, name))
+    raise InputError(f"extended samples: column {name!r} is missing (need target, origin, n11, opening, value)")
+
+
+#: Candidates of the model selection, each scored by the validation MSE on measured samples.
+BOUNDARY_WEIGHTS = (0.03, 0.1, 0.3, 1.0)
+HIDDEN_SIZES = (3, 4, 5, 6, 8, 10)
+REGULARIZATIONS = (0.0, 1e-5, 1e-4)
+#: A candidate is "as good" as the best when its validation MSE is within this factor; among those the selection
+#: takes the largest boundary weight, the smallest net, the strongest regularization (Occam, as the 1-SE rule).
+SELECTION_TOLERANCE = 1.1
+#: Restarts per candidate during the selection, and per ensemble member.
+SELECTION_RESTARTS = 3
+SELECTION_FOLDS = 5
+ENSEMBLE_RESTARTS = 2
+DISTILL_RESTARTS = 3
+#: Derived (not digitized) origins; the runaway samples are derived when the extension made them from the model.
+DERIVED_ORIGINS = ("zero-opening", "zero-speed")
+
+
+def _derived_mask(extended, origin: np.ndarray) -> np.ndarray:
+    derived = getattr(extended, "derived", None)
+    if derived is not None:
+        derived = np.asarray(derived, bool)
+    else:
+        try:
+            derived = np.asarray(extended["derived"], bool)
+        except (KeyError, IndexError, TypeError, ValueError):
+            derived = None
+    if derived is None:
+        derived = np.isin(origin, DERIVED_ORIGINS)
+    return derived
+
+
+def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, boundary_weight, regularization, seed,
+            n_threads, lm_params, progress, label):
+    """Choose boundary weight, hidden size and regularization by validation MSE on the measured samples."""
+    table = []
+    # K-fold cross-validation over the validated (measured) samples; every other sample always trains. A single
+    # 20 % split holds about 17 measured samples: too few to rank candidates whose errors differ by < 10 %.
+    checked = np.flatnonzero(validated)
+    always = np.setdiff1d(np.arange(xn.shape[0]), checked)
+    folds = np.array_split(np.random.default_rng([seed, 31]).permutation(checked), SELECTION_FOLDS)
+
+    def score(weight, h, lam, index):
+        rng = np.random.default_rng([seed, 7919, index])
+        errors = []
+        for fold in folds:
+            train = np.sort(np.concatenate([always, np.setdiff1d(checked, fold)]))
+            results = _lm_runs(xn, yn, train, np.sort(fold), np.where(derived, weight, 1.0), h, lam, rng,
+                               1, n_threads, lm_params)
+            errors.append(results[0].val_mse * fold.size)
+        value = float(np.sum(errors) / checked.size)
+        table.append({"boundary_weight": weight, "hidden": h, "regularization": lam, "cv_mse": value})
+        return value
+
+    def pick(candidates, prefer_last: bool, evaluate):
+        scores = [evaluate(c, i) for i, c in enumerate(candidates)]
+        good = [c for c, v in zip(candidates, scores) if v <= SELECTION_TOLERANCE * min(scores) + 1e-15]
+        return good[-1] if prefer_last else good[0]
+
+    weight = boundary_weight
+    h = hidden if hidden is not None else 5
+    lam = regularization if regularization is not None else 0.0
+    if weight is None:
+        weight = pick(BOUNDARY_WEIGHTS, True, lambda w, i: score(w, h, lam, i)) if derived.any() else 1.0
+        if progress:
+            progress(f"{label}: boundary weight {weight}")
+    if hidden is None:
+        h = pick(HIDDEN_SIZES, False, lambda c, i: score(weight, c, lam, 100 + i))
+        if progress:
+            progress(f"{label}: hidden size {h}")
+    if regularization is None:
+        lam = pick(REGULARIZATIONS, True, lambda c, i: score(weight, h, c, 200 + i))
+        if progress:
+            progress(f"{label}: regularization {lam}")
+    return weight, h, lam, table
+
+
+def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None = None, restarts: int = 10,
+               seed: int = 0, boundary_weight: float | None = None, regularization: float | None = None,
+               ensemble: int = 0, record_time: bool = False, progress=None, **net_params) -> HillNets:
+    """Train the flow and torque nets on the extended samples (Li et al. 2017, eq. (12) and section 2.6 steps (5)-(6)).
+
+    The measured (digitized) samples carry the fit; derived boundary samples are soft constraints whose weight, the
+    hidden size (3-10) and a weight-decay regularization are chosen by the validation error on measured samples
+    (see the docs page on the nets). Give ``hidden``, ``boundary_weight`` or ``regularization`` to fix them instead.
+
+    Parameters
+    ----------
+    extended : table
+        Extended samples with columns ``target`` ('q11' | 'm11'), ``origin`` ('measured' | 'runaway' |
+        'zero-opening' | 'zero-speed'), ``n11`` (r/min), ``opening`` (chart units), ``value`` (m^3/s or N*m);
+        anything indexable by column name or with those attributes; an optional boolean ``derived`` marks the
+        samples the extension made up (default: the zero-opening and zero-speed origins).
+    opening_unit : str, optional
+        The chart's opening unit; default ``extended.opening_unit``.
+    hidden : int in [1, 50] or None
+        Hidden neurons of both nets; None selects among :data:`HIDDEN_SIZES`. The paper's net: 5.
+    restarts : int
+        Multi-start count of the final fit of each net.
+    seed : int
+        The flow net uses ``seed``, the torque net ``seed + 1``.
+    boundary_weight : float in (0, 1] or None
+        Weight of the derived samples' residuals; None selects among :data:`BOUNDARY_WEIGHTS`.
+    regularization : float in [0, 1] or None
+        Weight decay lambda; None selects among :data:`REGULARIZATIONS`.
+    ensemble : int >= 0
+        Extra members trained on bootstrap resamples of the training samples with other seeds (the uncertainty
+        band); 0: none.
+    record_time : bool
+        Put training times (``time_s``) into the training record; off by default so that ``nets.json`` is
+        byte-reproducible.
+    progress : callable(str), optional
+        Called with a short message after each stage (long trainings report progress).
+    **net_params
+        Further :class:`HillNet` hyperparameters.
+
+    Returns
+    -------
+    HillNets
+        With ``training`` holding per-net sample counts, split, errors (normalized MSE and physical max/RMS),
+        epochs, stop reasons and the selection; the fitted estimators are kept in ``nets.estimators``.
+    """
+    if opening_unit is None:
+        opening_unit = getattr(extended, "opening_unit", None)
+        if opening_unit is None:
+            raise InputError("train_nets: opening_unit is required when the table does not carry it")
+    for name, value, low, high in (("hidden", hidden, 1, 50), ("ensemble", ensemble, 0, 200),
+                                   ("restarts", restarts, 1, 1000), ("seed", seed, 0, 2**63 - 1)):
+        if value is None and name == "hidden":
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+            raise InputError(f"train_nets: {name} must be an integer in [{low}, {high}], got {value!r}")
+    if boundary_weight is not None and not (isinstance(boundary_weight, (int, float)) and 0 < boundary_weight <= 1):
+        raise InputError(f"train_nets: boundary_weight must be in (0, 1], got {boundary_weight!r}")
+    if regularization is not None and not (isinstance(regularization, (int, float))
+                                           and 0 <= regularization <= 1):
+        raise InputError(f"train_nets: regularization must be in [0, 1], got {regularization!r}")
+    target = _column(extended, "target").astype(str)
+    origin = _column(extended, "origin").astype(str)
+    n11 = _column(extended, "n11").astype(float)
+    opening = _column(extended, "opening").astype(float)
+    value = _column(extended, "value").astype(float)
+    bad_targets = sorted(set(target.tolist()) - {"q11", "m11"})
+    if bad_targets:
+        raise InputError(f"extended samples: target must be 'q11' or 'm11', got {bad_targets}")
+    bad_origins = sorted(set(origin.tolist()) - set(ORIGINS))
+    if bad_origins:
+        raise InputError(f"extended samples: origin must be one of {', '.join(ORIGINS)}, got {bad_origins}")
+    derived_all = _derived_mask(extended, origin)
+    record = {"seed": seed, "hidden": hidden if hidden is not None else "selected", "restarts": restarts,
+              "validation": "measured samples", "ensemble": int(ensemble)}
+    weights, estimators, members = {}, {}, {"flow": [], "torque": []}
+    for offset, (key, tgt) in enumerate((("flow", "q11"), ("torque", "m11"))):
+        sel = target == tgt
+        if not np.any(sel):
+            raise InputError(f"extended samples: no rows with target {tgt!r}")
+        X = np.column_stack([n11[sel], opening[sel]])
+        y = value[sel]
+        groups = origin[sel]
+        derived = derived_all[sel]
+        net_seed = seed + offset
+        validation_groups = ("measured",) if np.sum(groups == "measured") >= 10 else None
+        probe = HillNet(hidden=hidden or 5, restarts=restarts, seed=net_seed, validation_groups=validation_groups,
+                        **net_params)
+        probe._validate_params()
+        x_min, x_max = X.min(axis=0), X.max(axis=0)
+        y_min, y_max = float(y.min()), float(y.max())
+        if not (np.all(x_max > x_min) and y_max > y_min) or X.shape[0] < 10 or not np.all(np.isfinite(X)) or \
+                not np.all(np.isfinite(y)):
+            probe.fit(X, y, groups, derived)  # raises the estimator's own, precise error
+        xn = 2.0 * (X - x_min) / (x_max - x_min) - 1.0  # mapminmax, section 2.6 of paper 004
+        yn = 2.0 * (y - y_min) / (y_max - y_min) - 1.0
+        train_index, val_index = _split(groups, probe.validation_fraction, validation_groups,
+                                        np.random.default_rng(net_seed))
+        start = time.perf_counter()
+        validated = np.isin(groups, validation_groups) if validation_groups else np.ones(groups.size, bool)
+        weight, h, lam, table = _select(xn, yn, train_index, val_index, derived, validated, hidden=hidden,
+                                        boundary_weight=boundary_weight, regularization=regularization,
+                                        seed=net_seed, n_threads=probe.n_threads, lm_params=probe._lm_params(),
+                                        progress=progress, label=key)
+        for i in range(ensemble):
+            # member i: its own random 80/20 split of the validated samples (early stopping on its held-out part),
+            # every derived sample in training, its own initialisations
+            rng = np.random.default_rng([net_seed, 104729, i])
+            tr_i, va_i = _split(groups, probe.validation_fraction, validation_groups, rng)
+            results = _lm_runs(xn, yn, tr_i, va_i, np.where(derived, weight, 1.0), h, lam, rng,
+                               ENSEMBLE_RESTARTS, probe.n_threads, probe._lm_params())
+            res = min(results, key=lambda r: r.val_mse)
+            w1, b1, w2, b2 = lm.unpack(res.theta, h)
+            members[key].append(NetWeights(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, W1=w1, b1=b1,
+                                           W2=w2, b2=float(b2)))
+        if ensemble:
+            # point estimate: one 2-h-1 net fitted to the ensemble mean (the average of nets trained on different
+            # splits has a fraction of a single net's variance; "distilling" it keeps the paper's small net).
+            # Targets: the mean at the samples and on a 21 x 21 grid over the input box.
+            grid = np.stack(np.meshgrid(np.linspace(x_min[0], x_max[0], 21), np.linspace(x_min[1], x_max[1], 21)),
+                            axis=-1).reshape(-1, 2)
+            X_d = np.vstack([X, grid])
+            y_d = np.mean([m.evaluate(X_d[:, 0], X_d[:, 1])[0] for m in members[key]], axis=0)
+            est = HillNet(hidden=h, restarts=DISTILL_RESTARTS, seed=net_seed, goal=1e-8, **net_params).fit(X_d, y_d)
+            if progress:
+                progress(f"{key}: {ensemble} ensemble members, point net 2-{h}-1 fitted to their mean")
+        else:
+            est = HillNet(hidden=h, restarts=restarts, seed=net_seed, boundary_weight=weight, regularization=lam,
+                          validation_groups=validation_groups, **net_params).fit(X, y, groups, derived)
+            if progress:
+                progress(f"{key}: final fit 2-{h}-1, validation MSE {est.val_mse_:.3g}")
+        est.fit_time_s_ = time.perf_counter() - start  # selection + ensemble + final fit
+        estimators[key] = est
+        weights[key] = est.weights_
+        rec = _training_record(est, X, y, groups, record_time, point_of_ensemble=bool(ensemble))
+        err = est.predict(X) - y
+        measured = groups == "measured"
+        if measured.any():
+            rec["measured_rms_error"] = float(np.sqrt(np.mean(err[measured] ** 2)))
+            rec["measured_max_abs_error"] = float(np.max(np.abs(err[measured])))
+        best_cv = min(c["cv_mse"] for c in table) if table else None
+        rec["selection"] = {"boundary_weight": weight, "hidden": h, "regularization": lam,
+                            "cv_mse_best": best_cv,
+                            "rule": f"{SELECTION_FOLDS}-fold CV MSE on measured samples within {SELECTION_TOLERANCE} "
+                                    "x the best: largest boundary weight, smallest net, strongest regularization",
+                            "candidates": table}
+        record[key] = rec
+    ensemble_pairs = list(zip(members["flow"], members["torque"])) if ensemble else None
+    nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
+                    ensemble=ensemble_pairs)
+    nets.estimators = estimators
+    return nets
+
+
+def _training_record(est: HillNet, X, y, groups, record_time: bool, point_of_ensemble: bool = False) -> dict:
+    pred = est.predict(X)
+    err = pred - y
+    tr, va = est.train_index_, est.val_index_
+    if point_of_ensemble:  # the point net was fitted to the ensemble mean: report its errors at the samples
+        tr, va = np.arange(X.shape[0]), np.zeros(0, int)
+    counts = {}
+    for g in sorted(set(groups.tolist())):
+        counts[g] = {"train": int(np.sum(groups[tr] == g)), "validation": int(np.sum(groups[va] == g))}
+    rec = {"seed": est.seed, "n_train": int(tr.size), "n_validation": int(va.size), "samples_by_origin": counts,
+           "train_mse_normalized": est.train_mse_, "validation_mse_normalized": est.val_mse_,
+           "train_rms_error": float(np.sqrt(np.mean(err[tr] ** 2))),
+           "train_max_abs_error": float(np.max(np.abs(err[tr]))),
+           "validation_rms_error": float(np.sqrt(np.mean(err[va] ** 2))) if va.size else None,
+           "validation_max_abs_error": float(np.max(np.abs(err[va]))) if va.size else None,
+           "epochs": est.epochs_, "best_epoch": est.best_epoch_, "stop_reason": est.stop_reason_,
+           "best_restart": est.best_restart_, "restart_validation_mse": est.restart_val_mse_}
+    if record_time:
+        rec["time_s"] = round(est.fit_time_s_, 3)
+    return rec
