@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hillchart.errors import InputError
+from hillchart.errors import HillsimError, InputError
 from hillsim.report import Report, Value
 
 #: Names under which the simulator's result may carry the head envelope along the penstock (core branch).
@@ -252,6 +252,7 @@ def build_report(args) -> tuple[dict, Path]:
     from simulate.config import load_characteristics, parse_override
     from simulate.loop.engine import run_simulation
     from simulate.studies.cases import load_study
+    from simulate.studies.uncertainty import BAND_INFLATION, run_ensemble
 
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
@@ -277,6 +278,8 @@ def build_report(args) -> tuple[dict, Path]:
     chars_path = None if plant.turbine.characteristics == "ideal" else \
         (plant.base_dir / plant.turbine.characteristics).resolve()
     domain = nets_domain(chars)
+    # the ensemble's band: each limit is judged on its conservative side (the chart leaves that much open)
+    with_band = bool(getattr(chars, "members", None) and chars.members()) and study.limits is not None
     out.mkdir(parents=True, exist_ok=True)
     inputs = [{"role": "plant file", "path": str(args.plant), "sha256": study.sha256}]
     if chars_path is not None:
@@ -300,8 +303,20 @@ def build_report(args) -> tuple[dict, Path]:
         result.to_csv(out / folder / "timeseries.csv")
         result.to_json(out / folder / "summary.json")
         case = case_from_result(i, lc.overrides, case_plant, result, domain)
-        verdicts = study.limits.check(case) if study.limits is not None else []
+        band = None
+        if with_band and result.success:
+            try:
+                band, _ = run_ensemble(case_plant, chars)
+            except HillsimError as exc:  # every member failed: judged on the point nets, and said so
+                warnings.append(f"{lc.name}: no ensemble band (every member failed: {exc}); judged on the point "
+                                f"nets only")
+            else:
+                for failure in band["failed"]:
+                    warnings.append(f"{lc.name}: ensemble member {failure['member']} failed: {failure['message']}")
+        verdicts = study.limits.check(case, band) if study.limits is not None else []
         doc = _case_json(case, lc, verdicts, folder)
+        if band is not None:
+            doc["band"] = {k: v for k, v in band.items() if k != "failed"}
         cases.append(doc)
         runs.append((lc.name, result))
         plot_transient(result, case, case_plant, study.limits, out / f"transient_{i}.png",
@@ -334,6 +349,8 @@ def build_report(args) -> tuple[dict, Path]:
         "plant": plant_sheet(plant, chars_path, chars),
         "limits": None if study.limits is None else study.limits.as_dict(),
         "overall_verdict": overall, "cases": cases, "warnings": warnings,
+        "judged_on": (f"the conservative side of the ensemble's 5-95 % band (widened x{BAND_INFLATION:g} about its "
+                      f"median)" if with_band else "the point nets (no ensemble in the characteristics)"),
         "envelope_available": bool(envelopes),
         "closure": None if closure_doc is None else {
             k: closure_doc.get(k) for k in ("mode", "constraint", "law", "best_linear",
@@ -404,12 +421,16 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         rows = []
         for i, c in enumerate(cases):
             for j, v in enumerate(c["verdicts"]):
+                banded = "band" in v  # a limit without a band (no ensemble, no figure) shows n/a there
                 rows.append((c["name"], v["limit"], _v(v["allowed"], f"cases.{i}.verdicts.{j}.allowed"),
                              _v(v["value"], f"cases.{i}.verdicts.{j}.value", "{:.5g}"),
+                             *((_v(v["band"][k], f"cases.{i}.verdicts.{j}.band.{k}", "{:.5g}") for k in (0, 1))
+                               if banded else (Value(None), Value(None))),
                              Verdict(v["verdict"], key=f"report.json:cases.{i}.verdicts.{j}.verdict")))
-        r.table(("load case", "limit", "allowed", "reached", "verdict"), rows,
-                caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}); n/a = not computed by "
-                        f"this simulator version (min pressure head needs the penstock envelope) or the run failed")
+        r.table(("load case", "limit", "allowed", "point nets", "band low", "band high", "verdict"), rows,
+                caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}), judged on "
+                        f"{report['judged_on']}; n/a = not computed by this simulator version (min pressure head "
+                        f"needs the penstock envelope) or the run failed")
 
     r.heading("Load cases")
     r.table(("load case", "status", "initial power (MW)", "initial stroke", "max speed rise", "max speed (r/min)",

@@ -73,9 +73,15 @@ class Limits:
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
-    def check(self, case: CaseResult) -> list[dict]:
+    def check(self, case: CaseResult, band: dict | None = None) -> list[dict]:
         """One row per set limit: ``{"limit", "allowed", "value", "verdict"}`` with verdict ``PASS``, ``FAIL`` or
-        ``n/a`` (the case did not run, or the figure is not computed, e.g. no envelope)."""
+        ``n/a`` (the case did not run, or the figure is not computed, e.g. no envelope).
+
+        With ``band`` (the ensemble band of :func:`simulate.studies.uncertainty.run_ensemble`), a limit whose figure
+        has a band is judged on its conservative side: the band's upper end for a maximum, its lower end for a
+        minimum; the row then also has ``"band": [low, high]`` and ``"judged": "band"`` (else ``"point"``). A
+        figure inside its limit at the point nets but outside it at the band's end FAILs: the chart does not
+        exclude it."""
         rows = []
         for name, figure, upper in (("max_speed_rise", "max_speed_rise", True),
                                     ("max_head_rise", "max_head_rise", True),
@@ -85,11 +91,19 @@ class Limits:
             if allowed is None:
                 continue
             value = getattr(case, figure)
-            if not case.ok or value is None or not math.isfinite(value):
+            row = {"limit": name, "allowed": allowed, "value": value, "judged": "point"}
+            judged = value
+            if band is not None and isinstance(band.get(figure), dict) and value is not None:
+                low, high = float(band[figure]["low"]), float(band[figure]["high"])
+                # the conservative side, never milder than the point nets' own figure
+                judged = max(high, value) if upper else min(low, value)
+                row.update(band=[low, high], judged="band")
+            if not case.ok or judged is None or not math.isfinite(judged):
                 verdict = "n/a"
             else:
-                verdict = "PASS" if (value <= allowed if upper else value >= allowed) else "FAIL"
-            rows.append({"limit": name, "allowed": allowed, "value": value, "verdict": verdict})
+                verdict = "PASS" if (judged <= allowed if upper else judged >= allowed) else "FAIL"
+            row["verdict"] = verdict
+            rows.append(row)
         return rows
 
 

@@ -16,6 +16,8 @@ from hillchart.errors import HillsimError, InputError
 
 #: Summary figures whose band is reported (fractions of the initial values, see SimulationResult.summary).
 BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m")
+#: Figures a run computes only with the head envelope (e.g. not on a rigid penstock): banded when every member has it.
+OPTIONAL_BAND_FIGURES = ("min_pressure_head_m",)
 #: Time series whose band over the members is drawn on ``transient.png`` (SimulationResult attributes).
 BAND_TRACES = ("speed_rpm", "head_m", "flow_m3_s", "opening")
 #: The members' spread is widened by this factor about their median (see :func:`figure_band`).
@@ -116,7 +118,7 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     if not members:
         raise InputError("--uncertainty needs nets with an ensemble (hillsim train --ensemble N); this nets.json "
                          "has none")
-    values = {name: [] for name in BAND_FIGURES}
+    values = {name: [] for name in BAND_FIGURES + OPTIONAL_BAND_FIGURES}
     traces = {name: [] for name in BAND_TRACES}
     time_s = None
     failed = []
@@ -131,13 +133,19 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
         summary = result.summary()
         for name in BAND_FIGURES:
             values[name].append(float(summary[name]))
+        for name in OPTIONAL_BAND_FIGURES:
+            if summary.get(name) is not None:
+                values[name].append(float(summary[name]))
         time_s = result.time_s  # the same plant: the same time grid for every member that ran to the end
         for name in BAND_TRACES:
             traces[name].append(np.asarray(getattr(result, name), dtype=float))
     if len(failed) == len(members):
         raise first_error
     out = {"members": len(members), "failed": failed, "percentiles": [low_p, high_p]}
+    ran = len(members) - len(failed)
     for name, series in values.items():
+        if name in OPTIONAL_BAND_FIGURES and len(series) != ran:
+            continue
         low, high = figure_band(series, (low_p, high_p))
         out[name] = {"low": float(low), "high": float(high), "mean": float(np.mean(series)), "values": series}
     stacked = {name: np.vstack(rows) for name, rows in traces.items()}

@@ -106,6 +106,11 @@ def test_page_has_every_section_self_contained(made):
     assert verdicts[("rated load", "max_speed_rise")] == "PASS"
     assert verdicts[("rated load", "min_pressure_head_m")] == "n/a"
     assert doc["overall_verdict"] == "PASS (some limits not judged)"
+    # the shipped nets carry an ensemble: each banded limit is judged on the conservative side of the band
+    assert doc["judged_on"].startswith("the conservative side of the ensemble's 5-95 % band")
+    speed = next(v for v in doc["cases"][0]["verdicts"] if v["limit"] == "max_speed_rise")
+    low, high = speed["band"]
+    assert speed["judged"] == "band" and low < speed["value"] < high
 
 
 def _plant(tmp_path, extra):

@@ -204,6 +204,25 @@ def test_limits_verdicts():
     assert {r["verdict"] for r in limits.check(failed)} == {"n/a"}
 
 
+def test_limits_are_judged_on_the_conservative_side_of_the_band():
+    """A maximum is judged at the band's upper end, a minimum at its lower end: a point figure inside its limit
+    whose band reaches past it FAILs (the chart does not exclude it); a band well inside PASSes."""
+    limits = Limits(max_speed_rise=0.5, min_pressure_head_m=5.0)
+    case = CaseResult(index=0, values={}, status="ok", max_speed_rise=0.48, min_pressure_head_m=6.0)
+    point = {r["limit"]: r["verdict"] for r in limits.check(case)}
+    assert point == {"max_speed_rise": "PASS", "min_pressure_head_m": "PASS"}
+    wide = {"max_speed_rise": {"low": 0.46, "high": 0.51}, "min_pressure_head_m": {"low": 4.5, "high": 7.0}}
+    rows = {r["limit"]: r for r in limits.check(case, wide)}
+    assert {k: r["verdict"] for k, r in rows.items()} == {"max_speed_rise": "FAIL", "min_pressure_head_m": "FAIL"}
+    assert rows["max_speed_rise"]["band"] == [0.46, 0.51] and rows["max_speed_rise"]["judged"] == "band"
+    narrow = {"max_speed_rise": {"low": 0.47, "high": 0.49}, "min_pressure_head_m": {"low": 5.5, "high": 6.5}}
+    assert {r["verdict"] for r in limits.check(case, narrow)} == {"PASS"}
+    # a band that does not contain the point figure never makes the verdict milder than the point nets'
+    below = {"max_speed_rise": {"low": 0.40, "high": 0.45}}
+    assert limits.check(case, below)[0]["verdict"] == "PASS"
+    assert Limits(max_speed_rise=0.47).check(case, below)[0]["verdict"] == "FAIL"  # 0.48 > 0.47 at the point
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # CLI
 # ---------------------------------------------------------------------------------------------------------------
