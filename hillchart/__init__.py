@@ -17,7 +17,7 @@ from here (each on first use)::
 
 from __future__ import annotations
 
-import importlib
+from hillchart.lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -37,15 +37,4 @@ PUBLIC = {
 __all__ = ["__version__", *PUBLIC]
 
 
-def __getattr__(name: str):
-    """Import a public name on first access (PEP 562)."""
-    module = PUBLIC.get(name)
-    if module is None:
-        raise AttributeError(f"module 'hillchart' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(PUBLIC))
+__getattr__, __dir__ = lazy_exports(__name__, PUBLIC)

@@ -60,12 +60,6 @@ def check_number(name: str, value: Any, *, low: float | None = None, high: float
     return number
 
 
-def check_positive(name: str, value: Any, *, allow_zero: bool = False, high: float | None = None,
-                   high_open: bool = False) -> float:
-    """A finite number > 0 (>= 0 with ``allow_zero``), at most ``high``."""
-    return check_number(name, value, low=0.0, high=high, low_open=not allow_zero, high_open=high_open)
-
-
 def check_int(name: str, value: Any, low: int, high: int) -> int:
     """An integer (not a bool, not a float) in ``[low, high]``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not low <= value <= high:

@@ -22,7 +22,7 @@ and the demo; :mod:`hillchart` and :mod:`simulate` never import it.
 
 from __future__ import annotations
 
-import importlib
+from hillchart.lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -45,15 +45,4 @@ ENTRY_POINTS = {
 __all__ = ["__version__", *ENTRY_POINTS]
 
 
-def __getattr__(name: str):
-    """Import an entry point on first access (PEP 562)."""
-    module = ENTRY_POINTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'hillsim' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value  # later accesses skip this function
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(ENTRY_POINTS))
+__getattr__, __dir__ = lazy_exports(__name__, ENTRY_POINTS)

@@ -15,7 +15,7 @@ control, shaft, electrical), :mod:`simulate.loop` (registries, the generated tim
 
 from __future__ import annotations
 
-import importlib
+from hillchart.lazy import lazy_exports
 
 #: Public name -> module that defines it.
 PUBLIC = {
@@ -35,15 +35,4 @@ PUBLIC = {
 __all__ = list(PUBLIC)
 
 
-def __getattr__(name: str):
-    """Import a public name on first access (PEP 562)."""
-    module = PUBLIC.get(name)
-    if module is None:
-        raise AttributeError(f"module 'simulate' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(PUBLIC))
+__getattr__, __dir__ = lazy_exports(__name__, PUBLIC)
