@@ -8,7 +8,6 @@ Only the public seams are used: :func:`simulate.config.load_plant` and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -65,15 +64,13 @@ class TraceBand:
 
 
 def _nets_of(plant):
-    from hillchart.nets.hill_nets import load_nets
+    """The plant's nets through the one resolver (:func:`simulate.config.load_characteristics`): with
+    ``[turbine.step_up]`` every member is stepped up like the point nets."""
+    from simulate.config import load_characteristics
 
-    source = plant.turbine.characteristics
-    if source == "ideal":
+    if plant.turbine.characteristics == "ideal":
         raise InputError("--uncertainty needs nets with an ensemble: turbine.characteristics is \"ideal\"")
-    path = Path(source)
-    if not path.is_absolute():
-        path = Path(plant.base_dir) / path
-    return load_nets(path)
+    return load_characteristics(plant.turbine, plant.base_dir)
 
 
 def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
