@@ -175,3 +175,44 @@ def test_nets_json_written_by_train_is_not_changed(tmp_path, model_nets):
     load_characteristics(plant.turbine, plant.base_dir)
     assert path.read_bytes() == before
     assert "step_up" not in json.loads(before)["training"]
+
+
+@pytest.mark.external
+def test_sayano_shushenskaya_unit_runs_beyond_the_model_charts_power_with_the_step_up(tmp_path):
+    """The real chart (a model test, D1 6.77 m prototype at 194 m): without the step-up 640 MW is refused with the
+    largest reachable power named; with it the largest power rises by the torque factor and a power the model chart
+    cannot give runs."""
+    from hillsim.cli import main
+    from tests.external_charts import write_sayano_chart
+
+    folder = write_sayano_chart(tmp_path / "sayano")  # skips when ../shared/external is absent
+    nets = tmp_path / "nets.json"
+    assert main(["train", str(folder), "--out", str(nets), "--quiet"]) == 0
+    unit = {"turbine.characteristics": str(nets), "turbine.rated_head_m": 194.0, "turbine.rated_speed_rpm": 142.86,
+            "turbine.runner_diameter_m": 6.77, "turbine.rated_power_mw": 640.0, "turbine.rated_flow_m3_s": 358.0,
+            "turbine.opening_max": 58.0, "penstock.static_head_m": 198.0, "generator.inertia_time_s": 8.0,
+            "penstock.segments": [{"length_m": 220.0, "diameter_m": 7.5, "wave_speed_m_s": 1100.0,
+                                   "darcy_friction": 0.012},
+                                  {"length_m": 100.0, "diameter_m": 7.0, "wave_speed_m_s": 1150.0,
+                                   "darcy_friction": 0.012}],
+            "scenario.initial_power_mw": 640.0, "scenario.t_end_s": 6.0}
+    model = load_plant(PLANT_HLA339, unit)
+    with pytest.raises(InputError, match=r"turbine\.step_up") as info:
+        initial_state(model)
+    largest = float(str(info.value).split("the largest power it gives is ")[1].split(" MW")[0])
+    assert 590.0 < largest < 640.0  # measured 615.5 MW (the chart's largest opening line is 58 mm)
+    prototype = model.with_overrides(STEP_UP)
+    record = load_characteristics(prototype.turbine, prototype.base_dir).training["step_up"]
+    # best point N11 about 68 r/min, eta 0.915: Re_M 6.8e6 (0.35 m, 30 m), Re_P 3.3e8 -> Delta_eta about 0.028
+    assert 0.02 < record["delta_efficiency"] < 0.035
+    try:
+        stepped = initial_state(prototype).power_mw  # 640 MW reachable: the acceptance of the rated power
+    except InputError as exc:  # measured 635.2 MW: the nets' efficiency at the 58 mm line is 0.81, the chart's 0.84
+        stepped = float(str(exc).split("the largest power it gives is ")[1].split(" MW")[0])
+        assert stepped == pytest.approx(record["torque_factor"] * largest, abs=0.15)  # two roundings to 0.1 MW
+    target = round(largest + 0.5 * (stepped - largest), 1)  # beyond the model chart, within the prototype's
+    run = run_simulation(prototype.with_overrides({"scenario.initial_power_mw": target}))
+    assert run.success and run.steady.power_mw == pytest.approx(target, rel=1e-9)
+    assert run.summary()["step_up"]["delta_efficiency"] == record["delta_efficiency"]
+    with pytest.raises(InputError, match=r"is outside the power range"):
+        initial_state(model.with_overrides({"scenario.initial_power_mw": target}))
