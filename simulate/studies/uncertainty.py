@@ -7,7 +7,7 @@ Only the public seams are used: :func:`simulate.config.load_plant` and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -54,6 +54,9 @@ class TraceBand:
     percentiles : (float, float)
     members : int
         Members that ran (failed ones are not in the band).
+    figures : dict
+        ``{figure: (low, high)}``: the band of each guarantee figure of :data:`BAND_FIGURES` (fractions of the
+        initial value, as in the summary), drawn at the figure on ``transient.png``.
     """
 
     time_s: np.ndarray
@@ -61,6 +64,7 @@ class TraceBand:
     high: dict
     percentiles: tuple
     members: int
+    figures: dict = field(default_factory=dict)
 
 
 def _nets_of(plant):
@@ -149,5 +153,6 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     bands = {k: figure_band(v, (low_p, high_p), axis=0) for k, v in stacked.items()}
     band = TraceBand(time_s=np.asarray(time_s), low={k: v[0] for k, v in bands.items()},
                      high={k: v[1] for k, v in bands.items()},
-                     percentiles=(low_p, high_p), members=len(members) - len(failed))
+                     percentiles=(low_p, high_p), members=len(members) - len(failed),
+                     figures={name: (out[name]["low"], out[name]["high"]) for name in BAND_FIGURES if name in out})
     return out, band
