@@ -91,6 +91,23 @@ def test_report_json_equals_the_hillsim_run_files_of_each_case(made):
     assert doc["closure"]["law"] == json.loads((out.parent / "opt" / "closure.json").read_text())["law"]
 
 
+def test_each_figure_carries_its_extrapolation_share_from_the_run(made):
+    """Beside each guarantee figure (load-case table) and each judged limit (verdict table): the share of the run up
+    to the figure outside the digitized chart, the same number as the case's summary.json."""
+    out, html, doc, cells = made
+    keys = {key for key, _ in cells.cells}
+    for i, case in enumerate(doc["cases"]):
+        record = json.loads((out / case["summary_file"]).read_text())["extrapolation"]["figures"]
+        for figure in ("max_speed_rise", "max_head_rise", "min_head_drop"):
+            assert case["extrapolation_share"][figure] == record[figure]["digitized_region"]
+            assert f"report.json:cases.{i}.extrapolation_share.{figure}" in keys
+        # a load rejection's shut vanes are below the lowest digitized line: the maxima are partly extrapolated
+        assert 0.0 < case["extrapolation_share"]["max_head_rise"] < 1.0
+    share = doc["cases"][0]["extrapolation_share"]["max_speed_rise"]
+    assert re.search(rf'data-key="report.json:cases.0.extrapolation_share.max_speed_rise">{share:.0%}<', html)
+    assert "run outside the chart up to it" in html
+
+
 def test_page_has_every_section_self_contained(made):
     out, html, doc, cells = made
     assert all(s in cells.headings for s in SECTIONS)
