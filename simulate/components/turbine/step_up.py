@@ -53,7 +53,7 @@ class StepUpConfig:
     Add the table (``method = "iec60193"`` alone takes every default) when the hill chart comes from a model
     test: the prototype (the plant's ``turbine.runner_diameter_m`` at ``turbine.rated_head_m``) then gets the
     efficiency step-up ``Delta_eta`` of IEC 60193:1999, 3.8.2.2, applied as a constant factor on the unit torque
-    (flow unchanged); see the "Model and prototype" section of the documentation for the equations. The defaults
+    (flow unchanged); the equations are in the "Model and prototype" section of the simulator page. The defaults
     are those of a typical model test: a 0.35 m runner at 30 m of head in water at 20 C (kinematic viscosity
     1.0e-6 m^2/s). ``model_efficiency_reference``: the model's best hydraulic efficiency eta_hoptM (default: the
     highest efficiency of the characteristics inside the digitized region, found on a grid).
