@@ -89,6 +89,11 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
             pass  # load_characteristics has read and validated the same file just before
         training = getattr(chars, "training", None) or {}
         source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}
+        from simulate.components.turbine.step_up import step_up_of
+
+        step_up = step_up_of(chars)
+        if step_up is not None:  # the model chart converted to the prototype (IEC 60193): what was assumed
+            source["step_up"] = step_up
         flow = getattr(chars, "flow", None)
         if flow is not None:
             source["n11_range_rpm"] = [float(flow.x_min[0]), float(flow.x_max[0])]

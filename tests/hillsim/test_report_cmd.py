@@ -187,3 +187,17 @@ def test_report_refuses_foreign_json(tmp_path, capsys):
     plant = _plant(tmp_path, "[limits]\nmax_speed_rise = 9.0\n")
     assert main(["report", str(plant), "--out", str(tmp_path / "o")]) == 2
     assert "limits.max_speed_rise must be a number in (0.0, 5.0], got 9.0" in capsys.readouterr().err
+
+
+def test_a_stepped_up_plant_reports_its_step_up(tmp_path):
+    """[turbine.step_up]: the data sheet and every case's summary.json say what was assumed (the same record)."""
+    plant = _plant(tmp_path, "[[load_cases]]\nname = \"rated\"\nscenario.initial_power_mw = 225.0\n")
+    out = tmp_path / "rep"
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=6",
+                 "--set", "turbine.step_up=iec60193"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    record = doc["plant"]["characteristics"]["step_up"]
+    summary = json.loads((out / doc["cases"][0]["summary_file"]).read_text())
+    assert record == summary["step_up"] and record["method"] == "iec60193"
+    assert 1.01 < record["torque_factor"] < 1.05  # a 0.35 m model against the 4.5 m unit: about 2 points
+    assert "torque_factor" in (out / "report.html").read_text()

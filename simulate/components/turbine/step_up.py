@@ -242,7 +242,8 @@ def compute_step_up(config: StepUpConfig, characteristics, *, prototype_diameter
 class TorqueScaled:
     """Characteristics whose unit torque (and its derivatives) is ``factor`` times that of ``base``; the unit flow
     is ``base``'s. For characteristics other than trained nets (those get the factor in their weights, see
-    :func:`scale_torque`). Forwards the attributes the simulator reads for the trusted domain."""
+    :func:`scale_torque`). Forwards the attributes the simulator reads for the trusted domain. Without a compiled
+    kernel of its own (:class:`TorqueScaledSynthetic` has one) the loop runs the four methods as Python."""
 
     _FORWARD = ("flow", "torque", "digitized_region", "opening_unit", "opening_max", "training")
 
@@ -275,6 +276,18 @@ class TorqueScaled:
         return [scale_torque(m, self.factor, self.step_up) for m in members]
 
 
+class TorqueScaledSynthetic(TorqueScaled):
+    """:class:`TorqueScaled` over the exact synthetic Francis turbine, with its compiled kernel (the loop runs
+    compiled, as with the turbine itself)."""
+
+    def numba_kernel(self):
+        """``(kernel, params)`` for the compiled loop: the synthetic kernel with its torque times the factor."""
+        from simulate.components.turbine.step_up_kernel import scaled_synthetic_kernel
+
+        _, params = self.base.numba_kernel()
+        return scaled_synthetic_kernel, (tuple(params), self.factor)
+
+
 def scale_torque(characteristics, factor: float, step_up: StepUp | None = None):
     """``characteristics`` with the unit torque multiplied by ``factor`` > 0 (flow unchanged).
 
@@ -288,7 +301,10 @@ def scale_torque(characteristics, factor: float, step_up: StepUp | None = None):
     if not (math.isfinite(factor) and factor > 0):
         raise InputError(f"the torque factor of the step-up must be finite and > 0, got {factor!r}")
     if not isinstance(characteristics, HillNets):
-        return TorqueScaled(characteristics, factor, step_up)
+        from hillchart.synthetic.francis import SyntheticFrancis
+
+        wrapper = TorqueScaledSynthetic if type(characteristics) is SyntheticFrancis else TorqueScaled
+        return wrapper(characteristics, factor, step_up)
 
     def scaled(w: NetWeights) -> NetWeights:
         return NetWeights(x_min=w.x_min, x_max=w.x_max, y_min=factor * w.y_min, y_max=factor * w.y_max, W1=w.W1,

@@ -107,6 +107,11 @@ def test_exact_turbine_steps_up_through_the_wrapper():
     assert 1.01 < k < 1.06
     assert float(stepped.m11(65.0, 20.0)) == pytest.approx(k * float(exact.m11(65.0, 20.0)), rel=1e-14)
     assert float(stepped.q11(65.0, 20.0)) == float(exact.q11(65.0, 20.0))
+    # its compiled kernel gives the same numbers as its methods (the loop runs compiled, as with the turbine)
+    kernel, params = stepped.numba_kernel()
+    out = kernel(params, 65.0, 20.0)
+    assert out[3] == pytest.approx(float(stepped.m11(65.0, 20.0)), rel=1e-12)
+    assert out[5] == pytest.approx(float(stepped.m11_grad(65.0, 20.0)[1]), rel=1e-6)  # complex step vs kernel
 
 
 def test_step_up_off_or_factor_one_leaves_the_run_unchanged(model_nets):
