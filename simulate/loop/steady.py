@@ -6,7 +6,9 @@ At speed n (rated by default) and stroke y the head H and flow Q satisfy
     turbine:   Q = Q11(n D1 / sqrt(H), a) D1^2 sqrt(H),  a = y * opening_max
 
 solved by Brent's method on H; for a power target the stroke is found by a second Brent search on
-P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_TOLERANCE` (relative).
+P(y) = M11 D1^3 H omega (between the stroke limits, or below the stroke of the largest power when the power peaks
+before the upper limit; a target above that largest power is an error naming it). Every residual is then checked
+against :data:`RESIDUAL_TOLERANCE` (relative).
 
 Brent's method is :func:`brentq`, a line-by-line port of scipy's ``brentq.c`` (scipy.optimize.brentq): importing
 scipy.optimize costs about a quarter of a second of start-up (it pulls in linprog, scipy.fft and scipy.special), an
