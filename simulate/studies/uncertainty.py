@@ -7,8 +7,7 @@ Only the public seams are used: :func:`simulate.config.load_plant` and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,6 +56,9 @@ class TraceBand:
     percentiles : (float, float)
     members : int
         Members that ran (failed ones are not in the band).
+    figures : dict
+        ``{figure: (low, high)}``: the band of each guarantee figure of :data:`BAND_FIGURES` (fractions of the
+        initial value, as in the summary), drawn at the figure on ``transient.png``.
     """
 
     time_s: np.ndarray
@@ -64,18 +66,17 @@ class TraceBand:
     high: dict
     percentiles: tuple
     members: int
+    figures: dict = field(default_factory=dict)
 
 
 def _nets_of(plant):
-    from hillchart.nets.hill_nets import load_nets
+    """The plant's nets through the one resolver (:func:`simulate.config.load_characteristics`): with
+    ``[turbine.step_up]`` every member is stepped up like the point nets."""
+    from simulate.config import load_characteristics
 
-    source = plant.turbine.characteristics
-    if source == "ideal":
+    if plant.turbine.characteristics == "ideal":
         raise InputError("--uncertainty needs nets with an ensemble: turbine.characteristics is \"ideal\"")
-    path = Path(source)
-    if not path.is_absolute():
-        path = Path(plant.base_dir) / path
-    return load_nets(path)
+    return load_characteristics(plant.turbine, plant.base_dir)
 
 
 def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
@@ -154,5 +155,6 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     bands = {k: figure_band(v, (low_p, high_p), axis=0) for k, v in stacked.items()}
     band = TraceBand(time_s=np.asarray(time_s), low={k: v[0] for k, v in bands.items()},
                      high={k: v[1] for k, v in bands.items()},
-                     percentiles=(low_p, high_p), members=len(members) - len(failed))
+                     percentiles=(low_p, high_p), members=len(members) - len(failed),
+                     figures={name: (out[name]["low"], out[name]["high"]) for name in BAND_FIGURES if name in out})
     return out, band
