@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.nets.weights import _net_value_grad
+from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
 from hillchart.synthetic.francis import _synthetic_kernel
 
 #: Parameter names of the model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
@@ -157,7 +157,23 @@ class SilentRegionModel:
         flat_n = np.ascontiguousarray(n11_b, dtype=float).ravel()
         flat_a = np.ascontiguousarray(a_b, dtype=float).ravel()
         out = np.empty((6, flat_n.size))
-        _silent_eval_many(flow.packed(), torque.packed(), self.packed(), flat_n, flat_a, out)
+        if flat_n.size <= _PYTHON_POINTS:
+            # few points (e.g. linearizing at one operating point): where the nets alone answer, their kernel's
+            # Python source (loading the compiled kernels costs about half a second); below the lowest line the
+            # compiled blend
+            params = (flow.packed(), torque.packed(), self.packed())
+            packed = params[2]
+            for k in range(flat_n.size):
+                n, a = float(flat_n[k]), float(flat_a[k])
+                s_a = _smoothstep.py_func(a, packed[12], packed[13])[0]
+                s_n = _smoothstep.py_func(n, packed[14], packed[15])[0]
+                if (1.0 - s_a) * (1.0 - s_n) <= 0.0:
+                    out[:3, k] = _net_value_grad.py_func(params[0], n, a)
+                    out[3:, k] = _net_value_grad.py_func(params[1], n, a)
+                else:
+                    out[:, k] = _silent_nets_kernel(params, n, a)
+        else:
+            _silent_eval_many(flow.packed(), torque.packed(), self.packed(), flat_n, flat_a, out)
         return tuple(row.reshape(n11_b.shape) for row in out)
 
     def to_dict(self) -> dict:
