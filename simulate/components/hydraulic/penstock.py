@@ -125,6 +125,14 @@ def moc_turbine_relation(heads, flows, impedance, friction):
 
 
 @numba.njit(cache=True)
+def moc_inlet_characteristic(heads, flows, impedance, friction):
+    """C_M of the C- characteristic reaching the inlet node (node 0) from node 1: H_P = C_M + B Q_P there (B of the
+    first reach, Q_P the flow into the pipe)."""
+    b0 = impedance[0]
+    return heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+
+
+@numba.njit(cache=True)
 def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m, turbine_flow_m3_s,
              new_heads, new_flows):
     """One MOC step at Courant number 1: fill ``new_heads``/``new_flows`` from ``heads``/``flows``.
@@ -134,7 +142,7 @@ def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m
     """
     n = heads.size - 1
     b0 = impedance[0]
-    c_m = heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+    c_m = moc_inlet_characteristic(heads, flows, impedance, friction)
     new_heads[0] = reservoir_head_m
     new_flows[0] = (reservoir_head_m - c_m) / b0
     for j in range(1, n):
