@@ -45,7 +45,7 @@ def units_initial_state(plant: PlantConfig, characteristics: list) -> ManifoldSt
     for unit, chars in zip(plant.units, characteristics):
         kernel, params, _ = scalar_kernel(chars)
         view = plant.unit_plant(unit)
-        units.append(dict(kernel=kernel, params=params, turbine=unit.turbine,
+        units.append(dict(name=unit.name, kernel=kernel, params=params, turbine=unit.turbine,
                           branch_friction_s2_m5=view.penstock.friction_coefficient_s2_m5,
                           stroke_min=unit.governor.stroke_min, stroke_max=unit.governor.stroke_max,
                           **initial_target(view.scenario)))
@@ -53,8 +53,8 @@ def units_initial_state(plant: PlantConfig, characteristics: list) -> ManifoldSt
     try:
         return manifold_steady_state(units, static_head_m=plant.penstock.static_head_m, friction_s2_m5=friction)
     except InputError as exc:
-        raise InputError(f"{exc} (a unit of this plant: the target is each unit's; set units.initial_power_mw or "
-                         f"units.initial_opening per unit)") from None
+        raise InputError(f"{exc} (the scenario's initial point is each unit's; set units.initial_power_mw or "
+                         f"units.initial_opening of a unit for its own)") from None
 
 
 def unit_schedules(plant: PlantConfig, steady: ManifoldSteadyState) -> list:

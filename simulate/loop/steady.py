@@ -257,7 +257,8 @@ def manifold_steady_state(units, *, static_head_m: float, friction_s2_m5: float)
     """Steady operation of several units on one conduit that branches at a manifold, verified.
 
     ``units``: one dict per unit with the keywords of :func:`steady_state` except ``static_head_m`` (the unit sees the
-    manifold head) and ``friction_s2_m5`` given as ``branch_friction_s2_m5`` (its branch's K). ``friction_s2_m5`` is
+    manifold head) and ``friction_s2_m5`` given as ``branch_friction_s2_m5`` (its branch's K), and optionally its
+    ``name`` (for the messages). ``friction_s2_m5`` is
     the common conduit's (and any upstream tunnel's) K. The manifold head H_m solves
 
         H_st - K_c (sum_i Q_i(H_m)) |sum_i Q_i(H_m)| - H_m = 0,
@@ -285,10 +286,14 @@ def manifold_steady_state(units, *, static_head_m: float, friction_s2_m5: float)
     """
     def points(head_m):
         out = []
-        for unit in units:
-            keywords = {k: v for k, v in unit.items() if k not in ("kernel", "params", "branch_friction_s2_m5")}
-            out.append(steady_state(unit["kernel"], unit["params"], static_head_m=head_m,
-                                    friction_s2_m5=unit["branch_friction_s2_m5"], **keywords))
+        for i, unit in enumerate(units):
+            keywords = {k: v for k, v in unit.items()
+                        if k not in ("kernel", "params", "branch_friction_s2_m5", "name")}
+            try:
+                out.append(steady_state(unit["kernel"], unit["params"], static_head_m=head_m,
+                                        friction_s2_m5=unit["branch_friction_s2_m5"], **keywords))
+            except (InputError, NumericalError) as exc:
+                raise type(exc)(f"unit {unit.get('name', i)!r} at the manifold head {head_m:.6g} m: {exc}") from None
         return out
 
     def gap(head_m):
