@@ -124,7 +124,12 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     common = {"upstream": upstream, "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt, head0)}
     unit_parts, unit_args = [], []
     for unit, view, st, sched, cc in zip(plant.units, views, steady.units, schedules, compiled_chars):
-        parts = {"branch": PENSTOCKS.builder("moc")(view, st, dt, steady.head_m),
+        try:
+            branch = PENSTOCKS.builder("moc")(view, st, dt, steady.head_m)
+        except InputError as exc:
+            raise InputError(f"{str(exc).replace('segment ', 'units.branch segment ', 1)} (unit {unit.name!r})") \
+                from None
+        parts = {"branch": branch,
                  "control": CONTROLS.builder("governor" if sched.mode == GOVERNOR else "prescribed")(
                      view, st, sub_dt, sched),
                  "shaft": SHAFTS.builder("swing")(view, st, sub_dt, sched)}

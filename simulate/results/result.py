@@ -260,13 +260,18 @@ class SimulationResult:
                 ax.fill_between(band.time_s, band.low[name], band.high[name], color="tab:orange", alpha=0.35, lw=0,
                                 label=None if banded else f"ensemble of {band.members}, {low:g}-{high:g} %")
                 banded = True
-            ax.plot(self.time_s, values, lw=1.2, label="point nets" if band is not None and ax is axes[0] else None)
+            if self.units and name in UNIT_COLUMNS:  # a plant with several units: one trace per unit
+                for unit, unit_series in self.units.items():
+                    ax.plot(self.time_s, unit_series[name], lw=1.2, label=unit)
+            else:
+                ax.plot(self.time_s, values, lw=1.2,
+                        label="point nets" if band is not None and ax is axes[0] else None)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
             for i, (t0, t1) in enumerate(intervals):
                 ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
                            label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
-        if intervals or banded:
+        if intervals or banded or self.units:
             axes[0].legend(loc="best", fontsize=8)
         axes[-1].set_xlabel("time (s)")
         title = self.meta.get("scenario", "")
