@@ -941,7 +941,8 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
 
 
-__all__ = ["PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig",
-           "PenstockSegment", "PenstockConfig", "GeneratorConfig", "GovernorConfig", "ScenarioConfig",
-           "SolverConfig", "PlantConfig", "plant_from_dict", "to_dict", "parse_override", "apply_overrides",
-           "load_plant", "load_characteristics", "replace"]
+__all__ = [  # noqa: F822  (PENSTOCK_MODELS: served by the module's __getattr__)
+    "PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig", "PenstockSegment",
+    "PenstockConfig", "GeneratorConfig", "GovernorConfig", "ScenarioConfig", "SolverConfig", "UnitConfig",
+    "PlantConfig", "plant_from_dict", "to_dict", "parse_override", "apply_overrides", "load_plant",
+    "load_characteristics", "replace"]
