@@ -71,7 +71,8 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: 
     schedules = plant_schedules(plant, steady)
     sub_dt = dt_s / substeps
     upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
-    head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
+    head0 = upstream.hooks.initial_head_m
+    head0 = plant.penstock.static_head_m if head0 is None else head0
     parts = {
         "upstream": upstream,
         "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
@@ -157,12 +158,13 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     column = 0
     for kind in ("upstream", "shaft", "control"):  # row 0: each recording component's initial signals
         if parts[kind].signals:
-            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].meta["initial_signals"]
+            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].hooks.initial_signals
             column += len(parts[kind].signals)
     nodes = np.zeros(pen_part.n_nodes)
     node_heads = pen_part.functions["node_heads"]
-    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state, up_part.meta.get(
-        "initial_head_m", pen.static_head_m), steady.head_m, nodes)
+    head0 = up_part.hooks.initial_head_m
+    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state,
+                                               pen.static_head_m if head0 is None else head0, steady.head_m, nodes)
     env_max, env_min = nodes.copy(), nodes.copy()
     diag = np.zeros(8)
 
@@ -194,7 +196,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         all_signals = {name: out_signals[:, j] for j, name in enumerate(signal_names)}
         all_time = np.arange(rows) * (dt * stride)
         for part in parts.values():
-            problem = part.meta.get("error_after", lambda time_s, signals: "")(all_time, all_signals)
+            problem = part.hooks.error_for(all_time, all_signals)
             if problem:
                 if raise_on_failure:
                     raise NumericalError(problem)
@@ -210,7 +212,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                    f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation}"
                    + _failure_advice(int(status), plant.solver, diag[4], turbine.rated_head_m))
         for part in parts.values():  # a component that failed first (e.g. the generator's network) says why
-            why = part.meta.get("failure", lambda: "")()
+            why = part.hooks.failure_reason()
             if why:
                 message = f"{why} (the pressure loop then stopped: {STATUS_TEXT[int(status)]})"
                 break
@@ -240,10 +242,9 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     if stride != 1:
         meta["output_dt_s"] = dt * stride
     for part in parts.values():
-        meta.update(part.meta.get("summary", {}))
-        meta.update(part.meta.get("summary_after", lambda time_s, signals: {})(
+        meta.update(part.hooks.summary)
+        meta.update(part.hooks.figures_after(
             time_s, {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)}))
-    meta.update(pen_part.meta)
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
     figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
@@ -252,7 +253,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                                                  figure_times=figure_times)
     warnings += extrapolation_warnings(meta["extrapolation"])
     for part in parts.values():
-        warnings += part.meta.get("warnings_after", lambda signals: [])(
+        warnings += part.hooks.warnings_for(
             {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)})
     if diag[7] > 0:
         warnings.append(f"the pressure loop '{plant.solver.pressure_loop}' did not converge at {int(diag[7])} of "

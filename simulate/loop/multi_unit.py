@@ -120,7 +120,8 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
 
     sub_dt = dt / n_sub
     upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt)
-    head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
+    head0 = upstream.hooks.initial_head_m
+    head0 = plant.penstock.static_head_m if head0 is None else head0
     common = {"upstream": upstream, "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt, head0)}
     unit_parts, unit_args = [], []
     for unit, view, st, sched, cc in zip(plant.units, views, steady.units, schedules, compiled_chars):
@@ -154,7 +155,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     signal_names = list(upstream.signals)
     out_signals = np.zeros((rows, len(signal_names)))
     if signal_names:
-        out_signals[0] = upstream.meta["initial_signals"]
+        out_signals[0] = upstream.hooks.initial_signals
     for i, st in enumerate(steady.units):
         out_units[0, i] = (st.speed_rpm, st.head_m, st.flow_m3_s, st.torque_nm, st.stroke)
         out_manifold[0, len(MANIFOLD_SERIES) + 2 * i:len(MANIFOLD_SERIES) + 2 * i + 2] = (st.flow_m3_s, steady.head_m)
@@ -190,8 +191,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     message = "ok"
     all_time = np.arange(rows) * (dt * stride)
     if status == 0:  # the upstream part may find the run invalid afterwards (a surge tank running dry)
-        problem = upstream.meta.get("error_after", lambda time_s, signals: "")(
-            all_time, {name: out_signals[:, j] for j, name in enumerate(signal_names)})
+        problem = upstream.hooks.error_for(all_time, {name: out_signals[:, j] for j, name in enumerate(signal_names)})
         if problem:
             if raise_on_failure:
                 raise NumericalError(problem)
@@ -259,10 +259,13 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
             "steady_state_max_residual": max(abs(v) for st in steady.units for v in st.residuals.values())}
     if stride != 1:
         meta["output_dt_s"] = dt * stride
-    meta.update(upstream.meta.get("summary", {}))
-    meta.update(upstream.meta.get("summary_after", lambda time_s, signals: {})(time_s, signals))
-    meta.update({f"conduit_{k}": v for k, v in pen_part.meta.items()})
-    warnings += upstream.meta.get("warnings_after", lambda signals: [])(signals)
+    meta.update(upstream.hooks.summary)
+    meta.update(upstream.hooks.figures_after(time_s, signals))
+    meta.update({f"conduit_{k}": v for k, v in pen_part.hooks.summary.items()})
+    for parts in unit_parts:  # e.g. the discrete servo's settings (the branches' grid is in conduit_* and below)
+        meta.update(parts["control"].hooks.summary)
+        meta.update(parts["shaft"].hooks.summary)
+    warnings += upstream.hooks.warnings_for(signals)
     meta["extrapolation"] = units[lead]["extrapolation"]
     meta["warnings"] = warnings
     lead_series = units[lead]

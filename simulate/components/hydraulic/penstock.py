@@ -344,7 +344,7 @@ def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
     """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes),
     [current])."""
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     grid = build_moc_grid(plant.penstock, dt_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
@@ -354,8 +354,8 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
         functions={"relation": moc_relation, "update": moc_update, "inlet_flow": moc_inlet_flow,
                    "envelope": moc_envelope, "node_heads": moc_node_heads},
         params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
-        meta={"moc_reaches": int(sum(grid.reaches_per_segment)),
-              "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
+        hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
+                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment}),
         n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s))
 
 
