@@ -280,7 +280,7 @@ def plant_file_page() -> str:
              "Shipped examples: `data_synthetic/plant_hla339.toml` (the reference unit),",
              "`plant_hla339_grid.toml` (sub-transient generator, excitation and grid), `plant_hla339_surge_tank.toml`",
              "(surge tank), `plant_hla339_guarantee.toml` (limits and load cases) and `plant_two_units.toml` (two",
-             "units on one penstock that branches at a manifold).", ""]
+             "units on one penstock that divides at a manifold).", ""]
 
     def section(title: str, cls, raw, path, skip=(), note: str = "") -> None:
         lines.extend([f"## `{title}`", "", _paragraphs(cls.__doc__)])
@@ -316,7 +316,7 @@ def plant_file_page() -> str:
     section("[grid]", GridConfig, grid, ("grid",), note='With `generator.model = "subtransient"` only.')
     units = _example("plant_two_units.toml")
     section("[[units]]", config.UnitConfig, units, ("units",), skip=("branch",) + config.UNIT_OVERRIDE_SECTIONS,
-            note="Each unit's branch is `[[units.branch]]`, an array of tables with the keys of "
+            note="Each unit's branch pipe is `[[units.branch]]`, an array of tables with the keys of "
                  "`[[penstock.segments]]`; `[units.turbine]`, `[units.generator]` and `[units.governor]` take the keys "
                  "of `[turbine]`, `[generator]` and `[governor]` (any subset). A plant with `[[units]]` is described "
                  "in [Several units on one waterway](../multi-unit.md).")

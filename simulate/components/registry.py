@@ -19,7 +19,9 @@ shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, control/shaft
-``build(plant, steady, dt_s, schedules)``, each returning a :class:`CompiledPart`. The turbine characteristics are
+``build(plant, steady, dt_s, schedules)``, each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
+A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
+accepted by the plant file and built like the shipped ones. The turbine characteristics are
 compiled by :func:`compile_characteristics` (any object with ``numba_kernel()`` (two inputs N11, a),
 ``numba_control_kernel()`` (N11 and the control vector) or just the four Python methods).
 """

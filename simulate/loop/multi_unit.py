@@ -130,10 +130,14 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
         except InputError as exc:
             raise InputError(f"{str(exc).replace('segment ', 'units.branch segment ', 1)} (unit {unit.name!r})") \
                 from None
-        parts = {"branch": branch,
-                 "control": CONTROLS.builder("governor" if sched.mode == GOVERNOR else "prescribed")(
-                     view, st, sub_dt, sched),
-                 "shaft": SHAFTS.builder("swing")(view, st, sub_dt, sched)}
+        try:
+            parts = {"branch": branch,
+                     "control": CONTROLS.builder("governor" if sched.mode == GOVERNOR else "prescribed")(
+                         view, st, sub_dt, sched),
+                     "shaft": SHAFTS.builder("swing")(view, st, sub_dt, sched)}
+        except InputError as exc:
+            text = str(exc).replace("solver.dt_s (or penstock.reaches)", "penstock.reaches")  # dt is the grid's
+            raise InputError(f"unit {unit.name!r}: {text}") from None
         for kind in ("control", "shaft"):
             if parts[kind].signals:
                 raise InputError(f"unit {unit.name!r}: its {kind} component {parts[kind].name!r} records signals of "
