@@ -534,6 +534,13 @@ class PlantConfig:
                                      f"power; unit {u.name!r} is rated {u.turbine.rated_power_mw!r} MW (at most "
                                      f"1.5 x that): set units.initial_power_mw of that unit")
 
+    def require_one_unit(self, what: str) -> None:
+        """An :class:`InputError` when the plant has ``[[units]]``: ``what`` (a command or a study) models one unit."""
+        if self.units:
+            raise InputError(f"{what} models a plant with one unit; this plant has [[units]] "
+                             f"({', '.join(u.name for u in self.units)}): give a plant file without [[units]] (one "
+                             f"unit's [turbine], [generator], [governor] and its waterway as [[penstock.segments]])")
+
     @property
     def event_units(self) -> tuple[str, ...]:
         """Names of the units the scenario's event applies to (``scenario.units``, default all; empty without
