@@ -90,7 +90,11 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     dt = plant.time_step_s
     views = [plant.unit_plant(unit) for unit in plant.units]
     chars = unit_characteristics(plant, characteristics)
-    compiled_chars = [compile_characteristics(c) for c in chars]
+    compiled_once: dict = {}  # one compiled kernel per characteristics object (units may share one)
+    for c in chars:
+        if id(c) not in compiled_once:
+            compiled_once[id(c)] = compile_characteristics(c)
+    compiled_chars = [compiled_once[id(c)] for c in chars]
     first = compiled_chars[0]
     for unit, cc in zip(plant.units[1:], compiled_chars[1:]):
         if cc.source != first.source or cc.kernel is not first.kernel:
