@@ -105,15 +105,16 @@ def run_tsnet(folder: Path) -> dict:
     inp = folder / "branches.inp"
     inp.write_text(INP.format(q1=1000 * VALVE_FLOWS["V1"], q2=1000 * VALVE_FLOWS["V2"], h0=RESERVOIR_HEAD_M,
                               pipes=pipes), encoding="utf-8")
-    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):  # TSNet prints its progress
+    # TSNet prints its progress; EPANET (through wntr) writes temp.inp/.rpt/.bin into the working folder
+    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), contextlib.chdir(folder):
         warnings.simplefilter("ignore")
-        tm = tsnet.network.TransientModel(str(inp))
+        tm = tsnet.network.TransientModel(inp.name)
         tm.set_wavespeed(WAVE_SPEED_M_S)
         tm.set_time(T_END_S, DT_S)
         tm.valve_closure("V1", [CLOSE_TIME_S, CLOSE_START_S, 0.0, 1])
         tm.valve_closure("V2", [CLOSE_TIME_S, CLOSE_START_S, 1.0, 1])  # an "operation" that keeps it open
         tm = tsnet.simulation.Initializer(tm, 0, "DD")
-        tm = tsnet.simulation.MOCSimulator(tm, str(folder / "results"), "steady")
+        tm = tsnet.simulation.MOCSimulator(tm, "results", "steady")
     heads = {n: np.asarray(tm.get_node(n).head, float) for n in ("J1", "J2", "J3")}
     return {"heads": heads, "friction": {n: float(tm.get_link(n).roughness) for n, *_ in PIPES},
             "dt_s": float(tm.time_step)}

@@ -177,8 +177,10 @@ def _type_name(annotation) -> str:
     text = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", str(annotation))
     text = text.replace("typing.", "").replace("NoneType", "None")
     text = re.sub(r"\s*\|\s*None", "", text)
+    text = re.sub(r"^[\w.]+\.(\w+)$", r"\1", text)  # a class by its own name (simulate.x.StepUpConfig)
     return {"float": "number", "int": "integer", "str": "string", "Any": "table",
-            "tuple[float, ...]": "array of numbers", "tuple[str, ...]": "array of strings"}.get(text, text)
+            "tuple[float, ...]": "array of numbers", "tuple[str, ...]": "array of strings",
+            "StepUpConfig": "table"}.get(text, text)
 
 
 def _default_text(f: dataclasses.Field) -> str:
@@ -265,6 +267,7 @@ def plant_file_page() -> str:
     from simulate import config
     from simulate.components.control.excitation import ExcitationConfig
     from simulate.components.electrical.generator import GridConfig
+    from simulate.components.turbine.step_up import STEP_UP_METHODS, StepUpConfig
     from simulate.scenarios import SCENARIO_CLASSES
     from simulate.studies.cases import Limits
 
@@ -290,6 +293,11 @@ def plant_file_page() -> str:
         lines.append("")
 
     section("[turbine]", config.TurbineConfig, base, ("turbine",))
+    stepped = _deep_copy(base)
+    stepped["turbine"]["step_up"] = {"method": "iec60193"}
+    section("[turbine.step_up]", StepUpConfig, stepped, ("turbine", "step_up"),
+            note='`method` is one of: ' + ", ".join(f"`{m}`" for m in STEP_UP_METHODS) + ". On the command line: "
+                 "`--set turbine.step_up=iec60193` (every default) or `--set 'turbine.step_up={model_head_m = 20}'`.")
     section("[penstock]", config.PenstockConfig, base, ("penstock",), skip=("segments",),
             note="`model` is one of: " + ", ".join(f"`{m}`" for m in config.PENSTOCK_MODELS) + ".")
     section("[[penstock.segments]]", config.PenstockSegment, base, ("penstock", "segments"))

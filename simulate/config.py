@@ -36,6 +36,7 @@ from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_int, check_number
 
 from simulate.components.registry import PENSTOCKS  # noqa: E402  (light: no numba)
+from simulate.components.turbine.step_up import StepUpConfig
 from simulate.scenarios.base import SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig
 
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
@@ -47,6 +48,8 @@ class TurbineConfig:
 
     ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
     ``a = y * opening_max``. ``characteristics`` is ``"ideal"`` or a path to a nets.json (relative to the plant file).
+    ``step_up``: the table ``[turbine.step_up]`` when the chart is a model test to be converted to this prototype
+    (IEC 60193 efficiency step-up, see below); absent, the characteristics are used as they are.
     """
 
     rated_head_m: float
@@ -56,8 +59,15 @@ class TurbineConfig:
     runner_diameter_m: float
     opening_max: float
     characteristics: str
+    step_up: StepUpConfig | None = None
 
     def __post_init__(self):
+        if isinstance(self.step_up, (dict, str)):  # the TOML table, or --set turbine.step_up=iec60193
+            raw = {"method": self.step_up} if isinstance(self.step_up, str) else self.step_up
+            object.__setattr__(self, "step_up", StepUpConfig.from_toml(raw))
+        elif self.step_up is not None and not isinstance(self.step_up, StepUpConfig):
+            raise InputError(f"turbine.step_up must be a table such as {{method = \"iec60193\"}}, got "
+                             f"{self.step_up!r}")
         for name, high in (("rated_head_m", 3000.0), ("rated_flow_m3_s", 1e4), ("rated_speed_rpm", 3600.0),
                            ("rated_power_mw", 2000.0), ("runner_diameter_m", 20.0), ("opening_max", 1e5)):
             check_number(f"turbine.{name}", getattr(self, name), low=0.0, high=high, low_open=True)
@@ -818,7 +828,11 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
                 continue
             if name in ("solver", "surge_tank", "generator", "grid", "governor") and value is None:
                 continue
-            if f.name == "segments":
+            if name == "turbine" and f.name == "step_up":
+                if value is None:
+                    continue
+                value = value.as_dict()
+            elif f.name == "segments":
                 value = [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None} for s in value]
             elif isinstance(value, tuple):
                 value = list(value)
@@ -837,6 +851,8 @@ def _unit_dict(unit: UnitConfig, plant: PlantConfig) -> dict[str, Any]:
         obj, common = getattr(unit, section), getattr(plant, section)
         own = {f.name: getattr(obj, f.name) for f in fields(obj)
                if getattr(obj, f.name) is not None and getattr(obj, f.name) != getattr(common, f.name)}
+        if isinstance(own.get("step_up"), StepUpConfig):
+            own["step_up"] = own["step_up"].as_dict()
         if own:
             out[section] = own
     for key in ("initial_power_mw", "initial_opening"):
@@ -933,7 +949,9 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     :class:`hillchart.characteristics.IdealTurbine` from the rated values:
     q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
     ``"synthetic"`` the exact synthetic Francis turbine; anything else is a nets.json path (relative to
-    ``base_dir``) read by ``hillchart.nets.hill_nets.load_nets``.
+    ``base_dir``) read by ``hillchart.nets.hill_nets.load_nets``. With ``turbine.step_up`` the model chart is
+    converted to the prototype here (:func:`simulate.components.turbine.step_up.apply_step_up`), so every command
+    runs on the same stepped-up characteristics.
 
     Examples
     --------

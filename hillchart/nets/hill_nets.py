@@ -10,6 +10,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.nets.estimator import _check_percentiles
+from hillchart.nets.silent_model import SilentRegionModel, _silent_nets_kernel
 from hillchart.nets.weights import FIXED_UNITS, FORMAT, VERSION, NetWeights, _nets_kernel
 
 
@@ -43,7 +44,7 @@ class HillNets:
     """
 
     def __init__(self, flow: NetWeights, torque: NetWeights, opening_unit: str, training: dict | None = None,
-                 ensemble=None, digitized_region=None):
+                 ensemble=None, digitized_region=None, silent_model=None, member_silent_models=None):
         if not isinstance(flow, NetWeights) or not isinstance(torque, NetWeights):
             raise InputError("HillNets.flow and HillNets.torque must be NetWeights")
         if not isinstance(opening_unit, str) or not opening_unit:
@@ -62,12 +63,27 @@ class HillNets:
         #: on, or None (files written before it was recorded): what a run needs to say when it leaves the chart,
         #: wherever the nets.json is kept.
         self.digitized_region = None if digitized_region is None else _region(digitized_region, "digitized_region")
+        #: The fitted physical model that answers below the lowest digitized opening
+        #: (:class:`hillchart.nets.silent_model.SilentRegionModel`), or None: the nets alone everywhere.
+        if silent_model is not None and not isinstance(silent_model, SilentRegionModel):
+            raise InputError("HillNets.silent_model must be a SilentRegionModel or None")
+        self.silent_model = silent_model
+        #: One silent-region model per ensemble member (drawn from what the chart leaves open), or None: the
+        #: members share :attr:`silent_model`.
+        drawn = None if member_silent_models is None else list(member_silent_models)
+        if drawn is not None and (len(drawn) != len(self.ensemble) or silent_model is None
+                                  or not all(isinstance(m, SilentRegionModel) for m in drawn)):
+            raise InputError("HillNets.member_silent_models must hold one SilentRegionModel per ensemble member, "
+                             "beside a silent_model")
+        self.member_silent_models = drawn
 
     # ensemble: uncertainty band ------------------------------------------------------------------------------------
     def members(self) -> list["HillNets"]:
         """The ensemble members as HillNets (empty when the file has no ensemble)."""
-        return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit, digitized_region=self.digitized_region)
-                for f, t in self.ensemble]
+        silent = self.member_silent_models or [self.silent_model] * len(self.ensemble)
+        return [HillNets(flow=f, torque=t, opening_unit=self.opening_unit, digitized_region=self.digitized_region,
+                         silent_model=s)
+                for (f, t), s in zip(self.ensemble, silent)]
 
     def band(self, quantity: str, n11, opening, *, percentiles=(5.0, 95.0)) -> dict:
         """Mean and percentile band of ``quantity`` over the ensemble members.
@@ -102,21 +118,29 @@ class HillNets:
                 "high": percentile(values, high_p, axis=0), "point": getattr(self, quantity)(n11, opening)}
 
     # Characteristics protocol -----------------------------------------------------------------------------------
+    def _evaluate(self, which: int, n11, opening):
+        """(value, d/dN11, d/da) of the flow (0) or torque (1) characteristic: the net, or the net blended into
+        the silent-region model below the lowest digitized opening."""
+        if self.silent_model is None:
+            return (self.flow if which == 0 else self.torque).evaluate(n11, opening)
+        values = self.silent_model.evaluate(self.flow, self.torque, n11, opening)
+        return values[3 * which:3 * which + 3]
+
     def q11(self, n11, opening) -> np.ndarray:
         """Unit flow Q11, m^3/s, at N11 (r/min) and opening (chart units), broadcast."""
-        return self.flow.evaluate(n11, opening)[0]
+        return self._evaluate(0, n11, opening)[0]
 
     def m11(self, n11, opening) -> np.ndarray:
         """Unit torque M11, N*m."""
-        return self.torque.evaluate(n11, opening)[0]
+        return self._evaluate(1, n11, opening)[0]
 
     def q11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]:
         """(dQ11/dN11 in m^3/s per r/min, dQ11/da in m^3/s per opening unit)."""
-        return self.flow.evaluate(n11, opening)[1:]
+        return self._evaluate(0, n11, opening)[1:]
 
     def m11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]:
         """(dM11/dN11 in N*m per r/min, dM11/da in N*m per opening unit)."""
-        return self.torque.evaluate(n11, opening)[1:]
+        return self._evaluate(1, n11, opening)[1:]
 
     def efficiency(self, n11, opening) -> np.ndarray:
         """Hydraulic efficiency eta = M11 omega11 / (rho g Q11) (inverse of eq. (5), paper 004); NaN where
@@ -129,6 +153,8 @@ class HillNets:
     def numba_kernel(self):
         """``(kernel, params)``: ``kernel(params, n11, a) -> (q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``,
         numba-jitted, on scalars (see :mod:`hillchart.characteristics`)."""
+        if self.silent_model is not None:
+            return _silent_nets_kernel, (self.flow.packed(), self.torque.packed(), self.silent_model.packed())
         return _nets_kernel, (self.flow.packed(), self.torque.packed())
 
     # nets.json --------------------------------------------------------------------------------------------------
@@ -140,8 +166,12 @@ class HillNets:
                "training": self.training}
         if self.ensemble:
             doc["ensemble"] = [{"flow": f.to_dict("q11"), "torque": t.to_dict("m11")} for f, t in self.ensemble]
+            for member, silent in zip(doc["ensemble"], self.member_silent_models or []):
+                member["silent_model"] = silent.to_dict()
         if self.digitized_region is not None:
             doc["digitized_region"] = self.digitized_region.tolist()
+        if self.silent_model is not None:
+            doc["silent_model"] = self.silent_model.to_dict()
         return doc
 
     def to_json(self) -> str:
@@ -198,21 +228,29 @@ class HillNets:
         training = doc["training"] if "training" in doc else {}
         if not isinstance(training, dict):
             raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
-        ensemble = []
+        ensemble, member_silent = [], []
         if "ensemble" in doc:  # optional; a file without it is the version-1 file of before
             members = doc["ensemble"]
             if not isinstance(members, list):
                 raise InputError(f"nets.json: ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
                                  f"{type(members).__name__}")
             for i, member in enumerate(members):
-                if not isinstance(member, dict) or set(member) != {"flow", "torque"}:
-                    raise InputError(f"nets.json: ensemble[{i}] must be an object with exactly the keys flow and "
-                                     f"torque, got {member if not isinstance(member, dict) else sorted(member)!r}")
+                if not isinstance(member, dict) or set(member) - {"silent_model"} != {"flow", "torque"}:
+                    raise InputError(f"nets.json: ensemble[{i}] must be an object with the keys flow and torque "
+                                     "(and silent_model beside a top-level silent_model), got "
+                                     f"{member if not isinstance(member, dict) else sorted(member)!r}")
                 ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
                                  NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
+                if "silent_model" in member:
+                    member_silent.append(SilentRegionModel.from_dict(member["silent_model"],
+                                                                     key=f"ensemble[{i}].silent_model"))
         region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
+        silent = SilentRegionModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
+        if member_silent and (silent is None or len(member_silent) != len(ensemble)):
+            raise InputError("nets.json: ensemble members carry silent_model blocks, so every member must, and the "
+                             "file must have a top-level silent_model")
         return cls(flow=flow, torque=torque, opening_unit=units["opening"], training=training, ensemble=ensemble,
-                   digitized_region=region)
+                   digitized_region=region, silent_model=silent, member_silent_models=member_silent or None)
 
     @classmethod
     def from_json(cls, text: str) -> "HillNets":

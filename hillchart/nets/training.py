@@ -34,6 +34,8 @@ REGULARIZATIONS = (0.0, 1e-5, 1e-4)
 #: A candidate is "as good" as the best when its validation MSE is within this factor; among those the selection
 #: takes the largest boundary weight, the smallest net, the strongest regularization (Occam, as the 1-SE rule).
 SELECTION_TOLERANCE = 1.1
+#: Random stream (with the training seed) of the ensemble members' draws of the silent-region model.
+MEMBER_MODEL_STREAM = 7
 #: Restarts per candidate during the selection, and per ensemble member.
 SELECTION_RESTARTS = 3
 SELECTION_FOLDS = 5
@@ -249,10 +251,32 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
                             "candidates": table}
         record[key] = rec
     ensemble_pairs = list(zip(members["flow"], members["torque"])) if ensemble else None
+    silent, member_silent = silent_region_models(extended, ensemble, seed)
     nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
-                    ensemble=ensemble_pairs)
+                    ensemble=ensemble_pairs, silent_model=silent, member_silent_models=member_silent or None)
     nets.estimators = estimators
     return nets
+
+
+def silent_region_models(extended, members: int = 0, seed: int = 0):
+    """The physical model the nets hand over to below the lowest digitized opening
+    (:class:`hillchart.nets.silent_model.SilentRegionModel`), when the extension fitted one and sampled the silent
+    regions with it, and one drawn model per ensemble member (what the chart leaves open: the Laplace draws of
+    :meth:`hillchart.extension.turbine_model.FittedTurbineModel.draw`, seeded by ``seed``). ``(None, [])`` when
+    there is none (the nets alone everywhere)."""
+    from hillchart.nets.silent_model import SilentRegionModel
+
+    model = getattr(extended, "boundary_model", None)
+    if model is None:  # e.g. a table of samples (dict) or the paper's polynomial boundaries
+        return None, []
+    origin = np.asarray(extended.origin)
+    if not np.any(origin == "silent-region"):
+        return None, []
+    lowest = float(np.min(np.asarray(extended.opening)[origin == "measured"]))
+    top = float(np.max(np.asarray(extended.n11)))
+    rng = np.random.default_rng([seed, MEMBER_MODEL_STREAM])
+    drawn = [SilentRegionModel.from_fitted(model, lowest, top, turbine=model.draw(rng)) for _ in range(members)]
+    return SilentRegionModel.from_fitted(model, lowest, top), drawn
 
 
 def _training_record(est: HillNet, X, y, groups, record_time: bool, point_of_ensemble: bool = False) -> dict:

@@ -87,8 +87,8 @@ def _exact(choice: str, plant):
         return None
     from simulate.components.registry import resolve_characteristics
 
-    if choice == "synthetic":
-        return resolve_characteristics("synthetic")
+    if choice == "synthetic":  # stepped up like the nets when the plant has [turbine.step_up]
+        return resolve_characteristics("synthetic", turbine=plant.turbine)
     chars = plant.turbine.characteristics
     if chars == "ideal":
         return None
@@ -98,7 +98,9 @@ def _exact(choice: str, plant):
         shipped = Path(str(files("data_synthetic.francis") / "nets.json")).resolve()
     except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - data package always ships
         return None
-    return resolve_characteristics("synthetic") if (Path(plant.base_dir) / chars).resolve() == shipped else None
+    if (Path(plant.base_dir) / chars).resolve() != shipped:
+        return None
+    return resolve_characteristics("synthetic", turbine=plant.turbine)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -138,7 +138,7 @@ def verify(opt, plant, load_cases, out: Path) -> list[dict]:
 def optimize_command(args: argparse.Namespace) -> int:
     from simulate.studies.closure_opt import closure_plant, optimize_closure
     from simulate.config import load_characteristics, parse_override
-    from simulate.studies.cases import load_ensemble, load_study, plant_toml
+    from simulate.studies.cases import load_study, plant_toml
 
     for name in ("maxiter", "popsize", "workers"):
         value = getattr(args, name)
@@ -171,7 +171,7 @@ def optimize_command(args: argparse.Namespace) -> int:
     if args.ensemble:
         if plant.turbine.characteristics == "ideal":
             raise InputError("--ensemble needs turbine.characteristics to be a nets.json with an \"ensemble\" list")
-        extra = load_ensemble(plant.base_dir / plant.turbine.characteristics)
+        extra = base.members() if hasattr(base, "members") else []  # stepped up with the point nets, if asked
         if not extra:
             raise InputError(f"--ensemble: {plant.turbine.characteristics!r} has no \"ensemble\" list")
         members += extra

@@ -89,6 +89,11 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
             pass  # load_characteristics has read and validated the same file just before
         training = getattr(chars, "training", None) or {}
         source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}
+        from simulate.components.turbine.step_up import step_up_of
+
+        step_up = step_up_of(chars)
+        if step_up is not None:  # the model chart converted to the prototype (IEC 60193): what was assumed
+            source["step_up"] = step_up
         flow = getattr(chars, "flow", None)
         if flow is not None:
             source["n11_range_rpm"] = [float(flow.x_min[0]), float(flow.x_max[0])]
@@ -137,13 +142,21 @@ def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
         ax.annotate(text, (x, y), xytext=(-8 if right else 8, -14 if below else 4), textcoords="offset points",
                     fontsize=8, ha="right" if right else "left")
 
+    shares = figure_shares(case.extrapolation)
+
+    def outside(figure):  # the figure's extrapolation share, beside it
+        return "" if shares[figure] is None else f"; {shares[figure]:.0%} of the run to it outside the chart"
+
     i = int(np.argmax(result.speed_rpm))
     note(axes[0], t[i], result.speed_rpm[i],
-         f"max {result.speed_rpm[i]:.1f} r/min (+{100 * case.max_speed_rise:.1f} %) at {t[i]:.2f} s", "rv", True)
+         f"max {result.speed_rpm[i]:.1f} r/min (+{100 * case.max_speed_rise:.1f} %) at {t[i]:.2f} s"
+         + outside("max_speed_rise"), "rv", True)
     j, k = int(np.argmax(result.head_m)), int(np.argmin(result.head_m))
     note(axes[1], t[j], result.head_m[j],
-         f"max {result.head_m[j]:.1f} m (+{100 * case.max_head_rise:.1f} %) at {t[j]:.2f} s", "rv", True)
-    note(axes[1], t[k], result.head_m[k], f"min {result.head_m[k]:.1f} m at {t[k]:.2f} s", "b^", False)
+         f"max {result.head_m[j]:.1f} m (+{100 * case.max_head_rise:.1f} %) at {t[j]:.2f} s"
+         + outside("max_head_rise"), "rv", True)
+    note(axes[1], t[k], result.head_m[k], f"min {result.head_m[k]:.1f} m at {t[k]:.2f} s" + outside("min_head_drop"),
+         "b^", False)
     if limits is not None and limits.max_speed_rise is not None:
         axes[0].axhline(n0 * (1 + limits.max_speed_rise), color="tab:red", ls="--", lw=1,
                         label=f"limit +{100 * limits.max_speed_rise:g} %")
@@ -230,6 +243,23 @@ def plot_envelope(envelopes, path: Path) -> None:
     plt.close(fig)
 
 
+#: The guarantee figure a limit judges (its extrapolation share is printed beside the verdict).
+LIMIT_FIGURES = {"max_speed_rise": "max_speed_rise", "max_head_rise": "max_head_rise", "max_head_m": "max_head_rise"}
+
+
+def figure_shares(record) -> dict:
+    """``{figure: share}`` of the guarantee figures: the share of the run up to each figure spent outside the
+    digitized chart (outside the nets' training range when the digitized region is unknown), None where the run's
+    extrapolation record does not have it (:func:`simulate.results.result.extrapolation_share`)."""
+    from simulate.results.result import GUARANTEE_FIGURES, extrapolation_share
+
+    out = {}
+    for figure, *_ in GUARANTEE_FIGURES:
+        share = extrapolation_share(record, figure)
+        out[figure] = None if share is None else share[1]
+    return out
+
+
 def _case_json(case, lc, verdicts, folder: str) -> dict:
     from simulate.studies.batch import extrapolation_kinds
 
@@ -242,6 +272,7 @@ def _case_json(case, lc, verdicts, folder: str) -> dict:
             "max_unit_speed_rpm": case.max_unit_speed_rpm, "min_unit_speed_rpm": case.min_unit_speed_rpm,
             "max_opening_chart": case.max_opening_chart, "beyond_nets_range": case.beyond_nets_range,
             "extrapolation": extrapolation_kinds(case.extrapolation), "verdicts": verdicts,
+            "extrapolation_share": figure_shares(case.extrapolation),
             "summary_file": f"{folder}/summary.json", "timeseries_file": f"{folder}/timeseries.csv"}
 
 
@@ -422,31 +453,44 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         for i, c in enumerate(cases):
             for j, v in enumerate(c["verdicts"]):
                 banded = "band" in v  # a limit without a band (no ensemble, no figure) shows n/a there
+                figure = LIMIT_FIGURES.get(v["limit"])
+                share = (c.get("extrapolation_share") or {}).get(figure)
                 rows.append((c["name"], v["limit"], _v(v["allowed"], f"cases.{i}.verdicts.{j}.allowed"),
                              _v(v["value"], f"cases.{i}.verdicts.{j}.value", "{:.5g}"),
                              *((_v(v["band"][k], f"cases.{i}.verdicts.{j}.band.{k}", "{:.5g}") for k in (0, 1))
                                if banded else (Value(None), Value(None))),
+                             Value(None) if share is None else
+                             _v(share, f"cases.{i}.extrapolation_share.{figure}", "{:.0%}"),
                              Verdict(v["verdict"], key=f"report.json:cases.{i}.verdicts.{j}.verdict")))
-        r.table(("load case", "limit", "allowed", "point nets", "band low", "band high", "verdict"), rows,
+        r.table(("load case", "limit", "allowed", "point nets", "band low", "band high",
+                 "run outside the chart up to it", "verdict"), rows,
                 caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}), judged on "
                         f"{report['judged_on']}; n/a = not computed by this simulator version (min pressure head "
-                        f"needs the penstock envelope) or the run failed")
+                        f"needs the penstock envelope) or the run failed; 'run outside the chart up to it': the "
+                        f"share of the run up to the figure spent outside the digitized chart (its extrapolation "
+                        f"share: what the chart did not show of what decided it)")
+
+    def share(i, c, figure):
+        value = (c.get("extrapolation_share") or {}).get(figure)
+        return Value(None) if value is None else _v(value, f"cases.{i}.extrapolation_share.{figure}", "{:.0%}")
 
     r.heading("Load cases")
-    r.table(("load case", "status", "initial power (MW)", "initial stroke", "max speed rise", "max speed (r/min)",
-             "t (s)", "max head (m)", "max head rise", "t (s)", "min head (m)", "N11 range (r/min)"),
+    r.table(("load case", "status", "initial power (MW)", "initial stroke", "max speed rise", "outside chart",
+             "max speed (r/min)", "t (s)", "max head (m)", "max head rise", "outside chart", "t (s)", "min head (m)",
+             "outside chart", "N11 range (r/min)"),
             [(c["name"], c["status"], _v(c["initial_power_mw"], f"cases.{i}.initial_power_mw"),
               _v(c["initial_opening"], f"cases.{i}.initial_opening"),
-              _v(c["max_speed_rise"], f"cases.{i}.max_speed_rise", "{:.4f}"),
+              _v(c["max_speed_rise"], f"cases.{i}.max_speed_rise", "{:.4f}"), share(i, c, "max_speed_rise"),
               _v(c["max_speed_rpm"], f"cases.{i}.max_speed_rpm", "{:.2f}"),
               _v(c["t_max_speed_s"], f"cases.{i}.t_max_speed_s", "{:.2f}"),
               _v(c["max_head_m"], f"cases.{i}.max_head_m", "{:.2f}"),
-              _v(c["max_head_rise"], f"cases.{i}.max_head_rise", "{:.4f}"),
+              _v(c["max_head_rise"], f"cases.{i}.max_head_rise", "{:.4f}"), share(i, c, "max_head_rise"),
               _v(c["t_max_head_s"], f"cases.{i}.t_max_head_s", "{:.2f}"),
-              _v(c["min_head_m"], f"cases.{i}.min_head_m", "{:.2f}"),
+              _v(c["min_head_m"], f"cases.{i}.min_head_m", "{:.2f}"), share(i, c, "min_head_drop"),
               f"{c['min_unit_speed_rpm']:.1f}-{c['max_unit_speed_rpm']:.1f}") for i, c in enumerate(cases)],
-            caption="figures of each run (heads at the turbine inlet; rises relative to the initial value); the "
-                    "hillsim run files of each case are in cases/<n>/")
+            caption="figures of each run (heads at the turbine inlet; rises relative to the initial value); "
+                    "'outside chart' beside a figure: its extrapolation share, the share of the run up to it spent "
+                    "outside the digitized chart; the hillsim run files of each case are in cases/<n>/")
     r.heading("Transients")
     for i, c in enumerate(cases):
         r.figure(out / f"transient_{i}.png", f"{c['name']}: speed, head and stroke with the maxima and the event")

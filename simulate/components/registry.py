@@ -205,14 +205,22 @@ def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics")
 
 def resolve_characteristics(spec: str, *, turbine=None, base_dir=None, key: str = "turbine.characteristics"):
     """The one resolver of characteristics for the plant file and every command: ``"ideal"`` (needs ``turbine``),
-    ``"synthetic"`` or a nets.json path."""
+    ``"synthetic"`` or a nets.json path; with ``turbine.step_up`` the model's characteristics converted to the
+    prototype (:func:`simulate.components.turbine.step_up.apply_step_up`)."""
     if spec == "ideal":
         if turbine is None:
             raise InputError(f"{key} = 'ideal' needs the plant's rated values")
+        if getattr(turbine, "step_up", None) is not None:
+            raise InputError(f"turbine.step_up converts a model test's chart to the prototype; {key} = \"ideal\" is "
+                             f"built from the prototype's own rated values: remove [turbine.step_up] or give a "
+                             f"nets.json")
         return ideal_from_rated(turbine)
-    if spec == "synthetic":
-        return synthetic_francis()
-    return nets_from_path(spec, base_dir, key=key)
+    characteristics = synthetic_francis() if spec == "synthetic" else nets_from_path(spec, base_dir, key=key)
+    if turbine is not None and getattr(turbine, "step_up", None) is not None:
+        from simulate.components.turbine.step_up import apply_step_up
+
+        characteristics = apply_step_up(characteristics, turbine)
+    return characteristics
 
 
 @dataclass(frozen=True)

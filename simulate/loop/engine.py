@@ -119,6 +119,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     from simulate.loop import guards
     from simulate.loop.assembly import assemble
     from simulate.components.registry import compile_characteristics
+    from simulate.components.turbine.step_up import step_up_of
     from simulate.loop.timestep import plan_step
 
     plant.time_step_s  # noqa: B018  (the Courant check of the grid before anything heavier)
@@ -239,6 +240,9 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
             "pressure_loop_fallback_steps": int(diag[7]), "water_time_s": tw,
             "travel_time_s": pen.travel_time_s, "compiled": compiled,
             "steady_state_max_residual": max(abs(v) for v in steady.residuals.values())}
+    step_up = step_up_of(chars)
+    if step_up is not None:  # the model chart converted to the prototype: what was assumed goes with the figures
+        meta["step_up"] = step_up
     if stride != 1:
         meta["output_dt_s"] = dt * stride
     for part in parts.values():
@@ -248,7 +252,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
     figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
-                    "max_head_rise": float(time_s[int(np.argmax(head))])}
+                    "max_head_rise": float(time_s[int(np.argmax(head))]),
+                    "min_head_drop": float(time_s[int(np.argmin(head))])}
     meta["extrapolation"] = extrapolation_record(domain, time_s, n11, stroke * turbine.opening_max, stroke,
                                                  figure_times=figure_times)
     warnings += extrapolation_warnings(meta["extrapolation"])

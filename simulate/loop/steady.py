@@ -6,7 +6,9 @@ At speed n (rated by default) and stroke y the head H and flow Q satisfy
     turbine:   Q = Q11(n D1 / sqrt(H), a) D1^2 sqrt(H),  a = y * opening_max
 
 solved by Brent's method on H; for a power target the stroke is found by a second Brent search on
-P(y) = M11 D1^3 H omega. Every residual is then checked against :data:`RESIDUAL_TOLERANCE` (relative).
+P(y) = M11 D1^3 H omega (between the stroke limits, or below the stroke of the largest power when the power peaks
+before the upper limit; a target above that largest power is an error naming it). Every residual is then checked
+against :data:`RESIDUAL_TOLERANCE` (relative).
 
 Brent's method is :func:`brentq`, a line-by-line port of scipy's ``brentq.c`` (scipy.optimize.brentq): importing
 scipy.optimize costs about a quarter of a second of start-up (it pulls in linprog, scipy.fft and scipy.special), an
@@ -169,6 +171,58 @@ def head_at_opening(kernel, params, *, speed_rpm, opening, static_head_m, fricti
     return float(brentq(gap, low, high, xtol=1e-13 * static_head_m, rtol=1e-15, maxiter=500))
 
 
+def largest_power(power_of, stroke_min: float, stroke_max: float, *, samples: int = 33) -> tuple[float, float]:
+    """``(stroke, power)`` where ``power_of(stroke)`` is largest in [stroke_min, stroke_max]: the best of
+    ``samples`` evenly spaced strokes, refined by golden-section search between its neighbours (to 1e-9 of the
+    stroke range).
+
+    Examples
+    --------
+    >>> y, p = largest_power(lambda y: 1.0 - (y - 0.8) ** 2, 0.0, 1.0)
+    >>> round(y, 6), round(p, 9)
+    (0.8, 1.0)
+    """
+    strokes = [stroke_min + (stroke_max - stroke_min) * i / (samples - 1) for i in range(samples)]
+    powers = [power_of(y) for y in strokes]
+    i = max(range(samples), key=powers.__getitem__)
+    low, high = strokes[max(i - 1, 0)], strokes[min(i + 1, samples - 1)]
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = high - ratio * (high - low), low + ratio * (high - low)
+    f1, f2 = power_of(x1), power_of(x2)
+    while high - low > 1e-9 * (stroke_max - stroke_min):
+        if f1 >= f2:
+            high, x2, f2 = x2, x1, f1
+            x1 = high - ratio * (high - low)
+            f1 = power_of(x1)
+        else:
+            low, x1, f1 = x1, x2, f2
+            x2 = low + ratio * (high - low)
+            f2 = power_of(x2)
+    best = max(((strokes[i], powers[i]), (x1, f1), (x2, f2)), key=lambda item: item[1])
+    return float(best[0]), float(best[1])
+
+
+def unreachable_power_message(power_mw, speed_rpm, stroke_min, stroke_max, p_min_stroke, p_max_stroke, y_peak,
+                              p_peak, turbine) -> str:
+    """The error for a power target the unit cannot give: the range, the largest reachable power and what to
+    change (with a model chart: the IEC 60193 step-up of ``[turbine.step_up]``)."""
+    text = (f"scenario.initial_power_mw = {power_mw!r} is outside the power range the unit gives at "
+            f"{speed_rpm:.6g} r/min between governor.stroke_min and stroke_max: "
+            f"[{p_min_stroke:.6g}, {p_max_stroke:.6g}] MW at the two ends")
+    if power_mw < min(p_min_stroke, p_max_stroke):
+        return text + "; lower governor.stroke_min or raise scenario.initial_power_mw"
+    text += (f"; the largest power it gives is {p_peak:.1f} MW (stroke {y_peak:.4g}); lower "
+             f"scenario.initial_power_mw to at most {math.floor(10.0 * p_peak) / 10.0:.1f} MW")
+    if getattr(turbine, "step_up", None) is None:
+        text += (", or, when the hill chart is a model test (most are), convert it to this prototype with the IEC "
+                 "60193 efficiency step-up: add [turbine.step_up] with method = \"iec60193\" to the plant file (or "
+                 "--set turbine.step_up=iec60193); its model_diameter_m, model_head_m and model_efficiency_reference "
+                 "default to a 0.35 m model at 30 m and the chart's best efficiency")
+    else:
+        text += " (the IEC 60193 step-up of [turbine.step_up] is already applied)"
+    return text
+
+
 def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stroke_min, stroke_max,
                  speed_rpm=None, power_mw=None, stroke=None) -> SteadyState:
     """Steady operation at ``speed_rpm`` (rated when None) for a power target or a given stroke, verified.
@@ -214,10 +268,14 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
         elif p_high == 0.0:
             stroke = stroke_max
         elif p_low * p_high > 0.0:
-            raise InputError(
-                f"scenario.initial_power_mw = {power_mw!r} is outside the power range the unit gives at "
-                f"{speed:.6g} r/min between governor.stroke_min and stroke_max: "
-                f"[{p_low + power_mw:.6g}, {p_high + power_mw:.6g}] MW")
+            # the power may peak inside the stroke range (efficiency falls at large openings): search it there
+            y_peak, p_peak = largest_power(power_of, stroke_min, stroke_max)
+            if p_high < 0.0 and p_low < 0.0 and p_peak >= power_mw:
+                stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, y_peak, xtol=1e-15, rtol=1e-15,
+                                maxiter=500)
+            else:
+                raise InputError(unreachable_power_message(power_mw, speed, stroke_min, stroke_max, p_low + power_mw,
+                                                           p_high + power_mw, y_peak, p_peak, turbine))
         else:
             stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, stroke_max, xtol=1e-15, rtol=1e-15,
                             maxiter=500)

@@ -232,13 +232,44 @@ class SimulationResult:
                         encoding="utf-8")
         return path
 
+    def guarantee_marks(self, band=None) -> list[dict]:
+        """What :meth:`plot` marks for each guarantee figure: ``figure`` (summary name), ``trace`` (the series it
+        is read on), ``time_s``, ``value`` (in the trace's unit), ``band`` (``(low, high)`` in that unit, or None
+        without a band for it), ``share`` (``(kind, fraction)`` of :func:`extrapolation_share`, or None) and the
+        annotation ``text``."""
+        marks = []
+        record = self.meta.get("extrapolation")
+        figures_band = getattr(band, "figures", None) or {}
+        for figure, trace, label, sign in GUARANTEE_FIGURES:
+            values = getattr(self, trace)
+            i = int(np.argmax(values)) if sign > 0 else int(np.argmin(values))
+            v0, value = float(values[0]), float(values[i])
+            rise = sign * (value / v0 - 1.0)  # the summary's figure: max(x)/x0 - 1, or 1 - min(x)/x0
+            unit = "r/min" if trace == "speed_rpm" else "m"
+            text = f"{label} {value:.1f} {unit} ({'+' if sign > 0 else '-'}{100 * rise:.2f} %)"
+            limits = None
+            if figure in figures_band:
+                low, high = (v0 * (1.0 + sign * f) for f in figures_band[figure])
+                limits = (min(low, high), max(low, high))
+                text += f"\nband {limits[0]:.1f}-{limits[1]:.1f} {unit}"
+            share = extrapolation_share(record, figure)
+            if share is not None:
+                where = "the digitized chart" if share[0] == "digitized_region" else "the nets' training range"
+                text += f"\n{100 * share[1]:.0f} % of the run up to it outside {where}"
+            marks.append({"figure": figure, "trace": trace, "time_s": float(self.time_s[i]), "value": value,
+                          "band": limits, "share": share, "text": text})
+        return marks
+
     def plot(self, path: str | Path | None = None, band=None):
         """Speed, head, flow and opening against time (like paper 004 Fig. 11); saved when ``path`` is given.
 
         Intervals where the trajectory leaves the characteristics' trusted domain (``meta["extrapolation"]``) are
         shaded. ``band``: a :class:`simulate.studies.uncertainty.TraceBand` (``hillsim run --uncertainty``), drawn as
-        the ensemble's percentile band behind each trace it covers. Uses matplotlib's object API with the Agg canvas
-        (no pyplot, no display; imported here, not with the module). Returns the figure.
+        the ensemble's percentile band behind each trace it covers. Each guarantee figure (max speed rise, max head
+        rise, min head) is marked where it comes and annotated with its value, its band (an error bar, with
+        ``band``) and its extrapolation share (the share of the run up to it spent outside the digitized chart,
+        ``meta["extrapolation"]["figures"]``); see :meth:`guarantee_marks`. Uses matplotlib's object API with the Agg
+        canvas (no pyplot, no display; imported here, not with the module). Returns the figure.
         """
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -271,6 +302,26 @@ class SimulationResult:
             for i, (t0, t1) in enumerate(intervals):
                 ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
                            label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
+        on_axes = {"speed_rpm": axes[0] if series[0][2] == "speed_rpm" else None, "head_m": axes[1]}
+        for mark in self.guarantee_marks(band):
+            ax = on_axes[mark["trace"]]
+            if ax is None:
+                continue
+            t, value = mark["time_s"], mark["value"]
+            if mark["band"] is not None:
+                low, high = mark["band"]
+                bar = ax.errorbar([t], [value], yerr=[[max(value - low, 0.0)], [max(high - value, 0.0)]],
+                                  fmt="none", ecolor="tab:orange", elinewidth=2.0, capsize=4)
+                for artist in bar.lines[2]:  # the vertical bar (a LineCollection): named for readers of the figure
+                    artist.set_gid(f"guarantee-band:{mark['figure']}")
+            ax.plot([t], [value], "v" if mark["figure"] != "min_head_drop" else "^", color="k", ms=5,
+                    gid=f"guarantee:{mark['figure']}")
+            right = t > 0.6 * float(self.time_s[-1])  # text to the left of late points, so it stays inside the axes
+            below = mark["figure"] != "min_head_drop"
+            ax.annotate(mark["text"], (t, value), xytext=(-8 if right else 8, -16 if below else 6),
+                        textcoords="offset points", fontsize=7, ha="right" if right else "left",
+                        va="top" if below else "bottom", gid=f"guarantee:{mark['figure']}",
+                        bbox={"boxstyle": "round,pad=0.2", "fc": "white", "alpha": 0.8, "lw": 0})
         if intervals or banded or self.units:
             axes[0].legend(loc="best", fontsize=8)
         axes[-1].set_xlabel("time (s)")
@@ -283,6 +334,31 @@ class SimulationResult:
         if path is not None:
             save_png(fig, path)
         return fig
+
+
+#: The guarantee figures marked on transient.png: (summary name, trace, label, sign of the rise).
+GUARANTEE_FIGURES = (("max_speed_rise", "speed_rpm", "max speed", 1.0), ("max_head_rise", "head_m", "max head", 1.0),
+                     ("min_head_drop", "head_m", "min head", -1.0))
+
+
+def extrapolation_share(record: dict | None, figure: str) -> tuple[str, float] | None:
+    """``(kind, share)`` of a guarantee figure from a run's extrapolation record (``summary["extrapolation"]``):
+    the share of the run up to the figure spent outside the digitized region of the chart (outside the nets'
+    training range when the digitized region is not known); None when the record has neither.
+
+    Examples
+    --------
+    >>> extrapolation_share({"figures": {"max_head_rise": {"time_s": 9.0, "digitized_region": 0.25,
+    ...                                                    "full_stroke": 0.0}}}, "max_head_rise")
+    ('digitized_region', 0.25)
+    >>> extrapolation_share({"figures": {}}, "max_head_rise") is None
+    True
+    """
+    entry = ((record or {}).get("figures") or {}).get(figure) or {}
+    for kind in ("digitized_region", "training_range"):
+        if kind in entry:
+            return kind, float(entry[kind])
+    return None
 
 
 def json_default(value):

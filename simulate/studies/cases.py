@@ -288,8 +288,7 @@ def load_ensemble(path: str | Path) -> list:
         ``ensemble`` not a non-empty list, a member not an object or without flow/torque, a malformed NET (the
         message names ``ensemble[i].flow.KEY``).
     """
-    from hillchart.nets.hill_nets import HillNets, load_nets
-    from hillchart.nets.weights import NetWeights
+    from hillchart.nets.hill_nets import load_nets
 
     path = Path(path)
     base = load_nets(path)
@@ -303,15 +302,10 @@ def load_ensemble(path: str | Path) -> list:
     if not isinstance(members, list) or not members:
         raise InputError(f"{str(path)!r}: ensemble must be a non-empty list of {{\"flow\": NET, \"torque\": NET}}, "
                          f"got {type(members).__name__}")
-    out = []
     for i, member in enumerate(members):
         if not isinstance(member, dict) or "flow" not in member or "torque" not in member:
             raise InputError(f"{str(path)!r}: ensemble[{i}] must be an object with keys flow and torque")
-        out.append(HillNets(flow=NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
-                            torque=NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque",
-                                                        output="m11"),
-                            opening_unit=base.opening_unit))
-    return out
+    return base.members()  # each with its own draw of the silent-region model, when the file has them
 
 
 __all__ = ["STUDY_SECTIONS", "Limits", "LoadCase", "Study", "parse_load_cases", "load_study", "plant_toml",

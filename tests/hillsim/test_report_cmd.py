@@ -91,6 +91,23 @@ def test_report_json_equals_the_hillsim_run_files_of_each_case(made):
     assert doc["closure"]["law"] == json.loads((out.parent / "opt" / "closure.json").read_text())["law"]
 
 
+def test_each_figure_carries_its_extrapolation_share_from_the_run(made):
+    """Beside each guarantee figure (load-case table) and each judged limit (verdict table): the share of the run up
+    to the figure outside the digitized chart, the same number as the case's summary.json."""
+    out, html, doc, cells = made
+    keys = {key for key, _ in cells.cells}
+    for i, case in enumerate(doc["cases"]):
+        record = json.loads((out / case["summary_file"]).read_text())["extrapolation"]["figures"]
+        for figure in ("max_speed_rise", "max_head_rise", "min_head_drop"):
+            assert case["extrapolation_share"][figure] == record[figure]["digitized_region"]
+            assert f"report.json:cases.{i}.extrapolation_share.{figure}" in keys
+        # a load rejection's shut vanes are below the lowest digitized line: the maxima are partly extrapolated
+        assert 0.0 < case["extrapolation_share"]["max_head_rise"] < 1.0
+    share = doc["cases"][0]["extrapolation_share"]["max_speed_rise"]
+    assert re.search(rf'data-key="report.json:cases.0.extrapolation_share.max_speed_rise">{share:.0%}<', html)
+    assert "run outside the chart up to it" in html
+
+
 def test_page_has_every_section_self_contained(made):
     out, html, doc, cells = made
     assert all(s in cells.headings for s in SECTIONS)
@@ -170,3 +187,17 @@ def test_report_refuses_foreign_json(tmp_path, capsys):
     plant = _plant(tmp_path, "[limits]\nmax_speed_rise = 9.0\n")
     assert main(["report", str(plant), "--out", str(tmp_path / "o")]) == 2
     assert "limits.max_speed_rise must be a number in (0.0, 5.0], got 9.0" in capsys.readouterr().err
+
+
+def test_a_stepped_up_plant_reports_its_step_up(tmp_path):
+    """[turbine.step_up]: the data sheet and every case's summary.json say what was assumed (the same record)."""
+    plant = _plant(tmp_path, "[[load_cases]]\nname = \"rated\"\nscenario.initial_power_mw = 225.0\n")
+    out = tmp_path / "rep"
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=6",
+                 "--set", "turbine.step_up=iec60193"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    record = doc["plant"]["characteristics"]["step_up"]
+    summary = json.loads((out / doc["cases"][0]["summary_file"]).read_text())
+    assert record == summary["step_up"] and record["method"] == "iec60193"
+    assert 1.01 < record["torque_factor"] < 1.05  # a 0.35 m model against the 4.5 m unit: about 2 points
+    assert "torque_factor" in (out / "report.html").read_text()
