@@ -162,6 +162,7 @@ def test_plain_python_loop_equals_the_compiled_one():
     plant = two_units(t_end_s=1.5, units=["U2"])
     compiled = run_simulation(plant)
     python = run_simulation(plant, jit=False)
+    assert compiled.meta["compiled"] and not python.meta["compiled"]
     # the same generated source run by numba and by Python: LLVM may fuse or reorder nothing here but libm calls can
     # differ in the last ulp; 1e-12 relative over ~300 steps
     for name in ("U1", "U2"):
