@@ -101,3 +101,14 @@ def test_the_time_step_is_the_shortest_pipe_of_conduit_and_branches():
     raw["units"][1]["branch"][0]["length_m"] = 90.0  # half the travel time of the other pipes
     plant = plant_from_dict(raw, base_dir=PLANT_TWO_UNITS.parent)
     assert plant.time_step_s == pytest.approx(90.0 / 1180.0 / 8, rel=1e-14)
+
+
+def test_the_run_size_counts_the_nodes_of_every_branch():
+    from simulate.loop.guards import estimate
+
+    plant = load_plant(PLANT_TWO_UNITS)
+    dt = plant.time_step_s
+    # common conduit 320 m / (1120 m/s x dt) = 15 reaches, each branch 180 m / (1180 m/s x dt) = 8 reaches:
+    # 16 + 9 + 9 nodes
+    assert estimate(plant, dt, 100, 1)["nodes"] == 34
+    assert estimate(load_plant(PLANT_HLA339), dt, 100, 1)["nodes"] == 24  # one pipe of two segments: 15 + 8 + 1
