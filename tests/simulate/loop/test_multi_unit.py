@@ -177,3 +177,12 @@ def test_shipped_two_unit_plant_reads_and_starts():
     assert result.success and set(result.units) == {"U1", "U2"}
     raw = tomllib.loads(PLANT_TWO_UNITS.read_text())
     assert [u["name"] for u in raw["units"]] == ["U1", "U2"]
+
+
+def test_units_with_different_kinds_of_characteristics_are_refused():
+    raw = _raw(1.0)
+    raw["units"] = [{"name": "U1", "branch": [_branch(4.0)]},
+                    {"name": "U2", "branch": [_branch(4.0)], "turbine": {"characteristics": "synthetic"}}]
+    with pytest.raises(InputError, match=r"unit 'U2': turbine.characteristics = 'synthetic' is another kind of "
+                                         r"characteristics than unit 'U1's \('ideal'\)"):
+        run_simulation(plant_from_dict(raw))
