@@ -99,7 +99,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     for unit, cc in zip(plant.units[1:], compiled_chars[1:]):
         if cc.source != first.source or cc.kernel is not first.kernel:
             raise InputError(f"unit {unit.name!r}: turbine.characteristics = {unit.turbine.characteristics!r} is "
-                             f"another kind of characteristics than unit {plant.units[0].name!r}'s "
+                             f"another kind of characteristics than those of unit {plant.units[0].name!r} "
                              f"({plant.units[0].turbine.characteristics!r}); the units of one plant share one kind "
                              f"(ideal, synthetic or nets, each unit with its own rated values or nets file)")
     domains = [plant_domain(view, c) for view, c in zip(views, chars)]

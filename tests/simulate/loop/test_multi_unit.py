@@ -184,5 +184,5 @@ def test_units_with_different_kinds_of_characteristics_are_refused():
     raw["units"] = [{"name": "U1", "branch": [_branch(4.0)]},
                     {"name": "U2", "branch": [_branch(4.0)], "turbine": {"characteristics": "synthetic"}}]
     with pytest.raises(InputError, match=r"unit 'U2': turbine.characteristics = 'synthetic' is another kind of "
-                                         r"characteristics than unit 'U1's \('ideal'\)"):
+                                         r"characteristics than those of unit 'U1' \('ideal'\)"):
         run_simulation(plant_from_dict(raw))
