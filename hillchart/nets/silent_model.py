@@ -58,7 +58,8 @@ def _smoothstep(x, x0, x1):
 @numba.njit(cache=True)
 def _silent_nets_kernel(params, n11, opening):
     """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``: the nets (``params[0]``,
-    ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1) below
+    ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1 and the
+    model's torque factor) below
     the lowest digitized opening (module docstring)."""
     q, q_n, q_a = _net_value_grad(params[0], n11, opening)
     m, m_n, m_a = _net_value_grad(params[1], n11, opening)
@@ -71,6 +72,8 @@ def _silent_nets_kernel(params, n11, opening):
     mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
     if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
         return q, q_n, q_a, m, m_n, m_a
+    factor = blend[16]  # the model's torque factor (the prototype step-up; 1 for the model test)
+    mm, mm_n, mm_a = factor * mm, factor * mm_n, factor * mm_a
     w_n = (1.0 - s_a) * ds_n
     w_a = (1.0 - s_n) * ds_a
     v = 1.0 - w
@@ -100,11 +103,15 @@ class SilentRegionModel:
         lowest digitized opening).
     n11_blend : (float, float)
         N11 (r/min): the nets take over again between these, below the model's pumping limit.
+    torque_factor : float
+        The model's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
+        nets and model alike, :func:`simulate.components.turbine.step_up.scale_torque`).
     """
 
     parameters: tuple
     blend_openings: tuple
     n11_blend: tuple
+    torque_factor: float = 1.0
 
     def __post_init__(self):
         values = np.asarray(self.parameters, dtype=float)
@@ -115,6 +122,12 @@ class SilentRegionModel:
             if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
                 raise InputError(f"silent_model.{key} must be two finite numbers 0 <= low < high, got "
                                  f"{[lo, hi]!r}")
+        if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
+            raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
+
+    def scaled(self, factor: float) -> "SilentRegionModel":
+        """The same model with its torque multiplied by ``factor`` (on top of the present factor)."""
+        return SilentRegionModel(self.parameters, self.blend_openings, self.n11_blend, self.torque_factor * factor)
 
     @classmethod
     def from_fitted(cls, fitted, lowest_opening: float, n11_top: float, turbine=None) -> "SilentRegionModel":
@@ -134,8 +147,8 @@ class SilentRegionModel:
                    n11_blend=(lo * limit, hi * limit))
 
     def packed(self) -> np.ndarray:
-        """The 16 numbers the kernel reads: parameters, blend openings, N11 blend."""
-        return np.array([*self.parameters, *self.blend_openings, *self.n11_blend], dtype=float)
+        """The 17 numbers the kernel reads: parameters, blend openings, N11 blend, torque factor."""
+        return np.array([*self.parameters, *self.blend_openings, *self.n11_blend, self.torque_factor], dtype=float)
 
     def evaluate(self, flow, torque, n11, opening):
         """``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` of the blended characteristics, broadcast arrays;
@@ -148,15 +161,20 @@ class SilentRegionModel:
         return tuple(row.reshape(n11_b.shape) for row in out)
 
     def to_dict(self) -> dict:
-        return {"kind": KIND, "parameters": dict(zip(PARAMETER_NAMES, self.parameters)),
-                "blend_openings": list(self.blend_openings), "n11_blend": list(self.n11_blend)}
+        doc = {"kind": KIND, "parameters": dict(zip(PARAMETER_NAMES, self.parameters)),
+               "blend_openings": list(self.blend_openings), "n11_blend": list(self.n11_blend)}
+        if self.torque_factor != 1.0:
+            doc["torque_factor"] = self.torque_factor
+        return doc
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model") -> "SilentRegionModel":
         """Validate a parsed ``silent_model`` block of nets.json."""
-        if not isinstance(doc, dict) or set(doc) != {"kind", "parameters", "blend_openings", "n11_blend"}:
-            raise InputError(f"nets.json: {key} must be an object with exactly the keys kind, parameters, "
-                             f"blend_openings, n11_blend, got {sorted(doc) if isinstance(doc, dict) else doc!r}")
+        required = {"kind", "parameters", "blend_openings", "n11_blend"}
+        if not isinstance(doc, dict) or not required <= set(doc) <= required | {"torque_factor"}:
+            raise InputError(f"nets.json: {key} must be an object with the keys kind, parameters, blend_openings, "
+                             f"n11_blend (and optionally torque_factor), got "
+                             f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
         if doc["kind"] != KIND:
             raise InputError(f"nets.json: {key}.kind must be {KIND!r}, got {doc['kind']!r}")
         params = doc["parameters"]
@@ -166,8 +184,9 @@ class SilentRegionModel:
             values = tuple(float(params[name]) for name in PARAMETER_NAMES)
             openings = tuple(float(v) for v in doc["blend_openings"])
             speeds = tuple(float(v) for v in doc["n11_blend"])
+            factor = float(doc.get("torque_factor", 1.0))
         except (TypeError, ValueError):
             raise InputError(f"nets.json: {key} must hold numbers (parameters, blend_openings, n11_blend)") from None
         if len(openings) != 2 or len(speeds) != 2:
             raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs")
-        return cls(parameters=values, blend_openings=openings, n11_blend=speeds)
+        return cls(parameters=values, blend_openings=openings, n11_blend=speeds, torque_factor=factor)

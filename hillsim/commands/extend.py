@@ -16,8 +16,9 @@ def add_extension_arguments(parser: argparse.ArgumentParser) -> None:
                        help="where the zero-opening / zero-speed (and missing runaway) samples come from: a physical "
                             "turbine model fitted to the chart (default) or the paper's polynomial extrapolations")
     group.add_argument("--no-silent-regions", action="store_true",
-                       help="do not add the fitted model's samples where the chart is silent (small openings below "
-                            "the lowest line, overspeed up to runaway; only with --boundaries model)")
+                       help="leave the fitted model out where the chart is silent: no samples there (small openings "
+                            "below the lowest line, overspeed up to runaway) and, for train, no hand-over of the nets "
+                            "to the model below the lowest line (only with --boundaries model)")
     group.add_argument("--degree", type=int, default=2,
                        help="degree of the polynomial boundary extrapolations, 1-4 (default 2)")
     group.add_argument(

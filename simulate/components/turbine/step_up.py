@@ -293,7 +293,7 @@ def scale_torque(characteristics, factor: float, step_up: StepUp | None = None):
 
     Trained nets (:class:`hillchart.nets.hill_nets.HillNets`) come back as nets whose torque net's output range
     ``[y_min, y_max]`` is scaled (the net's output is affine in it, eq. (11) of the BP hill-chart paper: exact up to
-    rounding), ensemble members included, with the step-up recorded in ``training["step_up"]``; anything else is
+    rounding), ensemble members and the physical model below the lowest digitized line included, with the step-up recorded in ``training["step_up"]``; anything else is
     wrapped in :class:`TorqueScaled`."""
     from hillchart.nets.hill_nets import HillNets
     from hillchart.nets.weights import NetWeights
@@ -313,10 +313,14 @@ def scale_torque(characteristics, factor: float, step_up: StepUp | None = None):
     training = dict(characteristics.training)
     if step_up is not None:
         training["step_up"] = step_up.as_dict()
+    silent = characteristics.silent_model
+    drawn = characteristics.member_silent_models
     return HillNets(flow=characteristics.flow, torque=scaled(characteristics.torque),
                     opening_unit=characteristics.opening_unit, training=training,
                     ensemble=[(f, scaled(t)) for f, t in characteristics.ensemble],
-                    digitized_region=characteristics.digitized_region)
+                    digitized_region=characteristics.digitized_region,
+                    silent_model=None if silent is None else silent.scaled(factor),
+                    member_silent_models=None if drawn is None else [m.scaled(factor) for m in drawn])
 
 
 def apply_step_up(characteristics, turbine):

@@ -112,3 +112,18 @@ def test_nets_json_round_trip_and_errors(nets):
 def test_a_model_with_bad_parameters_is_refused():
     with pytest.raises(InputError, match="silent_model.parameters must be 12 finite positive numbers"):
         SilentRegionModel(parameters=(1.0,) * 11 + (-1.0,), blend_openings=(1.0, 2.0), n11_blend=(100.0, 110.0))
+
+
+def test_the_step_up_scales_the_model_torque_too(nets):
+    """The prototype step-up multiplies the unit torque everywhere: above the lowest line (the torque net's output
+    scaling) and below it (the model's torque factor); the flow is unchanged (1e-12: one multiplication)."""
+    from simulate.components.turbine.step_up import scale_torque
+
+    stepped = scale_torque(nets, 1.03)
+    n11, a = np.meshgrid(np.linspace(10.0, 110.0, 11), [0.0, 1.0, 4.0, 7.0, 10.0, 20.0])
+    np.testing.assert_allclose(stepped.m11(n11, a), 1.03 * nets.m11(n11, a), rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(stepped.q11(n11, a), nets.q11(n11, a))
+    member, base = stepped.members()[3], nets.members()[3]
+    np.testing.assert_allclose(member.m11(n11, a), 1.03 * base.m11(n11, a), rtol=1e-12, atol=1e-12)
+    kernel, params = stepped.numba_kernel()
+    assert kernel(params, 70.0, 1.0)[3] == pytest.approx(1.03 * float(nets.m11(70.0, 1.0)), rel=1e-12)
