@@ -13,3 +13,5 @@ PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"
 PLANT_HLA339_GUARANTEE = Path(__file__).resolve().parent / "plant_hla339_guarantee.toml"
 #: The example plant with paper 001's sub-transient generator, voltage control and island load (eq. (14) load step).
 PLANT_HLA339_GRID = Path(__file__).resolve().parent / "plant_hla339_grid.toml"
+#: Two units of the example turbine on one penstock that branches at a manifold ([[units]]).
+PLANT_TWO_UNITS = Path(__file__).resolve().parent / "plant_two_units.toml"

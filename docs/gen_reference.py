@@ -179,7 +179,8 @@ def _type_name(annotation) -> str:
     text = re.sub(r"\s*\|\s*None", "", text)
     text = re.sub(r"^[\w.]+\.(\w+)$", r"\1", text)  # a class by its own name (simulate.x.StepUpConfig)
     return {"float": "number", "int": "integer", "str": "string", "Any": "table",
-            "tuple[float, ...]": "array of numbers", "StepUpConfig": "table"}.get(text, text)
+            "tuple[float, ...]": "array of numbers", "tuple[str, ...]": "array of strings",
+            "StepUpConfig": "table"}.get(text, text)
 
 
 def _default_text(f: dataclasses.Field) -> str:
@@ -281,7 +282,8 @@ def plant_file_page() -> str:
              "checked against other keys, as the section's text says). Keys marked optional may be left out.",
              "Shipped examples: `data_synthetic/plant_hla339.toml` (the reference unit),",
              "`plant_hla339_grid.toml` (sub-transient generator, excitation and grid), `plant_hla339_surge_tank.toml`",
-             "(surge tank) and `plant_hla339_guarantee.toml` (limits and load cases).", ""]
+             "(surge tank), `plant_hla339_guarantee.toml` (limits and load cases) and `plant_two_units.toml` (two",
+             "units on one penstock that divides at a manifold).", ""]
 
     def section(title: str, cls, raw, path, skip=(), note: str = "") -> None:
         lines.extend([f"## `{title}`", "", _paragraphs(cls.__doc__)])
@@ -320,6 +322,12 @@ def plant_file_page() -> str:
     section("[excitation]", ExcitationConfig, grid, ("excitation",),
             note='With `generator.model = "subtransient"` only.')
     section("[grid]", GridConfig, grid, ("grid",), note='With `generator.model = "subtransient"` only.')
+    units = _example("plant_two_units.toml")
+    section("[[units]]", config.UnitConfig, units, ("units",), skip=("branch",) + config.UNIT_OVERRIDE_SECTIONS,
+            note="Each unit's branch pipe is `[[units.branch]]`, an array of tables with the keys of "
+                 "`[[penstock.segments]]`; `[units.turbine]`, `[units.generator]` and `[units.governor]` take the keys "
+                 "of `[turbine]`, `[generator]` and `[governor]` (any subset). A plant with `[[units]]` is described "
+                 "in [Several units on one waterway](../multi-unit.md).")
     guarantee = _example("plant_hla339_guarantee.toml")
     section("[limits]", Limits, guarantee, ("limits",),
             note="Read by `hillsim optimize-closure` and `hillsim report` "

@@ -323,6 +323,32 @@ def surge_tank_example(ctx: Context) -> str:
             f"between {min(level):.1f} and {max(level):.1f} m (period {summary['surge_tank_period_s']:.0f} s).\n")
 
 
+TWO_UNITS_ARGS = ["run", "data_synthetic/plant_two_units.toml"]
+
+
+def two_unit_example(ctx: Context) -> str:
+    """``hillsim run`` of the two-unit plant: U1 rejects its load, U2 stays on its load under its governor."""
+    out = ctx.folder("two-units")
+    _hillsim(TWO_UNITS_ARGS + ["--no-plot"], out)
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    with open(out / "timeseries.csv", newline="", encoding="utf-8") as handle:
+        manifold = [float(row["manifold_head_m"]) for row in csv.DictReader(handle)]
+    rows = ["| unit | event | max speed rise | max head at the turbine | min head at the turbine | power, min to max | "
+            "final speed error |", "|---|---|---|---|---|---|---|"]
+    for name, fig in summary["units"].items():
+        event = "rejects its load" if name in summary["event_units"] else "stays on its load"
+        rows.append(f"| {name} | {event} | {_pct(fig['max_speed_rise'], 2)} at {fig['t_max_speed_s']:.2f} s | "
+                    f"{fig['max_head_m']:.2f} m at {fig['t_max_head_s']:.2f} s | {fig['min_head_m']:.2f} m | "
+                    f"{fig['min_power_mw']:.1f} to {fig['max_power_mw']:.1f} MW | "
+                    f"{_pct(fig['final_speed_error'], 2)} |")
+    return (f"`hillsim {' '.join(TWO_UNITS_ARGS)} --out two-units` ({summary['steps']} steps of "
+            f"{summary['dt_s']:.4g} s):\n\n" + "\n".join(rows) + "\n\n"
+            f"Manifold head: {manifold[0]:.2f} m at the start, between {min(manifold):.2f} and {max(manifold):.2f} m. "
+            f"Plant-level maxima in summary.json: max speed rise {_pct(summary['max_speed_rise'], 2)} "
+            f"({summary['max_speed_rise_unit']}), max head {summary['max_head_m']:.2f} m "
+            f"({summary['max_head_m_unit']}).\n")
+
+
 def eq14_table(ctx: Context) -> str:
     """``benchmarks/paper001_eq14.py``: the load step of Wang, Ahmed et al. (eq. 14) against the paper."""
     script = _benchmark("paper001_eq14")
@@ -425,6 +451,7 @@ BLOCKS = {
     "linear-plant-example": linear_plant_example,
     "eq14-table": eq14_table,
     "surge-tank-example": surge_tank_example,
+    "two-unit-example": two_unit_example,
     "pressure-loop": pressure_loop,
     "closed-loop-table": closed_loop_table,
     "head-model-table": head_model_table,
@@ -466,6 +493,8 @@ FIGURES = {
     "eq14_load_step.png": _command_figure(["benchmarks/paper001_eq14.py", "--figures", "{out}"],
                                           "eq14_load_step.png"),
     "generator.png": _command_figure(["benchmarks/bench_generator.py", "--figures", "{out}"], "generator.png"),
+    "two_units.png": _command_figure(["-m", "hillsim.cli", "run", "data_synthetic/plant_two_units.toml", "--out",
+                                      "{out}/two", "--quiet"], "two/transient.png"),
 }
 
 

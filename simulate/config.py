@@ -39,7 +39,6 @@ from simulate.components.registry import PENSTOCKS  # noqa: E402  (light: no num
 from simulate.components.turbine.step_up import StepUpConfig
 from simulate.scenarios.base import SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig
 
-PENSTOCK_MODELS = PENSTOCKS.names()  # the penstock registry's names
 PRESSURE_LOOPS = ("improved", "traditional", "newton")
 
 
@@ -150,7 +149,7 @@ class PenstockConfig:
     zdomain_feedback: float = 0.0
 
     def __post_init__(self):
-        check_choice("penstock.model", self.model, PENSTOCK_MODELS)
+        check_choice("penstock.model", self.model, PENSTOCKS.names())
         check_number("penstock.static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
         check_int("penstock.reaches", self.reaches, 1, 10000)
         check_number("penstock.lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
@@ -423,6 +422,58 @@ class SurgeTankConfig:
         return 2.0 * math.pi * math.sqrt(self.tunnel_length_m * self.area_m2 / (G_M_S2 * self.tunnel_area_m2))
 
 
+#: Sections of the plant a unit may override, key by key (``[units.turbine]`` ...).
+UNIT_OVERRIDE_SECTIONS = ("turbine", "generator", "governor")
+
+
+@dataclass(frozen=True)
+class UnitConfig:
+    """One unit of a plant with several units (``[[units]]``): its branch from the manifold at the downstream end of
+    ``[penstock]`` (the common conduit) to its turbine, and its turbine, generator and governor.
+
+    ``name``: the unit's name in the output columns (``U1.speed_rpm``) and in ``scenario.units``: letters, digits,
+    ``_`` and ``-``. ``branch``: the pipe segments from the manifold to the turbine (``[[units.branch]]``, the keys of
+    ``[[penstock.segments]]``, upstream first), computed by the method of characteristics on the plant's grid.
+    ``[units.turbine]``, ``[units.generator]``, ``[units.governor]`` (optional): keys that differ from the plant's
+    ``[turbine]``, ``[generator]``, ``[governor]`` for this unit (the resolved sections are stored here).
+    ``initial_power_mw`` / ``initial_opening`` (optional): this unit's initial point instead of the scenario's.
+    """
+
+    name: str
+    branch: tuple[PenstockSegment, ...]
+    turbine: TurbineConfig
+    generator: GeneratorConfig
+    governor: GovernorConfig
+    initial_power_mw: float | None = None
+    initial_opening: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name or not all(c.isalnum() or c in "_-" for c in self.name):
+            raise InputError(f"units.name must be a non-empty name of letters, digits, _ and -, got {self.name!r}")
+        if not isinstance(self.branch, tuple) or not self.branch or not all(
+                isinstance(s, PenstockSegment) for s in self.branch):
+            raise InputError(f"units.branch of unit {self.name!r} must be a non-empty array of tables "
+                             f"[[units.branch]] (keys of [[penstock.segments]]), got {self.branch!r}")
+        if self.initial_power_mw is not None and self.initial_opening is not None:
+            raise InputError(f"unit {self.name!r}: give at most one of units.initial_power_mw and "
+                             f"units.initial_opening, got {self.initial_power_mw!r} and {self.initial_opening!r}")
+        if self.initial_power_mw is not None:
+            check_number(f"units.initial_power_mw (unit {self.name!r})", self.initial_power_mw, low=0.0,
+                         high=1.5 * self.turbine.rated_power_mw)
+        if self.initial_opening is not None:
+            check_number(f"units.initial_opening (unit {self.name!r})", self.initial_opening,
+                         low=self.governor.stroke_min, high=self.governor.stroke_max)
+        if self.generator.model != "swing":
+            raise InputError(f"unit {self.name!r}: generator.model = {self.generator.model!r}; a plant with "
+                             f"[[units]] takes generator.model = \"swing\" (one machine per unit on its own load)")
+
+    def branch_penstock(self, penstock: "PenstockConfig") -> "PenstockConfig":
+        """The branch as a MOC :class:`PenstockConfig` (the common conduit's ``reaches``; the manifold head as its
+        upstream head)."""
+        return PenstockConfig(model="moc", static_head_m=penstock.static_head_m, reaches=penstock.reaches,
+                              segments=self.branch)
+
+
 @dataclass(frozen=True)
 class PlantConfig:
     """The whole plant file. ``base_dir`` resolves a relative ``turbine.characteristics`` path."""
@@ -437,9 +488,11 @@ class PlantConfig:
     surge_tank: SurgeTankConfig | None = None
     excitation: Any = None  # simulate.components.control.excitation.ExcitationConfig (generator.model = "subtransient")
     grid: Any = None  # simulate.components.electrical.generator.GridConfig (generator.model = "subtransient")
+    units: tuple[UnitConfig, ...] = ()
 
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
+        self._check_units()
         electrical = [name for name in ("excitation", "grid") if getattr(self, name) is not None]
         if self.generator.model == "subtransient":
             for name in ("excitation", "grid"):
@@ -457,10 +510,76 @@ class PlantConfig:
             raise InputError(f"scenario.initial_power_mw must be in [0, 1.5 * turbine.rated_power_mw] = "
                              f"[0, {1.5 * self.turbine.rated_power_mw!r}], got {sc.initial_power_mw!r}")
 
+    def _check_units(self) -> None:
+        """The ``[[units]]`` against the rest of the plant (names unique, ``scenario.units`` known, MOC conduit)."""
+        sc = self.scenario
+        if not self.units:
+            if sc.units is not None:
+                raise InputError(f"scenario.units = {list(sc.units)!r} needs a plant with [[units]]; this plant has "
+                                 f"one unit (leave scenario.units out)")
+            return
+        names = [u.name for u in self.units]
+        duplicate = sorted({n for n in names if names.count(n) > 1})
+        if duplicate:
+            raise InputError(f"units.name {duplicate[0]!r} is given twice; unit names must be unique, got {names!r}")
+        for name in sc.units or ():
+            if name not in names:
+                raise InputError(f"scenario.units names {name!r}, which is not a unit of this plant; the units are "
+                                 f"{', '.join(names)}")
+        if self.penstock.model != "moc":
+            raise InputError(f"penstock.model = {self.penstock.model!r}: a plant with [[units]] computes the common "
+                             f"conduit and the branches by the method of characteristics; set penstock.model = "
+                             f"\"moc\"")
+        if self.generator.model != "swing":
+            raise InputError(f"generator.model = {self.generator.model!r}: a plant with [[units]] takes "
+                             f"generator.model = \"swing\"")
+        if self.solver.dt_s is not None:
+            raise InputError(f"solver.dt_s = {self.solver.dt_s!r}: a plant with [[units]] steps on the grid of its "
+                             f"pipes ((shortest travel time) / penstock.reaches); leave solver.dt_s out")
+        if sc.initial_power_mw is not None:
+            for u in self.units:
+                if u.initial_power_mw is None and u.initial_opening is None \
+                        and sc.initial_power_mw > 1.5 * u.turbine.rated_power_mw:
+                    raise InputError(f"scenario.initial_power_mw = {sc.initial_power_mw!r} is each unit's initial "
+                                     f"power; unit {u.name!r} is rated {u.turbine.rated_power_mw!r} MW (at most "
+                                     f"1.5 x that): set units.initial_power_mw of that unit")
+
+    def require_one_unit(self, what: str) -> None:
+        """An :class:`InputError` when the plant has ``[[units]]``: ``what`` (a command or a study) models one unit."""
+        if self.units:
+            raise InputError(f"{what} models a plant with one unit; this plant has [[units]] "
+                             f"({', '.join(u.name for u in self.units)}): give a plant file without [[units]] (one "
+                             f"unit's [turbine], [generator], [governor] and its waterway as [[penstock.segments]])")
+
+    @property
+    def event_units(self) -> tuple[str, ...]:
+        """Names of the units the scenario's event applies to (``scenario.units``, default all; empty without
+        ``[[units]]``)."""
+        if not self.units:
+            return ()
+        return tuple(self.scenario.units) if self.scenario.units is not None else tuple(u.name for u in self.units)
+
+    def unit_plant(self, unit: UnitConfig) -> "PlantConfig":
+        """The single-unit view of ``unit``: its turbine, generator and governor, its branch as the penstock (the
+        builders of the control and shaft components read a plant); the scenario's initial point replaced by the
+        unit's own when it has one."""
+        sc = self.scenario
+        if unit.initial_power_mw is not None:
+            sc = replace(sc, initial_power_mw=unit.initial_power_mw, initial_opening=None, units=None)
+        elif unit.initial_opening is not None:
+            sc = replace(sc, initial_power_mw=None, initial_opening=unit.initial_opening, units=None)
+        else:
+            sc = replace(sc, units=None)
+        return replace(self, turbine=unit.turbine, generator=unit.generator, governor=unit.governor,
+                       penstock=unit.branch_penstock(self.penstock), scenario=sc, units=())
+
     @property
     def time_step_s(self) -> float:
-        """The simulation step, s (checked against the Courant condition for MOC)."""
+        """The simulation step, s (checked against the Courant condition for MOC). With ``[[units]]``: the
+        shortest travel time of every pipe (common conduit and branches) divided by ``penstock.reaches``."""
         moc_dt = self.penstock.moc_time_step_s
+        if self.units:
+            moc_dt = min([moc_dt] + [u.branch_penstock(self.penstock).moc_time_step_s for u in self.units])
         if self.solver.dt_s is None:
             if not (math.isfinite(moc_dt) and moc_dt > 0.0):
                 raise InputError(f"the time step (shortest travel time)/penstock.reaches = {moc_dt!r} s is not a "
@@ -503,6 +622,14 @@ class PlantConfig:
         return plant_from_dict(raw, base_dir=self.base_dir)
 
 
+def __getattr__(name: str):
+    """``PENSTOCK_MODELS``: the penstock registry's names at the time of the call (a component registered after this
+    module was imported is included)."""
+    if name == "PENSTOCK_MODELS":
+        return PENSTOCKS.names()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 _SECTIONS = {
     "turbine": TurbineConfig,
     "penstock": PenstockConfig,
@@ -514,6 +641,7 @@ _SECTIONS = {
     # imported only when the section is present
     "excitation": "simulate.components.control.excitation:ExcitationConfig",
     "grid": "simulate.components.electrical.generator:GridConfig",
+    "units": UnitConfig,  # an array of tables [[units]]
 }
 
 
@@ -542,6 +670,83 @@ def _build(section: str, cls, raw: Any, extra_keys: tuple[str, ...] = ()):
     if missing:
         raise InputError(f"missing required key {section}.{missing[0]}; [{section}] needs {', '.join(required)}")
     return {k: raw[k] for k in names if k in raw}
+
+
+def _segments(segs: Any, key: str) -> list[PenstockSegment]:
+    """Pipe segments from an array of tables at ``key`` (``penstock.segments`` or ``units.branch``), validated."""
+    table = "[[" + key + "]]"
+    if not isinstance(segs, list) or not segs:
+        raise InputError(f"{key} must be a non-empty array of tables {table}, got {segs!r}")
+    seg_objs = []
+    for i, seg in enumerate(segs):
+        if not isinstance(seg, dict):
+            raise InputError(f"{key}[{i}] must be a table, got {seg!r}")
+        unknown = sorted(set(seg) - set(_SEGMENT_KEYS))
+        if unknown:
+            raise InputError(f"unknown key {key}.{unknown[0]} (segment {i}); valid keys: "
+                             f"{', '.join(_SEGMENT_KEYS)}")
+        missing = [k for k in _SEGMENT_REQUIRED if k not in seg]
+        if missing:
+            raise InputError(f"missing required key {key}.{missing[0]} (segment {i}); a segment "
+                             f"needs {', '.join(_SEGMENT_REQUIRED)}")
+        try:
+            seg_objs.append(PenstockSegment(**seg))
+        except InputError as exc:
+            raise InputError(f"{str(exc).replace('penstock.segments', key)} (segment {i}, counted from 0 upstream "
+                             f"first)") from None
+    profiles = [s.elevation_start_m is not None for s in seg_objs]
+    if any(profiles) and not all(profiles):
+        raise InputError(f"{key}: elevation_start_m/elevation_end_m must be given on every segment or on "
+                         f"none; segment {profiles.index(False)} has none")
+    for i in range(1, len(seg_objs) if all(profiles) else 0):
+        if abs(seg_objs[i].elevation_start_m - seg_objs[i - 1].elevation_end_m) > 1e-9:
+            raise InputError(f"{key}: segment {i} starts at elevation {seg_objs[i].elevation_start_m!r} m "
+                             f"but segment {i - 1} ends at {seg_objs[i - 1].elevation_end_m!r} m; the profile must be "
+                             f"continuous")
+    return seg_objs
+
+
+#: Keys of one ``[[units]]`` table.
+UNIT_KEYS = ("name", "branch", *UNIT_OVERRIDE_SECTIONS, "initial_power_mw", "initial_opening")
+
+
+def _units(raw_units: Any, raw: dict[str, Any]) -> tuple[UnitConfig, ...]:
+    """The ``[[units]]`` array of tables, each unit's overrides applied over the plant's sections."""
+    if not isinstance(raw_units, list) or not raw_units:
+        raise InputError(f"units must be a non-empty array of tables [[units]], got {raw_units!r}")
+    out = []
+    for i, unit in enumerate(raw_units):
+        if not isinstance(unit, dict):
+            raise InputError(f"units[{i}] must be a table [[units]], got {unit!r}")
+        unknown = sorted(set(unit) - set(UNIT_KEYS))
+        if unknown:
+            raise InputError(f"unknown key units.{unknown[0]} (unit {i}); valid keys of [[units]]: "
+                             f"{', '.join(UNIT_KEYS)}")
+        for key in ("name", "branch"):
+            if key not in unit:
+                raise InputError(f"missing required key units.{key} (unit {i}); a unit needs name and "
+                                 f"[[units.branch]]")
+        name = unit["name"]
+        where = f"unit {name!r}" if isinstance(name, str) else f"unit {i}"
+        sections = {}
+        for section, cls in (("turbine", TurbineConfig), ("generator", GeneratorConfig),
+                             ("governor", GovernorConfig)):
+            override = unit.get(section, {})
+            if not isinstance(override, dict):
+                raise InputError(f"units.{section} ({where}) must be a table [units.{section}] of the keys of "
+                                 f"[{section}], got {override!r}")
+            merged = dict(raw[section]) | override
+            try:
+                sections[section] = cls(**_build(section, cls, merged))
+            except InputError as exc:
+                raise InputError(f"{exc} (in [units.{section}] of {where})") from None
+        try:
+            branch = tuple(_segments(unit["branch"], "units.branch"))
+        except InputError as exc:
+            raise InputError(f"{exc} ({where})") from None
+        out.append(UnitConfig(name=name, branch=branch, initial_power_mw=unit.get("initial_power_mw"),
+                              initial_opening=unit.get("initial_opening"), **sections))
+    return tuple(out)
 
 
 def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> PlantConfig:
@@ -581,41 +786,13 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
                              f"generator.model = \"subtransient\")")
     turbine = TurbineConfig(**_build("turbine", TurbineConfig, raw["turbine"]))
     pen_raw = dict(_build("penstock", PenstockConfig, raw["penstock"]))
-    segs = pen_raw.get("segments")
-    if not isinstance(segs, list) or not segs:
-        raise InputError(f"penstock.segments must be a non-empty array of tables [[penstock.segments]], "
-                         f"got {segs!r}")
-    seg_objs = []
-    for i, seg in enumerate(segs):
-        if not isinstance(seg, dict):
-            raise InputError(f"penstock.segments[{i}] must be a table, got {seg!r}")
-        unknown = sorted(set(seg) - set(_SEGMENT_KEYS))
-        if unknown:
-            raise InputError(f"unknown key penstock.segments.{unknown[0]} (segment {i}); valid keys: "
-                             f"{', '.join(_SEGMENT_KEYS)}")
-        missing = [k for k in _SEGMENT_REQUIRED if k not in seg]
-        if missing:
-            raise InputError(f"missing required key penstock.segments.{missing[0]} (segment {i}); a segment "
-                             f"needs {', '.join(_SEGMENT_REQUIRED)}")
-        try:
-            seg_objs.append(PenstockSegment(**seg))
-        except InputError as exc:
-            raise InputError(f"{exc} (segment {i}, counted from 0 upstream first)") from None
-    profiles = [s.elevation_start_m is not None for s in seg_objs]
-    if any(profiles) and not all(profiles):
-        raise InputError(f"penstock.segments: elevation_start_m/elevation_end_m must be given on every segment or on "
-                         f"none; segment {profiles.index(False)} has none")
-    for i in range(1, len(seg_objs) if all(profiles) else 0):
-        if abs(seg_objs[i].elevation_start_m - seg_objs[i - 1].elevation_end_m) > 1e-9:
-            raise InputError(f"penstock.segments: segment {i} starts at elevation {seg_objs[i].elevation_start_m!r} m "
-                             f"but segment {i - 1} ends at {seg_objs[i - 1].elevation_end_m!r} m; the profile must be "
-                             f"continuous")
+    seg_objs = _segments(pen_raw.get("segments"), "penstock.segments")
     pen_raw["segments"] = tuple(seg_objs)
     penstock = PenstockConfig(**pen_raw)
     generator = GeneratorConfig(**_build("generator", GeneratorConfig, raw["generator"]))
     governor = GovernorConfig(**_build("governor", GovernorConfig, raw["governor"]))
     sc_raw = _build("scenario", ScenarioConfig, raw["scenario"])
-    for key in ("speed_steps", "opening_steps", "step_times_s"):
+    for key in ("speed_steps", "opening_steps", "step_times_s", "units"):
         if key in sc_raw and isinstance(sc_raw[key], list):
             sc_raw[key] = tuple(sc_raw[key])
     scenario = ScenarioConfig(**sc_raw)
@@ -627,6 +804,8 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         if name in raw:
             cls = _section_class(name)
             optional[name] = cls(**_build(name, cls, raw[name]))
+    if "units" in raw:
+        optional["units"] = _units(raw["units"], raw)
     return PlantConfig(turbine=turbine, penstock=penstock, generator=generator, governor=governor,
                        surge_tank=surge_tank, scenario=scenario, solver=solver, base_dir=Path(base_dir), **optional)
 
@@ -637,6 +816,10 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
     for name in _SECTIONS:
         obj = getattr(plant, name)
         if obj is None:  # an optional section that is absent
+            continue
+        if name == "units":
+            if obj:
+                out["units"] = [_unit_dict(unit, plant) for unit in obj]
             continue
         sec = {}
         for f in fields(obj):
@@ -655,6 +838,26 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
                 value = list(value)
             sec[f.name] = value
         out[name] = sec
+    return out
+
+
+def _unit_dict(unit: UnitConfig, plant: PlantConfig) -> dict[str, Any]:
+    """One ``[[units]]`` table of ``unit``: its keys of turbine, generator and governor that differ from the plant's
+    (so an override of the plant's section reaches every unit that does not set the key itself)."""
+    out: dict[str, Any] = {"name": unit.name,
+                           "branch": [{k: getattr(s, k) for k in _SEGMENT_KEYS if getattr(s, k) is not None}
+                                      for s in unit.branch]}
+    for section in UNIT_OVERRIDE_SECTIONS:
+        obj, common = getattr(unit, section), getattr(plant, section)
+        own = {f.name: getattr(obj, f.name) for f in fields(obj)
+               if getattr(obj, f.name) is not None and getattr(obj, f.name) != getattr(common, f.name)}
+        if isinstance(own.get("step_up"), StepUpConfig):
+            own["step_up"] = own["step_up"].as_dict()
+        if own:
+            out[section] = own
+    for key in ("initial_power_mw", "initial_opening"):
+        if getattr(unit, key) is not None:
+            out[key] = getattr(unit, key)
     return out
 
 
@@ -698,6 +901,9 @@ def apply_overrides(raw: dict[str, Any], overrides: dict[str, Any]) -> None:
         if not isinstance(dotted, str) or dotted.count(".") != 1:
             raise InputError(f"override key must be section.key, got {dotted!r}")
         section, key = dotted.split(".", 1)
+        if section == "units":
+            raise InputError(f"override {dotted!r}: the units are changed in the plant file ([[units]]); an override "
+                             f"of [turbine], [generator] or [governor] applies to every unit without its own key")
         if section not in _SECTIONS:
             raise InputError(f"unknown section in override {dotted!r}; valid sections: {', '.join(_SECTIONS)}")
         sec = raw.setdefault(section, {})
@@ -760,7 +966,8 @@ def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
     return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
 
 
-__all__ = ["PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig",
-           "PenstockSegment", "PenstockConfig", "GeneratorConfig", "GovernorConfig", "ScenarioConfig",
-           "SolverConfig", "PlantConfig", "plant_from_dict", "to_dict", "parse_override", "apply_overrides",
-           "load_plant", "load_characteristics", "replace"]
+__all__ = [  # noqa: F822  (PENSTOCK_MODELS: served by the module's __getattr__)
+    "PENSTOCK_MODELS", "PRESSURE_LOOPS", "SCENARIO_KINDS", "SCENARIO_KEYS", "TurbineConfig", "PenstockSegment",
+    "PenstockConfig", "GeneratorConfig", "GovernorConfig", "ScenarioConfig", "SolverConfig", "UnitConfig",
+    "PlantConfig", "plant_from_dict", "to_dict", "parse_override", "apply_overrides", "load_plant",
+    "load_characteristics", "replace"]

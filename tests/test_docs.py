@@ -81,7 +81,7 @@ def test_plant_file_reference_page_is_generated_from_the_config_classes(referenc
 #: Which test checks each generated block: the cheap ones here, the re-run examples in tests/test_docs_examples.py.
 CHEAP_BLOCKS = ("demo-summary", "linearize-example", "nets-accuracy", "extension-errors", "paper-numbers",
                 "linear-plant-example", "eq14-table", "surge-tank-example")
-EXAMPLE_BLOCKS = ("uncertainty-example", "sweep-example", "closure-example", "report-example")
+EXAMPLE_BLOCKS = ("uncertainty-example", "sweep-example", "closure-example", "report-example", "two-unit-example")
 IDENTIFY_BLOCKS = ("identify-comparison", "closed-loop-table", "head-model-table")
 PRESSURE_LOOP_BLOCKS = ("pressure-loop",)
 
@@ -140,7 +140,10 @@ def test_every_figure_in_the_docs_comes_from_a_script(regenerate):
 # ---------------------------------------------------------------------------------------------------- user-facing text
 
 #: Issue numbers, branches, commit hashes, dates of work, and the papers' file numbers instead of their authors.
-WORK_HISTORY = re.compile(r"\bissue\s*\d+|\bissue'?s\b|\bthe issue\b|\bbranch(?:es)?\b"
+#: A pipe branch of a plant with several units is the hydraulic word: "each branch", "its branch", "one branch",
+#: "per branch", "units.branch", "branch pipe(s)" and the key `branch` are allowed.
+WORK_HISTORY = re.compile(r"\bissue\s*\d+|\bissue'?s\b|\bthe issue\b"
+                          r"|(?<!its )(?<!each )(?<!one )(?<!per )(?<!units\.)(?<!`)\bbranch(?:es)?\b(?!\s+pipes?\b)"
                           r"|\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,40}\b|\b20\d\d-\d\d-\d\d\b|\bpaper 00\d\b",
                           re.I)
 
@@ -161,6 +164,8 @@ def test_no_work_history_in_the_docs():
                  "the nets branch's", "paper 000 eq. (53)"):
         assert WORK_HISTORY.search(text), text
     assert not WORK_HISTORY.search("Wang et al. (2023) eq. (53), 1e-9 relative, 225 MW at 176 m")
+    assert WORK_HISTORY.search("merged from the multiunit branch")
+    assert not WORK_HISTORY.search("each branch's C- line, its branch, [[units.branch]], the branch pipes")
 
 
 def test_no_work_history_in_help():

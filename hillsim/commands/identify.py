@@ -116,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
     out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
     overrides = dict(parse_override(text) for text in args.set)
     plant = load_plant(args.plant, overrides)
+    plant.require_one_unit("hillsim identify")
     settings = ExperimentSettings(
         sample_time_s=args.tau, step_amplitude=args.amplitude, step_hold_s=args.step_hold_s,
         prbs_amplitude=args.prbs_amplitude, prbs_bit_s=args.prbs_bit_s, prbs_duration_s=args.prbs_duration_s,

@@ -163,6 +163,7 @@ def _run_plant(args) -> int:
     if not (np.isfinite(args.tau) and args.tau > 0):
         raise InputError(f"--tau must be > 0, got {args.tau}")
     plant = load_plant(args.plant)
+    plant.require_one_unit("hillsim linearize --plant")
     characteristics, label, opening_unit = load_characteristics(args.nets, plant)
     out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
     out |= to_json_dict(plant_linearization(plant, characteristics, initial_opening=args.stroke,

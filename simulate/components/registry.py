@@ -19,7 +19,9 @@ shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, control/shaft
-``build(plant, steady, dt_s, schedules)``, each returning a :class:`CompiledPart`. The turbine characteristics are
+``build(plant, steady, dt_s, schedules)``, each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
+A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
+accepted by the plant file and built like the shipped ones. The turbine characteristics are
 compiled by :func:`compile_characteristics` (any object with ``numba_kernel()`` (two inputs N11, a),
 ``numba_control_kernel()`` (N11 and the control vector) or just the four Python methods).
 """
@@ -37,10 +39,44 @@ from hillchart.errors import InputError
 
 
 @dataclass(frozen=True)
+class PartHooks:
+    """What a component tells the engine besides its arrays and functions; every field is optional.
+
+    ``summary``: fixed figures for the run's summary (e.g. the MOC reach count). ``initial_head_m``: an upstream
+    part's head at the penstock inlet at t = 0, m (default: the static head). ``initial_signals``: row 0 of the
+    columns its ``record`` function writes. After the run, on the stored signals ({column: array}) and their times
+    (s): ``summary_after(time_s, signals) -> dict`` more figures, ``warnings_after(signals) -> list[str]``,
+    ``error_after(time_s, signals) -> str`` a reason the run is invalid ("" when it is not); ``failure() -> str``:
+    why the part failed first when the loop stopped ("" when it did not).
+    """
+
+    summary: dict = field(default_factory=dict)
+    initial_head_m: float | None = None
+    initial_signals: tuple[float, ...] = ()
+    summary_after: Callable[[Any, dict], dict] | None = None
+    warnings_after: Callable[[dict], list] | None = None
+    error_after: Callable[[Any, dict], str] | None = None
+    failure: Callable[[], str] | None = None
+
+    def figures_after(self, time_s, signals: dict) -> dict:
+        return {} if self.summary_after is None else dict(self.summary_after(time_s, signals))
+
+    def warnings_for(self, signals: dict) -> list[str]:
+        return [] if self.warnings_after is None else list(self.warnings_after(signals))
+
+    def error_for(self, time_s, signals: dict) -> str:
+        return "" if self.error_after is None else self.error_after(time_s, signals)
+
+    def failure_reason(self) -> str:
+        return "" if self.failure is None else self.failure()
+
+
+@dataclass(frozen=True)
 class CompiledPart:
     """One compiled component: its functions by role, its parameter and state arrays, named extra signals.
 
     ``signals``: names of the timeseries columns the part's ``record`` function writes (in that order).
+    ``hooks``: its :class:`PartHooks` (summary figures, initial values, checks after the run).
     ``n_nodes``/``node_x_m``: penstock only (computing nodes and their distance from the inlet).
     """
 
@@ -50,7 +86,7 @@ class CompiledPart:
     params: tuple
     state: tuple
     signals: tuple[str, ...] = ()
-    meta: dict = field(default_factory=dict)
+    hooks: PartHooks = field(default_factory=PartHooks)
     n_nodes: int = 0
     node_x_m: Any = None
 

@@ -28,46 +28,9 @@ from simulate.results.result import SimulationResult
 from simulate.scenarios import GOVERNOR, build_schedules, initial_target
 from simulate.loop.steady import SteadyState, steady_state
 
-#: Lowest head (fraction of rated) the pressure loop accepts; below it the column would separate.
-HEAD_FLOOR_FRACTION = 1e-4
-#: Stroke at or below which the guide vanes are shut: the boundary is a closed valve, Q = 0 and H = C_L, whatever
-#: the characteristics say. A fitted net has a small Q11 at a = 0 (the shipped nets: about -0.002 m^3/s, varying
-#: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
-#: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
-CLOSED_STROKE = 1e-6
-
-#: What a failed pressure loop's message tells the user to change.
-FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
-                  "or a looser solver.tolerance")
-#: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
-SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
-                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
-                     "penstock's size")
-SEPARATION_FRACTION = 0.05
-
-
-def _failure_advice(status: int, solver, c_l_m: float, rated_head_m: float) -> str:
-    """The end of a pressure-loop failure message: what was tried and what to change."""
-    from simulate.components.turbine.boundary import NAN, NO_POSITIVE_HEAD, NOT_CONVERGED
-
-    tried = ""
-    if status in (NOT_CONVERGED, NAN):
-        tried = (f"; the step was retried with relaxation {FALLBACK_DAMPING * solver.relaxation:g} and by Newton"
-                 if solver.fallback else "; solver.fallback = false")
-    if status == NO_POSITIVE_HEAD or c_l_m < SEPARATION_FRACTION * rated_head_m:
-        return f"{tried}): {SEPARATION_ADVICE}"
-    return f"{tried}): {FAILURE_ADVICE}"
-
-#: Wall time of work per call into the compiled loop; Ctrl-C is honoured between calls.
-CHUNK_WALL_S = 0.25
-
-
-def upstream_friction_s2_m5(plant: PlantConfig) -> float:
-    """Steady head loss coefficient K Q|Q| upstream of the penstock (e.g. a surge tank's headrace tunnel), s^2/m^5."""
-    from simulate.components.registry import upstream_section
-
-    config = upstream_section(plant)[1]
-    return 0.0 if config is None else config.steady_loss_coefficient_s2_m5
+from simulate.loop.common import (  # noqa: F401  (the loop's shared settings, re-exported here)
+    CHUNK_WALL_S, CLOSED_STROKE, FAILURE_ADVICE, HEAD_FLOOR_FRACTION, SEPARATION_ADVICE, SEPARATION_FRACTION,
+    _failure_advice, upstream_friction_s2_m5)
 
 
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
@@ -108,7 +71,8 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: 
     schedules = plant_schedules(plant, steady)
     sub_dt = dt_s / substeps
     upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
-    head0 = upstream.meta.get("initial_head_m", plant.penstock.static_head_m)
+    head0 = upstream.hooks.initial_head_m
+    head0 = plant.penstock.static_head_m if head0 is None else head0
     parts = {
         "upstream": upstream,
         "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
@@ -148,6 +112,10 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     >>> result.success, round(result.summary()["max_speed_rise"], 2) > 0
     (True, True)
     """
+    if plant.units:  # several units on a conduit that branches at a manifold
+        from simulate.loop.multi_unit import run_units
+
+        return run_units(plant, characteristics, jit=jit, raise_on_failure=raise_on_failure, progress=progress)
     from simulate.loop import guards
     from simulate.loop.assembly import assemble
     from simulate.components.registry import compile_characteristics
@@ -191,12 +159,13 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     column = 0
     for kind in ("upstream", "shaft", "control"):  # row 0: each recording component's initial signals
         if parts[kind].signals:
-            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].meta["initial_signals"]
+            out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].hooks.initial_signals
             column += len(parts[kind].signals)
     nodes = np.zeros(pen_part.n_nodes)
     node_heads = pen_part.functions["node_heads"]
-    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state, up_part.meta.get(
-        "initial_head_m", pen.static_head_m), steady.head_m, nodes)
+    head0 = up_part.hooks.initial_head_m
+    getattr(node_heads, "py_func", node_heads)(pen_part.params, pen_part.state,
+                                               pen.static_head_m if head0 is None else head0, steady.head_m, nodes)
     env_max, env_min = nodes.copy(), nodes.copy()
     diag = np.zeros(8)
 
@@ -228,7 +197,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         all_signals = {name: out_signals[:, j] for j, name in enumerate(signal_names)}
         all_time = np.arange(rows) * (dt * stride)
         for part in parts.values():
-            problem = part.meta.get("error_after", lambda time_s, signals: "")(all_time, all_signals)
+            problem = part.hooks.error_for(all_time, all_signals)
             if problem:
                 if raise_on_failure:
                     raise NumericalError(problem)
@@ -244,7 +213,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                    f"{plant.solver.max_iterations} iterations, relaxation {plant.solver.relaxation}"
                    + _failure_advice(int(status), plant.solver, diag[4], turbine.rated_head_m))
         for part in parts.values():  # a component that failed first (e.g. the generator's network) says why
-            why = part.meta.get("failure", lambda: "")()
+            why = part.hooks.failure_reason()
             if why:
                 message = f"{why} (the pressure loop then stopped: {STATUS_TEXT[int(status)]})"
                 break
@@ -277,10 +246,9 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     if stride != 1:
         meta["output_dt_s"] = dt * stride
     for part in parts.values():
-        meta.update(part.meta.get("summary", {}))
-        meta.update(part.meta.get("summary_after", lambda time_s, signals: {})(
+        meta.update(part.hooks.summary)
+        meta.update(part.hooks.figures_after(
             time_s, {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)}))
-    meta.update(pen_part.meta)
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
     figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
@@ -290,7 +258,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
                                                  figure_times=figure_times)
     warnings += extrapolation_warnings(meta["extrapolation"])
     for part in parts.values():
-        warnings += part.meta.get("warnings_after", lambda signals: [])(
+        warnings += part.hooks.warnings_for(
             {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)})
     if diag[7] > 0:
         warnings.append(f"the pressure loop '{plant.solver.pressure_loop}' did not converge at {int(diag[7])} of "

@@ -32,8 +32,9 @@ def output_stride(plant, dt_s: float) -> int:
 def estimate(plant, dt_s: float, n_steps: int, stride: int) -> dict:
     """Node-steps of the run (steps x (nodes + :data:`STEP_OVERHEAD_NODES`)) and the memory of its stored series
     (bytes)."""
-    if plant.penstock.model == "moc":
-        nodes = 1 + sum(max(1, int(round(s.travel_time_s / dt_s))) for s in plant.penstock.segments)
+    if plant.penstock.model == "moc":  # the penstock, and with [[units]] every branch pipe too
+        pipes = [plant.penstock.segments] + [unit.branch for unit in getattr(plant, "units", ())]
+        nodes = sum(1 + sum(max(1, int(round(s.travel_time_s / dt_s))) for s in segments) for segments in pipes)
     else:
         nodes = 2
     rows = n_steps // stride + 1

@@ -297,3 +297,90 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
     return SteadyState(speed_rpm=speed, stroke=stroke, opening_chart=stroke * a_max, head_m=head, flow_m3_s=flow,
                        unit_speed_rpm=n11, unit_flow_m3_s=q11, torque_nm=torque, power_mw=power,
                        residuals=residuals)
+
+
+@dataclass(frozen=True)
+class ManifoldSteadyState:
+    """The verified steady state of a plant with several units: the head at the manifold (m), the common conduit's
+    flow (m^3/s, the sum of the units'), each unit's :class:`SteadyState` (in the order of ``[[units]]``) and the
+    relative residuals of the junction equations."""
+
+    head_m: float
+    flow_m3_s: float
+    units: tuple[SteadyState, ...]
+    residuals: dict
+
+
+def manifold_steady_state(units, *, static_head_m: float, friction_s2_m5: float) -> ManifoldSteadyState:
+    """Steady operation of several units on one conduit that branches at a manifold, verified.
+
+    ``units``: one dict per unit with the keywords of :func:`steady_state` except ``static_head_m`` (the unit sees the
+    manifold head) and ``friction_s2_m5`` given as ``branch_friction_s2_m5`` (its branch's K), and optionally its
+    ``name`` (for the messages). ``friction_s2_m5`` is
+    the common conduit's (and any upstream tunnel's) K. The manifold head H_m solves
+
+        H_st - K_c (sum_i Q_i(H_m)) |sum_i Q_i(H_m)| - H_m = 0,
+
+    where Q_i(H_m) is unit i's steady flow at its target with the static head H_m and its branch's loss (each unit by
+    :func:`steady_state`, Brent's method on its head and stroke), by Brent's method on H_m.
+
+    Raises
+    ------
+    NumericalError
+        No manifold head balances the common loss, or a residual is above :data:`RESIDUAL_TOLERANCE`.
+
+    Examples
+    --------
+    >>> from hillchart.characteristics import IdealTurbine, scalar_kernel
+    >>> from simulate.config import TurbineConfig
+    >>> t = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
+    ...                   runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
+    >>> kernel, params, _ = scalar_kernel(IdealTurbine(q11_max_m3_s=0.25, opening_max=1.0, efficiency=9.0 / 9.81))
+    >>> unit = dict(kernel=kernel, params=params, turbine=t, branch_friction_s2_m5=0.0, stroke_min=0.0,
+    ...             stroke_max=1.0, stroke=1.0)
+    >>> s = manifold_steady_state([unit, unit], static_head_m=100.0, friction_s2_m5=0.0)
+    >>> round(s.head_m, 9), round(s.flow_m3_s, 9)    # frictionless: H_m = H_st, Q = 2 x 10 m^3/s
+    (100.0, 20.0)
+    """
+    def points(head_m):
+        out = []
+        for i, unit in enumerate(units):
+            keywords = {k: v for k, v in unit.items()
+                        if k not in ("kernel", "params", "branch_friction_s2_m5", "name")}
+            try:
+                out.append(steady_state(unit["kernel"], unit["params"], static_head_m=head_m,
+                                        friction_s2_m5=unit["branch_friction_s2_m5"], **keywords))
+            except (InputError, NumericalError) as exc:
+                raise type(exc)(f"unit {unit.get('name', i)!r} at the manifold head {head_m:.6g} m: {exc}") from None
+        return out
+
+    def gap(head_m):
+        total = sum(p.flow_m3_s for p in points(head_m))
+        return static_head_m - friction_s2_m5 * total * abs(total) - head_m
+
+    g_st = gap(static_head_m)
+    head = float(static_head_m)
+    if g_st != 0.0:
+        # as in head_at_opening: the fixed-point step brackets the root; widen geometrically if not
+        step = g_st
+        other = static_head_m + step
+        g_other = gap(other) if 0.1 * static_head_m < other < 10.0 * static_head_m else g_st
+        while g_other * g_st > 0.0 and 0.1 * static_head_m < other + step < 10.0 * static_head_m:
+            step *= 2.0
+            other = static_head_m + step
+            g_other = gap(other)
+        if g_other * g_st > 0.0:
+            raise NumericalError(f"steady state: no manifold head between {static_head_m:.6g} and {other:.6g} m "
+                                 f"balances the common conduit's loss (gaps {g_st:.3g} and {g_other:.3g} m): check "
+                                 f"the common penstock's segments and the units' initial points")
+        head = float(brentq(gap, min(static_head_m, other), max(static_head_m, other), xtol=1e-13 * static_head_m,
+                            rtol=1e-15, maxiter=500))
+    unit_points = tuple(points(head))
+    total = sum(p.flow_m3_s for p in unit_points)
+    residuals = {"common conduit (H_st - K_c Q|Q| - H_m)/H_m":
+                 (static_head_m - friction_s2_m5 * total * abs(total) - head) / head}
+    for name, value in residuals.items():
+        if not abs(value) < RESIDUAL_TOLERANCE:
+            raise NumericalError(f"initial steady state: residual of {name} is {value:.3g}, above the allowed "
+                                 f"{RESIDUAL_TOLERANCE:g} (manifold head {head:.9g} m, flow {total:.9g} m^3/s)")
+    return ManifoldSteadyState(head_m=head, flow_m3_s=total, units=unit_points, residuals=residuals)

@@ -108,8 +108,11 @@ def aligned_step(dt_max_s: float, events_s) -> float:
     return dt if ALIGN_MIN_RATIO * dt_max_s <= dt <= dt_max_s * (1.0 + 1e-12) else dt_max_s
 
 
-def plan_step(plant, schedules) -> StepPlan:
+def plan_step(plant, schedules, *, grid_step_s: float | None = None) -> StepPlan:
     """The step, the sub-steps and the warnings for ``plant`` with its scenario's ``schedules`` (module docstring).
+
+    ``grid_step_s``: the MOC grid's step when it is set by more pipes than ``plant.penstock`` (a unit of a plant with
+    several units, whose step is the shortest over the common conduit and every branch).
 
     Raises
     ------
@@ -119,7 +122,8 @@ def plan_step(plant, schedules) -> StepPlan:
     scales = time_scales(plant, schedules)
     moc = plant.penstock.model == "moc"
     user = plant.solver.dt_s is not None
-    base = plant.time_step_s  # the MOC grid's step, or the user's (checked against the Courant condition for MOC)
+    # the MOC grid's step, or the user's (checked against the Courant condition for MOC)
+    base = plant.time_step_s if grid_step_s is None else float(grid_step_s)
     fix = "penstock.reaches (more reaches, a shorter step)" if moc else "solver.dt_s"
     events = event_times(schedules, plant.scenario.t_end_s)
     aligned: tuple[float, ...] = ()

@@ -11,6 +11,69 @@ import numpy as np
 from simulate.results.envelope import envelope_summary, envelope_warnings
 from simulate.results.figures import save_png
 
+#: Per-unit columns of a plant with several units (``U1.speed_rpm``, ...), in order.
+UNIT_COLUMNS = ("speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw", "iterations")
+#: Figures of the plant that are the worst over its units (``max``: the largest unit value, ``min``: the smallest),
+#: with the figure that gives the time and the unit.
+WORST_FIGURES = {"max_speed_rise": ("max", "t_max_speed_s"), "max_speed_rpm": ("max", "t_max_speed_s"),
+                 "max_head_rise": ("max", "t_max_head_s"), "max_head_m": ("max", "t_max_head_s"),
+                 "min_head_drop": ("max", "t_min_head_s"), "min_head_m": ("min", "t_min_head_s")}
+
+
+def unit_figures(time_s: np.ndarray, series: dict, rated_speed_rpm: float) -> dict:
+    """Summary figures of one unit of a plant with several units (the names and meanings of
+    :meth:`SimulationResult.summary`); ``series`` holds :data:`UNIT_COLUMNS` and ``speed_reference_rpm``.
+
+    Examples
+    --------
+    >>> t = np.array([0.0, 1.0, 2.0])
+    >>> u = {"speed_rpm": np.array([100.0, 110.0, 100.0]), "head_m": np.array([50.0, 60.0, 45.0]),
+    ...      "flow_m3_s": t, "opening": t, "power_mw": t, "speed_reference_rpm": 100.0}
+    >>> f = unit_figures(t, u, 100.0)
+    >>> round(f["max_speed_rise"], 9), f["t_max_head_s"], round(f["min_head_drop"], 9)
+    (0.1, 1.0, 0.1)
+    """
+    speed, head = np.asarray(series["speed_rpm"]), np.asarray(series["head_m"])
+    n0, h0 = float(speed[0]), float(head[0])
+    return {
+        "max_speed_rise": float(speed.max() / n0 - 1.0), "t_max_speed_s": float(time_s[int(np.argmax(speed))]),
+        "max_speed_rpm": float(speed.max()),
+        "max_head_rise": float(head.max() / h0 - 1.0), "max_head_m": float(head.max()),
+        "t_max_head_s": float(time_s[int(np.argmax(head))]),
+        "min_head_drop": float(1.0 - head.min() / h0), "min_head_m": float(head.min()),
+        "t_min_head_s": float(time_s[int(np.argmin(head))]),
+        "final_speed_error": float((speed[-1] - series["speed_reference_rpm"]) / rated_speed_rpm),
+        "initial_speed_rpm": n0, "initial_head_m": h0, "initial_flow_m3_s": float(series["flow_m3_s"][0]),
+        "initial_opening": float(series["opening"][0]), "initial_power_mw": float(series["power_mw"][0]),
+        "final_opening": float(series["opening"][-1]),
+        "max_power_mw": float(np.max(series["power_mw"])), "min_power_mw": float(np.min(series["power_mw"])),
+    }
+
+
+def worst_over_units(units: dict) -> dict:
+    """The plant-level figures of :data:`WORST_FIGURES` as the worst over ``units`` ({name: :func:`unit_figures`}),
+    each with its time and ``<figure>_unit``, the unit that gives it.
+
+    Examples
+    --------
+    >>> units = {"U1": {"max_speed_rise": 0.3, "t_max_speed_s": 5.0}, "U2": {"max_speed_rise": 0.01,
+    ...                                                                     "t_max_speed_s": 3.0}}
+    >>> {k: v for k, v in worst_over_units(units).items() if "speed_rise" in k}
+    {'max_speed_rise': 0.3, 'max_speed_rise_unit': 'U1'}
+    """
+    out = {}
+    for figure, (sense, time_key) in WORST_FIGURES.items():
+        have = {name: fig for name, fig in units.items() if figure in fig}
+        if not have:
+            continue
+        pick = (max if sense == "max" else min)(have, key=lambda name: have[name][figure])
+        out[figure] = have[pick][figure]
+        out[f"{figure}_unit"] = pick
+        if time_key in have[pick]:
+            out[time_key] = have[pick][time_key]
+    return out
+
+
 #: Columns of timeseries.csv, in order, with units.
 CSV_COLUMNS = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw",
                "iterations")
@@ -59,12 +122,17 @@ class SimulationResult:
     steady: object = None
     plant: object = None
     characteristics: object = field(default=None, repr=False, compare=False)
+    units: dict = field(default_factory=dict)
+    junction: dict = field(default_factory=dict, repr=False, compare=False)
 
     def columns(self) -> dict[str, np.ndarray]:
         """The series by CSV column name: :data:`CSV_COLUMNS`, then the components' extra signals (e.g. a surge
         tank's ``surge_level_m``, ``tunnel_flow_m3_s``)."""
         out = {name: getattr(self, name) for name in CSV_COLUMNS}
         out.update(self.signals)
+        for unit, series in self.units.items():  # a plant with several units: U1.speed_rpm, ...
+            for name in UNIT_COLUMNS:
+                out[f"{unit}.{name}"] = series[name]
         return out
 
     def summary(self) -> dict:
@@ -118,6 +186,10 @@ class SimulationResult:
             "message": self.message,
         }
         out.update(self.meta)
+        if self.units:
+            out["units"] = {name: unit_figures(self.time_s, series, self.rated_speed_rpm)
+                            for name, series in self.units.items()}
+            out.update(worst_over_units(out["units"]))
         if self.envelope_max_m is not None:
             env = envelope_summary(self)
             out.update(env)
@@ -219,7 +291,12 @@ class SimulationResult:
                 ax.fill_between(band.time_s, band.low[name], band.high[name], color="tab:orange", alpha=0.35, lw=0,
                                 label=None if banded else f"ensemble of {band.members}, {low:g}-{high:g} %")
                 banded = True
-            ax.plot(self.time_s, values, lw=1.2, label="point nets" if band is not None and ax is axes[0] else None)
+            if self.units and name in UNIT_COLUMNS:  # a plant with several units: one trace per unit
+                for unit, unit_series in self.units.items():
+                    ax.plot(self.time_s, unit_series[name], lw=1.2, label=unit)
+            else:
+                ax.plot(self.time_s, values, lw=1.2,
+                        label="point nets" if band is not None and ax is axes[0] else None)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
             for i, (t0, t1) in enumerate(intervals):
@@ -245,7 +322,7 @@ class SimulationResult:
                         textcoords="offset points", fontsize=7, ha="right" if right else "left",
                         va="top" if below else "bottom", gid=f"guarantee:{mark['figure']}",
                         bbox={"boxstyle": "round,pad=0.2", "fc": "white", "alpha": 0.8, "lw": 0})
-        if intervals or banded:
+        if intervals or banded or self.units:
             axes[0].legend(loc="best", fontsize=8)
         axes[-1].set_xlabel("time (s)")
         title = self.meta.get("scenario", "")

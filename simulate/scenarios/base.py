@@ -47,7 +47,8 @@ class ScenarioConfig:
     ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
     ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
     vanes move at the slower rate of a full stroke per ``break_time_s``. ``field_step_pu`` (field-step, default 0.1):
-    the field-voltage step, pu.
+    the field-voltage step, pu. ``units`` (any kind; a plant with ``[[units]]`` only): the names of the units the
+    event applies to (default: all); the others stay on the grid under their governors at constant load.
     """
 
     kind: str
@@ -63,6 +64,7 @@ class ScenarioConfig:
     opening_steps: tuple[float, ...] | None = None
     step_times_s: tuple[float, ...] | None = None
     field_step_pu: float = 0.1
+    units: tuple[str, ...] | None = None
 
     #: keys of this kind beyond ``kind`` and ``t_end_s`` (set by each kind's class)
     KEYS: ClassVar[tuple[str, ...]] = ()
@@ -86,11 +88,18 @@ class ScenarioConfig:
         check_number("scenario.t_end_s", self.t_end_s, low=0.0, high=1e5, low_open=True)
         allowed = set(self.KEYS)
         for f in fields(self):
-            if f.name in ("kind", "t_end_s") or f.name in allowed:
+            if f.name in ("kind", "t_end_s", "units") or f.name in allowed:
                 continue
             if getattr(self, f.name) != f.default:
                 raise InputError(f"scenario.{f.name} is not used by scenario.kind = {self.kind!r}; "
                                  f"allowed keys: kind, t_end_s, {', '.join(self.KEYS)}")
+        if self.units is not None:
+            if (not isinstance(self.units, tuple) or not self.units
+                    or not all(isinstance(u, str) and u for u in self.units)):
+                raise InputError(f"scenario.units must be a non-empty list of unit names (the [[units]] names), "
+                                 f"got {self.units!r}")
+            if len(set(self.units)) != len(self.units):
+                raise InputError(f"scenario.units names a unit twice: {list(self.units)!r}")
         check_number("scenario.event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
         if "initial_power_mw" in allowed:
             if (self.initial_power_mw is None) == (self.initial_opening is None):

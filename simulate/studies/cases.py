@@ -244,6 +244,25 @@ def plant_toml(plant: PlantConfig) -> str:
         raw["turbine"]["characteristics"] = str((plant.base_dir / chars).resolve())
     lines = []
     for section, body in raw.items():
+        if section == "units":  # an array of tables: each unit, its branch pipe, its own keys of three sections
+            for unit in body:
+                lines.append("[[units]]")
+                lines.extend(f"{k} = {_toml_value(v)}" for k, v in unit.items() if not isinstance(v, (list, dict)))
+                lines.append("")
+                for seg in unit["branch"]:
+                    lines.append("[[units.branch]]")
+                    lines.extend(f"{k} = {_toml_value(v)}" for k, v in seg.items())
+                    lines.append("")
+                for name in ("turbine", "generator", "governor"):
+                    own = dict(unit.get(name, {}))
+                    if "characteristics" in own and own["characteristics"] != "ideal" \
+                            and not Path(own["characteristics"]).is_absolute():
+                        own["characteristics"] = str((plant.base_dir / own["characteristics"]).resolve())
+                    if own:
+                        lines.append(f"[units.{name}]")
+                        lines.extend(f"{k} = {_toml_value(v)}" for k, v in own.items())
+                        lines.append("")
+            continue
         lines.append(f"[{section}]")
         for key, value in body.items():
             if key != "segments":

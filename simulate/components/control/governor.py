@@ -190,7 +190,7 @@ def governor_discrete_servo_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 def build_discrete_governor(plant, steady, dt_s: float, schedules):
     """The governor of :func:`build_governor` with paper 000's discrete servo (eq. (37)) in place
     of the first-order one; ``dt_s`` must divide ``governor.servo_sample_time_s``."""
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     config = plant.governor.discrete_servo
     try:
@@ -204,8 +204,8 @@ def build_discrete_governor(plant, steady, dt_s: float, schedules):
     state = (np.zeros(3), np.array([steady.stroke]), initial_servo_state(steady.stroke))
     return CompiledPart(kind="control", name="governor", functions={"step": governor_discrete_servo_step},
                         params=params, state=state, signals=(),
-                        meta={"summary": {"servo_model": "discrete (Wang et al. 2023, eq. (37))",
-                                          "servo_sample_time_s": config.sample_time_s}})
+                        hooks=PartHooks(summary={"servo_model": "discrete (Wang et al. 2023, eq. (37))",
+                                                 "servo_sample_time_s": config.sample_time_s}))
 
 
 def time_scales(plant, schedules) -> list:

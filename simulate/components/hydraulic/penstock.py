@@ -125,6 +125,14 @@ def moc_turbine_relation(heads, flows, impedance, friction):
 
 
 @numba.njit(cache=True)
+def moc_inlet_characteristic(heads, flows, impedance, friction):
+    """C_M of the C- characteristic reaching the inlet node (node 0) from node 1: H_P = C_M + B Q_P there (B of the
+    first reach, Q_P the flow into the pipe)."""
+    b0 = impedance[0]
+    return heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+
+
+@numba.njit(cache=True)
 def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m, turbine_flow_m3_s,
              new_heads, new_flows):
     """One MOC step at Courant number 1: fill ``new_heads``/``new_flows`` from ``heads``/``flows``.
@@ -134,7 +142,7 @@ def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m
     """
     n = heads.size - 1
     b0 = impedance[0]
-    c_m = heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+    c_m = moc_inlet_characteristic(heads, flows, impedance, friction)
     new_heads[0] = reservoir_head_m
     new_flows[0] = (reservoir_head_m - c_m) / b0
     for j in range(1, n):
@@ -336,7 +344,7 @@ def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
     """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes),
     [current])."""
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     grid = build_moc_grid(plant.penstock, dt_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
@@ -346,8 +354,8 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
         functions={"relation": moc_relation, "update": moc_update, "inlet_flow": moc_inlet_flow,
                    "envelope": moc_envelope, "node_heads": moc_node_heads},
         params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
-        meta={"moc_reaches": int(sum(grid.reaches_per_segment)),
-              "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
+        hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
+                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment}),
         n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s))
 
 

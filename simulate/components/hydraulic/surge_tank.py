@@ -59,7 +59,7 @@ def surge_tank_record(p, s, out):
 
 def build_surge_tank(plant, steady, dt_s: float):
     """Compiled surge tank at the steady state: Q_t = Q_p = Q0, z = H_res - K_t Q0|Q0|, no flow into the tank."""
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     tank = plant.surge_tank
     q0 = steady.flow_m3_s
@@ -97,9 +97,8 @@ def build_surge_tank(plant, steady, dt_s: float):
         kind="upstream", name="surge_tank",
         functions={"head": surge_tank_head, "step": surge_tank_step, "record": surge_tank_record},
         params=(scal,), state=(state,), signals=SIGNALS,
-        meta={"initial_head_m": z0, "initial_signals": [z0, q0], "warnings_after": warnings_after,
-              "error_after": error_after,
-              "summary": {"surge_tank_period_s": tank.period_s}})
+        hooks=PartHooks(initial_head_m=z0, initial_signals=(z0, q0), warnings_after=warnings_after,
+                        error_after=error_after, summary={"surge_tank_period_s": tank.period_s}))
 
 
 def time_scales(plant, schedules) -> list:

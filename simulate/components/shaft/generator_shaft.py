@@ -171,7 +171,7 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     from hillchart.errors import InputError
     from simulate.components.electrical.generator import compile_electrical
     from simulate.components.electrical.standalone import frequency_recovery_time
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     t = plant.turbine
     electrical = plant.electrical
@@ -230,9 +230,9 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
                         functions={"speed": subtransient_speed, "step": subtransient_shaft_step,
                                    "record": subtransient_record},
                         params=params, state=state, signals=SIGNALS,
-                        meta={"summary": summary, "initial_signals": first, "failure": failure,
-                              "error_after": error_after, "summary_after": summary_after,
-                              "warnings_after": lambda signals: list(warnings)})
+                        hooks=PartHooks(summary=summary, initial_signals=tuple(first), failure=failure,
+                                        error_after=error_after, summary_after=summary_after,
+                                        warnings_after=lambda signals: list(warnings)))
 
 
 #: omega_n dt of the electromechanical mode above which the run is refused / warned (the rotor-angle pair is

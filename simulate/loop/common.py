@@ -1,0 +1,48 @@
+"""What the single-unit loop (:mod:`simulate.loop.engine`) and the loop of several units
+(:mod:`simulate.loop.multi_unit`) share: the turbine boundary's limits, the advice of a failed pressure loop, the
+chunking of the compiled loop and the steady loss upstream of the penstock."""
+
+from __future__ import annotations
+
+from simulate.components.turbine.boundary import FALLBACK_DAMPING
+
+#: Lowest head (fraction of rated) the pressure loop accepts; below it the column would separate.
+HEAD_FLOOR_FRACTION = 1e-4
+#: Stroke at or below which the guide vanes are shut: the boundary is a closed valve, Q = 0 and H = C_L, whatever
+#: the characteristics say. A fitted net has a small Q11 at a = 0 (the shipped nets: about -0.002 m^3/s, varying
+#: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
+#: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
+CLOSED_STROKE = 1e-6
+
+#: What a failed pressure loop's message tells the user to change.
+FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
+                  "or a looser solver.tolerance")
+#: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
+SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
+                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
+                     "penstock's size")
+SEPARATION_FRACTION = 0.05
+
+
+def _failure_advice(status: int, solver, c_l_m: float, rated_head_m: float) -> str:
+    """The end of a pressure-loop failure message: what was tried and what to change."""
+    from simulate.components.turbine.boundary import NAN, NO_POSITIVE_HEAD, NOT_CONVERGED
+
+    tried = ""
+    if status in (NOT_CONVERGED, NAN):
+        tried = (f"; the step was retried with relaxation {FALLBACK_DAMPING * solver.relaxation:g} and by Newton"
+                 if solver.fallback else "; solver.fallback = false")
+    if status == NO_POSITIVE_HEAD or c_l_m < SEPARATION_FRACTION * rated_head_m:
+        return f"{tried}): {SEPARATION_ADVICE}"
+    return f"{tried}): {FAILURE_ADVICE}"
+
+#: Wall time of work per call into the compiled loop; Ctrl-C is honoured between calls.
+CHUNK_WALL_S = 0.25
+
+
+def upstream_friction_s2_m5(plant) -> float:
+    """Steady head loss coefficient K Q|Q| upstream of the penstock (e.g. a surge tank's headrace tunnel), s^2/m^5."""
+    from simulate.components.registry import upstream_section
+
+    config = upstream_section(plant)[1]
+    return 0.0 if config is None else config.steady_loss_coefficient_s2_m5
