@@ -6,6 +6,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import math
+
+import numba
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
@@ -18,6 +21,44 @@ from hillchart.validation import check_finite
 # ----------------------------------------------------------------------------------------------------------------
 #: Inputs of the three-input NET blocks (nets.json NET format): unit speed, guide-vane opening, blade angle.
 NET3_INPUTS = ("n11", "opening", "blade_angle")
+
+
+def packed_net3(weights: FCCMWeights) -> np.ndarray:
+    """A three-input, one-output :class:`FCCMWeights` as one float vector for :func:`net3_point`:
+    ``[H, x_min (3), x_max (3), y_min, y_max, b2, W1 (H x 3, row-major), b1 (H), W2 (H)]``."""
+    if len(weights.inputs) != 3 or len(weights.outputs) != 1:
+        raise InputError(f"packed_net3 needs a 3-input, 1-output net, got inputs {list(weights.inputs)} and outputs "
+                         f"{list(weights.outputs)}")
+    return np.concatenate(([float(weights.hidden)], weights.x_min, weights.x_max,
+                           [weights.y_min[0], weights.y_max[0], weights.b2[0]], weights.W1.ravel(), weights.b1,
+                           weights.W2[0]))
+
+
+@numba.njit(cache=True)
+def net3_point(p, x0, x1, x2):
+    """Value y and dy/dx0 of a packed three-input net (:func:`packed_net3`) at one point, physical units: the
+    evaluation of :meth:`FCCMWeights.predict` (mapminmax, logsig hidden layer (eq. (10) of paper 004), linear
+    output, reverse mapminmax) on scalars for the compiled time loop, with the derivative of
+    :meth:`FCCMWeights.predict_grad` in the first input (unit speed)."""
+    hidden = int(p[0])
+    s0 = 2.0 / (p[4] - p[1])
+    xn0 = s0 * (x0 - p[1]) - 1.0
+    xn1 = 2.0 * (x1 - p[2]) / (p[5] - p[2]) - 1.0
+    xn2 = 2.0 * (x2 - p[3]) / (p[6] - p[3]) - 1.0
+    y_min, y_max, yn = p[7], p[8], p[9]
+    w1, b1, w2 = 10, 10 + 3 * hidden, 10 + 4 * hidden
+    g = 0.0
+    for i in range(hidden):
+        z = p[w1 + 3 * i] * xn0 + p[w1 + 3 * i + 1] * xn1 + p[w1 + 3 * i + 2] * xn2 + p[b1 + i]
+        if z >= 0.0:  # logsig without overflow for either sign of z
+            f = 1.0 / (1.0 + math.exp(-z))
+        else:
+            ez = math.exp(z)
+            f = ez / (1.0 + ez)
+        yn += p[w2 + i] * f
+        g += p[w2 + i] * f * (1.0 - f) * p[w1 + 3 * i]
+    half = 0.5 * (y_max - y_min)
+    return (yn + 1.0) * half + y_min, g * half * s0
 
 
 def _net_block(weights: FCCMWeights, output: str) -> dict:
@@ -188,17 +229,19 @@ def load_double_regulated_nets(path) -> DoubleRegulatedNets:
         raise InputError(f"{path}: {exc}") from None
 
 
-def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_range=(110.0, 230.0)) -> dict:
+def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_range=(110.0, 230.0),
+                       opening_range=None) -> dict:
     """Scattered samples of the synthetic bulb's unit characteristic (its 'chart'): the 8 corners of the box plus a
-    seeded Latin hypercube over n11 (r/min), guide-vane angle and blade angle (the paper's ranges), with exact Q11
-    (m^3/s) and M11 (N*m)."""
+    seeded Latin hypercube over n11 (r/min), guide-vane angle (``opening_range``, default the paper's range) and
+    blade angle (the paper's range), with exact Q11 (m^3/s) and M11 (N*m)."""
     from scipy.stats import qmc
 
     from hillchart.synthetic.bulb import BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, SyntheticBulb
 
     turbine = turbine or SyntheticBulb()
-    lo = np.array([n11_range[0], GUIDE_VANE_RANGE_DEG[0], BLADE_RANGE_DEG[0]])
-    hi = np.array([n11_range[1], GUIDE_VANE_RANGE_DEG[1], BLADE_RANGE_DEG[1]])
+    opening_range = GUIDE_VANE_RANGE_DEG if opening_range is None else opening_range
+    lo = np.array([n11_range[0], opening_range[0], BLADE_RANGE_DEG[0]])
+    hi = np.array([n11_range[1], opening_range[1], BLADE_RANGE_DEG[1]])
     corners = np.array([[lo[0] if i & 1 == 0 else hi[0], lo[1] if i & 2 == 0 else hi[1],
                          lo[2] if i & 4 == 0 else hi[2]] for i in range(8)])  # the fitted box = the chart's ranges
     x = np.vstack([corners, qmc.scale(qmc.LatinHypercube(d=3, seed=np.random.default_rng(seed)).random(n_points - 8),
@@ -220,6 +263,27 @@ def train_double_regulated_nets(samples: dict, *, hidden: int = 15, restarts: in
         nets[key] = est.weights_
         record[key] = est.training_record()
     return DoubleRegulatedNets(flow=nets["flow"], torque=nets["torque"], opening_unit="deg", training=record)
+
+
+#: How the shipped bulb nets (``data_synthetic/bulb/nets.json``) are made: samples of the synthetic bulb's unit
+#: characteristic over the range a load rejection of the example plant visits (n11 up to runaway, guide vanes down
+#: to half a degree above closure), and the net size.
+SHIPPED_BULB_NETS = {"n_points": 1200, "seed": 0, "n11_range": (100.0, 260.0), "opening_range": (35.5, 78.0),
+                     "hidden": 20, "restarts": 2}
+
+
+def write_bulb_nets(out_dir) -> Path:
+    """Train and write the shipped three-input nets of the synthetic bulb (:data:`SHIPPED_BULB_NETS`) to
+    ``out_dir/nets.json``; the same settings give the same nets (seeded)."""
+    cfg = SHIPPED_BULB_NETS
+    samples = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
+                                 opening_range=cfg["opening_range"])
+    nets = train_double_regulated_nets(samples, hidden=cfg["hidden"], restarts=cfg["restarts"], seed=cfg["seed"])
+    nets.training["source"] = ("samples of the synthetic bulb's unit characteristic (hillchart.synthetic.bulb), "
+                               f"{cfg['n_points']} points, seed {cfg['seed']}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return nets.save(out / "nets.json")
 
 
 def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_diameter_m: float,
