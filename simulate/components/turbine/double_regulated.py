@@ -89,10 +89,16 @@ def bulb_fixed_blade_kernel(params, n11, opening):
 
 
 def _inner_kernel(inner):
-    """(control kernel, its first parameters) of a three-input characteristics object."""
+    """(control kernel, its first parameters) of a three-input characteristics object: the nets, the exact bulb, or
+    any object with ``numba_three_input_kernel() -> (kernel, params)``, a module-level numba function
+    ``kernel(params + (scal,), n11, controls) -> (q11, dq11/dn11, m11, dm11/dn11)`` that reads the opening as
+    ``controls[0] + scal[0]`` and the blade angle as ``scal[1] + controls[1] scal[2]`` (a user's own turbine)."""
     from hillchart.fccm.double_regulated import DoubleRegulatedNets, packed_net3
     from hillchart.synthetic.bulb import SyntheticBulb
 
+    if hasattr(inner, "numba_three_input_kernel"):
+        kernel, first = inner.numba_three_input_kernel()
+        return kernel, tuple(first)
     if isinstance(inner, DoubleRegulatedNets):
         return nets_control_kernel, (packed_net3(inner.flow), packed_net3(inner.torque))
     if isinstance(inner, SyntheticBulb):
