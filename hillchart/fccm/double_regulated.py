@@ -267,9 +267,24 @@ def train_double_regulated_nets(samples: dict, *, hidden: int = 15, restarts: in
 
 #: How the shipped bulb nets (``data_synthetic/bulb/nets.json``) are made: samples of the synthetic bulb's unit
 #: characteristic over the range a load rejection of the example plant visits (n11 up to runaway, guide vanes down
-#: to half a degree above closure), and the net size.
-SHIPPED_BULB_NETS = {"n_points": 1200, "seed": 0, "n11_range": (100.0, 260.0), "opening_range": (35.5, 78.0),
-                     "hidden": 20, "restarts": 2}
+#: to 0.2 deg above closure), plus samples at the closed vane (Q11 = 0: the extension to zero opening, without which
+#: the nets leak a little flow at closure that pumps the water hammer), and the net size.
+SHIPPED_BULB_NETS = {"n_points": 2000, "n_closed": 300, "seed": 0, "n11_range": (100.0, 300.0),
+                     "opening_range": (35.2, 78.0), "hidden": 30, "restarts": 2}
+
+
+def bulb_closed_vane_samples(turbine=None, *, n_points: int = 300, seed: int = 0, n11_range=(100.0, 300.0)) -> dict:
+    """Samples of the synthetic bulb at the closed guide vane (1e-6 deg above the angle at which the vanes touch:
+    Q11 ~ 0, M11 the disc friction), over a seeded uniform draw of n11 (r/min) and blade angle (deg)."""
+    from hillchart.synthetic.bulb import BLADE_RANGE_DEG, SyntheticBulb
+
+    turbine = turbine or SyntheticBulb()
+    rng = np.random.default_rng([seed, 2])
+    n11 = rng.uniform(n11_range[0], n11_range[1], n_points)
+    blade = rng.uniform(BLADE_RANGE_DEG[0], BLADE_RANGE_DEG[1], n_points)
+    gv = np.full(n_points, turbine.params.guide_vane_closed_deg + 1e-6)
+    return {"n11": n11, "opening": gv, "blade_angle": blade, "q11": turbine.q11(n11, gv, blade),
+            "m11": turbine.m11(n11, gv, blade)}
 
 
 def write_bulb_nets(out_dir) -> Path:
@@ -278,9 +293,11 @@ def write_bulb_nets(out_dir) -> Path:
     cfg = SHIPPED_BULB_NETS
     samples = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
                                  opening_range=cfg["opening_range"])
+    closed = bulb_closed_vane_samples(n_points=cfg["n_closed"], seed=cfg["seed"], n11_range=cfg["n11_range"])
+    samples = {k: np.concatenate([samples[k], closed[k]]) for k in samples}
     nets = train_double_regulated_nets(samples, hidden=cfg["hidden"], restarts=cfg["restarts"], seed=cfg["seed"])
-    nets.training["source"] = ("samples of the synthetic bulb's unit characteristic (hillchart.synthetic.bulb), "
-                               f"{cfg['n_points']} points, seed {cfg['seed']}")
+    nets.training["source"] = ("samples of the synthetic bulb's unit characteristic (hillchart.synthetic.bulb): "
+                               f"{cfg['n_points']} scattered, {cfg['n_closed']} at the closed vane, seed {cfg['seed']}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return nets.save(out / "nets.json")

@@ -236,24 +236,38 @@ def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
     params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
               scal, blade, openings, angles)
-    return _part("governor", governor_blade_step, params, (np.zeros(3), controls, bstate), blade, bstate)
+    return _part("governor", governor_blade_step, params, (np.zeros(3), controls, bstate), blade, bstate,
+                 characteristics.blade_range_deg)
 
 
 def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristics=None):
     """The scenario's vane law, blades through their servo."""
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
     params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]), blade, openings, angles)
-    return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate)
+    return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate,
+                 characteristics.blade_range_deg)
 
 
-def _part(name, step, params, state, blade, bstate):
+def _part(name, step, params, state, blade, bstate, blade_range):
     from simulate.components.registry import CompiledPart
 
     phi0 = blade[_ANGLE_MIN] + blade[5] * blade[_SPAN]
+    meta = {"initial_signals": [phi0, float(bstate[0])], "n_controls": 2,
+            "initial_controls": [float(state[-2][0]), float(state[-2][1])]}
+    if blade_range is not None:
+        lo, hi = blade_range
+
+        def warnings_after(signals):
+            angles = signals["blade_angle_deg"]
+            if angles.min() < lo - 1e-9 or angles.max() > hi + 1e-9:
+                return [f"the blade angle went to {angles.min():.4g}-{angles.max():.4g} deg, outside the nets' "
+                        f"training range {lo:.4g}-{hi:.4g} deg (extrapolated): narrow blade_servo.angle_min_deg/"
+                        f"angle_max_deg or train the nets over the blade angles the run visits"]
+            return []
+
+        meta["warnings_after"] = warnings_after
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
-                        params=params, state=state, signals=SIGNALS,
-                        meta={"initial_signals": [phi0, float(bstate[0])], "n_controls": 2,
-                              "initial_controls": [float(state[-2][0]), float(state[-2][1])]})
+                        params=params, state=state, signals=SIGNALS, meta=meta)
 
 
 def time_scales(plant, schedules) -> list:

@@ -27,6 +27,7 @@ start exactly on the cam.
 from __future__ import annotations
 
 import inspect
+from types import SimpleNamespace
 
 import numba
 import numpy as np
@@ -200,6 +201,23 @@ class DoubleRegulatedTurbine:
         self.angle_min_deg, self.angle_max_deg = float(angle_min_deg), float(angle_max_deg)
         self.cam, self.fixed_angle_deg = cam, fixed_angle_deg
         self.speed_rpm, self.runner_diameter_m = float(speed_rpm), float(runner_diameter_m)
+        # the nets' fitted box in the plant's units, for the trusted domain (simulate.loop.domain reads
+        # flow/torque.x_min, x_max: N11 and the opening); the blade angle's range: blade_range_deg
+        # (nets trained down to the closed vane, within 1e-3 deg, count as trained there); the nets were fitted on a
+        # box, so the digitized region is that box in (N11, opening)
+        self.blade_range_deg = None
+        for name in ("flow", "torque"):
+            net = getattr(inner, name, None)
+            if net is not None and hasattr(net, "x_min") and len(net.x_min) == 3:
+                lo = np.asarray(net.x_min[:2], float) - np.array([0.0, self.opening_at_zero_stroke])
+                hi = np.asarray(net.x_max[:2], float) - np.array([0.0, self.opening_at_zero_stroke])
+                if abs(lo[1]) < 1e-3:
+                    lo[1] = 0.0
+                setattr(self, name, SimpleNamespace(x_min=lo, x_max=hi))
+                self.blade_range_deg = (float(net.x_min[2]), float(net.x_max[2]))
+        if self.blade_range_deg is not None:
+            lo, hi = self.flow.x_min, self.flow.x_max
+            self.digitized_region = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
 
     @property
     def angle_span_deg(self) -> float:

@@ -219,3 +219,17 @@ def test_a_user_cam_table_drives_the_blades():
                                                "scenario.event_time_s": 0.09}))
     a0 = r.opening_chart[0]  # from the closed vane: the table's 35 deg is its zero
     assert r.signals["blade_angle_deg"][0] == pytest.approx(-12.0 + 8.0 * a0 / 43.0, abs=1e-9)
+
+
+# --- the shipped nets against the exact bulb they were trained on ---------------------------------------------------
+def test_rejection_with_the_nets_matches_the_exact_bulb():
+    over = {"scenario.t_end_s": 15.0}  # the maximum speed comes at ~7 s, the minimum outlet pressure at ~5 s
+    nets = run_simulation(load_plant(PLANT_BULB, over)).summary()
+    exact = run_simulation(load_plant(PLANT_BULB, {**over, **EXACT})).summary()
+    head = exact["initial_head_m"]
+    # the guarantee figures: speed within 1 point, max head and min outlet pressure within 2 % of the head
+    assert abs(nets["max_speed_rise"] - exact["max_speed_rise"]) < 0.01
+    assert abs(nets["max_head_m"] - exact["max_head_m"]) < 0.02 * head
+    assert abs(nets["min_outlet_pressure_head_m"] - exact["min_outlet_pressure_head_m"]) < 0.02 * head
+    # and the rejection is a real one (the figures move by far more than the bounds)
+    assert exact["max_speed_rise"] > 0.3 and exact["max_head_m"] - head > 0.5 * head
