@@ -27,6 +27,7 @@ start exactly on the cam.
 from __future__ import annotations
 
 import inspect
+import math
 from types import SimpleNamespace
 
 import numba
@@ -39,6 +40,8 @@ from hillchart.synthetic.bulb import unit_point
 #: Opening points of a cam computed from the characteristics, and head points (fractions of the rated head).
 CAM_OPENINGS = 61
 CAM_HEAD_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.35, 1.5)
+#: Blade-angle step (deg) of the cam's coarse scan before the golden-section search refines each optimum.
+CAM_SCAN_STEP_DEG = 0.5
 
 
 def is_three_input(characteristics) -> bool:
@@ -166,10 +169,25 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
     openings = np.linspace(lo, hi, CAM_OPENINGS)
     heads = rated_head_m * np.asarray(CAM_HEAD_FRACTIONS)
     efficiency = getattr(inner, "efficiency", None) or getattr(inner, "unit_efficiency")
+    # a coarse scan finds the hump, a golden-section search on the scan step around it the optimum
     cam = on_cam_relation(efficiency, openings, heads, speed_rpm=speed_rpm, runner_diameter_m=runner_diameter_m,
-                          blade_range=tuple(blade_range_deg), step_deg=0.02)
-    return Cam(openings - opening_at_zero_stroke, heads, cam["blade_angle"], source="best efficiency of the "
-               "characteristics")
+                          blade_range=tuple(blade_range_deg), step_deg=CAM_SCAN_STEP_DEG)
+    n11 = np.broadcast_to((speed_rpm * runner_diameter_m / np.sqrt(heads))[:, None], cam["blade_angle"].shape)
+    a = np.broadcast_to(openings[None, :], n11.shape)
+    low = np.clip(cam["blade_angle"] - CAM_SCAN_STEP_DEG, blade_range_deg[0], blade_range_deg[1])
+    high = np.clip(cam["blade_angle"] + CAM_SCAN_STEP_DEG, blade_range_deg[0], blade_range_deg[1])
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = high - ratio * (high - low), low + ratio * (high - low)
+    f1, f2 = efficiency(n11, a, x1), efficiency(n11, a, x2)
+    for _ in range(40):  # 0.618^40 of the bracket: 1e-8 deg
+        left = f1 > f2
+        high, low = np.where(left, x2, high), np.where(left, low, x1)
+        new = np.where(left, high - ratio * (high - low), low + ratio * (high - low))
+        f_new = efficiency(n11, a, new)
+        x1, x2, f1, f2 = (np.where(left, new, x2), np.where(left, x1, new), np.where(left, f_new, f2),
+                          np.where(left, f1, f_new))
+    best = np.where(cam["at_bound"], cam["blade_angle"], 0.5 * (low + high))
+    return Cam(openings - opening_at_zero_stroke, heads, best, source="best efficiency of the characteristics")
 
 
 # ---------------------------------------------------------------------------------------------------------------
