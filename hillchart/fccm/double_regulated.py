@@ -303,6 +303,115 @@ def write_bulb_nets(out_dir) -> Path:
     return nets.save(out / "nets.json")
 
 
+def table_unit_samples(table, *, opening_closed: float | None = None, zero_opening_points: int = 200,
+                       seed: int = 0) -> tuple[dict, list[str]]:
+    """Unit samples (n11, opening, blade_angle, q11, m11) of a double-regulated test table
+    (:class:`hillchart.fccm.table.TestTable` with ``guide_vane_deg``, ``n11_rpm``, ``q11_m3_s``, ``efficiency`` and
+    ``blade_angle_deg``), and the notes on what was assumed.
+
+    * M11 from the efficiency, eq. (5) of the BP hill-chart paper (``M11 = rho g Q11 eta / omega11``).
+    * A table without ``blade_angle_deg`` is a fixed-blade (propeller) unit: ``blade_angle_deg`` of the table's
+      ``table.toml`` is not known, so the angle is taken as 0 deg (a note says so); the nets then do not depend on it.
+    * The extension to zero opening (paper 004's eq. (6)): with ``opening_closed`` (the guide-vane angle at which the
+      vanes touch), ``zero_opening_points`` samples with Q11 = 0 over the table's N11 and blade-angle range; M11 = 0
+      there (the table says nothing of the zero-flow torque; paper 004's eqs. (8)-(9) fit it from the lowest opening
+      lines of a Francis chart, which a double-regulated table does not have).
+    """
+    from hillchart.characteristics import unit_torque_from_efficiency
+
+    notes = []
+    n11 = np.asarray(table.column("n11_rpm"), float)
+    q11 = np.asarray(table.column("q11_m3_s"), float)
+    opening = np.asarray(table.column("guide_vane_deg"), float)
+    eta = np.asarray(table.column("efficiency"), float)
+    if "blade_angle_deg" in table.columns:
+        blade = np.asarray(table.column("blade_angle_deg"), float)
+    else:
+        blade = np.zeros_like(n11)
+        notes.append("the table has no blade_angle_deg column: a fixed-blade (propeller) unit, blade angle taken as "
+                     "0 deg (use combinator.relation = \"off\", fixed_angle_deg = 0 in the plant)")
+    ok = np.isfinite(n11) & np.isfinite(q11) & np.isfinite(eta) & (n11 > 0)
+    if not ok.all():
+        notes.append(f"{int((~ok).sum())} rows without n11, Q11 or efficiency left out")
+    n11, q11, opening, eta, blade = n11[ok], q11[ok], opening[ok], eta[ok], blade[ok]
+    m11 = unit_torque_from_efficiency(q11, n11, eta)  # eq. (5) of paper 004
+    samples = {"n11": n11, "opening": opening, "blade_angle": blade, "q11": q11, "m11": np.asarray(m11, float)}
+    if opening_closed is not None:
+        if not opening_closed < opening.min():
+            raise InputError(f"the closed guide-vane angle {opening_closed!r} must be below the table's smallest "
+                             f"guide_vane_deg {opening.min()!r}")
+        rng = np.random.default_rng([seed, 3])
+        k = int(zero_opening_points)
+        zero = {"n11": rng.uniform(n11.min(), n11.max(), k), "opening": np.full(k, float(opening_closed)),
+                "blade_angle": rng.uniform(blade.min(), blade.max(), k) if np.ptp(blade) > 0 else np.full(k, blade[0]),
+                "q11": np.zeros(k), "m11": np.zeros(k)}
+        samples = {key: np.concatenate([samples[key], zero[key]]) for key in samples}
+        notes.append(f"extended to the closed vane ({opening_closed:g} deg): {k} samples with Q11 = 0, M11 = 0")
+    return samples, notes
+
+
+def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0, members: int = 5,
+                     split=(0.70, 0.15, 0.15)) -> tuple["DoubleRegulatedNets", dict]:
+    """Three-input nets from ``samples`` (:func:`table_unit_samples`) with an ensemble of ``members`` nets (seeds
+    ``seed``, ``seed + 2``, ...; the first is the point nets) and the plausibility checks: on a grid over the
+    samples' box, the share of points where Q11 falls as the guide vanes open (dQ11/da < 0), where the efficiency
+    exceeds 1 (where Q11 is above 5 % of its largest value), and the ensemble's spread (5-95 % of Q11 and M11, as
+    % of their ranges). A constant input (a fixed-blade table) is widened by 1 on either side so the net's scaling
+    is defined; the nets do not depend on it.
+
+    Returns
+    -------
+    nets : DoubleRegulatedNets
+    report : dict
+        ``plausibility`` figures and ``warnings`` (text that says what to check).
+    """
+    X = {k: np.asarray(samples[k], float) for k in NET3_INPUTS}
+    fitted = dict(samples)
+    constant = [k for k in NET3_INPUTS if np.ptp(X[k]) == 0]
+    if constant:  # a constant input: two copies of the samples at +-1 so the scaling is defined and the slope 0
+        fitted = {k: np.concatenate([np.asarray(samples[k], float)] * 2) for k in samples}
+        for k in constant:
+            fitted[k] = np.concatenate([X[k] - 1.0, X[k] + 1.0])
+    ensemble = [train_double_regulated_nets(fitted, hidden=hidden, restarts=restarts, seed=seed + 2 * i, split=split)
+                for i in range(max(1, members))]
+    nets = ensemble[0]
+    lo = np.array([X[k].min() for k in NET3_INPUTS])
+    hi = np.array([X[k].max() for k in NET3_INPUTS])
+    axes = [np.linspace(lo[j], hi[j], 12) for j in range(3)]
+    g = np.meshgrid(*axes, indexing="ij")
+    n11, a, phi = (v.ravel() for v in g)
+    q = nets.q11(n11, a, phi)
+    dq_da = nets.q11_grad(n11, a, phi)[1]
+    eta = nets.efficiency(n11, a, phi)
+    q_all = np.array([m.q11(n11, a, phi) for m in ensemble])
+    m_all = np.array([m.m11(n11, a, phi) for m in ensemble])
+    spread_q = float(np.median(np.percentile(q_all, 95, axis=0) - np.percentile(q_all, 5, axis=0))
+                     / max(np.ptp(samples["q11"]), 1e-12))
+    spread_m = float(np.median(np.percentile(m_all, 95, axis=0) - np.percentile(m_all, 5, axis=0))
+                     / max(np.ptp(samples["m11"]), 1e-12))
+    flowing = q > 0.05 * q.max()  # the efficiency of a near-zero flow is the ratio of two small numbers
+    eta = np.where(flowing, eta, np.nan)
+    report = {"plausibility": {"share_dq11_da_negative": float(np.mean(dq_da < 0)),
+                               "share_efficiency_above_1": float(np.mean(np.nan_to_num(eta) > 1.0)),
+                               "max_efficiency": float(np.nanmax(eta)), "q11_min": float(q.min()),
+                               "ensemble_members": len(ensemble),
+                               "ensemble_spread_q11_pct": 100.0 * spread_q,
+                               "ensemble_spread_m11_pct": 100.0 * spread_m},
+              "warnings": []}
+    p = report["plausibility"]
+    if p["share_dq11_da_negative"] > 0.05:
+        report["warnings"].append(f"Q11 falls as the guide vanes open on {100 * p['share_dq11_da_negative']:.0f} % of "
+                                  "the table's box: the nets fit noise or the table is thin there; check the table, "
+                                  "fewer hidden neurons (--hidden)")
+    if p["share_efficiency_above_1"] > 0:
+        report["warnings"].append(f"the nets' efficiency exceeds 1 on {100 * p['share_efficiency_above_1']:.1f} % of "
+                                  f"the table's box (max {p['max_efficiency']:.3f}): implausible; check the table's "
+                                  "efficiency column (a fraction) and the extension")
+    nets.training["plausibility"] = p
+    nets.training["ensemble_seeds"] = [seed + 2 * i for i in range(len(ensemble))]
+    return nets, report
+
+
 def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_diameter_m: float,
                     blade_range=(-18.0, 16.0), step_deg: float = 0.05) -> dict:
     """The on-cam (combinator) relation phi(a, H): the blade angle of best efficiency at each guide-vane opening a
