@@ -50,7 +50,9 @@ class TurbineConfig:
     """Rated values of the unit and where its characteristics come from.
 
     ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
-    ``a = y * opening_max``. ``characteristics`` is ``"ideal"`` or a path to a nets.json (relative to the plant file).
+    ``a = y * opening_max``. ``characteristics`` is ``"ideal"``, ``"synthetic"`` (the exact synthetic Francis),
+    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb) or a path to a nets.json (relative to the plant
+    file); characteristics with a blade angle (three-input nets, the bulb) need ``[combinator]``.
     """
 
     rated_head_m: float
