@@ -33,6 +33,7 @@ from types import SimpleNamespace
 import numba
 import numpy as np
 
+from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
 from hillchart.errors import InputError
 from hillchart.fccm.double_regulated import net3_point
 from hillchart.synthetic.bulb import unit_point
@@ -90,6 +91,20 @@ def bulb_fixed_blade_kernel(params, n11, opening):
     qp, _, mp, _ = unit_point(point, n11, a + step, scal[1])
     qm, _, mm, _ = unit_point(point, n11, a - step, scal[1])
     return q, dq, (qp - qm) / (2.0 * step), m, dm, (mp - mm) / (2.0 * step)
+
+
+@numba.njit(cache=True)
+def _nets_efficiency(flow, torque, n11, opening, blade, out):
+    """Efficiency M11 omega11 / (rho g Q11) (eq. (5) of the BP hill-chart paper) of packed three-input nets at
+    points (flat arrays); NaN where Q11 <= 0 or N11 <= 0, as
+    :func:`hillchart.characteristics.efficiency_from_unit_torque`."""
+    for i in range(n11.size):
+        q = net3_point(flow, n11[i], opening[i], blade[i])[0]
+        m = net3_point(torque, n11[i], opening[i], blade[i])[0]
+        if q > 0.0 and n11[i] > 0.0:
+            out[i] = m * n11[i] * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q)
+        else:
+            out[i] = np.nan
 
 
 def _inner_kernel(inner):
@@ -169,6 +184,14 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
     openings = np.linspace(lo, hi, CAM_OPENINGS)
     heads = rated_head_m * np.asarray(CAM_HEAD_FRACTIONS)
     efficiency = getattr(inner, "efficiency", None) or getattr(inner, "unit_efficiency")
+    kernel, first = _inner_kernel(inner)
+    if kernel is nets_control_kernel:  # the nets through the loop's compiled point function: 10x numpy's predict
+        def efficiency(n11, opening, blade):
+            n11, opening, blade = np.broadcast_arrays(*(np.asarray(v, float) for v in (n11, opening, blade)))
+            out = np.empty(n11.shape)
+            _nets_efficiency(first[0], first[1], np.ascontiguousarray(n11).ravel(),
+                             np.ascontiguousarray(opening).ravel(), np.ascontiguousarray(blade).ravel(), out.ravel())
+            return out
     # a coarse scan finds the hump, a golden-section search on the scan step around it the optimum
     cam = on_cam_relation(efficiency, openings, heads, speed_rpm=speed_rpm, runner_diameter_m=runner_diameter_m,
                           blade_range=tuple(blade_range_deg), step_deg=CAM_SCAN_STEP_DEG)
@@ -219,6 +242,7 @@ class DoubleRegulatedTurbine:
         self.angle_min_deg, self.angle_max_deg = float(angle_min_deg), float(angle_max_deg)
         self.cam, self.fixed_angle_deg = cam, fixed_angle_deg
         self.speed_rpm, self.runner_diameter_m = float(speed_rpm), float(runner_diameter_m)
+        self._kernel = _inner_kernel(inner)
         # the nets' fitted box in the plant's units, for the trusted domain (simulate.loop.domain reads
         # flow/torque.x_min, x_max: N11 and the opening); the blade angle's range: blade_range_deg
         # (nets trained down to the closed vane, within 1e-3 deg, count as trained there); the nets were fitted on a
@@ -258,7 +282,7 @@ class DoubleRegulatedTurbine:
         """(q11, m11) of the characteristics at plant opening ``opening`` and blade angle (deg): through the loop's
         compiled kernel where there is one (the same arithmetic as the time loop, so the steady state is the loop's
         equilibrium), else the characteristics' own methods."""
-        kernel, first = _inner_kernel(self.inner)
+        kernel, first = self._kernel
         if kernel is None:
             a = np.asarray(opening, float) + self.opening_at_zero_stroke
             return self.inner.q11(n11, a, blade_angle), self.inner.m11(n11, a, blade_angle)
@@ -305,7 +329,7 @@ class DoubleRegulatedTurbine:
 
     def numba_control_kernel(self):
         """``(kernel, params)`` for the compiled loop on the chart controls ``[a, y_b]``."""
-        kernel, first = _inner_kernel(self.inner)
+        kernel, first = self._kernel
         if kernel is None:
             raise InputError(f"three-input characteristics of type {type(self.inner).__name__} have no compiled "
                              f"kernel: use three-input nets (nets.json with inputs n11, opening, blade_angle) or "
