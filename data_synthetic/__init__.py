@@ -7,6 +7,11 @@ from pathlib import Path
 
 #: Folder of the shipped synthetic chart.
 FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
+#: Folder of the shipped synthetic bulb nets (three inputs: n11, guide-vane angle, blade angle); regenerate with
+#: ``python -c "from hillchart.fccm.double_regulated import write_bulb_nets; write_bulb_nets('data_synthetic/bulb')"``.
+BULB_DIR = Path(__file__).resolve().parent / "bulb"
+#: The double-regulated example plant: a low-head run-of-river plant with the synthetic bulb and a draft tube.
+PLANT_BULB = Path(__file__).resolve().parent / "plant_bulb.toml"
 #: The shipped example plant.
 PLANT_HLA339 = Path(__file__).resolve().parent / "plant_hla339.toml"
 #: The example plant with [limits] and [[load_cases]] for the design studies (hillsim optimize-closure, report).

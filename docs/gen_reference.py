@@ -282,8 +282,9 @@ def plant_file_page() -> str:
              "checked against other keys, as the section's text says). Keys marked optional may be left out.",
              "Shipped examples: `data_synthetic/plant_hla339.toml` (the reference unit),",
              "`plant_hla339_grid.toml` (sub-transient generator, excitation and grid), `plant_hla339_surge_tank.toml`",
-             "(surge tank), `plant_hla339_guarantee.toml` (limits and load cases) and `plant_two_units.toml` (two",
-             "units on one penstock that divides at a manifold).", ""]
+             "(surge tank), `plant_hla339_guarantee.toml` (limits and load cases), `plant_two_units.toml` (two",
+             "units on one penstock that divides at a manifold) and `plant_bulb.toml` (a double-regulated bulb unit",
+             "with a draft tube).", ""]
 
     def section(title: str, cls, raw, path, skip=(), note: str = "") -> None:
         lines.extend([f"## `{title}`", "", _paragraphs(cls.__doc__)])
@@ -319,6 +320,17 @@ def plant_file_page() -> str:
     section("[solver]", config.SolverConfig, base, ("solver",),
             note="`pressure_loop` is one of: " + ", ".join(f"`{m}`" for m in config.PRESSURE_LOOPS) + ".")
     section("[surge_tank]", config.SurgeTankConfig, surge, ("surge_tank",))
+    bulb = _example("plant_bulb.toml")
+    from simulate.components.control.blade_servo import BladeServoConfig, CombinatorConfig
+
+    section("[combinator]", CombinatorConfig, bulb, ("combinator",),
+            note="With three-input characteristics (a double-regulated unit; see "
+                 "[Double-regulated units](../double-regulated.md)).")
+    section("[blade_servo]", BladeServoConfig, bulb, ("blade_servo",),
+            note="With `combinator.relation` `cam` or `table`.")
+    section("[draft_tube]", config.DraftTubeConfig, bulb, ("draft_tube",), skip=("segments",),
+            note="`[[draft_tube.segments]]` take the keys of `[[penstock.segments]]` (without the elevations), "
+                 "runner outlet first.")
     section("[excitation]", ExcitationConfig, grid, ("excitation",),
             note='With `generator.model = "subtransient"` only.')
     section("[grid]", GridConfig, grid, ("grid",), note='With `generator.model = "subtransient"` only.')

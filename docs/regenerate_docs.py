@@ -427,6 +427,29 @@ def pressure_loop(ctx: Context) -> str:
     return _benchmark("bench_pressure_loop").table()
 
 
+BULB = "data_synthetic/plant_bulb.toml"
+
+
+def bulb_example(ctx: Context) -> str:
+    """``hillsim run data_synthetic/plant_bulb.toml``, with the shipped nets and with the exact synthetic bulb."""
+    runs = {}
+    for label, extra in (("three-input nets", []), ("exact synthetic bulb", ["--set",
+                                                                           "turbine.characteristics=synthetic-bulb"])):
+        out = ctx.folder("bulb-" + label.split()[0])
+        _hillsim(["run", BULB, *extra], out)
+        runs[label] = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    rows = ["| figure | " + " | ".join(runs) + " |", "|---|" + "---|" * len(runs)]
+    for key, label, fmt in (("initial_opening", "initial stroke (vanes)", "{:.4f}"),
+                            ("max_speed_rise", "max speed rise", "pct"),
+                            ("max_head_rise", "max net head rise", "pct"),
+                            ("min_outlet_pressure_head_m", "min runner-outlet pressure head (m, absolute)", "{:.2f}"),
+                            ("t_min_outlet_pressure_s", "time of that minimum (s)", "{:.2f}"),
+                            ("mean_iterations", "mean pressure-loop iterations", "{:.2f}")):
+        cells = [_pct(r[key]) if fmt == "pct" else fmt.format(r[key]) for r in runs.values()]
+        rows.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
 def _benchmark(name: str):
     import importlib.util
 
@@ -455,6 +478,7 @@ BLOCKS = {
     "pressure-loop": pressure_loop,
     "closed-loop-table": closed_loop_table,
     "head-model-table": head_model_table,
+    "bulb-example": bulb_example,
 }
 
 
@@ -492,6 +516,7 @@ FIGURES = {
                                       "ident/head_model.png"),
     "eq14_load_step.png": _command_figure(["benchmarks/paper001_eq14.py", "--figures", "{out}"],
                                           "eq14_load_step.png"),
+    "bulb_rejection.png": _demo_figure("bulb_rejection/transient.png"),
     "generator.png": _command_figure(["benchmarks/bench_generator.py", "--figures", "{out}"], "generator.png"),
     "two_units.png": _command_figure(["-m", "hillsim.cli", "run", "data_synthetic/plant_two_units.toml", "--out",
                                       "{out}/two", "--quiet"], "two/transient.png"),

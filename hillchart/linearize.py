@@ -342,3 +342,101 @@ def plot_coefficient_maps(maps: dict, path=None, *, operating_point: tuple[float
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# double-regulated turbines: eight coefficients
+# ---------------------------------------------------------------------------------------------------------------
+#: Names of the eight coefficients of a double-regulated turbine (the six plus the blade angle's two).
+EIGHT_COEFFICIENT_NAMES = COEFFICIENT_NAMES + ("ephi", "eqphi")
+#: Central-difference step (deg of blade angle, and the same fraction of N11 and of the opening) for
+#: three-input characteristics without analytic gradients (the exact synthetic bulb).
+BLADE_DIFFERENCE_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class EightCoefficients:
+    """The eight transfer coefficients of a double-regulated (Kaplan, bulb) turbine at one operating point::
+
+        m = ex x + ey y + eh h + ephi dphi          # relative torque
+        q = eqx x + eqy y + eqh h + eqphi dphi      # relative flow
+
+    with ``x, y, h`` as for :class:`SixCoefficients` and ``dphi`` the blade-angle change in degrees (the blade
+    angle has no natural reference value: near phi = 0 a relative change is meaningless), so ``ephi =
+    (1/M11) dM11/dphi`` and ``eqphi = (1/Q11) dQ11/dphi`` are per degree. The other six follow the derivation in
+    the module docstring at fixed blade angle.
+    """
+
+    ex: float
+    ey: float
+    eh: float
+    eqx: float
+    eqy: float
+    eqh: float
+    ephi: float
+    eqphi: float
+    n11_rpm: float
+    opening: float
+    blade_angle_deg: float
+    q11_m3_s: float
+    m11_nm: float
+
+    def as_tuple(self) -> tuple:
+        return tuple(float(getattr(self, name)) for name in EIGHT_COEFFICIENT_NAMES)
+
+    def to_dict(self) -> dict:
+        return {key: float(value) for key, value in asdict(self).items()}
+
+
+def _three_input_gradients(characteristics, n11, opening, blade):
+    """(q11, m11, dq/dn11, dq/da, dq/dphi, dm/dn11, dm/da, dm/dphi) at one point: analytic where the object has
+    three-component gradients, else central differences of :data:`BLADE_DIFFERENCE_STEP`."""
+    q = float(np.asarray(characteristics.q11(n11, opening, blade)))
+    m = float(np.asarray(characteristics.m11(n11, opening, blade)))
+    if hasattr(characteristics, "q11_grad") and hasattr(characteristics, "m11_grad"):
+        dq = [float(np.asarray(g)) for g in characteristics.q11_grad(n11, opening, blade)]
+        dm = [float(np.asarray(g)) for g in characteristics.m11_grad(n11, opening, blade)]
+        return q, m, dq, dm
+    steps = (BLADE_DIFFERENCE_STEP * n11, BLADE_DIFFERENCE_STEP * opening, BLADE_DIFFERENCE_STEP)
+    dq, dm = [], []
+    for j, h in enumerate(steps):
+        up = [n11, opening, blade]
+        down = [n11, opening, blade]
+        up[j] += h
+        down[j] -= h
+        dq.append(float((characteristics.q11(*up) - characteristics.q11(*down)) / (2 * h)))
+        dm.append(float((characteristics.m11(*up) - characteristics.m11(*down)) / (2 * h)))
+    return q, m, dq, dm
+
+
+def eight_coefficients(characteristics, *, n11: float, opening: float, blade_angle: float) -> EightCoefficients:
+    """Eight transfer coefficients of three-input characteristics Q11(N11, a, phi), M11(N11, a, phi).
+
+    Parameters
+    ----------
+    characteristics : object with ``q11(n11, opening, blade_angle)`` and ``m11(...)`` (and, optionally, their
+        three-component gradients ``q11_grad``/``m11_grad``, e.g. the three-input nets)
+    n11 : float, r/min, > 0
+    opening : float, chart units, > 0
+    blade_angle : float, deg
+
+    Examples
+    --------
+    >>> from hillchart.synthetic.bulb import SyntheticBulb
+    >>> c = eight_coefficients(SyntheticBulb(), n11=150.0, opening=50.0, blade_angle=-7.0)
+    >>> round(c.eh - (1 - c.ex / 2), 12), c.eqphi > 0   # opening the blades passes more water
+    (0.0, True)
+    """
+    n11_a = float(_check_point("n11", n11, positive=True))
+    a_a = float(_check_point("opening", opening, positive=True))
+    phi = float(_check_point("blade_angle", blade_angle, positive=False))
+    q, m, dq, dm = _three_input_gradients(characteristics, n11_a, a_a, phi)
+    for name, value in (("Q11", q), ("M11", m)):
+        if not np.isfinite(value) or value == 0.0:
+            raise InputError(f"{name} at (n11={n11_a}, opening={a_a}, blade_angle={phi}) is {value!r}: the relative "
+                             "coefficients need a finite, non-zero value (choose a point inside the chart)")
+    six = _relative(n11_a, a_a, q, m, dq[0], dq[1], dm[0], dm[1])
+    values = [float(v) for v in six] + [dm[2] / m, dq[2] / q]
+    if not all(np.isfinite(values)):
+        raise InputError(f"eight coefficients at (n11={n11_a}, opening={a_a}, blade_angle={phi}) are not finite")
+    return EightCoefficients(*values, n11_rpm=n11_a, opening=a_a, blade_angle_deg=phi, q11_m3_s=q, m11_nm=m)

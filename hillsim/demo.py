@@ -1,5 +1,5 @@
-"""The end-to-end demo: chart -> extension -> nets -> hill chart -> transients -> linearization -> identification,
-written into one folder with a self-contained ``report.html``.
+"""The end-to-end demo: chart -> extension -> nets -> hill chart -> transients (and a double-regulated bulb unit)
+-> linearization -> identification, written into one folder with a self-contained ``report.html``.
 
 Each step writes its own files (figures, CSV, JSON); the report and the terminal summary read their numbers from
 those JSON files, so what the report says is what the files say.
@@ -29,6 +29,7 @@ STEPS = (
     "load rejection (governor)",
     "load rejection (closure law)",
     "no-load frequency steps",
+    "double-regulated bulb: load rejection",
     "linearize at the scenario's initial point",
     "identification vs nets",
     "report",
@@ -173,6 +174,14 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     bar.done()
 
     bar.start(STEPS[6])
+    from data_synthetic import PLANT_BULB
+
+    bulb = _simulate(load_plant(PLANT_BULB), None, out / "bulb_rejection")
+    plt.close("all")
+    bar.done(f"max speed rise {100 * bulb['max_speed_rise']:.1f} %, min outlet pressure "
+             f"{bulb['min_outlet_pressure_head_m']:.2f} m")
+
+    bar.start(STEPS[7])
     linear = plant_linearization(plant, nets)
     exact_turbine = SyntheticFrancis()
     op = linear.operating_point
@@ -186,14 +195,14 @@ def _run_demo(out: Path, *, fast: bool, progress: bool, restarts: int, seed: int
     plt.close("all")
     bar.done()
 
-    bar.start(STEPS[7])
+    bar.start(STEPS[8])
     # the lumped elastic penstock matches the elastic linear model (eqs. 24-30) exactly; `hillsim identify` runs moc too
     identification = compare_identification(plant, characteristics=nets, exact=exact_turbine, penstock_model="lumped")
     identification.write(out / "identification")
     plt.close("all")
     bar.done()
 
-    bar.start(STEPS[8])
+    bar.start(STEPS[9])
     for file in RESULT_FILES.values():  # the simulator's and identification's own JSON, tidied like the demo's
         _write_json(out / file, _read_json(out / file))
     results = _load_results(out)
@@ -213,6 +222,7 @@ RESULT_FILES = {
     "load_rejection": "load_rejection/summary.json",
     "closure_law": "closure_law/summary.json",
     "frequency_steps": "frequency_steps/summary.json",
+    "bulb_rejection": "bulb_rejection/summary.json",
 }
 
 
@@ -253,6 +263,8 @@ def _summary(results: dict, ide) -> dict:
         "closure_law_max_speed_rise": clo["max_speed_rise"],
         "closure_law_max_head_rise": clo["max_head_rise"],
         "frequency_steps_max_iterations": fre["max_iterations"],
+        "bulb_max_speed_rise": results["bulb_rejection"]["max_speed_rise"],
+        "bulb_min_outlet_pressure_head_m": results["bulb_rejection"]["min_outlet_pressure_head_m"],
         "operating_point_power_mw": lin["operating_point"]["power_mw"],
         "ey_nets": lin["coefficients"]["ey"],
         "ey_exact": lin["coefficients_exact"]["ey"],
@@ -312,6 +324,17 @@ def build_report(out: Path, results: dict, summary: dict, ide) -> Report:
                           ("frequency_steps", "No-load frequency steps +4 %, -8 %, +4 % (Li et al. 2017, Fig. 11a)")):
         report.figure(out / name / "transient.png", caption)
 
+    report.heading("3b. A double-regulated unit: the bulb plant's load rejection")
+    bulb = results["bulb_rejection"]
+    keys = [("max_speed_rise", "max speed rise", "{:.2%}"), ("max_head_rise", "max net head rise", "{:.2%}"),
+            ("min_outlet_pressure_head_m", "min runner-outlet pressure head (m, absolute)", "{:.2f}"),
+            ("t_min_outlet_pressure_s", "time of that minimum (s)", "{:.2f}")]
+    report.table(["quantity", "bulb load rejection"],
+                 [[label, Value(bulb[k], fmt, f"bulb_rejection/summary.json:{k}")] for k, label, fmt in keys],
+                 "The synthetic bulb (three-input nets), guide vanes by the governor, blades on the cam through their "
+                 "servo, intake and draft tube by MOC")
+    report.figure(out / "bulb_rejection" / "transient.png", "Bulb load rejection: speed, heads, vanes and blades")
+
     report.heading("4. Six coefficients: nets vs exact vs batch least squares")
     six = ide.six_coefficients
     names = ("ex", "ey", "eh", "eqx", "eqy", "eqh")
@@ -364,6 +387,8 @@ def format_summary(summary: dict) -> str:
         f"{summary['load_rejection_mean_iterations']:.2f} iterations/step",
         f"{'load rejection (closure law)':<38} max speed rise {summary['closure_law_max_speed_rise']:.1%}, "
         f"max head rise {summary['closure_law_max_head_rise']:.1%}",
+        f"{'bulb load rejection (double regulated)':<38} max speed rise {summary['bulb_max_speed_rise']:.1%}, "
+        f"min outlet pressure {summary['bulb_min_outlet_pressure_head_m']:.2f} m",
         f"{'ey at the scenario point':<38} nets {summary['ey_nets']:.4f}, exact {summary['ey_exact']:.4f} "
         f"({summary['operating_point_power_mw']:.0f} MW)",
         f"{'six coefficients, batch LS vs nets':<38} max |diff| {summary['six_max_abs_batch_ls_minus_nets']:.4f}",

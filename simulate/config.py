@@ -18,6 +18,9 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
                  [max_node_steps], [max_output_mb], [fallback], [substeps]
     [surge_tank] optional: area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m,
                  tunnel_darcy_friction, [level_max_m], [level_min_m]
+    [blade_servo], [combinator]  double-regulated units (three-input characteristics; see
+                 simulate.components.control.blade_servo)
+    [draft_tube] optional: model, [[draft_tube.segments]], pressure keys (simulate.components.hydraulic.draft_tube)
     [excitation], [grid]  with generator.model = "subtransient"
                  (simulate.components.control.excitation.ExcitationConfig,
                  simulate.components.electrical.generator.GridConfig); [generator] then also takes the machine keys
@@ -47,7 +50,9 @@ class TurbineConfig:
     """Rated values of the unit and where its characteristics come from.
 
     ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
-    ``a = y * opening_max``. ``characteristics`` is ``"ideal"`` or a path to a nets.json (relative to the plant file).
+    ``a = y * opening_max``. ``characteristics`` is ``"ideal"``, ``"synthetic"`` (the exact synthetic Francis),
+    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb) or a path to a nets.json (relative to the plant
+    file); characteristics with a blade angle (three-input nets, the bulb) need ``[combinator]``.
     ``step_up``: the table ``[turbine.step_up]`` when the chart is a model test to be converted to this prototype
     (IEC 60193 efficiency step-up, see below); absent, the characteristics are used as they are.
     """
@@ -474,6 +479,67 @@ class UnitConfig:
                               segments=self.branch)
 
 
+DRAFT_TUBE_MODELS = ("moc", "rigid")
+
+
+@dataclass(frozen=True)
+class DraftTubeConfig:
+    """``[draft_tube]``: the conduit from the runner outlet to the tailwater.
+
+    ``model`` ``"moc"`` or ``"rigid"``; ``[[draft_tube.segments]]`` with the penstock's segment keys
+    (``length_m``, ``diameter_m``, ``wave_speed_m_s``, ``darcy_friction``), runner outlet first;
+    ``atmospheric_pressure_head_m`` (m of water, 10.33 at sea level); ``runner_elevation_m`` the runner outlet above
+    the tailwater level (m, negative below it); ``vapour_pressure_head_m`` (m of water, 0.24 at 20 C);
+    ``vapour_margin_m``: warn when the outlet pressure head falls below vapour pressure head + this margin (m).
+    The component: :mod:`simulate.components.hydraulic.draft_tube`.
+    """
+
+    model: str
+    segments: tuple
+    atmospheric_pressure_head_m: float = 10.33
+    runner_elevation_m: float = 0.0
+    vapour_pressure_head_m: float = 0.24
+    vapour_margin_m: float = 2.0
+
+    def __post_init__(self):
+        check_choice("draft_tube.model", self.model, DRAFT_TUBE_MODELS)
+        segs = self.segments
+        if not isinstance(segs, (list, tuple)) or not segs:
+            raise InputError(f"draft_tube.segments must be a non-empty array of tables [[draft_tube.segments]], "
+                             f"got {segs!r}")
+        objs = []
+        keys = ("length_m", "diameter_m", "wave_speed_m_s", "darcy_friction")
+        for i, seg in enumerate(segs):
+            if isinstance(seg, PenstockSegment):
+                objs.append(seg)
+                continue
+            if not isinstance(seg, dict):
+                raise InputError(f"draft_tube.segments[{i}] must be a table, got {seg!r}")
+            unknown = sorted(set(seg) - set(keys))
+            missing = [k for k in keys if k not in seg]
+            if unknown or missing:
+                what = f"unknown key {unknown[0]}" if unknown else f"missing key {missing[0]}"
+                raise InputError(f"draft_tube.segments[{i}]: {what}; a segment needs {', '.join(keys)}")
+            try:
+                objs.append(PenstockSegment(**seg))
+            except InputError as exc:
+                raise InputError(str(exc).replace("penstock.", "draft_tube.") + f" (segment {i})") from None
+        object.__setattr__(self, "segments", tuple(objs))
+        check_number("draft_tube.atmospheric_pressure_head_m", self.atmospheric_pressure_head_m, low=0.0, high=20.0)
+        check_number("draft_tube.runner_elevation_m", self.runner_elevation_m, low=-100.0, high=20.0)
+        check_number("draft_tube.vapour_pressure_head_m", self.vapour_pressure_head_m, low=0.0, high=20.0)
+        check_number("draft_tube.vapour_margin_m", self.vapour_margin_m, low=0.0, high=50.0)
+
+    def mirrored(self):
+        """The conduit as a :class:`simulate.config.PenstockConfig` from the tailwater to the runner outlet."""
+        return PenstockConfig(model=self.model, static_head_m=1.0, reaches=1, segments=tuple(reversed(self.segments)))
+
+    @property
+    def friction_coefficient_s2_m5(self) -> float:
+        """K of the steady loss K Q|Q| from the runner outlet to the tailwater, s^2/m^5."""
+        return self.mirrored().friction_coefficient_s2_m5
+
+
 @dataclass(frozen=True)
 class PlantConfig:
     """The whole plant file. ``base_dir`` resolves a relative ``turbine.characteristics`` path."""
@@ -489,6 +555,9 @@ class PlantConfig:
     excitation: Any = None  # simulate.components.control.excitation.ExcitationConfig (generator.model = "subtransient")
     grid: Any = None  # simulate.components.electrical.generator.GridConfig (generator.model = "subtransient")
     units: tuple[UnitConfig, ...] = ()
+    blade_servo: Any = None  # simulate.components.control.blade_servo.BladeServoConfig (double-regulated units)
+    combinator: Any = None  # simulate.components.control.blade_servo.CombinatorConfig (double-regulated units)
+    draft_tube: DraftTubeConfig | None = None
 
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
@@ -533,6 +602,12 @@ class PlantConfig:
         if self.generator.model != "swing":
             raise InputError(f"generator.model = {self.generator.model!r}: a plant with [[units]] takes "
                              f"generator.model = \"swing\"")
+        double_regulated = [f"[{name}]" for name in ("draft_tube", "combinator", "blade_servo")
+                            if getattr(self, name) is not None]
+        if double_regulated:
+            raise InputError(f"{', '.join(double_regulated)}: a plant with [[units]] runs single-regulated units "
+                             f"discharging to the tailwater; simulate a double-regulated unit or a draft tube as a "
+                             f"plant of one unit (leave [[units]] out)")
         if self.solver.dt_s is not None:
             raise InputError(f"solver.dt_s = {self.solver.dt_s!r}: a plant with [[units]] steps on the grid of its "
                              f"pipes ((shortest travel time) / penstock.reaches); leave solver.dt_s out")
@@ -642,6 +717,9 @@ _SECTIONS = {
     "excitation": "simulate.components.control.excitation:ExcitationConfig",
     "grid": "simulate.components.electrical.generator:GridConfig",
     "units": UnitConfig,  # an array of tables [[units]]
+    "blade_servo": "simulate.components.control.blade_servo:BladeServoConfig",
+    "combinator": "simulate.components.control.blade_servo:CombinatorConfig",
+    "draft_tube": DraftTubeConfig,
 }
 
 
@@ -782,8 +860,9 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:
             raise InputError(f"missing section [{name}]; a plant file needs turbine, penstock, generator, governor, "
-                             f"scenario ([solver] and [surge_tank] are optional; [excitation] and [grid] go with "
-                             f"generator.model = \"subtransient\")")
+                             f"scenario ([solver], [surge_tank] and [draft_tube] are optional; [excitation] and "
+                             f"[grid] go with generator.model = \"subtransient\"; [combinator] and [blade_servo] "
+                             f"with three-input characteristics)")
     turbine = TurbineConfig(**_build("turbine", TurbineConfig, raw["turbine"]))
     pen_raw = dict(_build("penstock", PenstockConfig, raw["penstock"]))
     seg_objs = _segments(pen_raw.get("segments"), "penstock.segments")
@@ -800,7 +879,7 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
     surge_tank = (SurgeTankConfig(**_build("surge_tank", SurgeTankConfig, raw["surge_tank"]))
                   if "surge_tank" in raw else None)
     optional = {}
-    for name in ("excitation", "grid"):
+    for name in ("excitation", "grid", "blade_servo", "combinator", "draft_tube"):
         if name in raw:
             cls = _section_class(name)
             optional[name] = cls(**_build(name, cls, raw[name]))
@@ -826,7 +905,8 @@ def to_dict(plant: PlantConfig) -> dict[str, Any]:
             value = getattr(obj, f.name)
             if name == "scenario" and value == f.default and f.name not in ("kind", "t_end_s"):
                 continue
-            if name in ("solver", "surge_tank", "generator", "grid", "governor") and value is None:
+            if name in ("solver", "surge_tank", "generator", "grid", "governor", "blade_servo", "combinator",
+                        "draft_tube") and value is None:
                 continue
             if name == "turbine" and f.name == "step_up":
                 if value is None:

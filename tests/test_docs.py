@@ -80,7 +80,7 @@ def test_plant_file_reference_page_is_generated_from_the_config_classes(referenc
 
 #: Which test checks each generated block: the cheap ones here, the re-run examples in tests/test_docs_examples.py.
 CHEAP_BLOCKS = ("demo-summary", "linearize-example", "nets-accuracy", "extension-errors", "paper-numbers",
-                "linear-plant-example", "eq14-table", "surge-tank-example")
+                "linear-plant-example", "eq14-table", "surge-tank-example", "bulb-example")
 EXAMPLE_BLOCKS = ("uncertainty-example", "sweep-example", "closure-example", "report-example", "two-unit-example")
 IDENTIFY_BLOCKS = ("identify-comparison", "closed-loop-table", "head-model-table")
 PRESSURE_LOOP_BLOCKS = ("pressure-loop",)

@@ -6,6 +6,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import math
+
+import numba
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
@@ -18,6 +21,44 @@ from hillchart.validation import check_finite
 # ----------------------------------------------------------------------------------------------------------------
 #: Inputs of the three-input NET blocks (nets.json NET format): unit speed, guide-vane opening, blade angle.
 NET3_INPUTS = ("n11", "opening", "blade_angle")
+
+
+def packed_net3(weights: FCCMWeights) -> np.ndarray:
+    """A three-input, one-output :class:`FCCMWeights` as one float vector for :func:`net3_point`:
+    ``[H, x_min (3), x_max (3), y_min, y_max, b2, W1 (H x 3, row-major), b1 (H), W2 (H)]``."""
+    if len(weights.inputs) != 3 or len(weights.outputs) != 1:
+        raise InputError(f"packed_net3 needs a 3-input, 1-output net, got inputs {list(weights.inputs)} and outputs "
+                         f"{list(weights.outputs)}")
+    return np.concatenate(([float(weights.hidden)], weights.x_min, weights.x_max,
+                           [weights.y_min[0], weights.y_max[0], weights.b2[0]], weights.W1.ravel(), weights.b1,
+                           weights.W2[0]))
+
+
+@numba.njit(cache=True)
+def net3_point(p, x0, x1, x2):
+    """Value y and dy/dx0 of a packed three-input net (:func:`packed_net3`) at one point, physical units: the
+    evaluation of :meth:`FCCMWeights.predict` (mapminmax, logsig hidden layer (eq. (10) of paper 004), linear
+    output, reverse mapminmax) on scalars for the compiled time loop, with the derivative of
+    :meth:`FCCMWeights.predict_grad` in the first input (unit speed)."""
+    hidden = int(p[0])
+    s0 = 2.0 / (p[4] - p[1])
+    xn0 = s0 * (x0 - p[1]) - 1.0
+    xn1 = 2.0 * (x1 - p[2]) / (p[5] - p[2]) - 1.0
+    xn2 = 2.0 * (x2 - p[3]) / (p[6] - p[3]) - 1.0
+    y_min, y_max, yn = p[7], p[8], p[9]
+    w1, b1, w2 = 10, 10 + 3 * hidden, 10 + 4 * hidden
+    g = 0.0
+    for i in range(hidden):
+        z = p[w1 + 3 * i] * xn0 + p[w1 + 3 * i + 1] * xn1 + p[w1 + 3 * i + 2] * xn2 + p[b1 + i]
+        if z >= 0.0:  # logsig without overflow for either sign of z
+            f = 1.0 / (1.0 + math.exp(-z))
+        else:
+            ez = math.exp(z)
+            f = ez / (1.0 + ez)
+        yn += p[w2 + i] * f
+        g += p[w2 + i] * f * (1.0 - f) * p[w1 + 3 * i]
+    half = 0.5 * (y_max - y_min)
+    return (yn + 1.0) * half + y_min, g * half * s0
 
 
 def _net_block(weights: FCCMWeights, output: str) -> dict:
@@ -188,17 +229,19 @@ def load_double_regulated_nets(path) -> DoubleRegulatedNets:
         raise InputError(f"{path}: {exc}") from None
 
 
-def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_range=(110.0, 230.0)) -> dict:
+def bulb_chart_samples(turbine=None, *, n_points: int = 600, seed: int = 0, n11_range=(110.0, 230.0),
+                       opening_range=None) -> dict:
     """Scattered samples of the synthetic bulb's unit characteristic (its 'chart'): the 8 corners of the box plus a
-    seeded Latin hypercube over n11 (r/min), guide-vane angle and blade angle (the paper's ranges), with exact Q11
-    (m^3/s) and M11 (N*m)."""
+    seeded Latin hypercube over n11 (r/min), guide-vane angle (``opening_range``, default the paper's range) and
+    blade angle (the paper's range), with exact Q11 (m^3/s) and M11 (N*m)."""
     from scipy.stats import qmc
 
     from hillchart.synthetic.bulb import BLADE_RANGE_DEG, GUIDE_VANE_RANGE_DEG, SyntheticBulb
 
     turbine = turbine or SyntheticBulb()
-    lo = np.array([n11_range[0], GUIDE_VANE_RANGE_DEG[0], BLADE_RANGE_DEG[0]])
-    hi = np.array([n11_range[1], GUIDE_VANE_RANGE_DEG[1], BLADE_RANGE_DEG[1]])
+    opening_range = GUIDE_VANE_RANGE_DEG if opening_range is None else opening_range
+    lo = np.array([n11_range[0], opening_range[0], BLADE_RANGE_DEG[0]])
+    hi = np.array([n11_range[1], opening_range[1], BLADE_RANGE_DEG[1]])
     corners = np.array([[lo[0] if i & 1 == 0 else hi[0], lo[1] if i & 2 == 0 else hi[1],
                          lo[2] if i & 4 == 0 else hi[2]] for i in range(8)])  # the fitted box = the chart's ranges
     x = np.vstack([corners, qmc.scale(qmc.LatinHypercube(d=3, seed=np.random.default_rng(seed)).random(n_points - 8),
@@ -220,6 +263,153 @@ def train_double_regulated_nets(samples: dict, *, hidden: int = 15, restarts: in
         nets[key] = est.weights_
         record[key] = est.training_record()
     return DoubleRegulatedNets(flow=nets["flow"], torque=nets["torque"], opening_unit="deg", training=record)
+
+
+#: How the shipped bulb nets (``data_synthetic/bulb/nets.json``) are made: samples of the synthetic bulb's unit
+#: characteristic over the range a load rejection of the example plant visits (n11 up to runaway, guide vanes down
+#: to 0.2 deg above closure), plus samples at the closed vane (Q11 = 0: the extension to zero opening, without which
+#: the nets leak a little flow at closure that pumps the water hammer), and the net size.
+SHIPPED_BULB_NETS = {"n_points": 2000, "n_closed": 300, "seed": 0, "n11_range": (100.0, 300.0),
+                     "opening_range": (35.2, 78.0), "hidden": 30, "restarts": 2}
+
+
+def bulb_closed_vane_samples(turbine=None, *, n_points: int = 300, seed: int = 0, n11_range=(100.0, 300.0)) -> dict:
+    """Samples of the synthetic bulb at the closed guide vane (1e-6 deg above the angle at which the vanes touch:
+    Q11 ~ 0, M11 the disc friction), over a seeded uniform draw of n11 (r/min) and blade angle (deg)."""
+    from hillchart.synthetic.bulb import BLADE_RANGE_DEG, SyntheticBulb
+
+    turbine = turbine or SyntheticBulb()
+    rng = np.random.default_rng([seed, 2])
+    n11 = rng.uniform(n11_range[0], n11_range[1], n_points)
+    blade = rng.uniform(BLADE_RANGE_DEG[0], BLADE_RANGE_DEG[1], n_points)
+    gv = np.full(n_points, turbine.params.guide_vane_closed_deg + 1e-6)
+    return {"n11": n11, "opening": gv, "blade_angle": blade, "q11": turbine.q11(n11, gv, blade),
+            "m11": turbine.m11(n11, gv, blade)}
+
+
+def write_bulb_nets(out_dir) -> Path:
+    """Train and write the shipped three-input nets of the synthetic bulb (:data:`SHIPPED_BULB_NETS`) to
+    ``out_dir/nets.json``; the same settings give the same nets (seeded)."""
+    cfg = SHIPPED_BULB_NETS
+    samples = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
+                                 opening_range=cfg["opening_range"])
+    closed = bulb_closed_vane_samples(n_points=cfg["n_closed"], seed=cfg["seed"], n11_range=cfg["n11_range"])
+    samples = {k: np.concatenate([samples[k], closed[k]]) for k in samples}
+    nets = train_double_regulated_nets(samples, hidden=cfg["hidden"], restarts=cfg["restarts"], seed=cfg["seed"])
+    nets.training["source"] = ("samples of the synthetic bulb's unit characteristic (hillchart.synthetic.bulb): "
+                               f"{cfg['n_points']} scattered, {cfg['n_closed']} at the closed vane, seed {cfg['seed']}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return nets.save(out / "nets.json")
+
+
+def table_unit_samples(table, *, opening_closed: float | None = None, zero_opening_points: int = 200,
+                       seed: int = 0) -> tuple[dict, list[str]]:
+    """Unit samples (n11, opening, blade_angle, q11, m11) of a double-regulated test table
+    (:class:`hillchart.fccm.table.TestTable` with ``guide_vane_deg``, ``n11_rpm``, ``q11_m3_s``, ``efficiency`` and
+    ``blade_angle_deg``), and the notes on what was assumed.
+
+    * M11 from the efficiency, eq. (5) of the BP hill-chart paper (``M11 = rho g Q11 eta / omega11``).
+    * A table without ``blade_angle_deg`` is a fixed-blade (propeller) unit: ``blade_angle_deg`` of the table's
+      ``table.toml`` is not known, so the angle is taken as 0 deg (a note says so); the nets then do not depend on it.
+    * The extension to zero opening (paper 004's eq. (6)): with ``opening_closed`` (the guide-vane angle at which the
+      vanes touch), ``zero_opening_points`` samples with Q11 = 0 over the table's N11 and blade-angle range; M11 = 0
+      there (the table says nothing of the zero-flow torque; paper 004's eqs. (8)-(9) fit it from the lowest opening
+      lines of a Francis chart, which a double-regulated table does not have).
+    """
+    from hillchart.characteristics import unit_torque_from_efficiency
+
+    notes = []
+    n11 = np.asarray(table.column("n11_rpm"), float)
+    q11 = np.asarray(table.column("q11_m3_s"), float)
+    opening = np.asarray(table.column("guide_vane_deg"), float)
+    eta = np.asarray(table.column("efficiency"), float)
+    if "blade_angle_deg" in table.columns:
+        blade = np.asarray(table.column("blade_angle_deg"), float)
+    else:
+        blade = np.zeros_like(n11)
+        notes.append("the table has no blade_angle_deg column: a fixed-blade (propeller) unit, blade angle taken as "
+                     "0 deg (use combinator.relation = \"off\", fixed_angle_deg = 0 in the plant)")
+    ok = np.isfinite(n11) & np.isfinite(q11) & np.isfinite(eta) & (n11 > 0)
+    if not ok.all():
+        notes.append(f"{int((~ok).sum())} rows without n11, Q11 or efficiency left out")
+    n11, q11, opening, eta, blade = n11[ok], q11[ok], opening[ok], eta[ok], blade[ok]
+    m11 = unit_torque_from_efficiency(q11, n11, eta)  # eq. (5) of paper 004
+    samples = {"n11": n11, "opening": opening, "blade_angle": blade, "q11": q11, "m11": np.asarray(m11, float)}
+    if opening_closed is not None:
+        if not opening_closed < opening.min():
+            raise InputError(f"the closed guide-vane angle {opening_closed!r} must be below the table's smallest "
+                             f"guide_vane_deg {opening.min()!r}")
+        rng = np.random.default_rng([seed, 3])
+        k = int(zero_opening_points)
+        zero = {"n11": rng.uniform(n11.min(), n11.max(), k), "opening": np.full(k, float(opening_closed)),
+                "blade_angle": rng.uniform(blade.min(), blade.max(), k) if np.ptp(blade) > 0 else np.full(k, blade[0]),
+                "q11": np.zeros(k), "m11": np.zeros(k)}
+        samples = {key: np.concatenate([samples[key], zero[key]]) for key in samples}
+        notes.append(f"extended to the closed vane ({opening_closed:g} deg): {k} samples with Q11 = 0, M11 = 0")
+    return samples, notes
+
+
+def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0, members: int = 5,
+                     split=(0.70, 0.15, 0.15)) -> tuple["DoubleRegulatedNets", dict]:
+    """Three-input nets from ``samples`` (:func:`table_unit_samples`) with an ensemble of ``members`` nets (seeds
+    ``seed``, ``seed + 2``, ...; the first is the point nets) and the plausibility checks: on a grid over the
+    samples' box, the share of points where Q11 falls as the guide vanes open (dQ11/da < 0), where the efficiency
+    exceeds 1 (where Q11 is above 5 % of its largest value), and the ensemble's spread (5-95 % of Q11 and M11, as
+    % of their ranges). A constant input (a fixed-blade table) is widened by 1 on either side so the net's scaling
+    is defined; the nets do not depend on it.
+
+    Returns
+    -------
+    nets : DoubleRegulatedNets
+    report : dict
+        ``plausibility`` figures and ``warnings`` (text that says what to check).
+    """
+    X = {k: np.asarray(samples[k], float) for k in NET3_INPUTS}
+    fitted = dict(samples)
+    constant = [k for k in NET3_INPUTS if np.ptp(X[k]) == 0]
+    if constant:  # a constant input: two copies of the samples at +-1 so the scaling is defined and the slope 0
+        fitted = {k: np.concatenate([np.asarray(samples[k], float)] * 2) for k in samples}
+        for k in constant:
+            fitted[k] = np.concatenate([X[k] - 1.0, X[k] + 1.0])
+    ensemble = [train_double_regulated_nets(fitted, hidden=hidden, restarts=restarts, seed=seed + 2 * i, split=split)
+                for i in range(max(1, members))]
+    nets = ensemble[0]
+    lo = np.array([X[k].min() for k in NET3_INPUTS])
+    hi = np.array([X[k].max() for k in NET3_INPUTS])
+    axes = [np.linspace(lo[j], hi[j], 12) for j in range(3)]
+    g = np.meshgrid(*axes, indexing="ij")
+    n11, a, phi = (v.ravel() for v in g)
+    q = nets.q11(n11, a, phi)
+    dq_da = nets.q11_grad(n11, a, phi)[1]
+    eta = nets.efficiency(n11, a, phi)
+    q_all = np.array([m.q11(n11, a, phi) for m in ensemble])
+    m_all = np.array([m.m11(n11, a, phi) for m in ensemble])
+    spread_q = float(np.median(np.percentile(q_all, 95, axis=0) - np.percentile(q_all, 5, axis=0))
+                     / max(np.ptp(samples["q11"]), 1e-12))
+    spread_m = float(np.median(np.percentile(m_all, 95, axis=0) - np.percentile(m_all, 5, axis=0))
+                     / max(np.ptp(samples["m11"]), 1e-12))
+    flowing = q > 0.05 * q.max()  # the efficiency of a near-zero flow is the ratio of two small numbers
+    eta = np.where(flowing, eta, np.nan)
+    report = {"plausibility": {"share_dq11_da_negative": float(np.mean(dq_da < 0)),
+                               "share_efficiency_above_1": float(np.mean(np.nan_to_num(eta) > 1.0)),
+                               "max_efficiency": float(np.nanmax(eta)), "q11_min": float(q.min()),
+                               "ensemble_members": len(ensemble),
+                               "ensemble_spread_q11_pct": 100.0 * spread_q,
+                               "ensemble_spread_m11_pct": 100.0 * spread_m},
+              "warnings": []}
+    p = report["plausibility"]
+    if p["share_dq11_da_negative"] > 0.05:
+        report["warnings"].append(f"Q11 falls as the guide vanes open on {100 * p['share_dq11_da_negative']:.0f} % of "
+                                  "the table's box: the nets fit noise or the table is thin there; check the table, "
+                                  "fewer hidden neurons (--hidden)")
+    if p["share_efficiency_above_1"] > 0:
+        report["warnings"].append(f"the nets' efficiency exceeds 1 on {100 * p['share_efficiency_above_1']:.1f} % of "
+                                  f"the table's box (max {p['max_efficiency']:.3f}): implausible; check the table's "
+                                  "efficiency column (a fraction) and the extension")
+    nets.training["plausibility"] = p
+    nets.training["ensemble_seeds"] = [seed + 2 * i for i in range(len(ensemble))]
+    return nets, report
 
 
 def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_diameter_m: float,

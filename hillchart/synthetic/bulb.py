@@ -71,6 +71,7 @@ import math
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
@@ -182,6 +183,60 @@ def _torque_nm(p: BulbParameters, flow, radius_m, cu1, cu2, n_rpm, diameter_m):
     return RHO_WATER_KG_M3 * flow * radius_m * (cu1 - cu2) - p.k_disc_friction * n_rpm ** 2 * diameter_m ** 5
 
 
+#: Layout of :meth:`SyntheticBulb.point_parameters` (the scalars :func:`unit_point` reads).
+POINT_PARAMETERS = ("area_ratio", "mean_radius_ratio", "swirl_factor", "guide_vane_closed_deg", "beta1_deg",
+                    "beta2_deg", "k_guide_vane", "k_incidence", "k_runner", "k_draft_tube", "k_swirl",
+                    "k_disc_friction")
+#: Smallest flow angle alpha = beta - beta_closed (deg) :func:`unit_point` evaluates: at the closed vane the swirl
+#: cot(alpha) is infinite; Q11 tends to 0 like tan(alpha), so 1e-9 deg gives Q11 ~ 1e-11 of full flow.
+MIN_FLOW_ANGLE_DEG = 1e-9
+
+
+@numba.njit(cache=True)
+def unit_point(params, n11, guide_vane_deg, blade_deg):
+    """The unit characteristic at one point for the compiled time loop: ``(q11, dq11/dn11, m11, dm11/dn11)``
+    (m^3/s, N*m, per r/min), ``params`` = :meth:`SyntheticBulb.point_parameters`.
+
+    The same energy balance as :func:`_axial_velocity` and the same torque as :func:`_torque_nm` (D = 1 m, H = 1 m),
+    written on scalars, with the n11-derivative of the root of ``a cm^2 + b cm + c = 0``:
+    ``dcm/du = -(cm db/du + dc/du) / (2 a cm + b)`` (a does not depend on u). No range check (the loop must not
+    raise): a flow angle below :data:`MIN_FLOW_ANGLE_DEG` is taken at it (the closed vane passes no flow).
+    ``tests/hillchart/synthetic/test_bulb_kernel.py`` checks it against :meth:`SyntheticBulb.q11`/``m11`` and the
+    derivatives against central differences.
+    """
+    area, r_m, s_f, closed, beta1, beta2_0 = params[0], params[1], params[2], params[3], params[4], params[5]
+    k_gv, k_inc, k_r, k_dt, k_sw, k_df = params[6], params[7], params[8], params[9], params[10], params[11]
+    alpha = max(guide_vane_deg - closed, MIN_FLOW_ANGLE_DEG)
+    cot_a = 1.0 / math.tan(math.radians(alpha))
+    cot_b1 = 1.0 / math.tan(math.radians(beta1 + blade_deg))
+    beta2 = math.radians(beta2_0 + blade_deg)
+    cot_b2 = 1.0 / math.tan(beta2)
+    sin_b2 = math.sin(beta2)
+    du_dn = 2.0 * math.pi * r_m / 60.0
+    u = du_dn * n11
+    swirl = s_f * cot_a
+    e_inc = swirl + cot_b1
+    a = 0.5 * (k_gv * (1.0 + swirl * swirl) + k_inc * e_inc * e_inc + k_r / (sin_b2 * sin_b2) + k_dt
+               + k_sw * cot_b2 * cot_b2)
+    db_du = (swirl + cot_b2) - k_inc * e_inc - k_sw * cot_b2
+    b = u * db_du
+    c = u * u * (0.5 * (k_inc + k_sw) - 1.0) - G_M_S2
+    disc = math.sqrt(b * b - 4.0 * a * c)
+    if b >= 0.0:
+        cm = -2.0 * c / (b + disc)
+    else:
+        cm = (disc - b) / (2.0 * a)
+    dc_du = 2.0 * u * (0.5 * (k_inc + k_sw) - 1.0)
+    dcm_du = -(cm * db_du + dc_du) / (2.0 * a * cm + b)
+    q11 = area * cm
+    dq_dn = area * dcm_du * du_dn
+    turn = swirl * cm - (u - cm * cot_b2)  # cu1 - cu2
+    dturn_dn = (swirl * dcm_du - 1.0 + dcm_du * cot_b2) * du_dn
+    m11 = RHO_WATER_KG_M3 * q11 * r_m * turn - k_df * n11 * n11
+    dm_dn = RHO_WATER_KG_M3 * r_m * (dq_dn * turn + q11 * dturn_dn) - 2.0 * k_df * n11
+    return q11, dq_dn, m11, dm_dn
+
+
 @dataclass(frozen=True)
 class OperatingPoints:
     """Operating points of the unit at constant speed on its water system (arrays of one shape).
@@ -264,6 +319,12 @@ class SyntheticBulb:
         """Hydraulic efficiency M11 omega11 / (rho g Q11) on the unit characteristic (fraction)."""
         q11, m11 = self._unit(n11, guide_vane_deg, blade_angle_deg)
         return m11 * np.asarray(n11, dtype=float) * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q11)
+
+    def point_parameters(self) -> np.ndarray:
+        """The float vector (layout :data:`POINT_PARAMETERS`) of :func:`unit_point`."""
+        p = self.params
+        values = {"area_ratio": p.area_ratio, "mean_radius_ratio": p.mean_radius_ratio}
+        return np.array([values[name] if name in values else getattr(p, name) for name in POINT_PARAMETERS])
 
     # the plant: constant speed on the water system -----------------------------------------------------------
     def operate(self, blade_angle_deg, guide_vane_deg) -> OperatingPoints:

@@ -17,10 +17,20 @@ def register(subparsers) -> None:
                     "grey relational analysis of the controls.",
     )
     parser.add_argument("table", metavar="TABLE_DIR", help="test-table folder (table.csv + table.toml)")
-    parser.add_argument("--inputs", required=True, help="comma-separated input columns, e.g. "
-                        "blade_angle_deg,guide_vane_deg")
-    parser.add_argument("--outputs", dest="output_columns", required=True, metavar="COLUMNS",
-                        help="comma-separated output columns, e.g. efficiency,head_m,power_kw,flow_m3_s")
+    parser.add_argument("--inputs", default=None, help="comma-separated input columns, e.g. "
+                        "blade_angle_deg,guide_vane_deg (required unless --simulator-nets)")
+    parser.add_argument("--outputs", dest="output_columns", default=None, metavar="COLUMNS",
+                        help="comma-separated output columns, e.g. efficiency,head_m,power_kw,flow_m3_s (required "
+                             "unless --simulator-nets)")
+    parser.add_argument("--simulator-nets", action="store_true",
+                        help="instead: train the three-input nets Q11(n11, opening, blade angle) and M11 the "
+                             "simulator runs (nets.json in --out), with an ensemble and plausibility checks; the "
+                             "table needs guide_vane_deg, efficiency and n11/Q11 (or head, flow, speed and diameter)")
+    parser.add_argument("--closed-opening", type=float, default=None, metavar="DEG",
+                        help="with --simulator-nets: the guide-vane angle at which the vanes touch; extends the "
+                             "samples to the closed vane (Q11 = 0)")
+    parser.add_argument("--members", type=int, default=5,
+                        help="with --simulator-nets: ensemble members, the point nets included (default 5)")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
                         help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation)")
@@ -62,6 +72,11 @@ def run(args: argparse.Namespace) -> int:
     from hillchart.fccm.net import FCCMNet
     from hillchart.fccm.table import load_test_table
 
+    if args.simulator_nets:
+        return _run_simulator_nets(args)
+    for option, value in (("--inputs", args.inputs), ("--outputs", args.output_columns)):
+        if value is None:
+            raise InputError(f"{option} is required (or --simulator-nets for the simulator's three-input nets)")
     inputs, outputs = _names("--inputs", args.inputs), _names("--outputs", args.output_columns)
     if args.hidden is not None and not 1 <= args.hidden <= 100:
         raise InputError(f"--hidden must be an integer within 1-100, got {args.hidden}")
@@ -110,4 +125,50 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {w}")
     for path in written.values():
         print(f"wrote {Path(args.out) / Path(path).relative_to(out)}")
+    return 0
+
+
+def _run_simulator_nets(args) -> int:
+    """``--simulator-nets``: three-input nets for the simulator from the table (nets.json, plausibility.json)."""
+    import json
+    import warnings
+
+    from hillchart.errors import InputError
+    from hillchart.fccm.double_regulated import table_unit_samples, train_table_nets
+    from hillchart.fccm.table import load_test_table
+
+    if args.inputs is not None or args.output_columns is not None:
+        raise InputError("--simulator-nets trains Q11 and M11 on (n11, guide_vane_deg, blade_angle_deg): drop "
+                         "--inputs and --outputs")
+    hidden = 15 if args.hidden is None else args.hidden
+    if not 1 <= hidden <= 100:
+        raise InputError(f"--hidden must be an integer within 1-100, got {hidden}")
+    for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1),
+                               ("--members", args.members, 1)):
+        if value < low:
+            raise InputError(f"{option} must be an integer >= {low}, got {value}")
+    split = _split(args.split) if args.split != "0.30,0.35,0.35" else (0.70, 0.15, 0.15)
+    out = args.outputs.folder("--out", args.out)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = load_test_table(args.table)
+    for w in caught:
+        print(f"warning: {w.message}", flush=True)
+    samples, notes = table_unit_samples(table, opening_closed=args.closed_opening, seed=args.seed)
+    nets, report = train_table_nets(samples, hidden=hidden, restarts=args.restarts, seed=args.seed,
+                                    members=args.members, split=split)
+    nets.training["notes"] = notes
+    nets.save(out / "nets.json")
+    (out / "plausibility.json").write_text(json.dumps({**report, "notes": notes}, indent=2) + "\n", encoding="utf-8")
+    p = report["plausibility"]
+    print(f"table {table.info.name!r}: {samples['n11'].size} unit samples; nets 3-{hidden}-1 (Q11, M11), "
+          f"{p['ensemble_members']} ensemble members")
+    print(f"plausibility: dQ11/da < 0 on {100 * p['share_dq11_da_negative']:.1f} % of the box, efficiency up to "
+          f"{p['max_efficiency']:.3f}, ensemble spread Q11 {p['ensemble_spread_q11_pct']:.2f} %, "
+          f"M11 {p['ensemble_spread_m11_pct']:.2f} % of their ranges")
+    for line in notes:
+        print(f"note: {line}")
+    for line in report["warnings"]:
+        print(f"warning: {line}")
+    print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")
     return 0

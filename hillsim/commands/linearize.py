@@ -1,4 +1,5 @@
-"""``hillsim linearize NETS --n11 X --opening A [--map out.png]``: the six transfer coefficients from the nets.
+"""``hillsim linearize NETS --n11 X --opening A [--blade-angle PHI] [--map out.png]``: the six transfer coefficients
+from the nets (eight for a double-regulated turbine: the blade angle's ``ephi``, ``eqphi`` per degree).
 
 Prints one JSON object: the operating point, ``ex, ey, eh, eqx, eqy, eqh`` (analytic derivatives of the nets, see
 :mod:`hillchart.linearize`) and paper 002's ``e``. ``NETS`` is a ``nets.json``, the word ``synthetic`` (the exact
@@ -26,6 +27,8 @@ def load_characteristics(source: str, plant=None):
                                               key="NETS")
     if source == "synthetic":
         return characteristics, "synthetic Francis turbine (exact)", "mm"
+    if source == "synthetic-bulb":
+        return characteristics, "synthetic bulb turbine (exact, double regulated)", "deg"
     if source == "ideal":
         return characteristics, "ideal turbine (the plant's rated values)", "chart units"
     return characteristics, str(source), getattr(characteristics, "opening_unit", "chart units")
@@ -51,11 +54,15 @@ def register(subparsers) -> None:
                     "(Wang et al. 2023, eqs. 4-7). Prints JSON; --map draws each coefficient over (N11, a).",
     )
     parser.add_argument("nets", metavar="NETS",
-                        help="nets.json, 'synthetic' for the exact synthetic turbine, or with --plant 'ideal' (the "
-                             "ideal turbine from the plant's rated values)")
+                        help="nets.json (two-input, or three-input with a blade angle), 'synthetic' for the exact "
+                             "synthetic turbine, 'synthetic-bulb' for the exact double-regulated bulb, or with "
+                             "--plant 'ideal' (the ideal turbine from the plant's rated values)")
     point = parser.add_argument_group("operating point (either N11 directly or speed, head and diameter)")
     point.add_argument("--n11", type=float, default=None, help="unit speed N11, r/min")
     point.add_argument("--opening", type=float, default=None, help="guide-vane opening, chart units (> 0)")
+    point.add_argument("--blade-angle", type=float, default=None,
+                       help="runner-blade angle, deg: with three-input (double-regulated) characteristics, which "
+                            "give eight coefficients (the six and the blade angle's ephi, eqphi, per degree)")
     point.add_argument("--plant", default=None, metavar="TOML",
                        help="linearize at this plant's initial operating point (its scenario's initial power or "
                             "opening, or --stroke) with NETS as the characteristics; adds the linear plant model")
@@ -88,6 +95,13 @@ def run(args: argparse.Namespace) -> int:
     characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.stroke is not None or args.penstock_model is not None:
         raise InputError("--stroke and --penstock-model need --plant")
+    from simulate.components.turbine.double_regulated import is_three_input
+
+    if is_three_input(characteristics):
+        return _run_eight(args, characteristics, label, opening_unit)
+    if args.blade_angle is not None:
+        raise InputError(f"--blade-angle needs three-input characteristics (a double-regulated turbine); {args.nets!r} "
+                         f"has two inputs")
     if args.opening is None:
         raise InputError("the operating point needs --opening (chart units), or --plant")
     physical = (args.speed_rpm, args.head_m, args.d1_m)
@@ -168,5 +182,47 @@ def _run_plant(args) -> int:
     out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
     out |= to_json_dict(plant_linearization(plant, characteristics, initial_opening=args.stroke,
                                             penstock_model=args.penstock_model, sample_time_s=args.tau))
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _run_eight(args, characteristics, label, opening_unit) -> int:
+    """Eight coefficients of three-input characteristics at (N11, opening, blade angle)."""
+    import sys
+
+    from hillchart.linearize import EIGHT_COEFFICIENT_NAMES, eight_coefficients
+
+    if args.map is not None:
+        raise InputError("--map draws two-input charts: it does not take three-input characteristics")
+    if args.opening is None or args.blade_angle is None:
+        raise InputError("three-input characteristics need --opening (chart units) and --blade-angle (deg)")
+    n11 = args.n11
+    if n11 is None:
+        if any(v is None for v in (args.speed_rpm, args.head_m, args.d1_m)):
+            raise InputError("the operating point needs --n11, or all of --speed-rpm, --head-m and --d1-m")
+        for name, value in (("--speed-rpm", args.speed_rpm), ("--head-m", args.head_m), ("--d1-m", args.d1_m)):
+            if not (np.isfinite(value) and value > 0):
+                raise InputError(f"{name} must be > 0, got {value}")
+        n11 = args.speed_rpm * args.d1_m / np.sqrt(args.head_m)  # model law N11 = n D1 / sqrt(H)
+    coeffs = eight_coefficients(characteristics, n11=n11, opening=args.opening, blade_angle=args.blade_angle)
+    record = coeffs.to_dict()
+    warnings = []
+    flow = getattr(characteristics, "flow", None)
+    if flow is not None and hasattr(flow, "x_min"):
+        point = (record["n11_rpm"], args.opening, args.blade_angle)
+        outside = [f"{name} {value:.4g} outside {lo:.4g}-{hi:.4g}" for name, value, lo, hi in
+                   zip(("N11", "opening", "blade angle"), point, flow.x_min, flow.x_max) if not lo <= value <= hi]
+        if outside:
+            warnings.append("the point is outside the nets' training range (" + ", ".join(outside) + "): the "
+                            "coefficients are extrapolated; choose a point inside it")
+    for line in warnings:
+        print(f"hillsim linearize: warning: {line}", file=sys.stderr)
+    out = {"source": label, "opening_unit": opening_unit,
+           "operating_point": {"n11_rpm": record["n11_rpm"], "opening": args.opening,
+                               "blade_angle_deg": args.blade_angle, "q11_m3_s": record["q11_m3_s"],
+                               "m11_nm": record["m11_nm"]},
+           "coefficients": {k: record[k] for k in EIGHT_COEFFICIENT_NAMES},
+           "coefficient_units": {"ephi": "1/deg", "eqphi": "1/deg"},
+           "warnings": warnings}
     print(json.dumps(out, indent=2))
     return 0

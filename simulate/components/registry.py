@@ -13,13 +13,18 @@ penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); updat
                                          node_heads(p, s, H_up, H, out)
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
                                          (optional: the component's extra timeseries columns)
-control    scenario's control            step(p, s, speed_rpm, t, t_next, dt) -> controls (fractions of stroke)
+control    scenario's control            step(p, s, speed_rpm, t, t_next, dt) -> controls (fractions of stroke);
+           (``_blades`` with             record(p, s, out) (optional)
+           ``[combinator]``)
+downstream ``[draft_tube]`` present?     relation(p, s) -> (C_M, B_M) (H_out = C_M + B_M Q at the runner outlet);
+                                         update(p, s, H_out, Q); record(p, s, out) (optional)
 shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_torque_nm, t, dt) -> rpm;
                                          record(p, s, out) (optional)
 ========== ============================= ==================================================================
 
-Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, control/shaft
-``build(plant, steady, dt_s, schedules)``, each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
+Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, downstream ``build(plant, steady,
+dt_s)``, control/shaft ``build(plant, steady, dt_s, schedules)`` (the blade controls also take the plant's
+characteristics view, ``characteristics=``), each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
 A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
 accepted by the plant file and built like the shipped ones. The turbine characteristics are
 compiled by :func:`compile_characteristics` (any object with ``numba_kernel()`` (two inputs N11, a),
@@ -134,6 +139,13 @@ UPSTREAM = Registry("upstream", "upstream", {
 CONTROLS = Registry("control", "control", {
     "governor": "simulate.components.control.governor:build_governor",
     "prescribed": "simulate.components.control.governor:build_prescribed",
+    "governor_blades": "simulate.components.control.blade_servo:build_governor_blades",
+    "prescribed_blades": "simulate.components.control.blade_servo:build_prescribed_blades",
+})
+#: The water below the runner: a ``[draft_tube]`` conduit when the section is present, else the tailwater itself.
+DOWNSTREAM = Registry("downstream", "downstream", {
+    "tailwater": "simulate.components.hydraulic.draft_tube:build_tailwater",
+    "draft_tube": "simulate.components.hydraulic.draft_tube:build_draft_tube",
 })
 SHAFTS = Registry("shaft", "generator.model", {
     "swing": "simulate.components.shaft.rotor:build_rotor",
@@ -143,6 +155,7 @@ SHAFTS = Registry("shaft", "generator.model", {
 CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
     "ideal": "simulate.components.registry:ideal_from_rated",
     "synthetic": "simulate.components.registry:synthetic_francis",
+    "synthetic-bulb": "simulate.components.registry:synthetic_bulb",
     "nets": "simulate.components.registry:nets_from_path",
 })
 
@@ -164,6 +177,20 @@ def section_component(registry: Registry, plant, default: str):
 def upstream_section(plant):
     """``(name, config)`` of the plant's upstream component (``("reservoir", None)`` without an upstream section)."""
     return section_component(UPSTREAM, plant, "reservoir")
+
+
+def downstream_section(plant):
+    """``(name, config)`` of the plant's downstream component (``("tailwater", None)`` without ``[draft_tube]``)."""
+    return section_component(DOWNSTREAM, plant, "tailwater")
+
+
+def control_name(plant, schedules) -> str:
+    """The control component of ``plant``: ``"governor"`` or ``"prescribed"`` (who drives the guide vanes), with
+    ``"_blades"`` when the plant has a ``[combinator]`` (a double-regulated unit: the runner blades are control 1)."""
+    from simulate.components.schedules import GOVERNOR
+
+    name = "governor" if schedules.mode == GOVERNOR else "prescribed"
+    return name + "_blades" if getattr(plant, "combinator", None) is not None else name
 
 
 def shaft_section(plant):
@@ -188,6 +215,25 @@ def synthetic_francis(turbine=None, base_dir=None):
     return SyntheticFrancis()
 
 
+def synthetic_bulb(turbine=None, base_dir=None):
+    """The exact synthetic double-regulated bulb turbine (three inputs: n11, guide-vane angle, blade angle)."""
+    from hillchart.synthetic.bulb import SyntheticBulb
+
+    return SyntheticBulb()
+
+
+def _is_three_input_nets(path: Path) -> bool:
+    """True when the nets.json at ``path`` has three-input blocks (inputs n11, opening, blade_angle)."""
+    import json
+
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False  # the two-input loader reports what is wrong with the file
+    flow = doc.get("flow") if isinstance(doc, dict) else None
+    return isinstance(flow, dict) and flow.get("inputs") == ["n11", "opening", "blade_angle"]
+
+
 def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics"):
     """Nets read from a nets.json ``path`` (relative to ``base_dir``)."""
     spec = str(path)
@@ -198,6 +244,10 @@ def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics")
         where = " (relative to the plant file)" if base_dir is not None else ""
         raise InputError(f"{key} = {spec!r}: nets file {str(path)!r} does not exist; give \"ideal\", "
                          f"\"synthetic\" or the path of a nets.json{where}")
+    if _is_three_input_nets(path):
+        from hillchart.fccm.double_regulated import load_double_regulated_nets
+
+        return load_double_regulated_nets(path)
     from hillchart.nets.hill_nets import load_nets
 
     return load_nets(path)
@@ -205,8 +255,9 @@ def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics")
 
 def resolve_characteristics(spec: str, *, turbine=None, base_dir=None, key: str = "turbine.characteristics"):
     """The one resolver of characteristics for the plant file and every command: ``"ideal"`` (needs ``turbine``),
-    ``"synthetic"`` or a nets.json path; with ``turbine.step_up`` the model's characteristics converted to the
-    prototype (:func:`simulate.components.turbine.step_up.apply_step_up`)."""
+    ``"synthetic"``, ``"synthetic-bulb"`` or a nets.json path (two-input nets, or three-input ones with inputs
+    n11, opening, blade_angle); with ``turbine.step_up`` the model's characteristics converted to the prototype
+    (:func:`simulate.components.turbine.step_up.apply_step_up`)."""
     if spec == "ideal":
         if turbine is None:
             raise InputError(f"{key} = 'ideal' needs the plant's rated values")
@@ -215,7 +266,12 @@ def resolve_characteristics(spec: str, *, turbine=None, base_dir=None, key: str 
                              f"built from the prototype's own rated values: remove [turbine.step_up] or give a "
                              f"nets.json")
         return ideal_from_rated(turbine)
-    characteristics = synthetic_francis() if spec == "synthetic" else nets_from_path(spec, base_dir, key=key)
+    if spec == "synthetic":
+        characteristics = synthetic_francis()
+    elif spec == "synthetic-bulb":
+        characteristics = synthetic_bulb()
+    else:
+        characteristics = nets_from_path(spec, base_dir, key=key)
     if turbine is not None and getattr(turbine, "step_up", None) is not None:
         from simulate.components.turbine.step_up import apply_step_up
 

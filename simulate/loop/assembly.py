@@ -34,11 +34,11 @@ import numba
 from simulate.components.turbine import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
-TEMPLATE_VERSION = 3
+TEMPLATE_VERSION = 4
 
 _LOOP = '''
 @_jit
-def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl, ctl_s, sh, sh_s,
+def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl, ctl_s, sh, sh_s, dn, dn_s,
               out_speed, out_head, out_flow, out_torque, out_iter, out_controls, out_signals, env_max, env_min, diag):
     """Steps k0 .. k1-1 (t = k dt). Every ``stride``-th step is stored in row (k + 1) // stride of the out arrays.
     Control and shaft advance in ``n_sub`` sub-steps of dt / n_sub (the turbine torque held over the step).
@@ -58,16 +58,21 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
         # 3. penstock: H = C_L + k Q at the turbine, with the upstream head of this step
         upstream = upstream_head(up, up_s)
         c_l, slope = penstock_relation(pen, pen_s, upstream)
-        # 4. turbine boundary (pressure loop)
-        status, iterations = turbine_step(tb, ch, tb_s, c_l, slope, speed, controls, diag)
+        # and H_out = C_M + B_M Q at the runner outlet (0 at the tailwater)
+        c_m, b_m = downstream_relation(dn, dn_s)
+        # 4. turbine boundary (pressure loop) on the net head H = (C_L - C_M) + (k - B_M) Q
+        status, iterations = turbine_step(tb, ch, tb_s, c_l - c_m, slope - b_m, speed, controls, diag)
         if status != 0:
             diag[0] = t_next
             return status, k
         head, flow, torque = turbine_signals(tb_s)
-        # 5. penstock and upstream updates
-        penstock_update(pen, pen_s, upstream, head, flow)
+        outlet = c_m + b_m * flow
+        inlet = head + outlet
+        # 5. penstock, downstream and upstream updates
+        penstock_update(pen, pen_s, upstream, inlet, flow)
+        downstream_update(dn, dn_s, outlet, flow)
         upstream_step(up, up_s, penstock_inlet_flow(pen, pen_s), dt)
-        penstock_envelope(pen, pen_s, upstream, head, env_max, env_min)
+        penstock_envelope(pen, pen_s, upstream, inlet, env_max, env_min)
         if (k + 1) % stride == 0:
             row = (k + 1) // stride
             out_speed[row] = speed
@@ -92,9 +97,14 @@ _ROLES = {
     "penstock_update": ("penstock", "update"),
     "penstock_inlet_flow": ("penstock", "inlet_flow"),
     "penstock_envelope": ("penstock", "envelope"),
+    "downstream_relation": ("downstream", "relation"),
+    "downstream_update": ("downstream", "update"),
 }
 #: kinds whose ``record`` function writes extra timeseries columns, in column order
-RECORDING_KINDS = ("upstream", "shaft", "control")
+RECORDING_KINDS = ("upstream", "shaft", "control", "downstream")
+#: kind -> the loop's names of its params and state
+_ARGS = {"upstream": ("up", "up_s"), "shaft": ("sh", "sh_s"), "control": ("ctl", "ctl_s"),
+         "downstream": ("dn", "dn_s")}
 
 
 def _template(func, drop_first: bool) -> str:
@@ -178,7 +188,7 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
             alias = f"{kind}_record"
             lines.append(_import_line(func, alias))
             modules.add(func.__module__)
-            ps, ss = ("up", "up_s") if kind == "upstream" else (("sh", "sh_s") if kind == "shaft" else ("ctl", "ctl_s"))
+            ps, ss = _ARGS[kind]
             records.append(f"            {alias}({ps}, {ss}, out_signals[row, {column}:{column + len(part.signals)}])")
             column += len(part.signals)
     lines += _turbine_lines(characteristics, pressure_loop, modules)

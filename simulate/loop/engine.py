@@ -33,6 +33,29 @@ from simulate.loop.common import (  # noqa: F401  (the loop's shared settings, r
     _failure_advice, upstream_friction_s2_m5)
 
 
+def downstream_friction_s2_m5(plant: PlantConfig) -> float:
+    """Steady head loss coefficient K Q|Q| below the runner (a ``[draft_tube]``), s^2/m^5."""
+    config = getattr(plant, "draft_tube", None)
+    return 0.0 if config is None else config.friction_coefficient_s2_m5
+
+
+def plant_characteristics(plant: PlantConfig, characteristics):
+    """The characteristics as the plant uses them (three-input ones seen through the combinator, see
+    :mod:`simulate.components.turbine.double_regulated`); two-input ones unchanged."""
+    import inspect
+
+    q11 = getattr(characteristics, "q11", None)
+    try:
+        inputs = len(inspect.signature(q11).parameters) if q11 is not None else 2
+    except (TypeError, ValueError):
+        inputs = 2
+    if inputs != 3 and getattr(plant, "combinator", None) is None and getattr(plant, "blade_servo", None) is None:
+        return characteristics  # a single-regulated unit: nothing to import
+    from simulate.components.turbine.double_regulated import plant_characteristics as view
+
+    return view(plant, characteristics)
+
+
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     """The verified steady state a run of ``plant`` starts from (see :mod:`simulate.loop.steady`).
 
@@ -48,11 +71,14 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     from hillchart.characteristics import scalar_kernel
 
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    kernel, params, _ = scalar_kernel(chars)
+    kernel, params, _ = scalar_kernel(plant_characteristics(plant, chars))
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:
         friction = friction + extra
+    below = downstream_friction_s2_m5(plant)
+    if below:
+        friction = friction + below
     return steady_state(kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m,
                         friction_s2_m5=friction, stroke_min=plant.governor.stroke_min,
                         stroke_max=plant.governor.stroke_max, **initial_target(plant.scenario))
@@ -63,10 +89,13 @@ def plant_schedules(plant: PlantConfig, steady: SteadyState):
     return build_schedules(plant, steady.stroke, steady.torque_nm / plant.turbine.rated_torque_nm)
 
 
-def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: int = 1) -> dict:
-    """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft), from the registries.
-    Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`)."""
-    from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
+def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: int = 1,
+                characteristics=None) -> dict:
+    """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft, downstream), from the
+    registries. Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`).
+    ``characteristics``: the plant's view of them (a double-regulated unit's blade control reads its cam)."""
+    from simulate.components.registry import (CONTROLS, DOWNSTREAM, PENSTOCKS, SHAFTS, UPSTREAM, control_name,
+                                              downstream_section, shaft_section, upstream_section)
 
     schedules = plant_schedules(plant, steady)
     sub_dt = dt_s / substeps
@@ -76,10 +105,12 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: 
     parts = {
         "upstream": upstream,
         "penstock": PENSTOCKS.builder(plant.penstock.model)(plant, steady, dt_s, head0),
-        "control": CONTROLS.builder("governor" if schedules.mode == GOVERNOR else "prescribed")(
-            plant, steady, sub_dt, schedules),
         "shaft": SHAFTS.builder(shaft_section(plant)[0])(plant, steady, sub_dt, schedules),
+        "downstream": DOWNSTREAM.builder(downstream_section(plant)[0])(plant, steady, dt_s),
     }
+    control = control_name(plant, schedules)
+    extra = {"characteristics": characteristics} if control.endswith("_blades") else {}
+    parts["control"] = CONTROLS.builder(control)(plant, steady, sub_dt, schedules, **extra)
     return parts, schedules
 
 
@@ -117,13 +148,14 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
 
         return run_units(plant, characteristics, jit=jit, raise_on_failure=raise_on_failure, progress=progress)
     from simulate.loop import guards
-    from simulate.loop.assembly import assemble
+    from simulate.loop.assembly import RECORDING_KINDS, assemble
     from simulate.components.registry import compile_characteristics
     from simulate.components.turbine.step_up import step_up_of
     from simulate.loop.timestep import plan_step
 
     plant.time_step_s  # noqa: B018  (the Courant check of the grid before anything heavier)
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    chars = plant_characteristics(plant, chars)
     compiled_chars = compile_characteristics(chars)
     turbine, pen = plant.turbine, plant.penstock
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
@@ -140,24 +172,25 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     guards.check_run_size(plant, dt, n_steps, stride)
     guards.check_initial_state(plant, steady, domain)
     warnings = guards.plausibility_warnings(plant) + list(plan.warnings)
-    parts, schedules = build_parts(plant, steady, dt, n_sub)
+    parts, schedules = build_parts(plant, steady, dt, n_sub, chars)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
-                            closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max])
-    n_controls = 1
+                            closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max] + [1.0] * (
+                                parts["control"].meta.get("n_controls", 1) - 1))
+    n_controls = parts["control"].meta.get("n_controls", 1)
     ts = turbine_state(steady.head_m, steady.flow_m3_s, steady.torque_nm, n_controls)
     rows = n_steps // stride + 1
     out = {name: np.zeros(rows) for name in ("speed", "head", "flow", "torque")}
     out_iter = np.zeros(rows, dtype=np.int64)
     out_controls = np.zeros((rows, n_controls))
-    signal_names = [name for kind in ("upstream", "shaft", "control") for name in parts[kind].signals]
+    signal_names = [name for kind in RECORDING_KINDS for name in parts[kind].signals]
     out_signals = np.zeros((rows, len(signal_names)))
     out["speed"][0], out["head"][0], out["flow"][0] = steady.speed_rpm, steady.head_m, steady.flow_m3_s
     out["torque"][0] = steady.torque_nm
-    out_controls[0, 0] = steady.stroke
+    out_controls[0, :] = parts["control"].meta.get("initial_controls", [steady.stroke])
     pen_part, up_part = parts["penstock"], parts["upstream"]
     column = 0
-    for kind in ("upstream", "shaft", "control"):  # row 0: each recording component's initial signals
+    for kind in RECORDING_KINDS:  # row 0: each recording component's initial signals
         if parts[kind].signals:
             out_signals[0, column:column + len(parts[kind].signals)] = parts[kind].hooks.initial_signals
             column += len(parts[kind].signals)
@@ -173,6 +206,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     loop = assemble(parts, compiled_chars, plant.solver.pressure_loop, compiled=compiled)
     args = (compiled_chars.params, tp, ts, pen_part.params, pen_part.state, up_part.params, up_part.state,
             parts["control"].params, parts["control"].state, parts["shaft"].params, parts["shaft"].state,
+            parts["downstream"].params, parts["downstream"].state,
             out["speed"], out["head"], out["flow"], out["torque"], out_iter, out_controls, out_signals,
             env_max, env_min, diag)
     wall = _time.perf_counter()

@@ -62,14 +62,15 @@ class StepPlan:
 
 
 def time_scales(plant, schedules) -> list[TimeScale]:
-    """Every component's time scales (see the module docstring), in the order penstock, upstream, control, shaft."""
-    from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, shaft_section, upstream_section
-    from simulate.components.schedules import GOVERNOR
+    """Every component's time scales (see the module docstring), in the order penstock, upstream, control, shaft,
+    downstream."""
+    from simulate.components.registry import (CONTROLS, DOWNSTREAM, PENSTOCKS, SHAFTS, UPSTREAM, control_name,
+                                              downstream_section, shaft_section, upstream_section)
 
     out = []
     for registry, name in ((PENSTOCKS, plant.penstock.model), (UPSTREAM, upstream_section(plant)[0]),
-                           (CONTROLS, "governor" if schedules.mode == GOVERNOR else "prescribed"),
-                           (SHAFTS, shaft_section(plant)[0])):
+                           (CONTROLS, control_name(plant, schedules)),
+                           (SHAFTS, shaft_section(plant)[0]), (DOWNSTREAM, downstream_section(plant)[0])):
         out += registry.time_scales(name, plant, schedules)
     return out
 

@@ -280,6 +280,10 @@ class SimulationResult:
             series = (((self.signals["frequency_hz"], "frequency (Hz)", None),) + series[1:]
                       + ((self.signals["terminal_voltage_pu"], "terminal voltage (pu)", None),
                          (self.signals["field_voltage_pu"], "field voltage (pu)", None)))
+        if "blade_angle_deg" in self.signals:  # a double-regulated unit: the blades and what the cam asks
+            series = series + ((self.signals["blade_angle_deg"], "blade angle (deg)", None),)
+        if "draft_tube_head_m" in self.signals:  # the head at the runner outlet
+            series = series + ((self.signals["draft_tube_head_m"], "draft tube head (m)", None),)
         fig = Figure(figsize=(8, 9 if len(series) == 4 else 12))
         FigureCanvasAgg(fig)
         axes = fig.subplots(len(series), 1, sharex=True)
@@ -297,6 +301,9 @@ class SimulationResult:
             else:
                 ax.plot(self.time_s, values, lw=1.2,
                         label="point nets" if band is not None and ax is axes[0] else None)
+            if label == "blade angle (deg)":
+                ax.plot(self.time_s, self.signals["blade_angle_cam_deg"], lw=1.0, ls="--", label="cam")
+                ax.legend(loc="best", fontsize=8)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
             for i, (t0, t1) in enumerate(intervals):

@@ -12,6 +12,7 @@ PROMISED = [
     "linearization.json", "demo_summary.json", "report.html",
     *(f"{run}/{name}" for run in ("load_rejection", "closure_law", "frequency_steps")
       for name in ("timeseries.csv", "summary.json", "transient.png")),
+    "bulb_rejection/timeseries.csv", "bulb_rejection/summary.json", "bulb_rejection/transient.png",
     "identification/identification.json", "identification/step_response.png",
     "identification/theta_convergence.png", "identification/six_coefficients.png",
 ]
@@ -60,6 +61,10 @@ def test_summary_matches_step_files(demo_dir):
     assert summary["q11_rms_measured_pct"] < 0.5 and summary["m11_rms_measured_pct"] < 1.0
     # a 100 % load rejection must overspeed the unit and raise the head (water hammer of the closing vanes)
     assert 0.05 < rejection["max_speed_rise"] < 0.8 and rejection["max_head_rise"] > 0.02
+    # the bulb: overspeeds, and the draft tube's pressure falls below its steady value (reverse water hammer)
+    bulb = json.loads((demo_dir / "bulb_rejection" / "summary.json").read_text())
+    assert summary["bulb_min_outlet_pressure_head_m"] == bulb["min_outlet_pressure_head_m"]
+    assert 0.1 < bulb["max_speed_rise"] < 1.0 and bulb["min_outlet_pressure_head_m"] < bulb["initial_head_m"]
 
 
 def test_quiet_prints_nothing(demo_fast_run):

@@ -54,7 +54,7 @@ def test_a_control_vector_kernel_runs_through_the_same_loop():
 def test_the_loop_template_names_no_model():
     text = assembly._LOOP.lower()
     for word in ("moc", "zdomain", "lumped", "rigid", "governor", "prescribed", "rotor", "surge", "reservoir",
-                 "nets", "ideal", "mode", "is_moc"):
+                 "nets", "ideal", "mode", "is_moc", "draft", "blade", "bulb"):
         assert word not in text, word
     # and the generated module imports each kind's functions under a role name
     plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal", "scenario.t_end_s": 3.0})
@@ -65,8 +65,9 @@ def test_the_loop_template_names_no_model():
 def test_registries_name_their_entries_and_reject_unknown_names():
     assert PENSTOCKS.names() == ("moc", "zdomain", "lumped", "rigid")
     assert UPSTREAM.names() == ("reservoir", "surge_tank")
-    assert CONTROLS.names() == ("governor", "prescribed") and SHAFTS.names() == ("swing", "subtransient")
-    assert set(CHARACTERISTICS.names()) == {"ideal", "synthetic", "nets"}
+    assert CONTROLS.names() == ("governor", "prescribed", "governor_blades", "prescribed_blades")
+    assert SHAFTS.names() == ("swing", "subtransient")
+    assert set(CHARACTERISTICS.names()) == {"ideal", "synthetic", "synthetic-bulb", "nets"}
     with pytest.raises(InputError, match=r"penstock\.model must be one of moc, zdomain, lumped, rigid; got 'elastic'"):
         PENSTOCKS.builder("elastic")
 

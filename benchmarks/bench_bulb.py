@@ -1,0 +1,58 @@
+"""A double-regulated bulb rejection against a Francis rejection: wall time of the compiled loop, same run.
+
+The 60 s load rejection of ``data_synthetic/plant_bulb.toml`` (three-input nets, guide vanes and blades, intake and
+draft tube by MOC) and of ``data_synthetic/plant_hla339.toml`` (two-input nets, penstock by MOC), each run once to
+compile (reported apart) and then timed best and median of 7. Besides the wall time per run, the time per step
+compares the loops themselves (the two plants have different steps). The whole run (``run_simulation``: steady
+state, the cam, building the components) is reported too.
+
+Run:  PYTHONPATH=$PWD OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/bench_bulb.py [--repeats N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+from data_synthetic import PLANT_BULB, PLANT_HLA339
+from simulate.config import load_plant
+from simulate.loop.engine import run_simulation
+
+
+def measure(path, repeats: int) -> dict:
+    plant = load_plant(path, {"scenario.t_end_s": 60.0})
+    t0 = time.perf_counter()
+    first = run_simulation(plant)
+    first_call = time.perf_counter() - t0
+    loops, totals = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        loops.append(run_simulation(plant).wall_time_s)
+        totals.append(time.perf_counter() - t0)
+    steps = first.time_s.size - 1
+    return {"steps": steps, "dt_s": first.meta["dt_s"], "first_call_s": first_call, "loop_best_s": min(loops),
+            "loop_median_s": statistics.median(loops), "total_median_s": statistics.median(totals),
+            "us_per_step": 1e6 * statistics.median(loops) / steps}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=7)
+    args = parser.parse_args(argv)
+    runs = {"bulb (double regulated, draft tube)": measure(PLANT_BULB, args.repeats),
+            "Francis (HLA339)": measure(PLANT_HLA339, args.repeats)}
+    print("| 60 s load rejection | steps | dt (s) | first call incl. compile (s) | loop best / median (ms) | "
+          "us per step | whole run, median (ms) |")
+    print("|---|---|---|---|---|---|---|")
+    for name, r in runs.items():
+        print(f"| {name} | {r['steps']} | {r['dt_s']:.4g} | {r['first_call_s']:.2f} | {1e3 * r['loop_best_s']:.2f} / "
+              f"{1e3 * r['loop_median_s']:.2f} | {r['us_per_step']:.3f} | {1e3 * r['total_median_s']:.1f} |")
+    bulb, francis = runs.values()
+    print(f"\nbulb / Francis: loop wall time {bulb['loop_median_s'] / francis['loop_median_s']:.2f}, "
+          f"per step {bulb['us_per_step'] / francis['us_per_step']:.2f}, "
+          f"whole run {bulb['total_median_s'] / francis['total_median_s']:.2f}")
+
+
+if __name__ == "__main__":
+    main()

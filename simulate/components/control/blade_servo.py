@@ -1,0 +1,282 @@
+"""Runner-blade servo and combinator of a double-regulated (Kaplan, bulb) unit: a control component whose control
+vector is ``[guide-vane stroke, blade stroke]`` (fractions of each servo's full stroke).
+
+The guide vanes follow the governor (PID + servo, :mod:`simulate.components.control.governor`) or the scenario's
+prescribed law; the blades follow, through their own servo (first order, rate limited; :func:`servo_step` with the
+blade's time constant and closing/opening times), a command chosen by ``blade_servo.mode``:
+
+``"combinator"``  the combinator's cam phi(a, H) at the current vane opening (``[combinator]``; with
+                  ``relation = "off"`` the blades stay at ``combinator.fixed_angle_deg``);
+``"held"``        the initial angle (the blades do not move);
+``"law"``         the initial angle until ``law_start_s``, then ``law_target_deg`` (default ``angle_min_deg``): the
+                  servo's rate limit makes the ramp (e.g. ``closing_time_s = 30``: blades close in 30 s).
+
+Columns (the component's record): ``blade_angle_deg`` (where the blades are) and ``blade_angle_cam_deg`` (what the
+combinator asks at the vane opening of the step).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from hillchart.errors import InputError
+from hillchart.validation import check_choice, check_number
+from simulate.components.control.governor import governor_parameters, governor_step, servo_step
+from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
+
+BLADE_MODES = ("combinator", "held", "law")
+COMBINATOR_RELATIONS = ("cam", "table", "off")
+
+
+@dataclass(frozen=True)
+class BladeServoConfig:
+    """``[blade_servo]``: the runner-blade servo.
+
+    ``servo_time_s`` first-order time constant T_b (s); ``closing_time_s`` / ``opening_time_s``: time of a full
+    stroke (``angle_max_deg`` - ``angle_min_deg``) towards the smaller / larger angle (s, the rate limits);
+    ``angle_min_deg`` / ``angle_max_deg``: blade angle at zero / full stroke (deg, the characteristics' blade-angle
+    convention); ``mode`` (module docstring), ``law_start_s`` and ``law_target_deg`` for ``mode = "law"``.
+    """
+
+    servo_time_s: float
+    closing_time_s: float
+    opening_time_s: float
+    angle_min_deg: float
+    angle_max_deg: float
+    mode: str = "combinator"
+    law_start_s: float = 0.0
+    law_target_deg: float | None = None
+
+    def __post_init__(self):
+        check_number("blade_servo.servo_time_s", self.servo_time_s, low=0.0, high=600.0, low_open=True)
+        check_number("blade_servo.closing_time_s", self.closing_time_s, low=0.0, high=3600.0, low_open=True)
+        check_number("blade_servo.opening_time_s", self.opening_time_s, low=0.0, high=3600.0, low_open=True)
+        check_number("blade_servo.angle_min_deg", self.angle_min_deg, low=-90.0, high=90.0)
+        check_number("blade_servo.angle_max_deg", self.angle_max_deg, low=-90.0, high=90.0)
+        if not self.angle_max_deg > self.angle_min_deg:
+            raise InputError(f"blade_servo.angle_max_deg must be > blade_servo.angle_min_deg = "
+                             f"{self.angle_min_deg!r}, got {self.angle_max_deg!r}")
+        check_choice("blade_servo.mode", self.mode, BLADE_MODES)
+        check_number("blade_servo.law_start_s", self.law_start_s, low=0.0, high=1e6)
+        if self.law_target_deg is not None:
+            check_number("blade_servo.law_target_deg", self.law_target_deg, low=self.angle_min_deg,
+                         high=self.angle_max_deg)
+
+
+@dataclass(frozen=True)
+class CombinatorConfig:
+    """``[combinator]``: the relation that sets the blades from the guide vanes.
+
+    ``relation``: ``"cam"`` (the blade angle of best efficiency of the characteristics at the plant's speed,
+    phi(a, H)), ``"table"`` (the user's cam: ``table_openings`` (chart units of the characteristics),
+    ``table_heads_m`` (increasing), ``table_angles_deg`` (one row of angles per head)) or ``"off"`` (blades fixed
+    at ``fixed_angle_deg``). ``opening_at_zero_stroke``: the characteristics' guide-vane opening at the closed vane
+    (their units; the plant's opening a = y opening_max is counted from it). ``head_m``: the head the combinator
+    reads (m; default the net head of the initial steady state, held over the run).
+    """
+
+    relation: str
+    opening_at_zero_stroke: float = 0.0
+    fixed_angle_deg: float | None = None
+    head_m: float | None = None
+    table_openings: tuple | None = None
+    table_heads_m: tuple | None = None
+    table_angles_deg: tuple | None = None
+
+    def __post_init__(self):
+        check_choice("combinator.relation", self.relation, COMBINATOR_RELATIONS)
+        check_number("combinator.opening_at_zero_stroke", self.opening_at_zero_stroke, low=-1e5, high=1e5)
+        if self.fixed_angle_deg is not None:
+            check_number("combinator.fixed_angle_deg", self.fixed_angle_deg, low=-90.0, high=90.0)
+        if self.relation == "off" and self.fixed_angle_deg is None:
+            raise InputError("combinator.relation = \"off\" (blades fixed) needs combinator.fixed_angle_deg (deg)")
+        if self.head_m is not None:
+            check_number("combinator.head_m", self.head_m, low=0.0, high=3000.0, low_open=True)
+        table = (self.table_openings, self.table_heads_m, self.table_angles_deg)
+        if self.relation == "table":
+            if any(v is None for v in table):
+                raise InputError("combinator.relation = \"table\" needs table_openings, table_heads_m and "
+                                 "table_angles_deg")
+            openings = self._vector("table_openings", self.table_openings)
+            heads = self._vector("table_heads_m", self.table_heads_m)
+            if np.any(heads <= 0):
+                raise InputError(f"combinator.table_heads_m must be > 0, got {heads.tolist()}")
+            try:
+                angles = np.asarray(self.table_angles_deg, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"combinator.table_angles_deg must be a list of rows of numbers, got "
+                                 f"{self.table_angles_deg!r}") from None
+            if angles.shape != (heads.size, openings.size) or not np.all(np.isfinite(angles)):
+                raise InputError(f"combinator.table_angles_deg must hold {heads.size} rows (one per head) of "
+                                 f"{openings.size} finite angles (one per opening), got shape {angles.shape}")
+            object.__setattr__(self, "table_angles_deg", tuple(tuple(float(v) for v in row) for row in angles))
+        elif any(v is not None for v in table):
+            raise InputError(f"combinator.table_* keys go with relation = \"table\", got relation = "
+                             f"{self.relation!r}")
+
+    @staticmethod
+    def _vector(name: str, value) -> np.ndarray:
+        try:
+            out = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"combinator.{name} must be a list of numbers, got {value!r}") from None
+        if out.ndim != 1 or out.size < 2 or not np.all(np.isfinite(out)) or np.any(np.diff(out) <= 0):
+            raise InputError(f"combinator.{name} must be at least two finite, increasing numbers, got {value!r}")
+        return out
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# compiled steps (registry kind "control")
+# ---------------------------------------------------------------------------------------------------------------
+# blade params vector: the servo layout of GOVERNOR_PARAMS (indices 5-10: y0, y_min, y_max, decay, close_step,
+# open_step, in blade stroke fractions) then [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
+_MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 11, 12, 13, 14, 15, 16
+
+
+@numba.njit(cache=True)
+def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
+    """The blade stroke at t_next from the vane stroke at t_next (``controls[0]``); ``bstate[0]`` = the cam's
+    angle at that opening (deg)."""
+    cam = piecewise_linear(cam_openings, cam_angles, controls[0] * blade[_OPENING_MAX])
+    bstate[0] = cam
+    mode = blade[_MODE]
+    if mode == 0.0:
+        command = (cam - blade[_ANGLE_MIN]) / blade[_SPAN]
+    elif mode == 1.0 or t_next_s < blade[_LAW_START]:
+        command = blade[5]
+    else:
+        command = blade[_LAW_TARGET]
+    return servo_step(blade, command, controls[1])
+
+
+@numba.njit(cache=True)
+def governor_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """Governor PID and vane servo (as :func:`simulate.components.control.governor.governor_control_step`), then
+    the blades: controls at t_next."""
+    gov, ref_times, ref_values, scal, blade, cam_openings, cam_angles = p
+    state, controls, bstate = s
+    x = speed_rpm / scal[0] - 1.0
+    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
+    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
+    controls[0] = servo_step(gov, command, controls[0])
+    controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[1])
+    return controls
+
+
+@numba.njit(cache=True)
+def prescribed_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """The prescribed vane law at t_next, then the blades."""
+    law_times, law_strokes, scal, blade, cam_openings, cam_angles = p
+    controls, bstate = s
+    controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
+    controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[0])
+    return controls
+
+
+@numba.njit(cache=True)
+def blade_record(p, s, out):
+    """Columns ``blade_angle_deg``, ``blade_angle_cam_deg``."""
+    blade = p[-3]
+    controls, bstate = s[-2], s[-1]
+    out[0] = blade[_ANGLE_MIN] + controls[1] * blade[_SPAN]
+    out[1] = bstate[0]
+
+
+SIGNALS = ("blade_angle_deg", "blade_angle_cam_deg")
+
+
+def blade_parameters(plant, turbine_view, initial_blade_stroke: float, dt_s: float) -> np.ndarray:
+    """The blade params vector (layout in the module source) for the plant's ``[blade_servo]`` (blades fixed: a
+    servo that never moves)."""
+    servo = plant.blade_servo
+    span = turbine_view.angle_span_deg
+    if servo is None or plant.combinator.relation == "off":
+        mode, decay, close_step, open_step, target = 1.0, 1.0, 0.0, 0.0, initial_blade_stroke
+    else:
+        mode = float(BLADE_MODES.index(servo.mode))
+        decay = float(np.exp(-dt_s / servo.servo_time_s))
+        close_step, open_step = dt_s / servo.closing_time_s, dt_s / servo.opening_time_s
+        target_deg = servo.angle_min_deg if servo.law_target_deg is None else servo.law_target_deg
+        target = turbine_view.blade_stroke(target_deg)
+    law_start = servo.law_start_s if servo is not None else 0.0
+    return np.array([0.0, 0.0, 0.0, 0.0, 0.0, initial_blade_stroke, 0.0, 1.0, decay, close_step, open_step,
+                     mode, turbine_view.angle_min_deg, span, plant.turbine.opening_max, law_start, target])
+
+
+def _blade_setup(plant, steady, dt_s, characteristics):
+    """(blade params, cam openings, cam angles at the combinator's head, initial blade state, initial controls)."""
+    from simulate.components.turbine.double_regulated import DoubleRegulatedTurbine
+
+    view = characteristics
+    if not isinstance(view, DoubleRegulatedTurbine):
+        raise InputError("the blade servo needs three-input characteristics (a DoubleRegulatedTurbine view)")
+    a0 = steady.stroke * plant.turbine.opening_max
+    if view.cam is None:
+        openings = np.array([0.0, plant.turbine.opening_max])
+        angles = np.full(2, float(view.fixed_angle_deg))
+        phi0 = float(view.fixed_angle_deg)
+    else:
+        head = plant.combinator.head_m if plant.combinator.head_m is not None else steady.head_m
+        openings = view.cam.openings.copy()
+        angles = view.cam.slice(float(head))
+        phi0 = float(view.blade_angle(steady.unit_speed_rpm, a0)) if plant.combinator.head_m is None else float(
+            view.cam.angle(a0, head))
+    y_b0 = view.blade_stroke(phi0)
+    blade = blade_parameters(plant, view, y_b0, dt_s)
+    return blade, openings, angles, np.array([phi0]), np.array([steady.stroke, y_b0])
+
+
+def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics=None):
+    """Governor on the vanes, blades through their servo (module docstring)."""
+
+    blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
+    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
+    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
+              scal, blade, openings, angles)
+    return _part("governor", governor_blade_step, params, (np.zeros(3), controls, bstate), blade, bstate,
+                 characteristics.blade_range_deg)
+
+
+def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristics=None):
+    """The scenario's vane law, blades through their servo."""
+    blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
+    params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]), blade, openings, angles)
+    return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate,
+                 characteristics.blade_range_deg)
+
+
+def _part(name, step, params, state, blade, bstate, blade_range):
+    from simulate.components.registry import CompiledPart
+
+    phi0 = blade[_ANGLE_MIN] + blade[5] * blade[_SPAN]
+    meta = {"initial_signals": [phi0, float(bstate[0])], "n_controls": 2,
+            "initial_controls": [float(state[-2][0]), float(state[-2][1])]}
+    if blade_range is not None:
+        lo, hi = blade_range
+
+        def warnings_after(signals):
+            angles = signals["blade_angle_deg"]
+            if angles.min() < lo - 1e-9 or angles.max() > hi + 1e-9:
+                return [f"the blade angle went to {angles.min():.4g}-{angles.max():.4g} deg, outside the nets' "
+                        f"training range {lo:.4g}-{hi:.4g} deg (extrapolated): narrow blade_servo.angle_min_deg/"
+                        f"angle_max_deg or train the nets over the blade angles the run visits"]
+            return []
+
+        meta["warnings_after"] = warnings_after
+    return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
+                        params=params, state=state, signals=SIGNALS, meta=meta)
+
+
+def time_scales(plant, schedules) -> list:
+    """The governor's (while it is in control) and the blade servo's time constant."""
+    from simulate.components.control.governor import time_scales as governor_scales
+    from simulate.components.timescale import TimeScale
+
+    out = governor_scales(plant, schedules) if schedules.mode == GOVERNOR else []
+    servo = plant.blade_servo
+    if servo is not None and plant.combinator is not None and plant.combinator.relation != "off":
+        out.append(TimeScale("blade_servo.servo_time_s", servo.servo_time_s))
+    return out

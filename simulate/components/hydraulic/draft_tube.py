@@ -1,0 +1,149 @@
+"""The water downstream of the runner: a draft tube / tailrace conduit to the tailwater (registry kind
+"downstream"), and the tailwater itself when the plant has no ``[draft_tube]``.
+
+Each gives, for the current step, a linear relation at the runner outlet
+
+    H_out = C_M + B_M Q,   B_M >= 0   (H_out piezometric head above the tailwater, m; Q the turbine flow, m^3/s),
+
+so that with the penstock's H_in = C_L + k Q the turbine's net head is again linear in Q,
+``H = H_in - H_out = (C_L - C_M) + (k - B_M) Q``: the relation the turbine boundary solves
+(:mod:`simulate.components.turbine.boundary`). After the boundary, ``update(p, s, H_out, Q)`` advances the conduit.
+
+The conduit is the penstock code run mirrored (one implementation of each model): a pipe from the tailwater
+(the "reservoir", head 0) to the runner outlet carrying the flow -Q, so its C+ relation H_out = C + k' (-Q) gives
+C_M = C, B_M = -k'. ``model = "moc"`` (method of characteristics on the plant's step, Courant number 1, the same
+wave-speed adjustment as the penstock) or ``"rigid"`` (the inelastic column, backward Euler).
+
+The runner-outlet pressure (absolute, as a head of water) is ``H_out + atmospheric_pressure_head_m -
+runner_elevation_m`` (the runner outlet's elevation above the tailwater: negative for a runner set below it, as a
+bulb is); its minimum over the run is ``min_outlet_pressure_head_m`` in the summary, with a warning below the vapour
+pressure head plus the user's margin (the water column would separate in the draft tube: not modelled).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from hillchart.errors import InputError
+from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
+
+SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# compiled functions: relation(p, s) -> (C_M, B_M); update(p, s, outlet_head_m, flow_m3_s); record(p, s, out)
+# p = (inner params, [atmospheric - elevation]); s = (inner state, [outlet head of the last step])
+# ---------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def tailwater_relation(p, s):
+    """No conduit: the runner outlet is at the tailwater, H_out = 0."""
+    return 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def tailwater_update(p, s, outlet_head_m, flow_m3_s):
+    return
+
+
+@numba.njit(cache=True)
+def moc_draft_relation(p, s):
+    c, k = moc_relation(p[0], s[0], 0.0)
+    return c, -k
+
+
+@numba.njit(cache=True)
+def moc_draft_update(p, s, outlet_head_m, flow_m3_s):
+    moc_update(p[0], s[0], 0.0, outlet_head_m, -flow_m3_s)
+    s[1][0] = outlet_head_m
+
+
+@numba.njit(cache=True)
+def rigid_draft_relation(p, s):
+    c, k = iir_relation(p[0], s[0], 0.0)
+    return c, -k
+
+
+@numba.njit(cache=True)
+def rigid_draft_update(p, s, outlet_head_m, flow_m3_s):
+    iir_update(p[0], s[0], 0.0, outlet_head_m, -flow_m3_s)
+    s[1][0] = outlet_head_m
+
+
+@numba.njit(cache=True)
+def draft_record(p, s, out):
+    """Columns ``draft_tube_head_m``, ``outlet_pressure_head_m``."""
+    out[0] = s[1][0]
+    out[1] = s[1][0] + p[1][0]
+
+
+def build_tailwater(plant, steady, dt_s: float):
+    from simulate.components.registry import CompiledPart
+
+    return CompiledPart(kind="downstream", name="tailwater",
+                        functions={"relation": tailwater_relation, "update": tailwater_update},
+                        params=(np.zeros(1),), state=(np.zeros(1),))
+
+
+def build_draft_tube(plant, steady, dt_s: float):
+    """The plant's ``[draft_tube]`` on the step ``dt_s``, started at the steady flow."""
+    from types import SimpleNamespace
+
+    from simulate.components.hydraulic.penstock import build_moc, build_rigid
+    from simulate.components.registry import CompiledPart
+
+    config = plant.draft_tube  # simulate.config.DraftTubeConfig
+    mirrored = config.mirrored()
+    fake_plant = SimpleNamespace(penstock=mirrored, turbine=plant.turbine)
+    fake_steady = SimpleNamespace(flow_m3_s=-steady.flow_m3_s)
+    try:
+        inner = (build_moc if config.model == "moc" else build_rigid)(fake_plant, fake_steady, dt_s, 0.0)
+    except InputError as exc:
+        raise InputError(f"[draft_tube]: {exc}".replace("increase penstock.reaches",
+                                                        "increase penstock.reaches or change the draft tube's "
+                                                        "length_m or wave_speed_m_s")) from None
+    head0 = config.friction_coefficient_s2_m5 * steady.flow_m3_s * abs(steady.flow_m3_s)
+    if config.model == "moc":
+        head0 = float(inner.state[0][0, -1])  # the grid's own steady head at the outlet
+        functions = {"relation": moc_draft_relation, "update": moc_draft_update, "record": draft_record}
+    else:
+        functions = {"relation": rigid_draft_relation, "update": rigid_draft_update, "record": draft_record}
+    offset = config.atmospheric_pressure_head_m - config.runner_elevation_m
+    limit = config.vapour_pressure_head_m + config.vapour_margin_m
+
+    def summary_after(time_s, signals):
+        values = signals["outlet_pressure_head_m"]
+        i = int(np.argmin(values))
+        return {"min_outlet_pressure_head_m": float(values[i]), "t_min_outlet_pressure_s": float(time_s[i]),
+                "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"]))}
+
+    def warnings_after(signals):
+        low = float(np.min(signals["outlet_pressure_head_m"]))
+        if low < limit:
+            return [f"the absolute pressure head at the runner outlet falls to {low:.3g} m, below the vapour "
+                    f"pressure head plus margin ({config.vapour_pressure_head_m:g} + {config.vapour_margin_m:g} m): "
+                    f"the water column may separate in the draft tube (not modelled); close the guide vanes more "
+                    f"slowly, set the runner deeper (draft_tube.runner_elevation_m) or check the draft tube"]
+        return []
+
+    meta = {"initial_signals": [head0, head0 + offset], "summary_after": summary_after,
+            "warnings_after": warnings_after,
+            "summary": {"draft_tube_model": config.model,
+                        "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5}}
+    if config.model == "moc":
+        meta["summary"]["draft_tube_moc_reaches"] = inner.meta["moc_reaches"]
+    return CompiledPart(kind="downstream", name=f"draft_tube ({config.model})", functions=functions,
+                        params=(inner.params, np.array([offset])), state=(inner.state, np.array([head0])),
+                        signals=SIGNALS, meta=meta)
+
+
+def time_scales(plant, schedules) -> list:
+    """The rigid draft tube's water time (one relation per step for the whole column); nothing for MOC."""
+    from simulate.components.timescale import TimeScale
+
+    config = getattr(plant, "draft_tube", None)
+    if config is None or config.model == "moc":
+        return []
+    t = plant.turbine
+    return [TimeScale("draft tube water time (draft_tube segments, rated flow and head)",
+                      config.mirrored().water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]

@@ -1,0 +1,236 @@
+"""Double-regulated units in the simulator: three-input characteristics, blade servo and combinator, draft tube."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from data_synthetic import PLANT_BULB, PLANT_HLA339
+from hillchart.errors import InputError
+from hillchart.fccm.double_regulated import DoubleRegulatedNets, net3_point, packed_net3
+from hillchart.fccm.net import FCCMWeights
+from hillchart.synthetic.bulb import SyntheticBulb, unit_point
+from simulate.components.turbine.double_regulated import FixedBladeBulb
+from simulate.config import load_characteristics, load_plant
+from simulate.loop.engine import run_simulation
+
+EXACT = {"turbine.characteristics": "synthetic-bulb"}
+
+
+def _efficiency(result, i=0):
+    """Hydraulic efficiency P / (rho g Q H) of row ``i`` of a run."""
+    return result.power_mw[i] * 1e6 / (1000.0 * 9.81 * result.flow_m3_s[i] * result.head_m[i])
+
+
+# --- the compiled point functions against their numpy originals ---------------------------------------------------
+def test_bulb_point_kernel_equals_the_numpy_model_and_its_derivatives():
+    bulb = SyntheticBulb()
+    p = bulb.point_parameters()
+    rng = np.random.default_rng(0)
+    for n11, gv, phi in zip(rng.uniform(60, 300, 20), rng.uniform(36, 78, 20), rng.uniform(-18, 16, 20)):
+        q, dq, m, dm = unit_point(p, n11, gv, phi)
+        # the same formulas on scalars: a few ulp of the terms (torque ~1e3 N*m)
+        assert q == pytest.approx(float(bulb.q11(n11, gv, phi)), rel=1e-12, abs=1e-14)
+        assert m == pytest.approx(float(bulb.m11(n11, gv, phi)), rel=1e-12, abs=1e-9)
+        h = 1e-4  # central difference: truncation ~h^2 f''' and rounding ~eps f / h, both < 1e-7 relative here
+        dq_fd = (bulb.q11(n11 + h, gv, phi) - bulb.q11(n11 - h, gv, phi)) / (2 * h)
+        dm_fd = (bulb.m11(n11 + h, gv, phi) - bulb.m11(n11 - h, gv, phi)) / (2 * h)
+        assert dq == pytest.approx(float(dq_fd), rel=1e-6, abs=1e-10)
+        assert dm == pytest.approx(float(dm_fd), rel=1e-6, abs=1e-6)
+    # a wrong derivative (the derivative of cm dropped) would be off by O(1): the check can fail
+    assert abs(unit_point(p, 150.0, 60.0, 0.0)[1]) > 1e-4
+
+
+def test_three_input_net_point_equals_predict_and_its_gradient():
+    rng = np.random.default_rng(1)
+    w = FCCMWeights(inputs=["n11", "opening", "blade_angle"], outputs=["q11"], x_min=[50, 30, -20],
+                    x_max=[250, 80, 20], y_min=[0.1], y_max=[3.0], W1=rng.normal(size=(6, 3)), b1=rng.normal(size=6),
+                    W2=rng.normal(size=(1, 6)), b2=[0.2])
+    packed = packed_net3(w)
+    X = np.column_stack([rng.uniform(50, 250, 30), rng.uniform(30, 80, 30), rng.uniform(-20, 20, 30)])
+    y, jac = w.predict(X)[:, 0], w.predict_grad(X)[:, 0, 0]
+    for k in range(len(X)):
+        v, d = net3_point(packed, *X[k])
+        assert v == pytest.approx(y[k], rel=1e-13, abs=1e-13)  # same sums in another order: a few ulp
+        assert d == pytest.approx(jac[k], rel=1e-12, abs=1e-15)
+
+
+# --- steady state on the cam ----------------------------------------------------------------------------------------
+def test_steady_state_sits_on_the_cam_with_the_exact_efficiency():
+    plant = load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 1.0, "scenario.event_time_s": 0.99})
+    r = run_simulation(plant)
+    bulb = SyntheticBulb()
+    phi0 = r.signals["blade_angle_deg"][0]
+    # the blades start where the combinator asks (the same slice of the cam): round-off of the stroke <-> angle map
+    assert phi0 == pytest.approx(r.signals["blade_angle_cam_deg"][0], abs=1e-12)
+    # ... and stay there while nothing happens (no drift of the blade servo at the steady state)
+    np.testing.assert_allclose(r.signals["blade_angle_deg"][r.time_s < 0.985], phi0, atol=1e-9)
+    n11 = r.speed_rpm[0] * 3.8 / np.sqrt(r.head_m[0])
+    a0 = r.opening_chart[0] + 35.0
+    truth = float(bulb.unit_efficiency(n11, a0, phi0))
+    # the run's efficiency P / (rho g Q H) is the exact bulb's at that point: 1e-9 (steady residuals are 1e-9)
+    assert _efficiency(r) == pytest.approx(truth, rel=1e-9)
+    # the cam is the best blade angle: a fine scan finds nothing better than the table's interpolation error
+    # (the efficiency is flat at its optimum; a cam off by 0.5 deg loses ~1e-4)
+    scan = bulb.unit_efficiency(n11, a0, np.linspace(-18, 16, 3401))
+    assert truth >= scan.max() - 2e-6
+    assert truth - float(bulb.unit_efficiency(n11, a0, phi0 + 2.0)) > 1e-4  # the scan would see a wrong cam
+
+
+def test_steady_state_on_the_nets_cam_gives_the_nets_efficiency():
+    plant = load_plant(PLANT_BULB, {"scenario.t_end_s": 0.1, "scenario.event_time_s": 0.09})
+    nets = load_characteristics(plant.turbine, plant.base_dir)
+    assert isinstance(nets, DoubleRegulatedNets)
+    r = run_simulation(plant)
+    phi0 = r.signals["blade_angle_deg"][0]
+    n11 = r.speed_rpm[0] * 3.8 / np.sqrt(r.head_m[0])
+    eta = float(nets.efficiency(n11, r.opening_chart[0] + 35.0, phi0))
+    assert _efficiency(r) == pytest.approx(eta, rel=1e-9)  # steady residuals 1e-9
+    scan = nets.efficiency(n11, r.opening_chart[0] + 35.0, np.linspace(-18, 16, 3401))
+    assert eta >= scan.max() - 2e-6  # on the nets' cam (table interpolation)
+
+
+# --- degenerate cases that must match today's two-input path --------------------------------------------------------
+def test_blades_fixed_equals_the_two_input_bulb_at_that_angle():
+    over = {**EXACT, "combinator.relation": "off", "combinator.fixed_angle_deg": -6.0, "scenario.t_end_s": 12.0}
+    plant = dataclasses.replace(load_plant(PLANT_BULB, over), draft_tube=None)
+    three = run_simulation(plant)
+    two_plant = dataclasses.replace(plant, combinator=None, blade_servo=None)
+    two = run_simulation(two_plant, FixedBladeBulb(SyntheticBulb(), blade_angle_deg=-6.0,
+                                                   opening_at_zero_stroke=35.0))
+    assert three.meta["compiled"] and two.meta["compiled"]
+    # the same equations; the blade angle passes through the stroke map -6 = -18 + y 2 (a few ulp) - 1e-9 relative
+    for name in ("speed_rpm", "head_m", "flow_m3_s", "opening", "torque_nm"):
+        np.testing.assert_allclose(getattr(three, name), getattr(two, name), rtol=1e-9, atol=1e-9)
+    assert np.all(three.signals["blade_angle_deg"] == pytest.approx(-6.0, abs=1e-12))
+
+
+def _frozen_blade_nets(hill_nets) -> DoubleRegulatedNets:
+    """Two-input hill nets as three-input nets whose blade-angle weights are zero."""
+    def block(w, name):
+        W1 = np.column_stack([np.asarray(w.W1), np.zeros(w.hidden)])
+        return FCCMWeights(inputs=["n11", "opening", "blade_angle"], outputs=[name],
+                           x_min=[*w.x_min, -20.0], x_max=[*w.x_max, 20.0], y_min=[w.y_min], y_max=[w.y_max],
+                           W1=W1, b1=w.b1, W2=[w.W2], b2=[w.b2])
+    return DoubleRegulatedNets(block(hill_nets.flow, "q11"), block(hill_nets.torque, "m11"), opening_unit="mm")
+
+
+def test_blade_angle_frozen_in_the_nets_equals_todays_two_input_result():
+    plant = load_plant(PLANT_HLA339, {"scenario.t_end_s": 8.0})
+    two_nets = load_characteristics(plant.turbine, plant.base_dir)
+    ref = run_simulation(plant, two_nets)
+    from simulate.components.control.blade_servo import BladeServoConfig, CombinatorConfig
+
+    three_plant = dataclasses.replace(
+        plant, combinator=CombinatorConfig(relation="cam"),
+        blade_servo=BladeServoConfig(servo_time_s=1.0, closing_time_s=30.0, opening_time_s=30.0,
+                                     angle_min_deg=-20.0, angle_max_deg=20.0, mode="law", law_start_s=1.0,
+                                     law_target_deg=20.0))
+    alt = run_simulation(three_plant, _frozen_blade_nets(two_nets))
+    assert np.ptp(alt.signals["blade_angle_deg"]) > 5.0  # the blades move (by their law); the nets ignore them
+    # the same sums with a zero term added (a few ulp): 1e-9 relative
+    for name in ("speed_rpm", "head_m", "flow_m3_s", "opening", "torque_nm"):
+        np.testing.assert_allclose(getattr(alt, name), getattr(ref, name), rtol=1e-9, atol=1e-9)
+
+
+# --- the blade servo follows the cam, is held, or follows a law -----------------------------------------------------
+def test_blade_servo_lags_the_cam_at_its_rate_limit_and_can_be_held():
+    plant = load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 6.0})
+    r = run_simulation(plant)
+    t, phi, cam = r.time_s, r.signals["blade_angle_deg"], r.signals["blade_angle_cam_deg"]
+    rate = np.diff(phi) / np.diff(t)
+    # closing at most a full stroke (34 deg) per closing_time_s = 30 s
+    assert rate.min() >= -34.0 / 30.0 * (1 + 1e-9)
+    assert rate.min() < -0.99 * 34.0 / 30.0  # ... and the limit is reached (the vanes close faster)
+    assert np.max(phi - cam) > 2.0  # the blades lag the cam by degrees
+    held = run_simulation(load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 6.0, "blade_servo.mode": "held"}))
+    assert np.ptp(held.signals["blade_angle_deg"]) < 1e-12
+    assert held.summary()["max_speed_rise"] != pytest.approx(r.summary()["max_speed_rise"], abs=1e-3)
+    law = run_simulation(load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 6.0, "blade_servo.mode": "law",
+                                                 "blade_servo.law_start_s": 1.0}))
+    phi_law = law.signals["blade_angle_deg"]
+    assert phi_law[law.time_s < 1.0 - 1e-9] == pytest.approx(phi[0], abs=1e-12)  # the law starts at t = 1 s
+    # after 1 s the blades close at their rate towards angle_min_deg (first-order lag of 1 s at the start)
+    assert phi_law[-1] == pytest.approx(phi[0] - 34.0 / 30.0 * 5.0, abs=1.2)
+
+
+# --- the draft tube ---------------------------------------------------------------------------------------------------
+def test_draft_tube_columns_and_minimum_outlet_pressure():
+    plant = load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 8.0})
+    r = run_simulation(plant)
+    s = r.summary()
+    dt_head = r.signals["draft_tube_head_m"]
+    # steady: the outlet head is the draft tube's friction loss above the tailwater
+    k = plant.draft_tube.friction_coefficient_s2_m5
+    assert dt_head[0] == pytest.approx(k * r.flow_m3_s[0] ** 2, rel=1e-9)
+    outlet = dt_head + 10.33 + 4.0  # atmospheric head, runner 4 m below the tailwater
+    assert s["min_outlet_pressure_head_m"] == pytest.approx(outlet.min(), abs=1e-12)
+    # the vanes close: the draft tube pressure falls (reverse water hammer) by metres
+    assert dt_head.min() < -3.0
+    assert not any("runner outlet" in w for w in s["warnings"])
+    warned = run_simulation(load_plant(PLANT_BULB, {**EXACT, "scenario.t_end_s": 8.0,
+                                                    "draft_tube.vapour_margin_m": 8.0}))
+    assert any("runner outlet" in w and "vapour" in w for w in warned.summary()["warnings"])
+
+
+def test_rigid_draft_tube_agrees_with_moc_on_a_slow_closure():
+    base = {**EXACT, "scenario.t_end_s": 8.0}
+    moc = run_simulation(load_plant(PLANT_BULB, base))
+    rigid = run_simulation(load_plant(PLANT_BULB, {**base, "draft_tube.model": "rigid"}))
+    # a 30 m draft tube (travel 0.03 s) against a closure of seconds: the column is nearly inelastic; the MOC
+    # draft tube rings at 4 L / a = 0.12 s, which the rigid one has not: 0.5 m of the 13 m head
+    assert rigid.summary()["min_outlet_pressure_head_m"] == pytest.approx(
+        moc.summary()["min_outlet_pressure_head_m"], abs=0.5)
+    assert rigid.summary()["max_speed_rise"] == pytest.approx(moc.summary()["max_speed_rise"], abs=2e-3)
+
+
+# --- bad input --------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("over, match", [
+    ({"combinator.relation": "wrong"}, r"combinator\.relation must be one of"),
+    ({"combinator.relation": "off"}, r"fixed_angle_deg"),
+    ({"combinator.relation": "table"}, r"table_openings, table_heads_m and table_angles_deg"),
+    ({"combinator.relation": "table", "combinator.table_openings": [40, 60], "combinator.table_heads_m": [10, 14],
+      "combinator.table_angles_deg": [[-8, -6, -5]]}, r"2 rows \(one per head\) of 2 finite angles"),
+    ({"blade_servo.angle_max_deg": -20.0}, r"blade_servo\.angle_max_deg must be > "),
+    ({"blade_servo.mode": "cam"}, r"blade_servo\.mode must be one of"),
+    ({"blade_servo.colsing_time_s": 3.0}, r"unknown key blade_servo\.colsing_time_s"),
+    ({"draft_tube.model": "lumped"}, r"draft_tube\.model must be one of"),
+    ({"draft_tube.segments": []}, r"draft_tube\.segments must be a non-empty"),
+    ({"draft_tube.segments": [{"length_m": 30.0}]}, r"draft_tube\.segments\[0\]: missing key diameter_m"),
+])
+def test_bad_double_regulated_input_names_the_key(over, match):
+    with pytest.raises(InputError, match=match):
+        load_plant(PLANT_BULB, {**EXACT, **over})
+
+
+def test_three_input_characteristics_need_a_combinator_and_two_input_ones_refuse_it():
+    plant = load_plant(PLANT_BULB, EXACT)
+    with pytest.raises(InputError, match=r"needs a \[combinator\] section"):
+        run_simulation(dataclasses.replace(plant, combinator=None, blade_servo=None))
+    with pytest.raises(InputError, match=r"\[combinator\] and \[blade_servo\] need three-input characteristics"):
+        run_simulation(load_plant(PLANT_BULB, {"turbine.characteristics": "ideal"}))
+    with pytest.raises(InputError, match=r"needs a \[blade_servo\] section"):
+        run_simulation(dataclasses.replace(plant, blade_servo=None))
+
+
+def test_a_user_cam_table_drives_the_blades():
+    table = {"combinator.relation": "table", "combinator.table_openings": [35.0, 78.0],
+             "combinator.table_heads_m": [10.0, 14.0], "combinator.table_angles_deg": [[-12.0, -4.0], [-12.0, -4.0]]}
+    r = run_simulation(load_plant(PLANT_BULB, {**EXACT, **table, "scenario.t_end_s": 0.1,
+                                               "scenario.event_time_s": 0.09}))
+    a0 = r.opening_chart[0]  # from the closed vane: the table's 35 deg is its zero
+    assert r.signals["blade_angle_deg"][0] == pytest.approx(-12.0 + 8.0 * a0 / 43.0, abs=1e-9)
+
+
+# --- the shipped nets against the exact bulb they were trained on ---------------------------------------------------
+def test_rejection_with_the_nets_matches_the_exact_bulb():
+    over = {"scenario.t_end_s": 15.0}  # the maximum speed comes at ~7 s, the minimum outlet pressure at ~5 s
+    nets = run_simulation(load_plant(PLANT_BULB, over)).summary()
+    exact = run_simulation(load_plant(PLANT_BULB, {**over, **EXACT})).summary()
+    head = exact["initial_head_m"]
+    # the guarantee figures: speed within 1 point, max head and min outlet pressure within 2 % of the head
+    assert abs(nets["max_speed_rise"] - exact["max_speed_rise"]) < 0.01
+    assert abs(nets["max_head_m"] - exact["max_head_m"]) < 0.02 * head
+    assert abs(nets["min_outlet_pressure_head_m"] - exact["min_outlet_pressure_head_m"]) < 0.02 * head
+    # and the rejection is a real one (the figures move by far more than the bounds)
+    assert exact["max_speed_rise"] > 0.3 and exact["max_head_m"] - head > 0.5 * head
