@@ -52,12 +52,16 @@ class PartHooks:
     columns its ``record`` function writes. After the run, on the stored signals ({column: array}) and their times
     (s): ``summary_after(time_s, signals) -> dict`` more figures, ``warnings_after(signals) -> list[str]``,
     ``error_after(time_s, signals) -> str`` a reason the run is invalid ("" when it is not); ``failure() -> str``:
-    why the part failed first when the loop stopped ("" when it did not).
+    why the part failed first when the loop stopped ("" when it did not). A control part: ``n_controls`` the length
+    of its control vector (1: the guide vanes; 2 with the runner blades) and ``initial_controls`` its value at t = 0
+    (default: the steady stroke).
     """
 
     summary: dict = field(default_factory=dict)
     initial_head_m: float | None = None
     initial_signals: tuple[float, ...] = ()
+    n_controls: int = 1
+    initial_controls: tuple[float, ...] = ()
     summary_after: Callable[[Any, dict], dict] | None = None
     warnings_after: Callable[[dict], list] | None = None
     error_after: Callable[[Any, dict], str] | None = None

@@ -176,8 +176,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
                             closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max] + [1.0] * (
-                                parts["control"].meta.get("n_controls", 1) - 1))
-    n_controls = parts["control"].meta.get("n_controls", 1)
+                                parts["control"].hooks.n_controls - 1))
+    n_controls = parts["control"].hooks.n_controls
     ts = turbine_state(steady.head_m, steady.flow_m3_s, steady.torque_nm, n_controls)
     rows = n_steps // stride + 1
     out = {name: np.zeros(rows) for name in ("speed", "head", "flow", "torque")}
@@ -187,7 +187,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     out_signals = np.zeros((rows, len(signal_names)))
     out["speed"][0], out["head"][0], out["flow"][0] = steady.speed_rpm, steady.head_m, steady.flow_m3_s
     out["torque"][0] = steady.torque_nm
-    out_controls[0, :] = parts["control"].meta.get("initial_controls", [steady.stroke])
+    out_controls[0, :] = parts["control"].hooks.initial_controls or [steady.stroke]
     pen_part, up_part = parts["penstock"], parts["upstream"]
     column = 0
     for kind in RECORDING_KINDS:  # row 0: each recording component's initial signals

@@ -249,11 +249,10 @@ def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristi
 
 
 def _part(name, step, params, state, blade, bstate, blade_range):
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     phi0 = blade[_ANGLE_MIN] + blade[5] * blade[_SPAN]
-    meta = {"initial_signals": [phi0, float(bstate[0])], "n_controls": 2,
-            "initial_controls": [float(state[-2][0]), float(state[-2][1])]}
+    warnings_after = None
     if blade_range is not None:
         lo, hi = blade_range
 
@@ -265,9 +264,10 @@ def _part(name, step, params, state, blade, bstate, blade_range):
                         f"angle_max_deg or train the nets over the blade angles the run visits"]
             return []
 
-        meta["warnings_after"] = warnings_after
+    hooks = PartHooks(initial_signals=(phi0, float(bstate[0])), n_controls=2,
+                      initial_controls=(float(state[-2][0]), float(state[-2][1])), warnings_after=warnings_after)
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
-                        params=params, state=state, signals=SIGNALS, meta=meta)
+                        params=params, state=state, signals=SIGNALS, hooks=hooks)
 
 
 def time_scales(plant, schedules) -> list:

@@ -90,7 +90,7 @@ def build_draft_tube(plant, steady, dt_s: float):
     from types import SimpleNamespace
 
     from simulate.components.hydraulic.penstock import build_moc, build_rigid
-    from simulate.components.registry import CompiledPart
+    from simulate.components.registry import CompiledPart, PartHooks
 
     config = plant.draft_tube  # simulate.config.DraftTubeConfig
     mirrored = config.mirrored()
@@ -126,15 +126,14 @@ def build_draft_tube(plant, steady, dt_s: float):
                     f"slowly, set the runner deeper (draft_tube.runner_elevation_m) or check the draft tube"]
         return []
 
-    meta = {"initial_signals": [head0, head0 + offset], "summary_after": summary_after,
-            "warnings_after": warnings_after,
-            "summary": {"draft_tube_model": config.model,
-                        "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5}}
+    summary = {"draft_tube_model": config.model, "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5}
     if config.model == "moc":
-        meta["summary"]["draft_tube_moc_reaches"] = inner.meta["moc_reaches"]
+        summary["draft_tube_moc_reaches"] = inner.hooks.summary["moc_reaches"]
+    hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset), summary_after=summary_after,
+                      warnings_after=warnings_after)
     return CompiledPart(kind="downstream", name=f"draft_tube ({config.model})", functions=functions,
                         params=(inner.params, np.array([offset])), state=(inner.state, np.array([head0])),
-                        signals=SIGNALS, meta=meta)
+                        signals=SIGNALS, hooks=hooks)
 
 
 def time_scales(plant, schedules) -> list:

@@ -293,8 +293,8 @@ def scale_torque(characteristics, factor: float, step_up: StepUp | None = None):
 
     Trained nets (:class:`hillchart.nets.hill_nets.HillNets`) come back as nets whose torque net's output range
     ``[y_min, y_max]`` is scaled (the net's output is affine in it, eq. (11) of the BP hill-chart paper: exact up to
-    rounding), ensemble members and the physical model below the lowest digitized line included, with the step-up recorded in ``training["step_up"]``; anything else is
-    wrapped in :class:`TorqueScaled`."""
+    rounding), ensemble members and the physical model below the lowest digitized line included, with the step-up
+    recorded in ``training["step_up"]``; anything else is wrapped in :class:`TorqueScaled`."""
     from hillchart.nets.hill_nets import HillNets
     from hillchart.nets.weights import NetWeights
 
