@@ -21,6 +21,13 @@ from hillchart.errors import InputError
 from hillsim import progress
 
 
+
+def _penstock_models() -> tuple[str, ...]:
+    """The penstock models of the registry (the built-in ones and any registered before the parser is built)."""
+    from simulate.components.registry import PENSTOCKS
+
+    return PENSTOCKS.names()
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "identify",
@@ -33,7 +40,7 @@ def register(subparsers) -> None:
     parser.add_argument("--data", default=None, metavar="CSV",
                         help="measured series: header time_s,speed_rpm,head_m,opening,torque_nm,flow_m3_s "
                              "(opening as stroke fraction); resampled to tau by interpolation")
-    parser.add_argument("--penstock-model", choices=("moc", "zdomain", "lumped", "rigid"), default=None,
+    parser.add_argument("--penstock-model", choices=_penstock_models(), default=None,
                         help="override the plant's penstock model (rigid/lumped match the linear models)")
     parser.add_argument("--initial-opening", type=float, default=None, metavar="STROKE",
                         help="operating point as a stroke fraction (default: the scenario's initial power/opening)")

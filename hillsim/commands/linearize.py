@@ -17,6 +17,13 @@ from hillchart.errors import InputError
 from hillsim import progress
 
 
+
+def _penstock_models() -> tuple[str, ...]:
+    """The penstock models of the registry (the built-in ones and any registered before the parser is built)."""
+    from simulate.components.registry import PENSTOCKS
+
+    return PENSTOCKS.names()
+
 def load_characteristics(source: str, plant=None):
     """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
     (:func:`simulate.components.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"``
@@ -67,7 +74,7 @@ def register(subparsers) -> None:
                        help="linearize at this plant's initial operating point (its scenario's initial power or "
                             "opening, or --stroke) with NETS as the characteristics; adds the linear plant model")
     point.add_argument("--stroke", type=float, default=None, help="with --plant: operating stroke fraction")
-    point.add_argument("--penstock-model", choices=("moc", "zdomain", "lumped", "rigid"), default=None,
+    point.add_argument("--penstock-model", choices=_penstock_models(), default=None,
                        help="with --plant: rigid gives the inelastic model, otherwise the lumped elastic one")
     point.add_argument("--tau", type=float, default=0.2, help="with --plant: sampling time of the ARX, s")
     point.add_argument("--speed-rpm", type=float, default=None, help="shaft speed n, r/min (with --head-m, --d1-m)")

@@ -88,3 +88,13 @@ def test_an_unregistered_penstock_is_refused_with_the_registered_names(user_pens
     import simulate.config as config
 
     assert "user_rigid" in config.PENSTOCK_MODELS  # the module attribute is read at call time too
+
+
+def test_the_command_line_offers_a_registered_penstock(user_penstock, capsys):
+    """The registry drives the CLI's --penstock-model choices (identify, linearize --plant)."""
+    from hillsim.cli import build_parser
+
+    for command in ("identify", "linearize"):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args([command, "--help"])
+        assert "user_rigid" in capsys.readouterr().out, command
