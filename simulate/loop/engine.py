@@ -71,7 +71,9 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     from hillchart.characteristics import scalar_kernel
 
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    kernel, params, _ = scalar_kernel(plant_characteristics(plant, chars))
+    view = plant_characteristics(plant, chars)
+    # a double-regulated unit: values at the cam through the compiled kernel (the steady state reads no derivative)
+    kernel, params = view.steady_kernel() if hasattr(view, "steady_kernel") else scalar_kernel(view)[:2]
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:

@@ -238,3 +238,37 @@ def test_rejection_with_the_nets_matches_the_exact_bulb():
     assert abs(nets["min_outlet_pressure_head_m"] - exact["min_outlet_pressure_head_m"]) < 0.02 * head
     # and the rejection is a real one (the figures move by far more than the bounds)
     assert exact["max_speed_rise"] > 0.3 and exact["max_head_m"] - head > 0.5 * head
+
+
+# --- the work outside the loop -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("over", [{}, EXACT])
+def test_steady_kernel_gives_the_views_values_through_one_compiled_call(over):
+    from simulate.loop.engine import plant_characteristics
+
+    plant = load_plant(PLANT_BULB, over)
+    view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    kernel, params = view.steady_kernel()
+    for n11, a in ((120.0, 5.0), (149.6, 16.0), (200.0, 40.0)):
+        out = kernel(params, n11, a)
+        # the same compiled kernel at the same cam angle as the view's three_input: equal to rounding
+        assert out[0] == pytest.approx(float(view.q11(n11, a)), rel=1e-12, abs=1e-15)
+        assert out[3] == pytest.approx(float(view.m11(n11, a)), rel=1e-12, abs=1e-9)
+        assert np.isnan(out[1]) and np.isnan(out[5])  # values only: no derivative a caller could mistake
+    # a point off the cam's slice (another head) gives another value: the kernel reads the head from N11
+    assert abs(kernel(params, 120.0, 16.0)[0] - kernel(params, 200.0, 16.0)[0]) > 1e-3
+
+
+def test_the_cam_is_computed_once_for_the_same_nets_read_again():
+    from simulate.components.turbine import double_regulated as dr
+    from simulate.loop.engine import plant_characteristics
+
+    plant = load_plant(PLANT_BULB)
+    first = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    again = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    assert again.inner is not first.inner and again.cam is first.cam  # a new object, the same numbers: cached
+    nets = load_characteristics(plant.turbine, plant.base_dir)
+    w = nets.flow
+    changed = DoubleRegulatedNets(flow=dataclasses.replace(w, b2=w.b2 + 0.01), torque=nets.torque)
+    other = plant_characteristics(plant, changed)
+    assert other.cam is not first.cam  # other numbers: a cam of their own
+    assert len(dr._CAMS) == 1  # one plant at a time
