@@ -3,8 +3,10 @@
 The 60 s load rejection of ``data_synthetic/plant_bulb.toml`` (three-input nets, guide vanes and blades, intake and
 draft tube by MOC) and of ``data_synthetic/plant_hla339.toml`` (two-input nets, penstock by MOC), each run once to
 compile (reported apart) and then timed best and median of 7. Besides the wall time per run, the time per step
-compares the loops themselves (the two plants have different steps). The whole run (``run_simulation``: steady
-state, the cam, building the components) is reported too.
+compares the loops themselves (the two plants have different steps). The whole run (``run_simulation``: reading
+the nets, steady state, building the components, the loop) is reported too; the bulb's cam is computed on the
+first call (in its column) and found again by the nets' numbers on the repeated runs, as in a study that runs the
+same nets many times.
 
 Run:  PYTHONPATH=$PWD OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/bench_bulb.py [--repeats N]
 """
