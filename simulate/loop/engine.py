@@ -174,6 +174,11 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     guards.check_run_size(plant, dt, n_steps, stride)
     guards.check_initial_state(plant, steady, domain)
     warnings = guards.plausibility_warnings(plant) + list(plan.warnings)
+    training = getattr(chars, "training", None)
+    if isinstance(training, dict) and training.get("kind") == "on-cam":  # nets of a chart without vane angles
+        from hillchart.fccm.on_cam import ON_CAM_WARNING
+
+        warnings.append(ON_CAM_WARNING)
     parts, schedules = build_parts(plant, steady, dt, n_sub, chars)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,

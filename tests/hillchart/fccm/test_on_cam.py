@@ -167,6 +167,7 @@ max_iterations = 50
 relaxation = 1.0
 """, encoding="utf-8")
     assert main(["run", str(plant), "--out", str(tmp_path / "run")]) == 0
+    assert "blades' lag behind the cam" in capsys.readouterr().err  # the run says what the nets cannot represent
     s = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert s["success"] and 0.4 < s["initial_opening"] < 0.8  # 5.5 MW of the cam's 50.7 deg
     # speed: the energy of the rejected power while the vanes close (stroke 0.59 in 7 s, power falling about
