@@ -72,6 +72,16 @@ def nets_control_kernel(params, n11, controls):
 
 
 @numba.njit(cache=True)
+def nets_control_flow(params, n11, controls):
+    """The flow half of :func:`nets_control_kernel`, ``(q11, dq11/dn11)``, the same arithmetic: what the pressure
+    loop reads in each iteration (the torque net is evaluated once, at the converged head)."""
+    flow, torque, scal = params
+    opening = controls[0] + scal[0]
+    blade = scal[1] + controls[1] * scal[2]
+    return net3_point(flow, n11, opening, blade)
+
+
+@numba.njit(cache=True)
 def bulb_control_kernel(params, n11, controls):
     """The exact synthetic bulb: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (bulb point parameters,
     [opening at zero stroke, angle_min_deg, angle span deg])."""
@@ -352,6 +362,11 @@ class DoubleRegulatedTurbine:
         from hillchart.characteristics import efficiency_from_unit_torque
 
         return efficiency_from_unit_torque(self.q11(n11, opening), n11, self.m11(n11, opening))
+
+    def numba_control_flow_kernel(self):
+        """The flow half of :meth:`numba_control_kernel`, ``kernel(params, n11, controls) -> (q11, dq11/dn11)`` on
+        the same params, or None when the characteristics have none (the loop then reads the full kernel)."""
+        return nets_control_flow if self._kernel[0] is nets_control_kernel else None
 
     def numba_control_kernel(self):
         """``(kernel, params)`` for the compiled loop on the chart controls ``[a, y_b]``."""
