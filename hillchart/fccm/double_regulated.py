@@ -319,6 +319,12 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
     """
     from hillchart.characteristics import unit_torque_from_efficiency
 
+    from hillchart.fccm.on_cam import is_on_cam_table
+
+    if is_on_cam_table(table):
+        raise InputError("the table has blade_angle_deg but no guide_vane_deg: an on-cam chart, whose nets are "
+                         "two-input over the cam position (hillchart.fccm.on_cam.on_cam_unit_samples; hillsim fccm "
+                         "--simulator-nets does this by itself)")
     notes = []
     n11 = np.asarray(table.column("n11_rpm"), float)
     q11 = np.asarray(table.column("q11_m3_s"), float)

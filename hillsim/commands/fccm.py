@@ -25,15 +25,19 @@ def register(subparsers) -> None:
     parser.add_argument("--simulator-nets", action="store_true",
                         help="instead: train the three-input nets Q11(n11, opening, blade angle) and M11 the "
                              "simulator runs (nets.json in --out), with an ensemble and plausibility checks; the "
-                             "table needs guide_vane_deg, efficiency and n11/Q11 (or head, flow, speed and diameter)")
+                             "table needs guide_vane_deg, efficiency and n11/Q11 (or head, flow, speed and "
+                             "diameter). An on-cam chart (blade_angle_deg without guide_vane_deg) gives two-input "
+                             "nets over (n11, cam position) instead: vanes and blades move together")
     parser.add_argument("--closed-opening", type=float, default=None, metavar="DEG",
                         help="with --simulator-nets: the guide-vane angle at which the vanes touch; extends the "
-                             "samples to the closed vane (Q11 = 0)")
+                             "samples to the closed vane (Q11 = 0). For an on-cam chart: the cam's blade angle at "
+                             "which the flow stops (default: extrapolated from the two lowest blade-angle lines)")
     parser.add_argument("--members", type=int, default=5,
                         help="with --simulator-nets: ensemble members, the point nets included (default 5)")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
-                        help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation)")
+                        help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation; "
+                             "with --simulator-nets 15, or 8 for an on-cam chart)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split and the initialisations (default 0)")
     parser.add_argument("--restarts", type=int, default=5, help="initialisations per hidden size (default 5)")
     parser.add_argument("--split", default="0.30,0.35,0.35",
@@ -135,14 +139,14 @@ def _run_simulator_nets(args) -> int:
 
     from hillchart.errors import InputError
     from hillchart.fccm.double_regulated import table_unit_samples, train_table_nets
+    from hillchart.fccm.on_cam import is_on_cam_table
     from hillchart.fccm.table import load_test_table
 
     if args.inputs is not None or args.output_columns is not None:
         raise InputError("--simulator-nets trains Q11 and M11 on (n11, guide_vane_deg, blade_angle_deg): drop "
                          "--inputs and --outputs")
-    hidden = 15 if args.hidden is None else args.hidden
-    if not 1 <= hidden <= 100:
-        raise InputError(f"--hidden must be an integer within 1-100, got {hidden}")
+    if args.hidden is not None and not 1 <= args.hidden <= 100:
+        raise InputError(f"--hidden must be an integer within 1-100, got {args.hidden}")
     for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1),
                                ("--members", args.members, 1)):
         if value < low:
@@ -154,6 +158,9 @@ def _run_simulator_nets(args) -> int:
         table = load_test_table(args.table)
     for w in caught:
         print(f"warning: {w.message}", flush=True)
+    if is_on_cam_table(table):
+        return _run_on_cam_nets(args, table, split, out)
+    hidden = 15 if args.hidden is None else args.hidden
     samples, notes = table_unit_samples(table, opening_closed=args.closed_opening, seed=args.seed)
     nets, report = train_table_nets(samples, hidden=hidden, restarts=args.restarts, seed=args.seed,
                                     members=args.members, split=split)
@@ -170,5 +177,38 @@ def _run_simulator_nets(args) -> int:
         print(f"note: {line}")
     for line in report["warnings"]:
         print(f"warning: {line}")
+    print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")
+    return 0
+
+
+def _run_on_cam_nets(args, table, split, out) -> int:
+    """An on-cam table (blade angle, no guide-vane angle): two-input nets over (n11, cam position) that the
+    simulator runs as a single-regulated unit, with the warning of what they cannot represent."""
+    import json
+
+    from hillchart.fccm.on_cam import ON_CAM_WARNING, on_cam_unit_samples, train_on_cam_nets
+
+    hidden = 8 if args.hidden is None else args.hidden
+    samples, notes, closed = on_cam_unit_samples(table, closed_angle_deg=args.closed_opening, seed=args.seed)
+    nets, report = train_on_cam_nets(samples, hidden=hidden, restarts=args.restarts, seed=args.seed,
+                                     members=args.members, split=split)
+    nets.training["notes"] = notes
+    nets.training["closed_cam_blade_angle_deg"] = closed
+    nets.save(out / "nets.json")
+    (out / "plausibility.json").write_text(json.dumps({**report, "notes": notes}, indent=2) + "\n", encoding="utf-8")
+    p = report["plausibility"]
+    span = float(nets.flow.x_max[1])
+    print(f"table {table.info.name!r}: an on-cam chart; {samples['n11'].size} unit samples; two-input nets "
+          f"2-{hidden}-1 (Q11, M11) over (n11, cam position), {p['ensemble_members']} ensemble members")
+    print(f"plausibility: dQ11/dc < 0 on {100 * p['share_dq11_dc_negative']:.1f} % of the box, efficiency up to "
+          f"{p['max_efficiency']:.3f}, ensemble spread Q11 {p['ensemble_spread_q11_pct']:.2f} %, "
+          f"M11 {p['ensemble_spread_m11_pct']:.2f} % of their ranges")
+    for line in notes:
+        if line != ON_CAM_WARNING:  # said once, as a warning
+            print(f"note: {line}")
+    for line in report["warnings"]:
+        print(f"warning: {line}")
+    print(f"plant: turbine.characteristics = this nets.json, turbine.opening_max = {span:.4g} (the cam from closed "
+          f"to the largest blade angle, deg), no [combinator] or [blade_servo]")
     print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")
     return 0

@@ -293,12 +293,16 @@ class CompiledCharacteristics:
     kernel: Callable
     params: tuple
     jitted: bool
+    #: ``flow_kernel(params, n11, controls) -> (q11, dq11_dn11, ...)`` on the same params, for the pressure loop's
+    #: iterations that read Q11 only (None: the loop reads ``kernel``)
+    flow_kernel: Callable | None = None
 
 
 def compile_characteristics(characteristics) -> CompiledCharacteristics:
     if hasattr(characteristics, "numba_control_kernel"):
         kernel, params = characteristics.numba_control_kernel()
-        return CompiledCharacteristics("controls", kernel, tuple(params), True)
+        flow = getattr(characteristics, "numba_control_flow_kernel", lambda: None)()
+        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow)
     from hillchart.characteristics import scalar_kernel
 
     kernel, params, jitted = scalar_kernel(characteristics)

@@ -160,8 +160,21 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
                       "    return out[0], out[1], out[3], out[4]"]
         else:
             lines += ["kernel = _characteristics_kernel"]
+    # ``flow_kernel``: what the iterations of a pressure loop that reads Q11 only call (a kernel's flow half where
+    # the characteristics offer one: the torque is evaluated once, at the converged head)
+    flow = getattr(characteristics, "flow_kernel", None)
+    if flow is not None and characteristics.source == "controls":
+        lines.append(_import_line(flow, "flow_kernel"))
+        modules.add(flow.__module__)
+    else:
+        lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):", "    return kernel(params, n11, controls)"]
     solver = boundary.SOLVERS[pressure_loop]
     solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
+    if pressure_loop in boundary.FLOW_ONLY_SOLVERS:
+        call = "kernel(params, "
+        if solver_source.count(call) != 1:
+            raise RuntimeError(f"pressure loop {pressure_loop!r}: expected one {call!r} in its template")
+        solver_source = solver_source.replace(call, "flow_kernel(params, ")
     lines.append(solver_source.replace(f"def {solver.__name__}(", "def pressure_loop("))
     newton = boundary.SOLVERS["newton"]  # the turbine step's last fallback
     newton_source = _template(getattr(newton, "py_func", newton), drop_first=True)

@@ -71,7 +71,9 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     from hillchart.characteristics import scalar_kernel
 
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    kernel, params, _ = scalar_kernel(plant_characteristics(plant, chars))
+    view = plant_characteristics(plant, chars)
+    # a double-regulated unit: values at the cam through the compiled kernel (the steady state reads no derivative)
+    kernel, params = view.steady_kernel() if hasattr(view, "steady_kernel") else scalar_kernel(view)[:2]
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:
@@ -172,6 +174,11 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     guards.check_run_size(plant, dt, n_steps, stride)
     guards.check_initial_state(plant, steady, domain)
     warnings = guards.plausibility_warnings(plant) + list(plan.warnings)
+    training = getattr(chars, "training", None)
+    if isinstance(training, dict) and training.get("kind") == "on-cam":  # nets of a chart without vane angles
+        from hillchart.fccm.on_cam import ON_CAM_WARNING
+
+        warnings.append(ON_CAM_WARNING)
     parts, schedules = build_parts(plant, steady, dt, n_sub, chars)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,

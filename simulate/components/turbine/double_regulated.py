@@ -72,6 +72,16 @@ def nets_control_kernel(params, n11, controls):
 
 
 @numba.njit(cache=True)
+def nets_control_flow(params, n11, controls):
+    """The flow half of :func:`nets_control_kernel`, ``(q11, dq11/dn11)``, the same arithmetic: what the pressure
+    loop reads in each iteration (the torque net is evaluated once, at the converged head)."""
+    flow, torque, scal = params
+    opening = controls[0] + scal[0]
+    blade = scal[1] + controls[1] * scal[2]
+    return net3_point(flow, n11, opening, blade)
+
+
+@numba.njit(cache=True)
 def bulb_control_kernel(params, n11, controls):
     """The exact synthetic bulb: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (bulb point parameters,
     [opening at zero stroke, angle_min_deg, angle span deg])."""
@@ -296,6 +306,32 @@ class DoubleRegulatedTurbine:
             q.flat[i], m.flat[i] = out[0], out[2]
         return q, m
 
+    def steady_kernel(self):
+        """``(kernel, params)`` for the steady state (:func:`simulate.loop.steady.steady_state` reads values only):
+        ``kernel(params, n11, opening) -> (q11, nan, nan, m11, nan, nan)`` with the blades where the combinator puts
+        them, one call of the loop's compiled kernel a point (the derivatives along the combinator are
+        :meth:`q11_grad` / :meth:`m11_grad`)."""
+        kernel, first = self._kernel
+        if kernel is None:
+            def values(params, n11, opening):
+                phi = self.blade_angle(n11, opening)
+                q, m = self.three_input(n11, opening, phi)
+                return float(q), math.nan, math.nan, float(m), math.nan, math.nan
+
+            return values, ()
+        kparams = first + (np.array([self.opening_at_zero_stroke, self.angle_min_deg, self.angle_span_deg]),)
+        controls = np.zeros(2)
+        cam, fixed = self.cam, self.fixed_angle_deg
+        nd = self.speed_rpm * self.runner_diameter_m
+
+        def values(params, n11, opening):
+            phi = float(fixed) if cam is None else cam.angle(opening, (nd / n11) ** 2)  # eq. (2), H from N11
+            controls[0], controls[1] = opening, self.blade_stroke(phi)
+            q, _, m, _ = kernel(kparams, float(n11), controls)
+            return q, math.nan, math.nan, m, math.nan, math.nan
+
+        return values, ()
+
     # two-input methods: the blades where the combinator puts them ------------------------------------------
     def q11(self, n11, opening):
         return self.three_input(n11, opening, self.blade_angle(n11, opening))[0]
@@ -326,6 +362,11 @@ class DoubleRegulatedTurbine:
         from hillchart.characteristics import efficiency_from_unit_torque
 
         return efficiency_from_unit_torque(self.q11(n11, opening), n11, self.m11(n11, opening))
+
+    def numba_control_flow_kernel(self):
+        """The flow half of :meth:`numba_control_kernel`, ``kernel(params, n11, controls) -> (q11, dq11/dn11)`` on
+        the same params, or None when the characteristics have none (the loop then reads the full kernel)."""
+        return nets_control_flow if self._kernel[0] is nets_control_kernel else None
 
     def numba_control_kernel(self):
         """``(kernel, params)`` for the compiled loop on the chart controls ``[a, y_b]``."""
@@ -412,11 +453,15 @@ def _wrap(plant, inner) -> DoubleRegulatedTurbine:
         lo, hi = comb.fixed_angle_deg - 1.0, comb.fixed_angle_deg + 1.0
     cam = None
     if comb.relation == "cam":
-        key = (id(inner), comb.opening_at_zero_stroke, turbine.opening_max, turbine.rated_speed_rpm,
-               turbine.runner_diameter_m, turbine.rated_head_m, lo, hi)
-        if key not in _CAMS or _CAMS[key][0] is not inner:
+        # the cam depends on the characteristics' numbers, not on the object: the same nets read again (each run
+        # of a study loads its nets.json) find their cam here; characteristics without a compiled kernel by object
+        kernel, first = _inner_kernel(inner)
+        content = (kernel, tuple(np.asarray(v).tobytes() for v in first)) if kernel is not None else (id(inner),)
+        key = content + (comb.opening_at_zero_stroke, turbine.opening_max, turbine.rated_speed_rpm,
+                         turbine.runner_diameter_m, turbine.rated_head_m, lo, hi)
+        if key not in _CAMS or (kernel is None and _CAMS[key][0] is not inner):
             _CAMS.clear()  # one plant at a time; keeps the cache from holding characteristics alive
-            _CAMS[key] = (inner, cam_from_characteristics(
+            _CAMS[key] = (inner if kernel is None else None, cam_from_characteristics(
                 inner, opening_at_zero_stroke=comb.opening_at_zero_stroke, opening_max=turbine.opening_max,
                 speed_rpm=turbine.rated_speed_rpm, runner_diameter_m=turbine.runner_diameter_m,
                 rated_head_m=turbine.rated_head_m, blade_range_deg=(lo, hi)))

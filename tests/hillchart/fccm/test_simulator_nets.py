@@ -80,9 +80,9 @@ def test_real_fixed_blade_bulb_table_trains_plausible_nets(tmp_path):
 
 
 @pytest.mark.external
-def test_real_kaplan_chart_without_guide_vane_angles_is_named(tmp_path):
+def test_real_kaplan_chart_is_sent_to_the_on_cam_path(tmp_path):
     from tests.fccm_external import write_kaplan_table
 
     table = load_test_table(write_kaplan_table(tmp_path / "kaplan"))
-    with pytest.raises(InputError, match="guide_vane_deg"):  # an on-cam chart: no guide-vane angle to learn
+    with pytest.raises(InputError, match="an on-cam chart"):  # no guide-vane angle: the two-input path
         table_unit_samples(table)

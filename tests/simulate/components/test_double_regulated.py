@@ -238,3 +238,66 @@ def test_rejection_with_the_nets_matches_the_exact_bulb():
     assert abs(nets["min_outlet_pressure_head_m"] - exact["min_outlet_pressure_head_m"]) < 0.02 * head
     # and the rejection is a real one (the figures move by far more than the bounds)
     assert exact["max_speed_rise"] > 0.3 and exact["max_head_m"] - head > 0.5 * head
+
+
+# --- the work outside the loop -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("over", [{}, EXACT])
+def test_steady_kernel_gives_the_views_values_through_one_compiled_call(over):
+    from simulate.loop.engine import plant_characteristics
+
+    plant = load_plant(PLANT_BULB, over)
+    view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    kernel, params = view.steady_kernel()
+    for n11, a in ((120.0, 5.0), (149.6, 16.0), (200.0, 40.0)):
+        out = kernel(params, n11, a)
+        # the same compiled kernel at the same cam angle as the view's three_input: equal to rounding
+        assert out[0] == pytest.approx(float(view.q11(n11, a)), rel=1e-12, abs=1e-15)
+        assert out[3] == pytest.approx(float(view.m11(n11, a)), rel=1e-12, abs=1e-9)
+        assert np.isnan(out[1]) and np.isnan(out[5])  # values only: no derivative a caller could mistake
+    # a point off the cam's slice (another head) gives another value: the kernel reads the head from N11
+    assert abs(kernel(params, 120.0, 16.0)[0] - kernel(params, 200.0, 16.0)[0]) > 1e-3
+
+
+def test_the_cam_is_computed_once_for_the_same_nets_read_again():
+    from simulate.components.turbine import double_regulated as dr
+    from simulate.loop.engine import plant_characteristics
+
+    plant = load_plant(PLANT_BULB)
+    first = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    again = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    assert again.inner is not first.inner and again.cam is first.cam  # a new object, the same numbers: cached
+    nets = load_characteristics(plant.turbine, plant.base_dir)
+    w = nets.flow
+    changed = DoubleRegulatedNets(flow=dataclasses.replace(w, b2=w.b2 + 0.01), torque=nets.torque)
+    other = plant_characteristics(plant, changed)
+    assert other.cam is not first.cam  # other numbers: a cam of their own
+    assert len(dr._CAMS) == 1  # one plant at a time
+
+
+def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch):
+    from simulate.components.registry import compile_characteristics
+    from simulate.components.turbine.double_regulated import DoubleRegulatedTurbine, nets_control_flow
+    from simulate.loop.assembly import loop_source
+    from simulate.loop.engine import build_parts, initial_state, plant_characteristics
+
+    plant = load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0})
+    view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    cc = compile_characteristics(view)
+    assert cc.flow_kernel is nets_control_flow
+    controls = np.array([12.0, 0.4])
+    for n11 in (110.0, 150.0, 260.0):
+        full, half = cc.kernel(cc.params, n11, controls), nets_control_flow(cc.params, n11, controls)
+        # the same net3_point on the same inputs: equal to the last bit on one machine (1e-15 for safety)
+        assert half[0] == pytest.approx(full[0], rel=1e-15) and half[1] == pytest.approx(full[1], rel=1e-15)
+    steady = initial_state(plant, view)
+    parts, _ = build_parts(plant, steady, 0.01, 1, view)
+    source, _ = loop_source(parts, cc, "improved", True)
+    assert "nets_control_flow as flow_kernel" in source and "q11 = flow_kernel(params, n11, opening)[0]" in source
+    with_half = run_simulation(plant)
+    monkeypatch.setattr(DoubleRegulatedTurbine, "numba_control_flow_kernel", lambda self: None)
+    assert compile_characteristics(view).flow_kernel is None
+    without = run_simulation(plant)  # the loop reads the full kernel: another generated loop, the same numbers
+    assert without.wall_time_s > 0 and with_half.head_m.size == without.head_m.size
+    # the same arithmetic in another compiled function: equal to rounding (1e-12 of the head)
+    assert np.max(np.abs(with_half.head_m - without.head_m)) < 1e-12 * plant.turbine.rated_head_m
+    assert np.max(np.abs(with_half.speed_rpm - without.speed_rpm)) < 1e-12 * plant.turbine.rated_speed_rpm

@@ -1,0 +1,183 @@
+"""On-cam Kaplan charts (blade angle, no guide-vane angle): two-input nets over the cam position for the simulator."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from hillchart.errors import InputError
+from hillchart.fccm.on_cam import (ON_CAM_WARNING, closed_cam_angle, is_on_cam_table, on_cam_unit_samples,
+                                   train_on_cam_nets)
+from hillchart.fccm.table import load_test_table
+
+
+def _write_table(folder, rows):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "table.toml").write_text('name = "on-cam test chart"\ncontrols = ["blade_angle_deg", "n11_rpm"]\n',
+                                       encoding="utf-8")
+    with (folder / "table.csv").open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(["blade_angle_deg", "n11_rpm", "q11_m3_s", "efficiency"])
+        writer.writerows(rows)
+    return folder
+
+
+def _linear_chart(folder, closed=-10.0):
+    """Q11 = 0.04 (phi - closed) (1 + 0.001 n11): exactly linear in the blade angle, zero at ``closed``."""
+    rows = [(phi, n11, 0.04 * (phi - closed) * (1 + 0.001 * n11), 0.8 - 1e-5 * (n11 - 130) ** 2)
+            for phi in (10.0, 20.0, 30.0) for n11 in (90.0, 110.0, 130.0, 150.0, 170.0)]
+    return _write_table(folder, rows)
+
+
+def test_closed_cam_is_where_the_flow_extrapolates_to_zero(tmp_path):
+    table = load_test_table(_linear_chart(tmp_path / "t"))
+    assert is_on_cam_table(table)
+    blade, n11, q11 = (table.column(k) for k in ("blade_angle_deg", "n11_rpm", "q11_m3_s"))
+    # Q11 is exactly linear in the blade angle: the extrapolation is exact up to rounding (1e-9 deg)
+    assert abs(closed_cam_angle(blade, n11, q11) - (-10.0)) < 1e-9
+    # a flow that falls with the blade angle has no closed cam below the chart: refused with the fix
+    with pytest.raises(InputError, match="does not rise .* give --closed-opening"):
+        closed_cam_angle(blade, n11, q11[::-1])
+    with pytest.raises(InputError, match="at least two blade-angle lines"):
+        closed_cam_angle(np.full(3, 8.0), n11[:3], q11[:3])
+
+
+def test_on_cam_samples_count_the_cam_from_the_closed_position(tmp_path):
+    table = load_test_table(_linear_chart(tmp_path / "t"))
+    samples, notes, closed = on_cam_unit_samples(table, zero_opening_points=20)
+    measured = samples["measured"]
+    assert closed == pytest.approx(-10.0, abs=1e-9)
+    assert np.allclose(samples["opening"][measured], table.column("blade_angle_deg") + 10.0, atol=1e-9)
+    closed_rows = samples["opening"] == 0.0
+    assert closed_rows.sum() == 20 and np.all(samples["q11"][closed_rows] == 0.0)
+    # the assumed samples below the lowest line: efficiency a fraction of the lowest line's, never above it
+    silent = ~measured & ~closed_rows
+    from hillchart.characteristics import efficiency_from_unit_torque
+
+    eta = efficiency_from_unit_torque(samples["q11"][silent], samples["n11"][silent], samples["m11"][silent])
+    assert silent.sum() == 15 and np.all((eta > 0) & (eta < 0.8))
+    assert notes[0] == ON_CAM_WARNING and any("extrapolated linearly" in n for n in notes)
+    _, notes_given, closed_given = on_cam_unit_samples(table, closed_angle_deg=-5.0)
+    assert closed_given == -5.0 and any("(given)" in n for n in notes_given)
+    with pytest.raises(InputError, match=r"--closed-opening 12.0 .* must be below the table's smallest "
+                                         r"blade_angle_deg 10.0"):
+        on_cam_unit_samples(table, closed_angle_deg=12.0)
+
+
+def test_three_input_path_names_the_on_cam_path(tmp_path):
+    from hillchart.fccm.double_regulated import table_unit_samples
+
+    with pytest.raises(InputError, match="an on-cam chart"):
+        table_unit_samples(load_test_table(_linear_chart(tmp_path / "t")))
+
+
+def test_nets_follow_the_chart_and_close(tmp_path):
+    table = load_test_table(_linear_chart(tmp_path / "t"))
+    samples, _, _ = on_cam_unit_samples(table, zero_opening_points=40)
+    nets, report = train_on_cam_nets(samples, hidden=5, restarts=1, members=2, seed=0)
+    m = samples["measured"]
+    err = nets.q11(samples["n11"][m], samples["opening"][m]) - samples["q11"][m]
+    # a smooth, nearly bilinear chart: a 2-5-1 net fits it to 1 % of the Q11 range (seed 0 reaches 0.2 %)
+    assert np.sqrt(np.mean(err ** 2)) < 0.01 * np.ptp(samples["q11"][m])
+    # closed cam: no flow over N11 up to twice the chart's (within 2 % of the chart's largest Q11)
+    assert np.max(np.abs(nets.q11(np.linspace(0, 340, 30), 0.0))) < 0.02 * samples["q11"].max()
+    assert nets.opening_unit == "deg (cam)" and len(nets.ensemble) == 2
+    assert report["warnings"][0] == ON_CAM_WARNING
+    # 15 points and 5 neurons leave the nets' efficiency above 1 in a corner of the box (1.09, seed 0): the
+    # plausibility check says so (the real chart below stays under its measured best)
+    p = report["plausibility"]
+    assert (p["share_efficiency_above_1"] > 0) == any("exceeds 1" in w for w in report["warnings"])
+
+
+@pytest.mark.external
+def test_real_kaplan_chart_runs_a_load_rejection(tmp_path, capsys):
+    """The Liszka et al. Kaplan chart (on-cam: no guide-vane angle) -> nets -> a load rejection of a plausible unit."""
+    from hillsim.cli import main
+    from simulate.components.registry import resolve_characteristics
+    from tests.fccm_external import write_kaplan_table
+
+    out = tmp_path / "nets"
+    code = main(["fccm", str(write_kaplan_table(tmp_path / "kaplan")), "--simulator-nets", "--members", "2",
+                 "--restarts", "2", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0 and "blades' lag behind the cam" in text and "give a table with guide_vane_deg" in text
+    nets = resolve_characteristics(str(out / "nets.json"))
+    assert type(nets).__name__ == "HillNets" and nets.training["kind"] == "on-cam"
+    p = json.loads((out / "plausibility.json").read_text())["plausibility"]
+    # a measured chart of best efficiency 0.823: nothing above it, flow rising with the cam everywhere
+    assert p["max_efficiency"] < 0.85 and p["share_dq11_dc_negative"] < 0.05
+    span = float(nets.flow.x_max[1])  # the cam from closed (-12.7 deg, extrapolated) to the 38 deg line: 50.7 deg
+    assert 45.0 < span < 56.0
+    # a 6 MW unit near the chart's best point (n11 = 166.7 r/min x 3 m / sqrt(15 m) = 129 r/min, Q11 about 1.3):
+    # 40 m intake, the runner 3 m below the tailwater, 30 m draft tube, Ta = 6 s, vanes close in 12 s
+    plant = tmp_path / "kaplan.toml"
+    plant.write_text(f"""
+[turbine]
+rated_head_m = 15.0
+rated_flow_m3_s = 50.0
+rated_speed_rpm = 166.67
+rated_power_mw = 6.0
+runner_diameter_m = 3.0
+opening_max = {span!r}
+characteristics = "nets/nets.json"
+[penstock]
+model = "moc"
+static_head_m = 15.8
+reaches = 4
+[[penstock.segments]]
+length_m = 40.0
+diameter_m = 5.0
+wave_speed_m_s = 1000.0
+darcy_friction = 0.014
+[draft_tube]
+model = "moc"
+runner_elevation_m = -3.0
+atmospheric_pressure_head_m = 10.33
+vapour_pressure_head_m = 0.24
+vapour_margin_m = 2.0
+[[draft_tube.segments]]
+length_m = 30.0
+diameter_m = 4.5
+wave_speed_m_s = 1000.0
+darcy_friction = 0.014
+[generator]
+inertia_time_s = 6.0
+self_regulation = 1.0
+[governor]
+kp = 2.0
+ki = 0.4
+kd = 0.0
+derivative_filter_s = 0.0
+permanent_droop = 0.0
+servo_time_s = 0.2
+closing_time_s = 12.0
+opening_time_s = 15.0
+stroke_min = 0.0
+stroke_max = 1.0
+[scenario]
+kind = "load-rejection"
+t_end_s = 60.0
+initial_power_mw = 5.5
+event_time_s = 1.0
+[solver]
+pressure_loop = "improved"
+tolerance = 1e-10
+max_iterations = 50
+relaxation = 1.0
+""", encoding="utf-8")
+    assert main(["run", str(plant), "--out", str(tmp_path / "run")]) == 0
+    assert "blades' lag behind the cam" in capsys.readouterr().err  # the run says what the nets cannot represent
+    s = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert s["success"] and 0.4 < s["initial_opening"] < 0.8  # 5.5 MW of the cam's 50.7 deg
+    # speed: the energy of the rejected power while the vanes close (stroke 0.59 in 7 s, power falling about
+    # linearly: 3.5 s of full power) into Ta = 6 s gives (n/n0)^2 = 1 + 2 (5.5/6) 3.5/6, a rise of 44 %; the
+    # on-cam nets' runaway at the closing cam lies near n11 = 250 r/min, +94 %. 30-65 % brackets the estimate
+    # by a third either side, well below runaway (seed 0 gives 46 %).
+    assert 0.30 < s["max_speed_rise"] < 0.65
+    # head: rigid water columns, T_w = sum L V / (g H) = (40 x 2.26 + 30 x 2.79) / (9.81 x 15.7) = 1.1 s over a
+    # 7 s flow stop gives 16 %; the flow falls faster near closure than on average, so 8-40 % (seed 0: 20 %)
+    assert 0.08 < s["max_head_rise"] < 0.40
+    # the draft tube's reverse water hammer stays above the vapour pressure plus margin: about 13.4 m at rest
+    # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.9 m)
+    assert 2.24 < s["min_outlet_pressure_head_m"] < 13.4
