@@ -126,7 +126,9 @@ def test_blade_angle_frozen_in_the_nets_equals_todays_two_input_result():
     from simulate.components.control.blade_servo import BladeServoConfig, CombinatorConfig
 
     three_plant = dataclasses.replace(
-        plant, combinator=CombinatorConfig(relation="cam"),
+        # a user cam at 0 deg (the frozen nets' efficiency is flat in the blade angle: no cam of best efficiency)
+        plant, combinator=CombinatorConfig(relation="table", table_openings=(0.0, 34.0), table_heads_m=(100.0, 200.0),
+                                           table_angles_deg=((0.0, 0.0), (0.0, 0.0))),
         blade_servo=BladeServoConfig(servo_time_s=1.0, closing_time_s=30.0, opening_time_s=30.0,
                                      angle_min_deg=-20.0, angle_max_deg=20.0, mode="law", law_start_s=1.0,
                                      law_target_deg=20.0))
