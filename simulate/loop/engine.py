@@ -17,11 +17,10 @@ source runs as plain Python.
 from __future__ import annotations
 
 import math
-import time as _time
 
 import numpy as np
 
-from hillchart.errors import InputError, NumericalError
+from hillchart.errors import NumericalError
 from simulate.components.turbine.boundary import FALLBACK_DAMPING, STATUS_TEXT, turbine_parameters, turbine_state
 from simulate.config import PlantConfig, load_characteristics
 from simulate.results.result import SimulationResult
@@ -30,7 +29,7 @@ from simulate.loop.steady import SteadyState, steady_state
 
 from simulate.loop.common import (  # noqa: F401  (the loop's shared settings, re-exported here)
     CHUNK_WALL_S, CLOSED_STROKE, FAILURE_ADVICE, HEAD_FLOOR_FRACTION, SEPARATION_ADVICE, SEPARATION_FRACTION,
-    _failure_advice, upstream_friction_s2_m5)
+    _failure_advice, run_in_chunks, step_count, upstream_friction_s2_m5)
 
 
 def downstream_friction_s2_m5(plant: PlantConfig) -> float:
@@ -166,10 +165,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     steady = initial_state(plant, chars)
     plan = plan_step(plant, plant_schedules(plant, steady))  # the step from the components' time scales
     dt, n_sub = plan.dt_s, plan.substeps
-    n_steps = int(round(plant.scenario.t_end_s / dt))
-    if n_steps < 1:
-        raise InputError(f"scenario.t_end_s = {plant.scenario.t_end_s!r} is shorter than one step "
-                         f"(dt = {dt:.6g} s)")
+    n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
     guards.check_run_size(plant, dt, n_steps, stride)
     guards.check_initial_state(plant, steady, domain)
@@ -216,22 +212,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
             parts["downstream"].params, parts["downstream"].state,
             out["speed"], out["head"], out["flow"], out["torque"], out_iter, out_controls, out_signals,
             env_max, env_min, diag)
-    wall = _time.perf_counter()
-    k, status, chunk = 0, 0, max(stride, min(n_steps, 2000 // stride * stride or stride))
-    while k < n_steps:
-        k_end = min(n_steps, k + chunk)
-        t0 = _time.perf_counter()
-        status, k_done = loop(k, k_end, dt, n_sub, stride, *args)
-        if status != 0:
-            break
-        k = k_done
-        if progress is not None:
-            progress(k, n_steps)
-        spent = _time.perf_counter() - t0
-        # aim each chunk at CHUNK_WALL_S of work (a multiple of the output stride)
-        target = int(chunk * CHUNK_WALL_S / max(spent, 1e-6))
-        chunk = max(stride, min(10 * chunk, target) // stride * stride)
-    wall = _time.perf_counter() - wall
+    status, k_done, wall = run_in_chunks(loop, args, n_steps, dt, n_sub, stride, progress)
 
     message = "ok"
     if status == 0:  # a component may find the run invalid afterwards (e.g. a surge tank running dry)

@@ -8,7 +8,6 @@ keeps the single-unit loop.
 from __future__ import annotations
 
 import math
-import time as _time
 
 import numpy as np
 
@@ -83,7 +82,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
         upstream_section
     from simulate.loop import guards
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
-    from simulate.loop.common import CHUNK_WALL_S, CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice
+    from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice, run_in_chunks, step_count
     from simulate.loop.manifold import assemble_units
     from simulate.loop.timestep import plan_step
 
@@ -107,10 +106,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     schedules = unit_schedules(plant, steady)
     plans = [plan_step(view, sched, grid_step_s=dt) for view, sched in zip(views, schedules)]
     n_sub = max(p.substeps for p in plans)
-    n_steps = int(round(plant.scenario.t_end_s / dt))
-    if n_steps < 1:
-        raise InputError(f"scenario.t_end_s = {plant.scenario.t_end_s!r} is shorter than one step "
-                         f"(dt = {dt:.6g} s)")
+    n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
     guards.check_run_size(plant, dt, n_steps, stride)
     warnings = []
@@ -180,21 +176,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     loop = assemble_units(common, unit_parts, first, plant.solver.pressure_loop, compiled=compiled)
     args = (upstream.params, upstream.state, pen_part.params, pen_part.state, tuple(unit_args),
             manifold_state(n_units), out_units, out_iter, out_manifold, out_signals, env_max, env_min, diag)
-    wall = _time.perf_counter()
-    k, status, chunk, k_done = 0, 0, max(stride, min(n_steps, 2000 // stride * stride or stride)), 0
-    while k < n_steps:
-        k_end = min(n_steps, k + chunk)
-        t0 = _time.perf_counter()
-        status, k_done = loop(k, k_end, dt, n_sub, stride, *args)
-        if status != 0:
-            break
-        k = k_done
-        if progress is not None:
-            progress(k, n_steps)
-        spent = _time.perf_counter() - t0
-        target = int(chunk * CHUNK_WALL_S / max(spent, 1e-6))
-        chunk = max(stride, min(10 * chunk, target) // stride * stride)
-    wall = _time.perf_counter() - wall
+    status, k_done, wall = run_in_chunks(loop, args, n_steps, dt, n_sub, stride, progress)
 
     message = "ok"
     all_time = np.arange(rows) * (dt * stride)
