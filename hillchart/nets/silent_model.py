@@ -136,10 +136,9 @@ class SilentRegionModel:
         opening; ``n11_top`` bounds the N11 blend when the model has no pumping limit (inf)."""
         from hillchart.extension.turbine_model import _n11_limit
 
-        p = (fitted.turbine if turbine is None else turbine).params
-        values = (p.d2, p.b1, p.guide_vane_pitch_mm, p.beta1_deg, p.beta2_deg, p.k_guide_vane, p.k_incidence,
-                  p.k_runner, p.k_draft_tube, p.k_swirl, p.k_disc_friction, p.opening_max)
-        limit = _n11_limit(p)
+        model = fitted.turbine if turbine is None else turbine
+        values = model._terms_params()  # the model equations' parameter vector, PARAMETER_NAMES order
+        limit = _n11_limit(model.params)
         limit = limit if math.isfinite(limit) else max(float(n11_top), 1.0) / 0.95
         lo, hi = N11_BLEND_FRACTIONS
         return cls(parameters=tuple(float(v) for v in values),

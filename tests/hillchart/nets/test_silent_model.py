@@ -19,10 +19,7 @@ def nets():
 
 @pytest.fixture(scope="module")
 def model_turbine(nets):
-    values = dict(zip(("d2", "b1", "guide_vane_pitch_mm", "beta1_deg", "beta2_deg", "k_guide_vane", "k_incidence",
-                       "k_runner", "k_draft_tube", "k_swirl", "k_disc_friction", "opening_max"),
-                      nets.silent_model.parameters))
-    return SyntheticFrancis(FrancisParameters(**values))
+    return SyntheticFrancis(FrancisParameters(*nets.silent_model.parameters))  # the same parameter order
 
 
 def test_the_shipped_nets_hand_over_below_the_lowest_line(nets, model_turbine):
