@@ -173,16 +173,10 @@ class DoubleRegulatedNets:
                 "training": self.training}
 
     def to_json(self) -> str:
-        doc = self.to_dict()
-        lines = []
-        for key, value in doc.items():
-            if key in ("flow", "torque"):
-                inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
-                lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
-            else:
-                text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
-                lines.append(f" {json.dumps(key)}: {text}")
-        return "{\n" + ",\n".join(lines) + "\n}\n"
+        """``nets.json`` text, in the layout of the two-input nets' file."""
+        from hillchart.nets.hill_nets import nets_json_text
+
+        return nets_json_text(self.to_dict())
 
     def save(self, path) -> Path:
         path = Path(path)

@@ -176,24 +176,7 @@ class HillNets:
 
     def to_json(self) -> str:
         """``nets.json`` text (floats in shortest round-trip form, so loading is bit-exact)."""
-        doc = self.to_dict()
-        lines = []
-        for key, value in doc.items():
-            if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
-                inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
-                lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
-            elif key == "digitized_region":  # one line per vertex
-                vertices = ",\n".join(f"  {json.dumps(v, allow_nan=False)}" for v in value)
-                lines.append(f" {json.dumps(key)}: [\n{vertices}\n ]")
-            elif key == "ensemble":  # one line per member NET
-                members = ",\n".join(
-                    "  {" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in m.items()) + "}"
-                    for m in value)
-                lines.append(f" {json.dumps(key)}: [\n{members}\n ]")
-            else:
-                text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
-                lines.append(f" {json.dumps(key)}: {text}")
-        return "{\n" + ",\n".join(lines) + "\n}\n"
+        return nets_json_text(self.to_dict())
 
     def save(self, path) -> Path:
         """Write ``nets.json`` to ``path``; returns the path."""
@@ -265,6 +248,29 @@ class HillNets:
         except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
             raise InputError(f"nets.json: not a valid nets file ({exc})") from None
         return cls.from_dict(doc)
+
+
+def nets_json_text(doc: dict) -> str:
+    """The text of a ``nets.json`` document (two- or three-input nets): one line per key of a NET block, per
+    vertex of the digitized region and per ensemble member, other values indented; floats in shortest round-trip
+    form, so loading is bit-exact."""
+    lines = []
+    for key, value in doc.items():
+        if key in ("flow", "torque"):  # one line per NET key, weight lists kept on one line
+            inner = ",\n".join(f"  {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in value.items())
+            lines.append(f" {json.dumps(key)}: {{\n{inner}\n }}")
+        elif key == "digitized_region":  # one line per vertex
+            vertices = ",\n".join(f"  {json.dumps(v, allow_nan=False)}" for v in value)
+            lines.append(f" {json.dumps(key)}: [\n{vertices}\n ]")
+        elif key == "ensemble":  # one line per member NET
+            members = ",\n".join(
+                "  {" + ", ".join(f"{json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in m.items()) + "}"
+                for m in value)
+            lines.append(f" {json.dumps(key)}: [\n{members}\n ]")
+        else:
+            text = json.dumps(value, indent=1, allow_nan=False).replace("\n", "\n ")
+            lines.append(f" {json.dumps(key)}: {text}")
+    return "{\n" + ",\n".join(lines) + "\n}\n"
 
 
 def _region(value, key: str) -> np.ndarray:
