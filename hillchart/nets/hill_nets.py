@@ -10,8 +10,10 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.nets.estimator import _check_percentiles
-from hillchart.nets.silent_model import SilentRegionModel, _silent_nets_kernel
-from hillchart.nets.weights import FIXED_UNITS, FORMAT, VERSION, NetWeights, _nets_kernel
+from hillchart.nets.silent_model import (SilentRegionModel, _silent_nets_flow, _silent_nets_kernel,
+                                         _silent_nets_torque)
+from hillchart.nets.weights import (FIXED_UNITS, FORMAT, VERSION, NetWeights, _nets_flow, _nets_kernel,
+                                    _nets_torque)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -156,6 +158,14 @@ class HillNets:
         if self.silent_model is not None:
             return _silent_nets_kernel, (self.flow.packed(), self.torque.packed(), self.silent_model.packed())
         return _nets_kernel, (self.flow.packed(), self.torque.packed())
+
+    def numba_value_kernels(self):
+        """``(flow, torque)``: numba functions ``(params, n11, a) -> q11`` and ``-> m11`` on the params of
+        :meth:`numba_kernel`, the values of its kernel without the derivatives (what the pressure loop's iterations
+        and the torque at the converged head read)."""
+        if self.silent_model is not None:
+            return _silent_nets_flow, _silent_nets_torque
+        return _nets_flow, _nets_torque
 
     # nets.json --------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:

@@ -30,7 +30,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
-from hillchart.synthetic.francis import _synthetic_kernel
+from hillchart.synthetic.francis import _synthetic_kernel, _synthetic_values
 
 #: Parameter names of the model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
 PARAMETER_NAMES = ("d2", "b1", "guide_vane_pitch", "beta1_deg", "beta2_deg", "k_guide_vane", "k_incidence",
@@ -56,6 +56,14 @@ def _smoothstep(x, x0, x1):
 
 
 @numba.njit(cache=True)
+def _blend_weight(blend, n11, opening):
+    """``(w, dw/dN11, dw/da)``: the nets' weight w = 1 - (1 - s(a)) (1 - s_N(N11)) (module docstring)."""
+    s_a, ds_a = _smoothstep(opening, blend[12], blend[13])
+    s_n, ds_n = _smoothstep(n11, blend[14], blend[15])
+    return 1.0 - (1.0 - s_a) * (1.0 - s_n), (1.0 - s_a) * ds_n, (1.0 - s_n) * ds_a
+
+
+@numba.njit(cache=True)
 def _silent_nets_kernel(params, n11, opening):
     """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``: the nets (``params[0]``,
     ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1 and the
@@ -64,9 +72,7 @@ def _silent_nets_kernel(params, n11, opening):
     q, q_n, q_a = _net_value_grad(params[0], n11, opening)
     m, m_n, m_a = _net_value_grad(params[1], n11, opening)
     blend = params[2]
-    s_a, ds_a = _smoothstep(opening, blend[12], blend[13])
-    s_n, ds_n = _smoothstep(n11, blend[14], blend[15])
-    w = 1.0 - (1.0 - s_a) * (1.0 - s_n)
+    w, w_n, w_a = _blend_weight(blend, n11, opening)
     if w >= 1.0:
         return q, q_n, q_a, m, m_n, m_a
     mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
@@ -74,11 +80,40 @@ def _silent_nets_kernel(params, n11, opening):
         return q, q_n, q_a, m, m_n, m_a
     factor = blend[16]  # the model's torque factor (the prototype step-up; 1 for the model test)
     mm, mm_n, mm_a = factor * mm, factor * mm_n, factor * mm_a
-    w_n = (1.0 - s_a) * ds_n
-    w_a = (1.0 - s_n) * ds_a
     v = 1.0 - w
     return (w * q + v * mq, w * q_n + v * mq_n + w_n * (q - mq), w * q_a + v * mq_a + w_a * (q - mq),
             w * m + v * mm, w * m_n + v * mm_n + w_n * (m - mm), w * m_a + v * mm_a + w_a * (m - mm))
+
+
+@numba.njit(cache=True)
+def _silent_nets_value(params, n11, opening, which):
+    """The value alone of Q11 (``which`` 0) or M11 (1) of :func:`_silent_nets_kernel`, by the same formulas
+    without the derivatives (the physical model's complex steps cost about four times its value): what the
+    pressure loop's iterations and the torque at the converged head need."""
+    y = _net_value_grad(params[which], n11, opening)[0]
+    blend = params[2]
+    w = _blend_weight(blend, n11, opening)[0]
+    if w >= 1.0:
+        return y
+    mq, mm = _synthetic_values(blend[:12], n11, max(opening, 0.0))
+    if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
+        return y
+    v = 1.0 - w
+    if which == 0:
+        return w * y + v * mq
+    return w * y + v * (blend[16] * mm)
+
+
+@numba.njit(cache=True)
+def _silent_nets_flow(params, n11, opening):
+    """Q11 of :func:`_silent_nets_kernel` (value only)."""
+    return _silent_nets_value(params, n11, opening, 0)
+
+
+@numba.njit(cache=True)
+def _silent_nets_torque(params, n11, opening):
+    """M11 of :func:`_silent_nets_kernel` (value only)."""
+    return _silent_nets_value(params, n11, opening, 1)
 
 
 @numba.njit(cache=True)

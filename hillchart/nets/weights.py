@@ -76,6 +76,18 @@ def _nets_kernel(params, n11, opening):
     return q, dq_dn, dq_da, m, dm_dn, dm_da
 
 
+@numba.njit(cache=True)
+def _nets_flow(params, n11, opening):
+    """Q11 of :func:`_nets_kernel` (value only: the pressure loop's iterations)."""
+    return _net_value_grad(params[0], n11, opening)[0]
+
+
+@numba.njit(cache=True)
+def _nets_torque(params, n11, opening):
+    """M11 of :func:`_nets_kernel` (value only: the torque at the converged head)."""
+    return _net_value_grad(params[1], n11, opening)[0]
+
+
 #: Up to this many points ``evaluate`` runs the kernel's Python source (``py_func``): a process evaluating a few
 #: points (``hillsim linearize``) need not load the compiled kernel from numba's cache, about half a second of
 #: start-up (numba's first cache load initialises its compiler), against about 10 us a point in Python.

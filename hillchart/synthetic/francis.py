@@ -94,11 +94,21 @@ _francis_terms_compiled = numba.njit(cache=True)(_francis_terms)
 
 
 @numba.njit(cache=True)
-def _synthetic_kernel(params, n11, opening):
-    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point: complex-step
-    derivatives (``f'(x) = Im f(x + i h) / h``) of :func:`_francis_terms`."""
+def _synthetic_values(params, n11, opening):
+    """``(q11, m11)`` of :func:`_francis_terms` at a scalar point; NaN outside ``0 <= opening <= opening_max``,
+    N11 >= 0 or beyond the model's range (no positive flow)."""
     q, m, gamma = _francis_terms_compiled(params, n11, opening)
     if not (gamma < 0.0 and n11 >= 0.0 and 0.0 <= opening <= params[11]):
+        return np.nan, np.nan
+    return q, m
+
+
+@numba.njit(cache=True)
+def _synthetic_kernel(params, n11, opening):
+    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point: the values of
+    :func:`_synthetic_values` and complex-step derivatives (``f'(x) = Im f(x + i h) / h``) of :func:`_francis_terms`."""
+    q, m = _synthetic_values(params, n11, opening)
+    if q != q:
         return np.nan, np.nan, np.nan, np.nan, np.nan, np.nan
     h = _COMPLEX_STEP
     q_n, m_n, _ = _francis_terms_compiled(params, complex(n11, h), complex(opening, 0.0))

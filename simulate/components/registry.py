@@ -296,6 +296,10 @@ class CompiledCharacteristics:
     #: ``flow_kernel(params, n11, controls) -> (q11, dq11_dn11, ...)`` on the same params, for the pressure loop's
     #: iterations that read Q11 only (None: the loop reads ``kernel``)
     flow_kernel: Callable | None = None
+    #: two-input characteristics: ``flow_value(params, n11, a) -> q11`` and ``torque_value(params, n11, a) -> m11``,
+    #: the kernel's values without derivatives (``numba_value_kernels()``; None: the loop reads ``kernel``)
+    flow_value: Callable | None = None
+    torque_value: Callable | None = None
 
 
 def compile_characteristics(characteristics) -> CompiledCharacteristics:
@@ -306,4 +310,7 @@ def compile_characteristics(characteristics) -> CompiledCharacteristics:
     from hillchart.characteristics import scalar_kernel
 
     kernel, params, jitted = scalar_kernel(characteristics)
-    return CompiledCharacteristics("two-input" if jitted else "python", kernel, tuple(params), bool(jitted))
+    values = characteristics.numba_value_kernels() if jitted and hasattr(characteristics, "numba_value_kernels") \
+        else (None, None)
+    return CompiledCharacteristics("two-input" if jitted else "python", kernel, tuple(params), bool(jitted),
+                                   None, *values)

@@ -34,7 +34,7 @@ import numba
 from simulate.components.turbine import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
-TEMPLATE_VERSION = 4
+TEMPLATE_VERSION = 5
 
 _LOOP = '''
 @_jit
@@ -163,11 +163,27 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
     # ``flow_kernel``: what the iterations of a pressure loop that reads Q11 only call (a kernel's flow half where
     # the characteristics offer one: the torque is evaluated once, at the converged head)
     flow = getattr(characteristics, "flow_kernel", None)
+    flow_value = getattr(characteristics, "flow_value", None)
     if flow is not None and characteristics.source == "controls":
         lines.append(_import_line(flow, "flow_kernel"))
         modules.add(flow.__module__)
+    elif flow_value is not None and characteristics.source == "two-input":
+        lines.append(_import_line(flow_value, "_flow_value"))
+        modules.add(flow_value.__module__)
+        lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):",
+                  "    return (_flow_value(params, n11, controls[0]),)"]
     else:
         lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):", "    return kernel(params, n11, controls)"]
+    # ``torque_kernel``: M11 at the converged head (the value alone where the characteristics offer it)
+    torque_value = getattr(characteristics, "torque_value", None)
+    if torque_value is not None and characteristics.source == "two-input":
+        lines.append(_import_line(torque_value, "_torque_value"))
+        modules.add(torque_value.__module__)
+        lines += ["@_jit_inner", "def torque_kernel(params, n11, controls):",
+                  "    return _torque_value(params, n11, controls[0])"]
+    else:
+        lines += ["@_jit_inner", "def torque_kernel(params, n11, controls):",
+                  "    return kernel(params, n11, controls)[2]"]
     solver = boundary.SOLVERS[pressure_loop]
     solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
     if pressure_loop in boundary.FLOW_ONLY_SOLVERS:
@@ -251,10 +267,28 @@ def _with_compiled_dependencies(modules: list[str]) -> set[str]:
 
 
 _LOADED: dict[str, types.ModuleType] = {}
+#: compiled ``time_loop`` by the identity of what its source is made of (:func:`_assembly_key`): a process running
+#: many cases of one structure writes and fingerprints the loop's text once (reading the templates' source with
+#: ``inspect`` costs about 7 ms a run, more than a shipped-plant case's loop)
+_ASSEMBLED: dict[tuple, object] = {}
+
+
+def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
+    """What :func:`loop_source` reads: the components' functions (by object), the recording columns, the
+    characteristics' kernels and the pressure loop. Template files do not change within a process."""
+    roles = tuple(parts[kind].functions[role] for kind, role in _ROLES.values())
+    records = tuple((kind, parts[kind].functions["record"], len(parts[kind].signals))
+                    for kind in RECORDING_KINDS if parts[kind].signals)
+    return (roles, records, characteristics.source, characteristics.kernel,
+            getattr(characteristics, "flow_kernel", None), getattr(characteristics, "flow_value", None),
+            getattr(characteristics, "torque_value", None), pressure_loop, boundary.SOLVERS[pressure_loop])
 
 
 def assemble(parts: dict, characteristics, pressure_loop: str, *, compiled: bool = True):
     """The ``time_loop`` function for these parts (compiled and disk-cached, or plain Python)."""
+    key = _assembly_key(parts, characteristics, pressure_loop) if compiled else None
+    if key is not None and key in _ASSEMBLED:
+        return _ASSEMBLED[key]
     source, modules = loop_source(parts, characteristics, pressure_loop, compiled)
     if not compiled:
         namespace = {"__name__": "hillsim_loop_python"}
@@ -266,8 +300,10 @@ def assemble(parts: dict, characteristics, pressure_loop: str, *, compiled: bool
         source, _ = loop_source(parts, characteristics, pressure_loop, compiled, cache=False)
         namespace = {"__name__": "hillsim_loop_uncached"}
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
+        _ASSEMBLED[key] = namespace["time_loop"]
         return namespace["time_loop"]
-    return _load(source, modules)
+    _ASSEMBLED[key] = _load(source, modules)
+    return _ASSEMBLED[key]
 
 
 def _load(source: str, modules: list[str]):

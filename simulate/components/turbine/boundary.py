@@ -193,7 +193,7 @@ def turbine_signals(state):
     return signals[0], signals[1], signals[2]
 
 
-# a template: it calls the globals kernel, pressure_loop and newton_loop of the assembled loop module
+# a template: it calls the globals torque_kernel, pressure_loop and newton_loop of the assembled loop module
 def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):
     """Solve the turbine boundary at ``speed_rpm`` and ``controls`` (fractions of stroke; control 0 the guide vane)
     against the penstock relation H = C_L + k Q; store head, flow and torque M11 D1^3 H in ``ts``.
@@ -245,7 +245,7 @@ def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):
         diag[5] = slope
         diag[6] = residual
         return status, iters
-    m11 = kernel(cp, speed_rpm * d1 / math.sqrt(head), chart)[2]  # noqa: F821 (template global, bound by the loop)
+    m11 = torque_kernel(cp, speed_rpm * d1 / math.sqrt(head), chart)  # noqa: F821 (template global, bound by the loop)
     signals[0] = head
     signals[1] = flow
     signals[2] = m11 * d1 ** 3 * head
