@@ -69,10 +69,15 @@ def _silent_nets_kernel(params, n11, opening):
     ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1 and the
     model's torque factor) below
     the lowest digitized opening (module docstring)."""
-    q, q_n, q_a = _net_value_grad(params[0], n11, opening)
-    m, m_n, m_a = _net_value_grad(params[1], n11, opening)
     blend = params[2]
     w, w_n, w_a = _blend_weight(blend, n11, opening)
+    if w <= 0.0:  # the model alone (the blend's derivatives are 0 there too): the nets need not be evaluated
+        mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
+        if math.isfinite(mq) and math.isfinite(mm):
+            factor = blend[16]
+            return mq, mq_n, mq_a, factor * mm, factor * mm_n, factor * mm_a
+    q, q_n, q_a = _net_value_grad(params[0], n11, opening)
+    m, m_n, m_a = _net_value_grad(params[1], n11, opening)
     if w >= 1.0:
         return q, q_n, q_a, m, m_n, m_a
     mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
@@ -90,12 +95,15 @@ def _silent_nets_value(params, n11, opening, which):
     """The value alone of Q11 (``which`` 0) or M11 (1) of :func:`_silent_nets_kernel`, by the same formulas
     without the derivatives (the physical model's complex steps cost about four times its value): what the
     pressure loop's iterations and the torque at the converged head need."""
-    y = _net_value_grad(params[which], n11, opening)[0]
     blend = params[2]
     w = _blend_weight(blend, n11, opening)[0]
+    if w < 1.0:
+        mq, mm = _synthetic_values(blend[:12], n11, max(opening, 0.0))
+        if w <= 0.0 and math.isfinite(mq) and math.isfinite(mm):  # the model alone
+            return mq if which == 0 else blend[16] * mm
+    y = _net_value_grad(params[which], n11, opening)[0]
     if w >= 1.0:
         return y
-    mq, mm = _synthetic_values(blend[:12], n11, max(opening, 0.0))
     if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
         return y
     v = 1.0 - w

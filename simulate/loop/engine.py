@@ -17,6 +17,7 @@ source runs as plain Python.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -55,6 +56,28 @@ def plant_characteristics(plant: PlantConfig, characteristics):
     return view(plant, characteristics)
 
 
+#: Per characteristics object (weakly held): the steady states and trusted domains already computed, by their
+#: inputs. A batch of cases that share a load case (a sweep of closing times, an optimizer's generations) finds its
+#: steady state once; a hit returns the very object a fresh computation would equal bit for bit (the same inputs
+#: through the same code).
+_MEMO: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: Entries kept per characteristics object before the memo of that object starts again.
+MEMO_ENTRIES = 4096
+
+
+def _memo(characteristics, key: tuple, compute):
+    """``compute()``, remembered per ``characteristics`` (when it can be weakly referenced) by ``key``."""
+    try:
+        table = _MEMO.setdefault(characteristics, {})
+    except TypeError:  # not weakly referenceable: nothing remembered
+        return compute()
+    if key not in table:
+        if len(table) >= MEMO_ENTRIES:
+            table.clear()
+        table[key] = compute()
+    return table[key]
+
+
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     """The verified steady state a run of ``plant`` starts from (see :mod:`simulate.loop.steady`).
 
@@ -80,9 +103,12 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     below = downstream_friction_s2_m5(plant)
     if below:
         friction = friction + below
-    return steady_state(kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m,
-                        friction_s2_m5=friction, stroke_min=plant.governor.stroke_min,
-                        stroke_max=plant.governor.stroke_max, **initial_target(plant.scenario))
+    target = initial_target(plant.scenario)
+    inputs = ("steady", plant.turbine, plant.penstock.static_head_m, friction, plant.governor.stroke_min,
+              plant.governor.stroke_max, tuple(sorted(target.items())))
+    return _memo(view, inputs, lambda: steady_state(
+        kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m, friction_s2_m5=friction,
+        stroke_min=plant.governor.stroke_min, stroke_max=plant.governor.stroke_max, **target))
 
 
 def plant_schedules(plant: PlantConfig, steady: SteadyState):
@@ -161,7 +187,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     turbine, pen = plant.turbine, plant.penstock
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
 
-    domain = plant_domain(plant, chars)
+    domain = _memo(chars, ("domain", plant.turbine.characteristics, str(plant.base_dir)),
+                   lambda: plant_domain(plant, chars))
     steady = initial_state(plant, chars)
     plan = plan_step(plant, plant_schedules(plant, steady))  # the step from the components' time scales
     dt, n_sub = plan.dt_s, plan.substeps
