@@ -7,11 +7,13 @@ run of the same plant. Only numeric keys may vary; keys that change the *structu
 kind, pressure loop, characteristics) are refused, because the batch shares one compiled loop and one set of
 characteristics.
 
-Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): today's compiled loop holds the GIL, so threads
-do not scale; ``mechanism="processes"`` (the default for more than :data:`SERIAL_BELOW` cases) forks worker
-processes *after* the parent has run the first case, so the workers inherit the compiled loop instead of compiling
-it again (about 3 s each), and hands them chunks of cases. ``mechanism="threads"`` is there for a loop compiled with
-``nogil=True``; ``mechanism="serial"`` runs in the calling thread.
+Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): the compiled loop releases the GIL, but about a
+third of a shipped-plant case is Python around it (the plant variant, the figures), which threads run one at a time;
+``mechanism="processes"`` (the default for more than :data:`SERIAL_BELOW` cases) forks worker processes *after* the
+parent has run the first case, so the workers inherit the compiled loop instead of compiling it again (about 3 s
+each), and hands them chunks of cases. ``mechanism="threads"`` shares the memory instead (about 10 % slower on 2
+cores); ``mechanism="serial"`` runs in the calling thread. :class:`BatchPool` keeps the workers across batches and
+runs a batch for every member of an ensemble at once (:meth:`BatchPool.run_members`).
 
 A case that fails (a value out of range, a pressure loop that does not converge, anything raised) becomes a record
 with ``status`` and ``error``; the batch goes on.
@@ -284,13 +286,16 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
 
 
 def run_case(plant: PlantConfig, characteristics, index: int, variant: dict, *, domain=None,
-             keep_series: bool = False, run: Callable | None = None) -> CaseResult:
-    """Run one variant of ``plant``; every failure becomes a record (``status`` ``"error"`` or ``"failed"``)."""
+             keep_series: bool = False, run: Callable | None = None, case_plant=None) -> CaseResult:
+    """Run one variant of ``plant``; every failure becomes a record (``status`` ``"error"`` or ``"failed"``).
+    ``case_plant``: the variant's plant when the caller built it already (the same variant for several
+    characteristics)."""
     from simulate.loop.engine import run_simulation
 
     run = run_simulation if run is None else run
     try:
-        case_plant = plant.with_overrides(variant_overrides(variant)) if variant else plant
+        if case_plant is None:
+            case_plant = plant.with_overrides(variant_overrides(variant)) if variant else plant
         result = run(case_plant, characteristics=characteristics, raise_on_failure=False)
         return case_from_result(index, variant, case_plant, result, domain, keep_series)
     except (HillsimError, ValueError, ArithmeticError, FloatingPointError) as exc:
@@ -547,6 +552,32 @@ def _init_pool_worker(plant, members, domains):
     _WORKER.update(plant=plant, members=members, domains=domains)
 
 
+def run_chunk_members(plant: PlantConfig, members: Sequence, domains: Sequence, chunk: Sequence[tuple[int, dict]],
+                      keep_series: bool = False) -> list[list[CaseResult]]:
+    """A chunk of variants for every characteristics of ``members``: each variant's plant is built once. One list
+    of :class:`CaseResult` per member."""
+    out: list[list[CaseResult]] = [[] for _ in members]
+    for index, variant in chunk:
+        try:
+            case_plant = plant.with_overrides(variant_overrides(variant)) if variant else plant
+        except (HillsimError, ValueError, ArithmeticError) as exc:
+            for cases in out:
+                cases.append(CaseResult(index=index, values=dict(variant), status="error",
+                                        error=f"{type(exc).__name__}: {exc}"))
+            continue
+        for cases, chars, domain in zip(out, members, domains):
+            cases.append(run_case(plant, chars, index, variant, domain=domain, keep_series=keep_series,
+                                  case_plant=case_plant))
+    return out
+
+
+def _run_pool_members(task):
+    members, keep_series, chunk = task
+    w = _WORKER
+    return run_chunk_members(w["plant"], [w["members"][m] for m in members], [w["domains"][m] for m in members],
+                             chunk, keep_series)
+
+
 def _run_pool_chunk(task):
     member, keep_series, chunk = task
     w = _WORKER
@@ -600,6 +631,33 @@ class BatchPool:
         return BatchResult(keys=keys, cases=cases, mechanism="pool" if self._pool is not None else "serial",
                            workers=self.workers, chunk_size=chunk_size, wall_time_s=time.perf_counter() - wall)
 
+    def run_members(self, variants: Iterable[dict], members: Sequence[int] | None = None, *,
+                    keep_series: bool = False) -> list[BatchResult]:
+        """:meth:`run` of the same variants for each of ``members`` (default all), as one batch: a chunk of variants
+        runs for every member (each variant's plant built once) and the workers take the chunks of all members
+        together (one wait for the slowest chunk, not one per member). One :class:`BatchResult` per member, in the
+        order given."""
+        members = list(range(len(self.members))) if members is None else list(members)
+        for member in members:
+            if isinstance(member, bool) or not isinstance(member, int) or not 0 <= member < len(self.members):
+                raise InputError(f"member must be an index in [0, {len(self.members) - 1}], got {member!r}")
+        keys, variants = validate_variants(self.plant, variants)
+        n = len(variants)
+        chunk_size = max(1, math.ceil(n / (4 * self.workers))) if n else 1
+        wall = time.perf_counter()
+        indexed = list(enumerate(variants))
+        tasks = [(members, keep_series, indexed[s:s + chunk_size]) for s in range(0, n, chunk_size)]
+        if self._pool is None:
+            parts = [run_chunk_members(self.plant, [self.members[m] for m in members],
+                                       [self.domains[m] for m in members], chunk, keep_series)
+                     for _, _, chunk in tasks]
+        else:
+            parts = self._pool.map(_run_pool_members, tasks)
+        wall = time.perf_counter() - wall
+        return [BatchResult(keys=keys, cases=sorted((c for part in parts for c in part[j]), key=lambda c: c.index),
+                            mechanism="pool" if self._pool is not None else "serial", workers=self.workers,
+                            chunk_size=chunk_size, wall_time_s=wall) for j in range(len(members))]
+
     def close(self) -> None:
         if self._pool is not None:
             self._pool.close()
@@ -616,4 +674,4 @@ class BatchPool:
 __all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "MECHANISMS", "FIGURES", "CaseResult", "BatchResult", "BatchPool",
            "numeric_keys",
            "check_key", "check_value", "variant_overrides", "extrapolation_kinds", "nets_domain", "case_from_result",
-           "run_case", "run_chunk", "run_batch", "validate_variants", "default_workers"]
+           "run_case", "run_chunk", "run_chunk_members", "run_batch", "validate_variants", "default_workers"]

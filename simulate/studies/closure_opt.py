@@ -142,8 +142,7 @@ class ClosureEvaluator:
         variants = [{**lc.overrides, **law.overrides()} for law in laws for lc in self.load_cases]
         per_law = len(self.load_cases)
         grouped: list[list] = [[] for _ in laws]
-        for member in range(len(self.members)):
-            batch = self.pool.run(variants, member=member)
+        for batch in self.pool.run_members(variants):
             for j, case in enumerate(batch.cases):
                 grouped[j // per_law].append(case)
         out = []

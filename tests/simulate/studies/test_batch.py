@@ -162,3 +162,39 @@ def test_batch_pool_reused_across_batches_equals_serial(plant, nets):
     for a, b in zip(serial.cases, second.cases):
         assert (a.max_speed_rise, a.max_head_m, a.min_head_m) == (b.max_speed_rise, b.max_head_m, b.min_head_m)
     assert first.cases[1].max_head_m == serial.cases[1].max_head_m
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_pool_members_equal_single_runs_of_each_member(plant, nets, workers):
+    """Every member's figures of one ``run_members`` batch are those of a single run with that member (the same
+    code on the same machine: identical); a variant the plant refuses is an error record for every member."""
+    from simulate.studies.batch import BatchPool
+
+    members = [nets] + nets.members()[:2]
+    variants = VARIANTS[:2] + [{"governor.closing_time_s": -1.0}]
+    with BatchPool(plant, members, workers=workers) as pool:
+        batches = pool.run_members(variants)
+    assert len(batches) == 3
+    for member, batch in zip(members, batches):
+        assert [c.index for c in batch.cases] == [0, 1, 2] and batch.cases[2].status == "error"
+        assert "closing_time_s" in batch.cases[2].error
+        for variant, case in zip(VARIANTS[:2], batch.cases):
+            single = run_simulation(load_plant(PLANT_HLA339, {**BASE, **variant_overrides(variant)}),
+                                    characteristics=member).summary()
+            assert (case.max_speed_rise, case.max_head_m) == (single["max_speed_rise"], single["max_head_m"])
+    # the failing case beside it: the members differ, so a mix-up of members would show
+    assert batches[0].cases[0].max_speed_rise != batches[1].cases[0].max_speed_rise
+
+
+def test_a_remembered_steady_state_is_the_computed_one(plant, nets):
+    """The steady state a run finds again (same characteristics, same inputs) equals a fresh computation (exactly:
+    the same code on the same inputs) and a changed input is not served from memory."""
+    from simulate.loop import engine
+
+    first = engine.initial_state(plant, nets)
+    again = engine.initial_state(plant, nets)
+    engine._MEMO.pop(nets, None)
+    fresh = engine.initial_state(plant, nets)
+    assert again is first and fresh == first
+    other = engine.initial_state(plant.with_overrides({"scenario.initial_power_mw": 160.0}), nets)
+    assert other.power_mw == pytest.approx(160.0, rel=1e-9) and other.stroke < first.stroke
