@@ -26,6 +26,7 @@ import os
 import sys
 import tempfile
 import textwrap
+import threading
 import types
 from pathlib import Path
 
@@ -284,9 +285,20 @@ def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
             getattr(characteristics, "torque_value", None), pressure_loop, boundary.SOLVERS[pressure_loop])
 
 
+_ASSEMBLING = threading.Lock()
+
+
 def assemble(parts: dict, characteristics, pressure_loop: str, *, compiled: bool = True):
-    """The ``time_loop`` function for these parts (compiled and disk-cached, or plain Python)."""
+    """The ``time_loop`` function for these parts (compiled and disk-cached, or plain Python). Thread-safe: runs
+    on several threads (:mod:`simulate.loop.parallel`) write and import a loop module once."""
     key = _assembly_key(parts, characteristics, pressure_loop) if compiled else None
+    if key is not None and key in _ASSEMBLED:
+        return _ASSEMBLED[key]
+    with _ASSEMBLING:
+        return _assemble(parts, characteristics, pressure_loop, compiled, key)
+
+
+def _assemble(parts, characteristics, pressure_loop, compiled, key):
     if key is not None and key in _ASSEMBLED:
         return _ASSEMBLED[key]
     source, modules = loop_source(parts, characteristics, pressure_loop, compiled)

@@ -17,6 +17,7 @@ source runs as plain Python.
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 
 import numpy as np
@@ -63,19 +64,24 @@ def plant_characteristics(plant: PlantConfig, characteristics):
 _MEMO: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 #: Entries kept per characteristics object before the memo of that object starts again.
 MEMO_ENTRIES = 4096
+_MEMO_LOCK = threading.Lock()
 
 
 def _memo(characteristics, key: tuple, compute):
     """``compute()``, remembered per ``characteristics`` (when it can be weakly referenced) by ``key``."""
     try:
-        table = _MEMO.setdefault(characteristics, {})
+        with _MEMO_LOCK:  # runs on several threads (simulate.loop.parallel)
+            table = _MEMO.setdefault(characteristics, {})
     except TypeError:  # not weakly referenceable: nothing remembered
         return compute()
-    if key not in table:
-        if len(table) >= MEMO_ENTRIES:
-            table.clear()
-        table[key] = compute()
-    return table[key]
+    found = table.get(key)
+    if found is None:
+        found = compute()
+        with _MEMO_LOCK:
+            if len(table) >= MEMO_ENTRIES:
+                table.clear()
+            found = table.setdefault(key, found)
+    return found
 
 
 def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:

@@ -2,7 +2,8 @@
 
 Only the public seams are used: :func:`simulate.config.load_plant` and
 :func:`simulate.loop.engine.run_simulation(plant, characteristics)`; each member of the nets' ensemble (see
-:meth:`hillchart.nets.hill_nets.HillNets.members`) is passed as the characteristics. Cost: one simulation per member.
+:meth:`hillchart.nets.hill_nets.HillNets.members`) is passed as the characteristics. Cost: one simulation per member,
+the members on the machine's cores at once (:func:`simulate.loop.parallel.run_all`).
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
     return run_ensemble(plant, nets, percentiles=percentiles)[0]
 
 
-def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, TraceBand]:
+def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0), workers: int | None = None) -> tuple[dict, TraceBand]:
     """Simulate ``plant``'s scenario with every ensemble member: the band of the summary figures and of the traces.
 
     Parameters
@@ -95,6 +96,9 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     nets : HillNets, optional
         Default: the plant's ``turbine.characteristics`` nets.json (it must hold an ensemble).
     percentiles : (low, high), percent
+    workers : int, optional
+        Threads running the members (default: the cores this process may use; see
+        :func:`simulate.loop.parallel.run_all`).
 
     Returns
     -------
@@ -111,7 +115,7 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     NumericalError
         Every member failed (the first failure is raised).
     """
-    from simulate.loop.engine import run_simulation
+    from simulate.loop.parallel import run_all
 
     low_p, high_p = (float(p) for p in percentiles)
     if not 0 <= low_p < high_p <= 100:
@@ -126,12 +130,11 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0)) -> tuple[dict, Tr
     time_s = None
     failed = []
     first_error = None
-    for i, member in enumerate(members):
-        try:
-            result = run_simulation(plant, characteristics=member, raise_on_failure=True)
-        except HillsimError as exc:  # reported per member, never swallowed: all failing is raised below
-            failed.append({"member": i, "message": str(exc)})
-            first_error = first_error or exc
+    # the members at once on the machine's cores (each result is that of a single run)
+    for i, result in enumerate(run_all([(plant, member) for member in members], workers=workers)):
+        if isinstance(result, HillsimError):  # reported per member, never swallowed: all failing is raised below
+            failed.append({"member": i, "message": str(result)})
+            first_error = first_error or result
             continue
         summary = result.summary()
         for name in BAND_FIGURES:
