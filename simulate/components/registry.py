@@ -297,7 +297,8 @@ class CompiledCharacteristics:
     #: iterations that read Q11 only (None: the loop reads ``kernel``)
     flow_kernel: Callable | None = None
     #: two-input characteristics: ``flow_value(params, n11, a) -> q11`` and ``torque_value(params, n11, a) -> m11``,
-    #: the kernel's values without derivatives (``numba_value_kernels()``; None: the loop reads ``kernel``)
+    #: the kernel's values without derivatives (``numba_value_kernels()``; None: the loop reads ``kernel``);
+    #: on the controls: ``torque_value(params, n11, controls) -> m11`` (``numba_control_torque_kernel()``)
     flow_value: Callable | None = None
     torque_value: Callable | None = None
 
@@ -306,7 +307,8 @@ def compile_characteristics(characteristics) -> CompiledCharacteristics:
     if hasattr(characteristics, "numba_control_kernel"):
         kernel, params = characteristics.numba_control_kernel()
         flow = getattr(characteristics, "numba_control_flow_kernel", lambda: None)()
-        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow)
+        torque = getattr(characteristics, "numba_control_torque_kernel", lambda: None)()
+        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow, None, torque)
     from hillchart.characteristics import scalar_kernel
 
     kernel, params, jitted = scalar_kernel(characteristics)

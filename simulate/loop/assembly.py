@@ -177,7 +177,10 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
         lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):", "    return kernel(params, n11, controls)"]
     # ``torque_kernel``: M11 at the converged head (the value alone where the characteristics offer it)
     torque_value = getattr(characteristics, "torque_value", None)
-    if torque_value is not None and characteristics.source == "two-input":
+    if torque_value is not None and characteristics.source == "controls":
+        lines.append(_import_line(torque_value, "torque_kernel"))
+        modules.add(torque_value.__module__)
+    elif torque_value is not None and characteristics.source == "two-input":
         lines.append(_import_line(torque_value, "_torque_value"))
         modules.add(torque_value.__module__)
         lines += ["@_jit_inner", "def torque_kernel(params, n11, controls):",

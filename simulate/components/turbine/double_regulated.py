@@ -82,6 +82,16 @@ def nets_control_flow(params, n11, controls):
 
 
 @numba.njit(cache=True)
+def nets_control_torque(params, n11, controls):
+    """M11 of :func:`nets_control_kernel` (the value, the same arithmetic): the torque at the converged head, the
+    flow net not evaluated."""
+    flow, torque, scal = params
+    opening = controls[0] + scal[0]
+    blade = scal[1] + controls[1] * scal[2]
+    return net3_point(torque, n11, opening, blade)[0]
+
+
+@numba.njit(cache=True)
 def bulb_control_kernel(params, n11, controls):
     """The exact synthetic bulb: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (bulb point parameters,
     [opening at zero stroke, angle_min_deg, angle span deg])."""
@@ -367,6 +377,11 @@ class DoubleRegulatedTurbine:
         """The flow half of :meth:`numba_control_kernel`, ``kernel(params, n11, controls) -> (q11, dq11/dn11)`` on
         the same params, or None when the characteristics have none (the loop then reads the full kernel)."""
         return nets_control_flow if self._kernel[0] is nets_control_kernel else None
+
+    def numba_control_torque_kernel(self):
+        """M11 of :meth:`numba_control_kernel` alone, ``kernel(params, n11, controls) -> m11`` on the same params,
+        or None when the characteristics have none (the loop then reads the full kernel)."""
+        return nets_control_torque if self._kernel[0] is nets_control_kernel else None
 
     def numba_control_kernel(self):
         """``(kernel, params)`` for the compiled loop on the chart controls ``[a, y_b]``."""

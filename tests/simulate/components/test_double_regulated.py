@@ -278,26 +278,31 @@ def test_the_cam_is_computed_once_for_the_same_nets_read_again():
 
 def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch):
     from simulate.components.registry import compile_characteristics
-    from simulate.components.turbine.double_regulated import DoubleRegulatedTurbine, nets_control_flow
+    from simulate.components.turbine.double_regulated import (DoubleRegulatedTurbine, nets_control_flow,
+                                                              nets_control_torque)
     from simulate.loop.assembly import loop_source
     from simulate.loop.engine import build_parts, initial_state, plant_characteristics
 
-    plant = load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0})
+    # the improved loop (the plant file's Newton reads the whole kernel in its iterations)
+    plant = load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0, "solver.pressure_loop": "improved"})
     view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
     cc = compile_characteristics(view)
-    assert cc.flow_kernel is nets_control_flow
+    assert cc.flow_kernel is nets_control_flow and cc.torque_value is nets_control_torque
     controls = np.array([12.0, 0.4])
     for n11 in (110.0, 150.0, 260.0):
         full, half = cc.kernel(cc.params, n11, controls), nets_control_flow(cc.params, n11, controls)
         # the same net3_point on the same inputs: equal to the last bit on one machine (1e-15 for safety)
         assert half[0] == pytest.approx(full[0], rel=1e-15) and half[1] == pytest.approx(full[1], rel=1e-15)
+        assert nets_control_torque(cc.params, n11, controls) == pytest.approx(full[2], rel=1e-15)
     steady = initial_state(plant, view)
     parts, _ = build_parts(plant, steady, 0.01, 1, view)
     source, _ = loop_source(parts, cc, "improved", True)
     assert "nets_control_flow as flow_kernel" in source and "q11 = flow_kernel(params, n11, opening)[0]" in source
+    assert "nets_control_torque as torque_kernel" in source
     with_half = run_simulation(plant)
     monkeypatch.setattr(DoubleRegulatedTurbine, "numba_control_flow_kernel", lambda self: None)
-    assert compile_characteristics(view).flow_kernel is None
+    monkeypatch.setattr(DoubleRegulatedTurbine, "numba_control_torque_kernel", lambda self: None)
+    assert compile_characteristics(view).flow_kernel is None and compile_characteristics(view).torque_value is None
     without = run_simulation(plant)  # the loop reads the full kernel: another generated loop, the same numbers
     assert without.wall_time_s > 0 and with_half.head_m.size == without.head_m.size
     # the same arithmetic in another compiled function: equal to rounding (1e-12 of the head)
