@@ -50,7 +50,6 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from scipy.optimize import brentq
 
 from hillchart.characteristics import efficiency_from_unit_torque
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
@@ -242,6 +241,8 @@ class SyntheticFrancis:
             hi *= 1.2
             if hi > 1000:  # pragma: no cover - the default geometry never gets here
                 raise NumericalError(f"runaway_n11: no zero torque below N11 = 1000 at opening {opening}")
+        from scipy.optimize import brentq  # here: scipy.optimize costs about a second of every run's start-up
+
         return float(brentq(lambda n: float(self.m11(n, opening)), lo, hi, xtol=1e-12, rtol=1e-14))
 
 
