@@ -46,10 +46,9 @@ from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, Pl
 #: the compiled loop costs about 0.2 s, more than 100 shipped-plant cases take (bench_batch.py: processes lose at
 #: N = 100, win by 2x at N = 1000 on 2 cores).
 SERIAL_BELOW = 200
-#: Keys that are numbers but change the structure the cases share.
-STRUCTURE_KEYS = {
-    "penstock.reaches": "the number of MOC reaches sets the grid every case shares",
-}
+#: Keys that are numbers but change the structure the cases share (none today: ``penstock.reaches`` sizes the MOC
+#: grid's arrays, and every case builds its own, so a grid-convergence sweep over it is a batch like any other).
+STRUCTURE_KEYS: dict[str, str] = {}
 #: Non-numeric keys named in the refusal message.
 STRUCTURE_CHOICE_KEYS = ("penstock.model", "scenario.kind", "solver.pressure_loop", "turbine.characteristics")
 #: The two scenario keys of which exactly one is set; varying one removes the other.

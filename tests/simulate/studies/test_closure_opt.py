@@ -173,7 +173,7 @@ def _study_with(tmp_path, extra: str):
     ("[[load_cases]]\nname = \"a\"\npower = 100.0\n", "must be written section.key = number"),
     ("[[load_cases]]\nname = \"a\"\nscenario.initial_power = 100.0\n", "unknown key 'scenario.initial_power'"),
     ("[[load_cases]]\nname = \"a\"\nscenario.initial_power_mw = \"full\"\n", "must be a number, got 'full'"),
-    ("[[load_cases]]\nname = \"a\"\npenstock.reaches = 16\n", "changes the plant structure"),
+    ("[[load_cases]]\nname = \"a\"\npenstock.model = 1.0\n", "changes the plant structure"),
     ("[[load_cases]]\nname = \"a\"\nscenario.break_opening = 0.2\n", "is not used by scenario.kind"),
     ("[nonsense]\nx = 1\n", "unknown section [nonsense]"),
 ])

@@ -65,7 +65,7 @@ def test_bad_vary_texts(text, message):
 @pytest.mark.parametrize("varies,message", [
     (["governor.kp=1,2", "governor.kp=3,4"], "--vary governor.kp is given more than once"),
     (["governor.kpp=1,2"], "unknown key 'governor.kpp'"),
-    (["penstock.reaches=8,16"], "changes the plant structure"),
+    (["solver.pressure_loop=1,2"], "changes the plant structure"),
     (["turbine.characteristics=1,2"], "changes the plant structure"),
     (["scenario.closing_time_s=1,2"], "is not used by scenario.kind = 'load-rejection'"),
     (["governor.kp=1:2:1000", "governor.ki=1:2:1000", "governor.kd=1:2:1001"], "more than 1000000"),
@@ -83,7 +83,7 @@ def test_bad_vary_combinations(plant, varies, message):
     ("governor.kp,governor.kp\n1,2\n", "column 'governor.kp' appears more than once"),
     ("governor.kp,\n1,2\n", "column 2 of the header is empty"),
     ("governor.kpp\n1\n", "column 1: unknown key 'governor.kpp'"),
-    ("penstock.reaches\n8\n", "changes the plant structure"),
+    ("penstock.model\n8\n", "changes the plant structure"),
     ("governor.kp,governor.ki\n1\n", "row 2: 1 cells, the header has 2"),
     ("governor.kp\n1\nfast\n", "row 3 column 'governor.kp': 'fast' is not a number"),
     ("governor.kp\nnan\n", "must be finite"),
