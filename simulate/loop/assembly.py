@@ -162,32 +162,13 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
         else:
             lines += ["kernel = _characteristics_kernel"]
     # ``flow_kernel``: what the iterations of a pressure loop that reads Q11 only call (a kernel's flow half where
-    # the characteristics offer one: the torque is evaluated once, at the converged head)
-    flow = getattr(characteristics, "flow_kernel", None)
-    flow_value = getattr(characteristics, "flow_value", None)
-    if flow is not None and characteristics.source == "controls":
-        lines.append(_import_line(flow, "flow_kernel"))
-        modules.add(flow.__module__)
-    elif flow_value is not None and characteristics.source == "two-input":
-        lines.append(_import_line(flow_value, "_flow_value"))
-        modules.add(flow_value.__module__)
-        lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):",
-                  "    return (_flow_value(params, n11, controls[0]),)"]
-    else:
-        lines += ["@_jit_inner", "def flow_kernel(params, n11, controls):", "    return kernel(params, n11, controls)"]
-    # ``torque_kernel``: M11 at the converged head (the value alone where the characteristics offer it)
-    torque_value = getattr(characteristics, "torque_value", None)
-    if torque_value is not None and characteristics.source == "controls":
-        lines.append(_import_line(torque_value, "torque_kernel"))
-        modules.add(torque_value.__module__)
-    elif torque_value is not None and characteristics.source == "two-input":
-        lines.append(_import_line(torque_value, "_torque_value"))
-        modules.add(torque_value.__module__)
-        lines += ["@_jit_inner", "def torque_kernel(params, n11, controls):",
-                  "    return _torque_value(params, n11, controls[0])"]
-    else:
-        lines += ["@_jit_inner", "def torque_kernel(params, n11, controls):",
-                  "    return kernel(params, n11, controls)[2]"]
+    # the characteristics offer one: the torque is evaluated once, at the converged head); ``torque_kernel``: M11 at
+    # the converged head (the value alone where the characteristics offer it)
+    source = characteristics.source
+    flow = getattr(characteristics, "flow_kernel" if source == "controls" else "flow_value", None)
+    lines += _half_kernel("flow_kernel", flow, source, "({},)", "kernel(params, n11, controls)", modules)
+    lines += _half_kernel("torque_kernel", getattr(characteristics, "torque_value", None), source, "{}",
+                          "kernel(params, n11, controls)[2]", modules)
     solver = boundary.SOLVERS[pressure_loop]
     solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
     if pressure_loop in boundary.FLOW_ONLY_SOLVERS:
@@ -201,6 +182,20 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
     lines.append(newton_source.replace(f"def {newton.__name__}(", "def newton_loop("))
     lines.append(_template(boundary.turbine_step, drop_first=False))
     return lines
+
+
+def _half_kernel(name: str, func, source: str, value: str, fallback: str, modules: set) -> list[str]:
+    """Lines defining the loop global ``name(params, n11, controls)``: ``func`` itself for characteristics on the
+    control vector (source ``"controls"``), ``func`` on the guide vane ``controls[0]`` returned as ``value`` (a
+    format of its call) for two-input ones, else ``fallback``, an expression of the whole ``kernel``."""
+    if func is not None and source in ("controls", "two-input"):
+        modules.add(func.__module__)
+        if source == "controls":
+            return [_import_line(func, name)]
+        call = f"_{name}_value(params, n11, controls[0])"
+        return [_import_line(func, f"_{name}_value"), "@_jit_inner", f"def {name}(params, n11, controls):",
+                f"    return {value.format(call)}"]
+    return ["@_jit_inner", f"def {name}(params, n11, controls):", f"    return {fallback}"]
 
 
 def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool,
