@@ -241,8 +241,10 @@ def optimize_command(args: argparse.Namespace) -> int:
           f"{opt.best_linear.max_speed_rise:.4f}, {opt.best_linear.max_head_rise:.4f}; verification by hillsim run "
           f"max |diff| {worst_diff:.3g}; wrote {args.out}")
     if extrapolated:
+        where = (f"every run ({len(study.load_cases)} load case(s) x {len(members)} characteristics)"
+                 if len(extrapolated) == len(cases) > 1 else ", ".join(extrapolated))
         print(f"optimize-closure: warning: with the optimum the run leaves the characteristics' trusted domain in "
-              f"{', '.join(extrapolated)}: figures there are extrapolated (closure.json extrapolated_cases)")
+              f"{where}: figures there are extrapolated (closure.json extrapolated_cases)")
     if not worst_diff <= VERIFY_TOLERANCE:
         raise NumericalError(f"verification: hillsim run and the batch differ by {worst_diff:.3g} (> "
                              f"{VERIFY_TOLERANCE:g}); see {out / 'closure.json'}")

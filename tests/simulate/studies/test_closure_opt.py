@@ -238,6 +238,8 @@ def test_optimize_closure_cli_writes_law_front_and_a_verification_that_agrees(tm
     # every case leaves the digitized region once the vanes close below the lowest digitized opening (the
     # simulator's extrapolation record says so, and the optimizer passes it on); none leaves the nets' training range
     assert len(doc["extrapolated_cases"]) == 3 and all(c["beyond_nets_range"] is False for c in doc["cases"])
+    # ... and the warning says so in one phrase instead of listing the three runs
+    assert "trusted domain in every run (3 load case(s) x 1 characteristics)" in capsys.readouterr().out
     worst = max(c["max_head_rise"] for c in doc["cases"])
     assert doc["law"]["max_head_rise"] == worst
     run_summary = json.loads((out / "verification" / "0" / "summary.json").read_text())
