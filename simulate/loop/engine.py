@@ -73,9 +73,10 @@ _MEMO_LOCK = threading.Lock()
 def _memo(characteristics, key: tuple, compute):
     """``compute()``, remembered per ``characteristics`` (when it can be weakly referenced) by ``key``."""
     try:
+        hash(key)
         with _MEMO_LOCK:  # runs on several threads (simulate.loop.parallel)
             table = _MEMO.setdefault(characteristics, {})
-    except TypeError:  # not weakly referenceable: nothing remembered
+    except TypeError:  # not weakly referenceable, or a key that cannot be hashed: nothing remembered
         return compute()
     found = table.get(key)
     if found is None:
