@@ -224,16 +224,19 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
             members[key].append(NetWeights(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, W1=w1, b1=b1,
                                            W2=w2, b2=float(b2)))
         if ensemble:
-            # point estimate: one 2-h-1 net fitted to the ensemble mean (the average of nets trained on different
-            # splits has a fraction of a single net's variance; "distilling" it keeps the paper's small net).
-            # Targets: the mean at the samples and on a 21 x 21 grid over the input box.
+            # point estimate: one 2-h-1 net fitted to the ensemble median (the central value of nets trained on
+            # different splits has a fraction of a single net's variance; "distilling" it keeps the paper's small
+            # net). The median, not the mean: on a sparse chart one member in ten can follow a split's gap between
+            # the lines far off the others, and the mean follows it (guarantee benchmark: worst max-speed-rise
+            # error 1.08 points with the mean, 0.66 with the median). Targets: the median at the samples and on a
+            # 21 x 21 grid over the input box.
             grid = np.stack(np.meshgrid(np.linspace(x_min[0], x_max[0], 21), np.linspace(x_min[1], x_max[1], 21)),
                             axis=-1).reshape(-1, 2)
             X_d = np.vstack([X, grid])
-            y_d = np.mean([m.evaluate(X_d[:, 0], X_d[:, 1])[0] for m in members[key]], axis=0)
+            y_d = np.median([m.evaluate(X_d[:, 0], X_d[:, 1])[0] for m in members[key]], axis=0)
             est = HillNet(hidden=h, restarts=DISTILL_RESTARTS, seed=net_seed, goal=1e-8, **net_params).fit(X_d, y_d)
             if progress:
-                progress(f"{key}: {ensemble} ensemble members, point net 2-{h}-1 fitted to their mean")
+                progress(f"{key}: {ensemble} ensemble members, point net 2-{h}-1 fitted to their median")
         else:
             est = HillNet(hidden=h, restarts=restarts, seed=net_seed, boundary_weight=weight, regularization=lam,
                           validation_groups=validation_groups, **net_params).fit(X, y, groups, derived)
@@ -288,7 +291,7 @@ def _training_record(est: HillNet, X, y, groups, record_time: bool, point_of_ens
     pred = est.predict(X)
     err = pred - y
     tr, va = est.train_index_, est.val_index_
-    if point_of_ensemble:  # the point net was fitted to the ensemble mean: report its errors at the samples
+    if point_of_ensemble:  # the point net was fitted to the ensemble median: report its errors at the samples
         tr, va = np.arange(X.shape[0]), np.zeros(0, int)
     counts = {}
     for g in sorted(set(groups.tolist())):

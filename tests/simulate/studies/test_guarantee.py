@@ -96,12 +96,17 @@ def test_the_band_covers_the_exact_turbine_and_stays_narrow(family_results):
 
 
 def test_without_the_silent_regions_the_head_rise_misses():
-    """The failing case beside the passing one: the nets' sigmoids below the lowest line decide the head rise."""
+    """The failing case beside the passing one: the nets' sigmoids below the lowest line decide the head rise. The
+    medium runner's dense chart without a runaway curve (noise 0.3 %, seed 0): 2.58 points off without the model's
+    samples where the chart is silent, 0.45 with them (measured)."""
+    options = {**CASES, "runaway": False}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = evaluate_chart("medium", density="dense", extension=ExtensionOptions(silent_regions=False),
-                                band=False, **CASES)
-    assert result.worst_error_pt("max_head_rise") > ACCEPTANCE["head_pt"]
+        without = evaluate_chart("medium", density="dense", extension=ExtensionOptions(silent_regions=False),
+                                 band=False, **options)
+        with_model = evaluate_chart("medium", density="dense", band=False, **options)
+    assert without.worst_error_pt("max_head_rise") > ACCEPTANCE["head_pt"]
+    assert with_model.worst_error_pt("max_head_rise") < ACCEPTANCE["head_pt"]
 
 
 @pytest.mark.parametrize("turbine", ["slow", "medium", "fast"])
