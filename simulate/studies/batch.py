@@ -3,9 +3,9 @@
 A *variant* is a dictionary ``{"section.key": number}`` applied to a base plant with
 :meth:`simulate.config.PlantConfig.with_overrides`; every case then runs through the same
 :func:`simulate.loop.engine.run_simulation` that ``hillsim run`` uses, so a batch result is bit-identical to the single
-run of the same plant. Only numeric keys may vary; keys that change the *structure* (penstock model, reaches, scenario
-kind, pressure loop, characteristics) are refused, because the batch shares one compiled loop and one set of
-characteristics.
+run of the same plant. Only numeric keys may vary; keys that choose a model (penstock model, scenario kind, pressure
+loop, characteristics) are refused, because the batch shares one set of characteristics and its cases one compiled
+loop. ``penstock.reaches`` may vary (a grid-convergence study): each case builds its own grid.
 
 Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): the compiled loop releases the GIL, but about a
 third of a shipped-plant case is Python around it (the plant variant, the figures), which threads run one at a time;
