@@ -79,8 +79,8 @@ def register(subparsers) -> None:
     grid.add_argument("--closed-loop-kp", type=float, default=None, metavar="KP",
                       help="closed-loop identification with the governor PI, Kp relative (paper tests 5-6: 7.5): "
                            "closed_loop.json")
-    grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=[0.5, 0.15], metavar="TI_S",
-                      help="integral times of the closed-loop runs, s (default 0.5 0.15)")
+    grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=None, metavar="TI_S",
+                      help="integral times of the closed-loop runs, s (default 0.5 0.15; needs --closed-loop-kp)")
     parser.add_argument("--no-plot", action="store_true", help="do not write the PNG figures")
     parser.add_argument("--exact", choices=("auto", "synthetic", "none"), default="auto",
                         help="also report the exact synthetic turbine's coefficients (auto: when the plant uses the "
@@ -167,10 +167,11 @@ def run(args: argparse.Namespace) -> int:
     progress.start("writing identification.json, the series" + ("" if args.no_plot else " and the figures"))
     paths = report.write(out, plot=not args.no_plot)
     if args.head_model is not None or args.closed_loop_kp is not None:
-        from simulate.identification.head_model import write_head_and_closed_loop
+        from simulate.identification.head_model import DEFAULT_CLOSED_LOOP_TI, write_head_and_closed_loop
 
         paths.update(write_head_and_closed_loop(report, plant, out, head_structure=args.head_model,
-                                                closed_loop_kp=args.closed_loop_kp, closed_loop_ti=args.closed_loop_ti))
+                                                closed_loop_kp=args.closed_loop_kp,
+                                                closed_loop_ti=args.closed_loop_ti or DEFAULT_CLOSED_LOOP_TI))
     progress.done()
     print(f"identification ({summary.source}, penstock {summary.penstock_model or '-'}, tau = {args.tau} s, "
           f"{summary.samples} samples)")

@@ -365,18 +365,27 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
 
 
 def check_closed_loop_options(kp, ti_values) -> None:
-    """:class:`InputError` unless Kp (relative) and every TI (s) are finite numbers in (0, 1000]."""
+    """:class:`InputError` unless Kp (relative) and every TI (s) are finite numbers in (0, 1000]; ``ti_values``
+    None: the default integral times. Integral times without Kp are refused (they would be ignored)."""
     if kp is None:
+        if ti_values is not None:
+            raise InputError(f"--closed-loop-ti {' '.join(f'{v:g}' for v in ti_values)} needs --closed-loop-kp "
+                             "(the closed-loop runs use the governor PI with that Kp); add --closed-loop-kp KP or "
+                             "drop --closed-loop-ti")
         return
     if isinstance(kp, bool) or not isinstance(kp, (int, float)) or not (math.isfinite(kp) and 0 < kp <= 1000):
         raise InputError(f"--closed-loop-kp must be a number in (0, 1000], got {kp!r}")
-    for ti in ti_values:
+    for ti in DEFAULT_CLOSED_LOOP_TI if ti_values is None else ti_values:
         if isinstance(ti, bool) or not isinstance(ti, (int, float)) or not (math.isfinite(ti) and 0 < ti <= 1000):
             raise InputError(f"--closed-loop-ti values must be numbers in (0, 1000] s, got {ti!r}")
 
 
+#: Integral times (s) of the closed-loop identification runs when none are given.
+DEFAULT_CLOSED_LOOP_TI = (0.5, 0.15)
+
+
 def write_head_and_closed_loop(report, plant, out_dir, *, head_structure: str | None = None,
-                               closed_loop_kp: float | None = None, closed_loop_ti=(0.5, 0.15)) -> dict:
+                               closed_loop_kp: float | None = None, closed_loop_ti=DEFAULT_CLOSED_LOOP_TI) -> dict:
     """``hillsim identify`` extras: the head model on the report's series (``head_model.json``, ``head_model.png``)
     and closed-loop identification runs (``closed_loop.json``), one per integral time. Returns the paths."""
     import json

@@ -31,6 +31,8 @@ def test_identify_writes_head_model_and_closed_loop(tmp_path, capsys):
     (["--closed-loop-kp", "-1"], "--closed-loop-kp must be a number in (0, 1000]"),
     (["--closed-loop-kp", "7.5", "--closed-loop-ti", "0.5", "0"], "--closed-loop-ti values must be numbers"),
     (["--closed-loop-kp", "nan"], "--closed-loop-kp must be a number in (0, 1000], got nan"),
+    # integral times alone would be ignored (no closed-loop run without Kp): refused, naming what to add
+    (["--closed-loop-ti", "0"], "--closed-loop-ti 0 needs --closed-loop-kp"),
 ])
 def test_bad_head_and_closed_loop_options_leave_nothing(extra, message, tmp_path, capsys):
     out = tmp_path / "o"
