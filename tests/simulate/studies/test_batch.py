@@ -7,8 +7,8 @@ import pytest
 
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
-from simulate.studies.batch import (CaseResult, BatchResult, check_key, extrapolation_kinds, run_batch, run_case,
-                            variant_overrides)
+from simulate.studies.batch import (FIGURES, CaseResult, BatchResult, case_from_result, check_key,
+                                    extrapolation_kinds, nets_domain, run_batch, run_case, variant_overrides)
 from simulate.config import load_characteristics, load_plant
 from simulate.loop.engine import run_simulation
 
@@ -47,6 +47,14 @@ def test_batch_equals_single_runs_exactly(plant, nets, mechanism):
         assert case.min_head_m == single.head_m.min() and case.steps == s["steps"]
         assert np.array_equal(case.series["speed_rpm"], single.speed_rpm)
         assert np.array_equal(case.series["head_m"], single.head_m)
+        # every figure of the record: the one the single run gives (numbers to 1e-12 relative, the rest equal)
+        alone = case_from_result(case.index, variant, single.plant, single, nets_domain(nets))
+        for name in FIGURES:
+            got, want = getattr(case, name), getattr(alone, name)
+            if isinstance(want, float):
+                assert got == pytest.approx(want, rel=1e-12, nan_ok=True), name
+            else:
+                assert got == want, name
     # the varied initial power really changed the run (the test would pass vacuously otherwise)
     assert batch.cases[0].initial_power_mw == pytest.approx(160.0, rel=1e-9)
     assert batch.cases[0].max_speed_rise < batch.cases[1].max_speed_rise
