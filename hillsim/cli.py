@@ -153,6 +153,20 @@ def _out_metavar(help_text: str) -> str:
     return "PATH"
 
 
+#: Delay (s) before a signal that arrived inside a callback from native code is delivered again.
+NATIVE_CALLBACK_RETRY_S = 0.02
+
+
+def _in_native_callback(frame) -> bool:
+    """True when ``frame`` runs inside a callback that native code made into Python: llvmlite's object cache while
+    numba compiles (``llvmlite/binding``), where an exception raised by a signal handler cannot propagate."""
+    while frame is not None:
+        if "/llvmlite/binding/" in frame.f_code.co_filename.replace("\\", "/"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 @contextmanager
 def _signals(state: dict):
     """SIGINT -> KeyboardInterrupt, SIGTERM/SIGHUP/SIGXCPU -> :class:`Terminated`, each also recorded in
@@ -166,6 +180,15 @@ def _signals(state: dict):
                 state["signal"] = signum
             return
         state["signal"] = signum
+        if _in_native_callback(frame):
+            # an exception cannot leave a callback from native code (Python prints "Exception ignored" and a
+            # traceback, and goes on): the same signal again once the callback has returned
+            import threading
+
+            timer = threading.Timer(NATIVE_CALLBACK_RETRY_S, os.kill, (os.getpid(), signum))
+            timer.daemon = True
+            timer.start()
+            return
         if signum == signal.SIGINT:
             raise KeyboardInterrupt
         raise Terminated(signum)

@@ -336,3 +336,20 @@ def test_an_interrupt_wrapped_into_another_error_still_exits_130(tmp_path, capsy
 
     assert run_command(_args(func)) == 130
     assert "interrupted" in capsys.readouterr().err and list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_inside_a_native_callback_is_delivered_again_after_it():
+    """A Ctrl-C that lands in llvmlite's object-cache callback (numba compiling) cannot raise there (Python prints
+    "Exception ignored" with a traceback and goes on): the handler sees such a frame and delivers the signal again
+    once the callback has returned. The failing case beside it: an ordinary frame is not a callback."""
+    from hillsim.cli import _in_native_callback
+
+    namespace = {}
+    exec(compile("import sys\ndef inner():\n    return sys._getframe()\n", "/site/llvmlite/binding/executionengine.py",
+                 "exec"), namespace)
+
+    def caller():  # an ordinary frame that calls into the callback's module: still inside the callback
+        return namespace["inner"]()
+
+    assert _in_native_callback(caller()) is True
+    assert _in_native_callback(sys._getframe()) is False
