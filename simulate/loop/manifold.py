@@ -21,7 +21,7 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import _header_lines, _import_line, _load, _python_kernel, _turbine_lines
+from simulate.loop.assembly import _ROLES, _header_lines, _import_line, _load, _python_kernel, _turbine_lines
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
 MULTI_TEMPLATE_VERSION = 1
@@ -66,22 +66,11 @@ _STEP = '''    for k in range(k0, k1):
     return 0, k1
 '''
 
-#: role -> (key of the unit's parts, function role)
-_UNIT_ROLES = {
-    "control_step": ("control", "step"),
-    "shaft_speed": ("shaft", "speed"),
-    "shaft_step": ("shaft", "step"),
-    "branch_relation": ("branch", "relation"),
-    "branch_update": ("branch", "update"),
-}
-_COMMON_ROLES = {
-    "upstream_head": ("upstream", "head"),
-    "upstream_step": ("upstream", "step"),
-    "penstock_relation": ("penstock", "relation"),
-    "penstock_update": ("penstock", "update"),
-    "penstock_inlet_flow": ("penstock", "inlet_flow"),
-    "penstock_envelope": ("penstock", "envelope"),
-}
+#: role -> (key of the unit's parts, function role): the single-unit loop's control and shaft roles, and the branch
+_UNIT_ROLES = {**{alias: role for alias, role in _ROLES.items() if role[0] in ("control", "shaft")},
+               "branch_relation": ("branch", "relation"), "branch_update": ("branch", "update")}
+#: the single-unit loop's roles of the common upstream and penstock
+_COMMON_ROLES = {alias: role for alias, role in _ROLES.items() if role[0] in ("upstream", "penstock")}
 
 
 def multi_loop_source(common: dict, units: list[dict], characteristics, pressure_loop: str, compiled: bool,
