@@ -26,6 +26,18 @@ def available_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def checked_workers(workers) -> int:
+    """``workers`` (a positive integer), or the cores this process may use when None; anything else is an
+    :class:`~hillchart.errors.InputError`."""
+    if workers is None:
+        return available_cores()
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        from hillchart.errors import InputError
+
+        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    return workers
+
+
 def run_all(jobs: Sequence[tuple], *, workers: int | None = None, raise_on_failure: bool = True) -> list:
     """Run every ``(plant, characteristics)`` of ``jobs`` and return, in the same order, its
     :class:`~simulate.results.result.SimulationResult` or the :class:`~hillchart.errors.HillsimError` it raised (a
@@ -51,11 +63,7 @@ def run_all(jobs: Sequence[tuple], *, workers: int | None = None, raise_on_failu
     from simulate.loop.engine import run_simulation
 
     jobs = list(jobs)
-    workers = available_cores() if workers is None else workers
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        from hillchart.errors import InputError
-
-        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    workers = checked_workers(workers)
 
     def one(job):
         plant, characteristics = job

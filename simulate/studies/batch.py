@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
 import signal
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -39,6 +38,7 @@ from typing import Any, Callable, Iterable, Sequence
 import numpy as np
 
 from hillchart.errors import HillsimError, InputError
+from simulate.loop.parallel import available_cores as default_workers, checked_workers
 from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, PlantConfig, SCENARIO_KEYS,
                              ScenarioConfig, SolverConfig, TurbineConfig, load_characteristics)
 
@@ -424,14 +424,6 @@ def run_chunk(plant: PlantConfig, characteristics, chunk: Sequence[tuple[int, di
     return [run_case(plant, characteristics, i, v, domain=domain, keep_series=keep_series) for i, v in chunk]
 
 
-def default_workers() -> int:
-    """CPU cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
-
-
 def validate_variants(plant: PlantConfig, variants: Iterable[dict]) -> tuple[tuple[str, ...], list[dict]]:
     """Check every variant's keys (:func:`check_key`) and values (:func:`check_value`); returns (keys, variants)."""
     out, keys = [], []
@@ -495,9 +487,7 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
         raise InputError(f"mechanism must be one of {', '.join(MECHANISMS)}, got {mechanism!r}")
     keys, variants = validate_variants(plant, variants)
     n = len(variants)
-    workers = default_workers() if workers is None else workers
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers must be a positive integer, got {workers!r}")
+    workers = checked_workers(workers)
     if chunk_size is None:
         chunk_size = max(1, min(64, math.ceil(n / (4 * workers)))) if n else 1
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
@@ -598,9 +588,7 @@ class BatchPool:
         self.plant = plant
         self.members = list(members) if members else [load_characteristics(plant.turbine, plant.base_dir)]
         self.domains = [nets_domain(m) for m in self.members]
-        self.workers = default_workers() if workers is None else workers
-        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 1:
-            raise InputError(f"workers must be a positive integer, got {workers!r}")
+        self.workers = checked_workers(workers)
         self._pool = None
         if self.workers > 1:
             run_case(plant, self.members[0], 0, {})  # compile here, before the fork
@@ -610,11 +598,14 @@ class BatchPool:
                 self._pool = ctx.Pool(processes=self.workers, initializer=_init_pool_worker,
                                       initargs=(plant, self.members, self.domains))
 
+    def _check_member(self, member) -> None:
+        if isinstance(member, bool) or not isinstance(member, int) or not 0 <= member < len(self.members):
+            raise InputError(f"member must be an index in [0, {len(self.members) - 1}], got {member!r}")
+
     def run(self, variants: Iterable[dict], *, member: int = 0, chunk_size: int | None = None,
             keep_series: bool = False) -> BatchResult:
         """Like :func:`run_batch` with ``characteristics = members[member]``, on the pool's workers."""
-        if isinstance(member, bool) or not isinstance(member, int) or not 0 <= member < len(self.members):
-            raise InputError(f"member must be an index in [0, {len(self.members) - 1}], got {member!r}")
+        self._check_member(member)
         keys, variants = validate_variants(self.plant, variants)
         n = len(variants)
         if chunk_size is None:
@@ -638,8 +629,7 @@ class BatchPool:
         order given."""
         members = list(range(len(self.members))) if members is None else list(members)
         for member in members:
-            if isinstance(member, bool) or not isinstance(member, int) or not 0 <= member < len(self.members):
-                raise InputError(f"member must be an index in [0, {len(self.members) - 1}], got {member!r}")
+            self._check_member(member)
         keys, variants = validate_variants(self.plant, variants)
         n = len(variants)
         chunk_size = max(1, math.ceil(n / (4 * self.workers))) if n else 1
