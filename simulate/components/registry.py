@@ -308,11 +308,11 @@ def compile_characteristics(characteristics) -> CompiledCharacteristics:
         kernel, params = characteristics.numba_control_kernel()
         flow = getattr(characteristics, "numba_control_flow_kernel", lambda: None)()
         torque = getattr(characteristics, "numba_control_torque_kernel", lambda: None)()
-        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow, None, torque)
+        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow_kernel=flow, torque_value=torque)
     from hillchart.characteristics import scalar_kernel
 
     kernel, params, jitted = scalar_kernel(characteristics)
-    values = characteristics.numba_value_kernels() if jitted and hasattr(characteristics, "numba_value_kernels") \
-        else (None, None)
+    flow, torque = characteristics.numba_value_kernels() \
+        if jitted and hasattr(characteristics, "numba_value_kernels") else (None, None)
     return CompiledCharacteristics("two-input" if jitted else "python", kernel, tuple(params), bool(jitted),
-                                   None, *values)
+                                   flow_value=flow, torque_value=torque)

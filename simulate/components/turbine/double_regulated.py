@@ -60,12 +60,18 @@ def is_three_input(characteristics) -> bool:
 # compiled kernels on the control vector [a (from the closed vane, chart units), y_b (blade stroke fraction)]
 # ---------------------------------------------------------------------------------------------------------------
 @numba.njit(cache=True)
+def _chart_point(scal, controls):
+    """``(opening, blade angle)`` of the characteristics (chart units, deg) from the controls ``[a, y_b]``: the
+    opening from the closed vane plus the angle at zero stroke, the blade angle from its stroke."""
+    return controls[0] + scal[0], scal[1] + controls[1] * scal[2]
+
+
+@numba.njit(cache=True)
 def nets_control_kernel(params, n11, controls):
     """Three-input nets: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (flow packed, torque packed,
     [opening at zero stroke, angle_min_deg, angle span deg])."""
     flow, torque, scal = params
-    opening = controls[0] + scal[0]
-    blade = scal[1] + controls[1] * scal[2]
+    opening, blade = _chart_point(scal, controls)
     q, dq = net3_point(flow, n11, opening, blade)
     m, dm = net3_point(torque, n11, opening, blade)
     return q, dq, m, dm
@@ -76,8 +82,7 @@ def nets_control_flow(params, n11, controls):
     """The flow half of :func:`nets_control_kernel`, ``(q11, dq11/dn11)``, the same arithmetic: what the pressure
     loop reads in each iteration (the torque net is evaluated once, at the converged head)."""
     flow, torque, scal = params
-    opening = controls[0] + scal[0]
-    blade = scal[1] + controls[1] * scal[2]
+    opening, blade = _chart_point(scal, controls)
     return net3_point(flow, n11, opening, blade)
 
 
@@ -86,8 +91,7 @@ def nets_control_torque(params, n11, controls):
     """M11 of :func:`nets_control_kernel` (the value, the same arithmetic): the torque at the converged head, the
     flow net not evaluated."""
     flow, torque, scal = params
-    opening = controls[0] + scal[0]
-    blade = scal[1] + controls[1] * scal[2]
+    opening, blade = _chart_point(scal, controls)
     return net3_point(torque, n11, opening, blade)[0]
 
 
@@ -96,7 +100,8 @@ def bulb_control_kernel(params, n11, controls):
     """The exact synthetic bulb: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (bulb point parameters,
     [opening at zero stroke, angle_min_deg, angle span deg])."""
     point, scal = params
-    return unit_point(point, n11, controls[0] + scal[0], scal[1] + controls[1] * scal[2])
+    opening, blade = _chart_point(scal, controls)
+    return unit_point(point, n11, opening, blade)
 
 
 @numba.njit(cache=True)
