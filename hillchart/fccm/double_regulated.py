@@ -14,6 +14,8 @@ import numpy as np
 from hillchart.errors import InputError, NumericalError
 from hillchart.fccm.net import FCCMNet, FCCMWeights
 from hillchart.fccm.plots import _figure
+from hillchart.nets.silent_model import _smoothstep
+from hillchart.synthetic.bulb import unit_point
 from hillchart.validation import check_finite
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -61,6 +63,127 @@ def net3_point(p, x0, x1, x2):
     return (yn + 1.0) * half + y_min, g * half * s0
 
 
+#: Where the fitted bulb model answers instead of the nets (:class:`BulbSilentModel`): the model alone at or below
+#: the closed vane plus this fraction of the gap up to the table's smallest guide-vane angle, the nets alone at it.
+BLEND_START_FRACTION = 0.5
+#: Model identifier of the ``silent_model`` block of a three-input nets.json.
+SILENT_KIND = "bulb-1d"
+#: The packed blend of nets without a model: the nets alone everywhere (the smoothstep is 1 for any opening).
+NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf]])
+
+
+@numba.njit(cache=True)
+def blended_point(flow, torque, blend, n11, opening, blade):
+    """``(q11, dq11/dn11, m11, dm11/dn11)`` of packed three-input nets blended into the fitted bulb model below the
+    table's smallest guide-vane angle (:class:`BulbSilentModel`; ``blend`` = its :meth:`~BulbSilentModel.packed`,
+    or :data:`NO_BLEND`): ``y = w y_nets + (1 - w) y_model`` with w a C1 smoothstep in the opening (w does not
+    depend on N11, so the N11-derivatives blend the same way). Where w is 0 the nets are not evaluated."""
+    w = _smoothstep(opening, blend[12], blend[13])[0]
+    if w <= 0.0:
+        return unit_point(blend[:12], n11, opening, blade)
+    q, dq = net3_point(flow, n11, opening, blade)
+    m, dm = net3_point(torque, n11, opening, blade)
+    if w >= 1.0:
+        return q, dq, m, dm
+    mq, mdq, mm, mdm = unit_point(blend[:12], n11, opening, blade)
+    v = 1.0 - w
+    return w * q + v * mq, w * dq + v * mdq, w * m + v * mm, w * dm + v * mdm
+
+
+@numba.njit(cache=True)
+def blended_value(net, blend, n11, opening, blade, which):
+    """The value alone of Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net) of
+    :func:`blended_point`, by the same formulas: what the pressure loop's iterations and the torque at the converged
+    head read."""
+    w = _smoothstep(opening, blend[12], blend[13])[0]
+    model = 0.0
+    if w < 1.0:
+        mq, _, mm, _ = unit_point(blend[:12], n11, opening, blade)
+        model = mq if which == 0 else mm
+        if w <= 0.0:
+            return model
+    y = net3_point(net, n11, opening, blade)[0]
+    if w >= 1.0:
+        return y
+    return w * y + (1.0 - w) * model
+
+
+@numba.njit(cache=True)
+def _blended_many(flow, torque, blend, n11, opening, blade, out):
+    for k in range(n11.size):
+        r = blended_point(flow, torque, blend, n11[k], opening[k], blade[k])
+        for j in range(4):
+            out[j, k] = r[j]
+
+
+class BulbSilentModel:
+    """The fitted bulb model (:mod:`hillchart.extension.bulb_model`) and where it answers instead of the three-input
+    nets: below the table's smallest guide-vane angle, blended in between :data:`BLEND_START_FRACTION` of the gap
+    from the closed vane and that angle, as the Francis nets hand over to their fitted model
+    (:mod:`hillchart.nets.silent_model`). The end of a closure then has the model's physics (Q11 -> 0 at the closed
+    vane with the slope of its inlet geometry, M11 -> -K N11^2) instead of the nets' few-tenths-of-a-percent misfit
+    of a zero flow, which at a closed vane would be a reverse flow.
+
+    Parameters
+    ----------
+    parameters : sequence of 12 float
+        :data:`hillchart.synthetic.bulb.POINT_PARAMETERS` (unit quantities, angles in degrees).
+    blend_openings : (float, float)
+        Guide-vane angles (deg): the model alone at or below the first, the nets alone at or above the second.
+    """
+
+    def __init__(self, parameters, blend_openings):
+        from hillchart.synthetic.bulb import POINT_PARAMETERS
+
+        values = np.asarray(parameters, dtype=float)
+        if values.shape != (len(POINT_PARAMETERS),) or not np.all(np.isfinite(values)):
+            raise InputError(f"silent_model.parameters must be {len(POINT_PARAMETERS)} finite numbers "
+                             f"({', '.join(POINT_PARAMETERS)}), got {list(np.ravel(parameters))!r}")
+        lo, hi = (float(v) for v in blend_openings)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InputError(f"silent_model.blend_openings must be two finite angles low < high, got {[lo, hi]!r}")
+        self.parameters, self.blend_openings = values, (lo, hi)
+
+    @classmethod
+    def from_fitted(cls, model, opening_min: float) -> "BulbSilentModel":
+        """From a :class:`hillchart.extension.bulb_model.FittedBulbModel` and the table's smallest guide-vane angle."""
+        closed = model.opening_closed
+        return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)))
+
+    def packed(self) -> np.ndarray:
+        """The 14 numbers :func:`blended_point` reads: the model's parameters, then the blend openings."""
+        return np.concatenate([self.parameters, self.blend_openings])
+
+    def to_dict(self) -> dict:
+        from hillchart.synthetic.bulb import POINT_PARAMETERS
+
+        return {"kind": SILENT_KIND, "parameters": {k: float(v) for k, v in zip(POINT_PARAMETERS, self.parameters)},
+                "blend_openings": list(self.blend_openings)}
+
+    @classmethod
+    def from_dict(cls, doc, key: str = "silent_model") -> "BulbSilentModel":
+        """Validate a parsed ``silent_model`` block of a three-input nets.json."""
+        from hillchart.synthetic.bulb import POINT_PARAMETERS
+
+        if not isinstance(doc, dict) or set(doc) != {"kind", "parameters", "blend_openings"}:
+            raise InputError(f"{key} must be an object with exactly the keys kind, parameters, blend_openings, got "
+                             f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
+        if doc["kind"] != SILENT_KIND:
+            raise InputError(f"{key}.kind must be {SILENT_KIND!r}, got {doc['kind']!r}")
+        params = doc["parameters"]
+        if not isinstance(params, dict) or set(params) != set(POINT_PARAMETERS):
+            raise InputError(f"{key}.parameters must have exactly the keys {', '.join(POINT_PARAMETERS)}")
+        blend = doc["blend_openings"]
+        if not isinstance(blend, list) or len(blend) != 2:
+            raise InputError(f"{key}.blend_openings must be a [low, high] pair of angles (deg), got {blend!r}")
+        try:
+            values = [float(check_finite(f"{key}.parameters.{k}", params[k])) for k in POINT_PARAMETERS]
+            pair = [float(check_finite(f"{key}.blend_openings", v)) for v in blend]
+        except (TypeError, ValueError):
+            raise InputError(f"{key} must hold numbers (parameters, blend_openings)") from None
+        return cls(values, pair)
+
+
 def _net_block(weights: FCCMWeights, output: str) -> dict:
     """A single-output :class:`FCCMWeights` as a ``nets.json`` NET block with three inputs."""
     return {"inputs": list(NET3_INPUTS), "output": output,
@@ -103,42 +226,75 @@ class DoubleRegulatedNets:
         Three inputs (n11 r/min, opening, blade angle deg), one output each.
     opening_unit : str
     training : dict, optional
+    silent_model : BulbSilentModel, optional
+        The fitted bulb model that answers below the table's smallest guide-vane angle (the extension of
+        :func:`table_unit_samples`); None: the nets alone everywhere.
     """
 
     def __init__(self, flow: FCCMWeights, torque: FCCMWeights, opening_unit: str = "deg",
-                 training: dict | None = None):
+                 training: dict | None = None, silent_model: BulbSilentModel | None = None):
         for name, w in (("flow", flow), ("torque", torque)):
             if not isinstance(w, FCCMWeights) or len(w.inputs) != 3 or len(w.outputs) != 1:
                 raise InputError(f"DoubleRegulatedNets.{name} must be a 3-input, 1-output FCCMWeights")
+        if silent_model is not None and not isinstance(silent_model, BulbSilentModel):
+            raise InputError("DoubleRegulatedNets.silent_model must be a BulbSilentModel or None")
         self.flow, self.torque = flow, torque
         self.opening_unit = opening_unit
         self.training = dict(training or {})
+        self.silent_model = silent_model
+
+    def blend_packed(self) -> np.ndarray:
+        """The blend vector of :func:`blended_point` (:data:`NO_BLEND` without a silent model)."""
+        return NO_BLEND if self.silent_model is None else self.silent_model.packed()
 
     def _x(self, n11, opening, blade_angle):
         arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (n11, opening, blade_angle)))
         return np.column_stack([a.ravel() for a in arrays]), arrays[0].shape
 
+    def _blended(self, x) -> np.ndarray:
+        """(4, N): q11, dq11/dN11, m11, dm11/dN11 of :func:`blended_point` at the rows of ``x``."""
+        out = np.empty((4, x.shape[0]))
+        _blended_many(packed_net3(self.flow), packed_net3(self.torque), self.blend_packed(),
+                      np.ascontiguousarray(x[:, 0]), np.ascontiguousarray(x[:, 1]), np.ascontiguousarray(x[:, 2]),
+                      out)
+        return out
+
+    def _value(self, which: int, n11, opening, blade_angle):
+        x, shape = self._x(n11, opening, blade_angle)
+        if self.silent_model is None:
+            return (self.flow, self.torque)[which].predict(x)[:, 0].reshape(shape)
+        return self._blended(x)[2 * which].reshape(shape)
+
+    def _grad(self, which: int, n11, opening, blade_angle):
+        x, shape = self._x(n11, opening, blade_angle)
+        g = (self.flow, self.torque)[which].predict_grad(x)[:, 0, :]
+        if self.silent_model is not None:
+            blended = x[:, 1] < self.silent_model.blend_openings[1]
+            if blended.any():  # the blend: N11 analytic, the opening and blade angle by central differences
+                xb = x[blended]
+                g[blended, 0] = self._blended(xb)[2 * which + 1]
+                for j in (1, 2):
+                    step = np.zeros(3)
+                    step[j] = 1e-5
+                    g[blended, j] = (self._blended(xb + step)[2 * which] - self._blended(xb - step)[2 * which]) / 2e-5
+        return tuple(g[:, j].reshape(shape) for j in range(3))
+
     def q11(self, n11, opening, blade_angle):
         """Unit flow Q11, m^3/s (broadcast)."""
-        x, shape = self._x(n11, opening, blade_angle)
-        return self.flow.predict(x)[:, 0].reshape(shape)
+        return self._value(0, n11, opening, blade_angle)
 
     def m11(self, n11, opening, blade_angle):
         """Unit torque M11, N*m (broadcast)."""
-        x, shape = self._x(n11, opening, blade_angle)
-        return self.torque.predict(x)[:, 0].reshape(shape)
+        return self._value(1, n11, opening, blade_angle)
 
     def q11_grad(self, n11, opening, blade_angle):
-        """(dQ11/dN11, dQ11/da, dQ11/dphi), analytic."""
-        x, shape = self._x(n11, opening, blade_angle)
-        g = self.flow.predict_grad(x)[:, 0, :]
-        return tuple(g[:, j].reshape(shape) for j in range(3))
+        """(dQ11/dN11, dQ11/da, dQ11/dphi): analytic, below the table's smallest guide-vane angle (the blend into
+        the silent model) the opening and blade-angle derivatives by central differences of step 1e-5 deg."""
+        return self._grad(0, n11, opening, blade_angle)
 
     def m11_grad(self, n11, opening, blade_angle):
-        """(dM11/dN11, dM11/da, dM11/dphi), analytic."""
-        x, shape = self._x(n11, opening, blade_angle)
-        g = self.torque.predict_grad(x)[:, 0, :]
-        return tuple(g[:, j].reshape(shape) for j in range(3))
+        """(dM11/dN11, dM11/da, dM11/dphi), as :meth:`q11_grad`."""
+        return self._grad(1, n11, opening, blade_angle)
 
     def efficiency(self, n11, opening, blade_angle):
         """Hydraulic efficiency M11 omega11 / (rho g Q11) (inverse of eq. (5) of paper 004); NaN where Q11 <= 0."""
@@ -170,6 +326,7 @@ class DoubleRegulatedNets:
                 "units": {"n11": "r/min", "opening": self.opening_unit, "blade_angle": "deg", "q11": "m^3/s",
                           "m11": "N*m"},
                 "flow": _net_block(self.flow, "q11"), "torque": _net_block(self.torque, "m11"),
+                **({} if self.silent_model is None else {"silent_model": self.silent_model.to_dict()}),
                 "training": self.training}
 
     def to_json(self) -> str:
@@ -205,9 +362,10 @@ class DoubleRegulatedNets:
         training = doc["training"] if "training" in doc else {}
         if not isinstance(training, dict):
             raise InputError(f"training must be an object, got {type(training).__name__}")
+        silent = BulbSilentModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
         return cls(flow=_weights_from_block(doc["flow"], "flow", "q11"),
                    torque=_weights_from_block(doc["torque"], "torque", "m11"), opening_unit=units["opening"],
-                   training=training)
+                   training=training, silent_model=silent)
 
 
 def load_double_regulated_nets(path) -> DoubleRegulatedNets:
@@ -298,18 +456,22 @@ def write_bulb_nets(out_dir) -> Path:
 
 
 def table_unit_samples(table, *, opening_closed: float | None = None, zero_opening_points: int = 200,
-                       seed: int = 0) -> tuple[dict, list[str]]:
-    """Unit samples (n11, opening, blade_angle, q11, m11) of a double-regulated test table
+                       seed: int = 0, extension: bool = True) -> tuple[dict, list[str], object]:
+    """Unit samples (n11, opening, blade_angle, q11, m11, origin) of a double-regulated test table
     (:class:`hillchart.fccm.table.TestTable` with ``guide_vane_deg``, ``n11_rpm``, ``q11_m3_s``, ``efficiency`` and
-    ``blade_angle_deg``), and the notes on what was assumed.
+    ``blade_angle_deg``), the notes on what was assumed, and the fitted bulb model (None without the extension).
 
     * M11 from the efficiency, eq. (5) of the BP hill-chart paper (``M11 = rho g Q11 eta / omega11``).
     * A table without ``blade_angle_deg`` is a fixed-blade (propeller) unit: ``blade_angle_deg`` of the table's
       ``table.toml`` is not known, so the angle is taken as 0 deg (a note says so); the nets then do not depend on it.
-    * The extension to zero opening (paper 004's eq. (6)): with ``opening_closed`` (the guide-vane angle at which the
-      vanes touch), ``zero_opening_points`` samples with Q11 = 0 over the table's N11 and blade-angle range; M11 = 0
-      there (the table says nothing of the zero-flow torque; paper 004's eqs. (8)-(9) fit it from the lowest opening
-      lines of a Francis chart, which a double-regulated table does not have).
+    * ``extension`` (default): the physical bulb model fitted to the table
+      (:func:`hillchart.extension.bulb_model.fit_bulb_model`, with ``opening_closed`` when given, else the closed
+      angle fitted) gives the samples where the table is silent
+      (:func:`hillchart.extension.bulb_model.extension_samples`): the closed vane (Q11 = 0, M11 = -K N11^2, eqs.
+      (6) and (8) of paper 004), runaway, zero speed and the region between them and the table. Raises
+      :class:`InputError` when the model cannot represent the table.
+    * Without the extension, with ``opening_closed`` (the guide-vane angle at which the vanes touch):
+      ``zero_opening_points`` samples with Q11 = 0 and M11 = 0 over the table's N11 and blade-angle range.
     """
     from hillchart.characteristics import unit_torque_from_efficiency
 
@@ -335,29 +497,51 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
         notes.append(f"{int((~ok).sum())} rows without n11, Q11 or efficiency left out")
     n11, q11, opening, eta, blade = n11[ok], q11[ok], opening[ok], eta[ok], blade[ok]
     m11 = unit_torque_from_efficiency(q11, n11, eta)  # eq. (5) of paper 004
-    samples = {"n11": n11, "opening": opening, "blade_angle": blade, "q11": q11, "m11": np.asarray(m11, float)}
-    if opening_closed is not None:
-        if not opening_closed < opening.min():
-            raise InputError(f"the closed guide-vane angle {opening_closed!r} must be below the table's smallest "
-                             f"guide_vane_deg {opening.min()!r}")
+    samples = {"n11": n11, "opening": opening, "blade_angle": blade, "q11": q11, "m11": np.asarray(m11, float),
+               "origin": np.full(n11.size, "measured")}
+    if opening_closed is not None and not opening_closed < opening.min():
+        raise InputError(f"the closed guide-vane angle {opening_closed!r} must be below the table's smallest "
+                         f"guide_vane_deg {opening.min()!r}")
+    model = None
+    if extension:
+        from hillchart.extension.bulb_model import extension_samples, fit_bulb_model
+
+        model = fit_bulb_model(n11, opening, blade, q11, samples["m11"], opening_closed=opening_closed, seed=seed,
+                               source=f"the table {table.info.name!r}")
+        extra = extension_samples(model, n11, opening, blade)
+        samples = {key: np.concatenate([samples[key], extra[key]]) for key in samples}
+        counts = {o: int(np.sum(extra["origin"] == o)) for o in ("zero-opening", "runaway", "zero-speed",
+                                                                  "silent-region")}
+        closed_text = (f"fitted closed vane {model.opening_closed:.4g} deg" if model.closed_fitted
+                       else f"closed vane {model.opening_closed:g} deg")
+        notes.append(f"extended by the physical bulb model (fits the table to Q11 RMS {model.q11_rms_pct:.2g} %, "
+                     f"M11 RMS {model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
+                     f"{model.k_zero_opening:.3g} N*m/(r/min)^2): "
+                     + ", ".join(f"{n} {o}" for o, n in counts.items()) + " samples")
+    elif opening_closed is not None:
         rng = np.random.default_rng([seed, 3])
         k = int(zero_opening_points)
         zero = {"n11": rng.uniform(n11.min(), n11.max(), k), "opening": np.full(k, float(opening_closed)),
                 "blade_angle": rng.uniform(blade.min(), blade.max(), k) if np.ptp(blade) > 0 else np.full(k, blade[0]),
-                "q11": np.zeros(k), "m11": np.zeros(k)}
+                "q11": np.zeros(k), "m11": np.zeros(k), "origin": np.full(k, "zero-opening")}
         samples = {key: np.concatenate([samples[key], zero[key]]) for key in samples}
         notes.append(f"extended to the closed vane ({opening_closed:g} deg): {k} samples with Q11 = 0, M11 = 0")
-    return samples, notes
+    return samples, notes, model
 
 
 def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0, members: int = 5,
-                     split=(0.70, 0.15, 0.15)) -> tuple["DoubleRegulatedNets", dict]:
+                     split=(0.70, 0.15, 0.15), model=None) -> tuple["DoubleRegulatedNets", dict]:
     """Three-input nets from ``samples`` (:func:`table_unit_samples`) with an ensemble of ``members`` nets (seeds
     ``seed``, ``seed + 2``, ...; the first is the point nets) and the plausibility checks: on a grid over the
     samples' box, the share of points where Q11 falls as the guide vanes open (dQ11/da < 0), where the efficiency
     exceeds 1 (where Q11 is above 5 % of its largest value), and the ensemble's spread (5-95 % of Q11 and M11, as
-    % of their ranges). A constant input (a fixed-blade table) is widened by 1 on either side so the net's scaling
-    is defined; the nets do not depend on it.
+    % of their ranges). A constant input (a fixed-blade table) is widened by 1 on either side (copies of the samples
+    at -1, 0, +1) so the net's scaling is defined; the nets do not depend on it.
+
+    With ``model`` (the fitted bulb model :func:`table_unit_samples` returns), every member after the first trains
+    on the measured samples plus the extension of its own draw of the model (:meth:`FittedBulbModel.draw`, seeded
+    by ``seed``): what the table leaves open about runaway and the closed vane shows in the spread, as for the
+    Francis nets.
 
     Returns
     -------
@@ -366,14 +550,38 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
         ``plausibility`` figures and ``warnings`` (text that says what to check).
     """
     X = {k: np.asarray(samples[k], float) for k in NET3_INPUTS}
-    fitted = dict(samples)
+    arrays = ("n11", "opening", "blade_angle", "q11", "m11")
     constant = [k for k in NET3_INPUTS if np.ptp(X[k]) == 0]
-    if constant:  # a constant input: two copies of the samples at +-1 so the scaling is defined and the slope 0
-        fitted = {k: np.concatenate([np.asarray(samples[k], float)] * 2) for k in samples}
-        for k in constant:
-            fitted[k] = np.concatenate([X[k] - 1.0, X[k] + 1.0])
-    ensemble = [train_double_regulated_nets(fitted, hidden=hidden, restarts=restarts, seed=seed + 2 * i, split=split)
+
+    def widened(member_samples):
+        # a constant input: copies at -1, 0 and +1 so that the scaling is defined, the slope 0, and the net is
+        # trained at the constant itself (with copies at +-1 alone a 3-6-1 net interpolated Q11 2.5 x off at 0)
+        fitted = {k: np.asarray(member_samples[k], float) for k in arrays}
+        if constant:
+            size = fitted["n11"].size
+            fitted = {k: np.concatenate([fitted[k]] * 3) for k in arrays}
+            for k in constant:
+                fitted[k] = fitted[k] + np.repeat([-1.0, 0.0, 1.0], size)
+        return fitted
+
+    member_samples = [samples] * max(1, members)
+    member_models = [model] * max(1, members)
+    measured = np.asarray(samples.get("origin", np.full(X["n11"].size, "measured"))) == "measured"
+    if model is not None and members > 1:
+        from hillchart.extension.bulb_model import extension_samples
+
+        base = {k: np.asarray(samples[k], float)[measured] for k in arrays}
+        rng = np.random.default_rng([seed, 4])  # the members' model draws: their own stream of the seed
+        for i in range(1, members):
+            member_models[i] = model.draw(rng)
+            extra = extension_samples(member_models[i], base["n11"], base["opening"], base["blade_angle"])
+            member_samples[i] = {k: np.concatenate([base[k], extra[k]]) for k in arrays}
+    ensemble = [train_double_regulated_nets(widened(member_samples[i]), hidden=hidden, restarts=restarts,
+                                            seed=seed + 2 * i, split=split)
                 for i in range(max(1, members))]
+    if model is not None:  # below the smallest tested guide-vane angle each member's own model answers
+        for member, member_model in zip(ensemble, member_models):
+            member.silent_model = BulbSilentModel.from_fitted(member_model, float(X["opening"][measured].min()))
     nets = ensemble[0]
     lo = np.array([X[k].min() for k in NET3_INPUTS])
     hi = np.array([X[k].max() for k in NET3_INPUTS])
@@ -408,6 +616,9 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
                                   f"the table's box (max {p['max_efficiency']:.3f}): implausible; check the table's "
                                   "efficiency column (a fraction) and the extension")
     nets.training["plausibility"] = p
+    # the box of the table itself (the nets' box includes the extension): the combinator's cam is searched over it
+    nets.training["measured_box"] = {k: [float(X[k][measured].min()), float(X[k][measured].max())]
+                                     for k in NET3_INPUTS}
     nets.training["ensemble_seeds"] = [seed + 2 * i for i in range(len(ensemble))]
     return nets, report
 

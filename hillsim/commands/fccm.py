@@ -29,15 +29,21 @@ def register(subparsers) -> None:
                              "diameter). An on-cam chart (blade_angle_deg without guide_vane_deg) gives two-input "
                              "nets over (n11, cam position) instead: vanes and blades move together")
     parser.add_argument("--closed-opening", type=float, default=None, metavar="DEG",
-                        help="with --simulator-nets: the guide-vane angle at which the vanes touch; extends the "
-                             "samples to the closed vane (Q11 = 0). For an on-cam chart: the cam's blade angle at "
-                             "which the flow stops (default: extrapolated from the two lowest blade-angle lines)")
+                        help="with --simulator-nets: the guide-vane angle at which the vanes touch (default: "
+                             "fitted with the bulb model, or none with --no-extension). For an on-cam chart: the cam's "
+                             "blade angle at which the flow stops (default: extrapolated from the two lowest "
+                             "blade-angle lines)")
+    parser.add_argument("--no-extension", action="store_true",
+                        help="with --simulator-nets: train on the table alone (with --closed-opening: plus Q11 = 0 "
+                             "at the closed vane). By default the physical bulb model fitted to the table gives the "
+                             "samples where it is silent: runaway, the closed vane (M11 = -K N11^2), zero speed and "
+                             "the overspeed between them")
     parser.add_argument("--members", type=int, default=5,
                         help="with --simulator-nets: ensemble members, the point nets included (default 5)")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
                         help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation; "
-                             "with --simulator-nets 15, or 8 for an on-cam chart)")
+                             "with --simulator-nets 30 (15 with --no-extension), or 8 for an on-cam chart)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split and the initialisations (default 0)")
     parser.add_argument("--restarts", type=int, default=5, help="initialisations per hidden size (default 5)")
     parser.add_argument("--split", default="0.30,0.35,0.35",
@@ -160,11 +166,14 @@ def _run_simulator_nets(args) -> int:
         print(f"warning: {w.message}", flush=True)
     if is_on_cam_table(table):
         return _run_on_cam_nets(args, table, split, out)
-    hidden = 15 if args.hidden is None else args.hidden
-    samples, notes = table_unit_samples(table, opening_closed=args.closed_opening, seed=args.seed)
+    hidden = (15 if args.no_extension else 30) if args.hidden is None else args.hidden
+    samples, notes, model = table_unit_samples(table, opening_closed=args.closed_opening, seed=args.seed,
+                                               extension=not args.no_extension)
     nets, report = train_table_nets(samples, hidden=hidden, restarts=args.restarts, seed=args.seed,
-                                    members=args.members, split=split)
+                                    members=args.members, split=split, model=model)
     nets.training["notes"] = notes
+    if model is not None:
+        nets.training["boundary_model"] = model.to_dict()
     nets.save(out / "nets.json")
     (out / "plausibility.json").write_text(json.dumps({**report, "notes": notes}, indent=2) + "\n", encoding="utf-8")
     p = report["plausibility"]
@@ -177,6 +186,10 @@ def _run_simulator_nets(args) -> int:
         print(f"note: {line}")
     for line in report["warnings"]:
         print(f"warning: {line}")
+    if model is not None:
+        box = nets.training["measured_box"]
+        print(f"plant: combinator.opening_at_zero_stroke = {model.opening_closed:.4g} (the closed vane, deg), "
+              f"turbine.opening_max = {box['opening'][1] - model.opening_closed:.4g} (to the largest tested angle)")
     print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")
     return 0
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
 from hillchart.errors import InputError
-from hillchart.fccm.double_regulated import net3_point
+from hillchart.fccm.double_regulated import blended_point, blended_value, net3_point
 from hillchart.synthetic.bulb import unit_point
 
 #: Opening points of a cam computed from the characteristics, and head points (fractions of the rated head).
@@ -68,31 +68,33 @@ def _chart_point(scal, controls):
 
 @numba.njit(cache=True)
 def nets_control_kernel(params, n11, controls):
-    """Three-input nets: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (flow packed, torque packed,
-    [opening at zero stroke, angle_min_deg, angle span deg])."""
-    flow, torque, scal = params
+    """Three-input nets: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (flow packed, torque packed, blend
+    (:meth:`hillchart.fccm.double_regulated.DoubleRegulatedNets.blend_packed`: the fitted bulb model below the
+    table's smallest guide-vane angle, or none), [opening at zero stroke, angle_min_deg, angle span deg])."""
+    flow, torque, blend, scal = params
     opening, blade = _chart_point(scal, controls)
-    q, dq = net3_point(flow, n11, opening, blade)
-    m, dm = net3_point(torque, n11, opening, blade)
-    return q, dq, m, dm
+    return blended_point(flow, torque, blend, n11, opening, blade)
 
 
 @numba.njit(cache=True)
 def nets_control_flow(params, n11, controls):
     """The flow half of :func:`nets_control_kernel`, ``(q11, dq11/dn11)``, the same arithmetic: what the pressure
     loop reads in each iteration (the torque net is evaluated once, at the converged head)."""
-    flow, torque, scal = params
+    flow, torque, blend, scal = params
     opening, blade = _chart_point(scal, controls)
-    return net3_point(flow, n11, opening, blade)
+    if blend[13] <= opening:  # the nets alone (always, without a silent model)
+        return net3_point(flow, n11, opening, blade)
+    q, dq, m, dm = blended_point(flow, torque, blend, n11, opening, blade)
+    return q, dq
 
 
 @numba.njit(cache=True)
 def nets_control_torque(params, n11, controls):
     """M11 of :func:`nets_control_kernel` (the value, the same arithmetic): the torque at the converged head, the
     flow net not evaluated."""
-    flow, torque, scal = params
+    flow, torque, blend, scal = params
     opening, blade = _chart_point(scal, controls)
-    return net3_point(torque, n11, opening, blade)[0]
+    return blended_value(torque, blend, n11, opening, blade, 1)
 
 
 @numba.njit(cache=True)
@@ -119,13 +121,13 @@ def bulb_fixed_blade_kernel(params, n11, opening):
 
 
 @numba.njit(cache=True)
-def _nets_efficiency(flow, torque, n11, opening, blade, out):
-    """Efficiency M11 omega11 / (rho g Q11) (eq. (5) of the BP hill-chart paper) of packed three-input nets at
-    points (flat arrays); NaN where Q11 <= 0 or N11 <= 0, as
+def _nets_efficiency(flow, torque, blend, n11, opening, blade, out):
+    """Efficiency M11 omega11 / (rho g Q11) (eq. (5) of the BP hill-chart paper) of packed three-input nets (with
+    their blend) at points (flat arrays); NaN where Q11 <= 0 or N11 <= 0, as
     :func:`hillchart.characteristics.efficiency_from_unit_torque`."""
     for i in range(n11.size):
-        q = net3_point(flow, n11[i], opening[i], blade[i])[0]
-        m = net3_point(torque, n11[i], opening[i], blade[i])[0]
+        q = blended_value(flow, blend, n11[i], opening[i], blade[i], 0)
+        m = blended_value(torque, blend, n11[i], opening[i], blade[i], 1)
         if q > 0.0 and n11[i] > 0.0:
             out[i] = m * n11[i] * RPM_TO_RAD_S / (RHO_WATER_KG_M3 * G_M_S2 * q)
         else:
@@ -144,7 +146,7 @@ def _inner_kernel(inner):
         kernel, first = inner.numba_three_input_kernel()
         return kernel, tuple(first)
     if isinstance(inner, DoubleRegulatedNets):
-        return nets_control_kernel, (packed_net3(inner.flow), packed_net3(inner.torque))
+        return nets_control_kernel, (packed_net3(inner.flow), packed_net3(inner.torque), inner.blend_packed())
     if isinstance(inner, SyntheticBulb):
         return bulb_control_kernel, (inner.point_parameters(),)
     return None, ()
@@ -187,10 +189,15 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
                              opening_range=None) -> Cam:
     """The cam of best efficiency of ``inner`` (:func:`hillchart.fccm.double_regulated.on_cam_relation`, eq. (2) of
     the tubular-turbine paper for N11) over the characteristics' opening range (``opening_range`` in the
-    characteristics' units; default: the nets' fitted box, or the whole stroke) and heads
+    characteristics' units; default: the guide-vane range of the table the nets were trained on (``training.
+    measured_box``), else the nets' fitted box, or the whole stroke) and heads
     :data:`CAM_HEAD_FRACTIONS` of the rated head."""
     from hillchart.fccm.double_regulated import on_cam_relation
 
+    training = getattr(inner, "training", None)
+    measured_box = training.get("measured_box") if isinstance(training, dict) else None
+    if opening_range is None and isinstance(measured_box, dict) and "opening" in measured_box:
+        opening_range = tuple(float(v) for v in measured_box["opening"])  # the table's, not the extension's
     if opening_range is None:
         flow = getattr(inner, "flow", None)
         if flow is not None and hasattr(flow, "x_min"):
@@ -214,7 +221,7 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
         def efficiency(n11, opening, blade):
             n11, opening, blade = np.broadcast_arrays(*(np.asarray(v, float) for v in (n11, opening, blade)))
             out = np.empty(n11.shape)
-            _nets_efficiency(first[0], first[1], np.ascontiguousarray(n11).ravel(),
+            _nets_efficiency(first[0], first[1], first[2], np.ascontiguousarray(n11).ravel(),
                              np.ascontiguousarray(opening).ravel(), np.ascontiguousarray(blade).ravel(), out.ravel())
             return out
     # a coarse scan finds the hump, a golden-section search on the scan step around it the optimum

@@ -21,8 +21,8 @@ def bulb_table(tmp_path_factory):
 
 def test_nets_from_the_synthetic_table_match_the_exact_bulb(bulb_table):
     table = load_test_table(bulb_table)
-    samples, notes = table_unit_samples(table, opening_closed=35.0)
-    assert any("closed vane" in n for n in notes)
+    samples, notes, model = table_unit_samples(table, opening_closed=35.0, extension=False)
+    assert model is None and any("closed vane" in n for n in notes)
     assert np.all(samples["q11"][samples["opening"] == 35.0] == 0.0)
     nets, report = train_table_nets(samples, hidden=10, restarts=1, members=2, seed=0)
     rows = list(csv.DictReader(open(bulb_table / "truth.csv", encoding="utf-8")))
@@ -43,7 +43,7 @@ def test_cli_writes_the_nets_the_simulator_reads(bulb_table, tmp_path, capsys):
 
     out = tmp_path / "nets"
     code = main(["fccm", str(bulb_table), "--simulator-nets", "--closed-opening", "35", "--hidden", "8",
-                 "--restarts", "1", "--members", "2", "--out", str(out)])
+                 "--restarts", "1", "--members", "2", "--no-extension", "--out", str(out)])
     assert code == 0
     nets = load_double_regulated_nets(out / "nets.json")
     assert nets.training["ensemble_seeds"] == [0, 2]
@@ -68,7 +68,7 @@ def test_real_fixed_blade_bulb_table_trains_plausible_nets(tmp_path):
     from tests.fccm_external import write_bulb_137kw_table
 
     table = load_test_table(write_bulb_137kw_table(tmp_path / "bulb137"))
-    samples, notes = table_unit_samples(table)
+    samples, notes, _ = table_unit_samples(table, extension=False)
     assert any("fixed-blade" in n for n in notes)
     nets, report = train_table_nets(samples, hidden=6, restarts=1, members=2, seed=0)
     p = report["plausibility"]
