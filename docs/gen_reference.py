@@ -327,7 +327,7 @@ def plant_file_page() -> str:
             note="With three-input characteristics (a double-regulated unit; see "
                  "[Double-regulated units](../double-regulated.md)).")
     section("[blade_servo]", BladeServoConfig, bulb, ("blade_servo",),
-            note="With `combinator.relation` `cam` or `table`.")
+            note="With `combinator.relation` `cam`, `model` or `table`.")
     section("[draft_tube]", config.DraftTubeConfig, bulb, ("draft_tube",), skip=("segments",),
             note="`[[draft_tube.segments]]` take the keys of `[[penstock.segments]]` (without the elevations), "
                  "runner outlet first.")

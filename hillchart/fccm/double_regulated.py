@@ -150,6 +150,28 @@ class BulbSilentModel:
         closed = model.opening_closed
         return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)))
 
+    def _values(self, n11, opening, blade_angle):
+        from hillchart.extension.bulb_model import unit_values
+
+        arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (n11, opening, blade_angle)))
+        q, m = unit_values(self.parameters, *(np.ascontiguousarray(a).ravel() for a in arrays))
+        return q.reshape(arrays[0].shape), m.reshape(arrays[0].shape)
+
+    def q11(self, n11, opening, blade_angle):
+        """The model's unit flow, m^3/s (broadcast): the model alone, everywhere."""
+        return self._values(n11, opening, blade_angle)[0]
+
+    def m11(self, n11, opening, blade_angle):
+        """The model's unit torque, N*m (broadcast)."""
+        return self._values(n11, opening, blade_angle)[1]
+
+    def efficiency(self, n11, opening, blade_angle):
+        """The model's hydraulic efficiency (eq. (5) of paper 004 inverted); NaN where Q11 <= 0."""
+        from hillchart.characteristics import efficiency_from_unit_torque
+
+        q, m = self._values(n11, opening, blade_angle)
+        return efficiency_from_unit_torque(q, n11, m)
+
     def packed(self) -> np.ndarray:
         """The 14 numbers :func:`blended_point` reads: the model's parameters, then the blend openings."""
         return np.concatenate([self.parameters, self.blend_openings])

@@ -188,8 +188,13 @@ def _run_simulator_nets(args) -> int:
         print(f"warning: {line}")
     if model is not None:
         box = nets.training["measured_box"]
+        blades = ('combinator.relation = "off", fixed_angle_deg = ' + f"{box['blade_angle'][0]:g}"
+                  if box["blade_angle"][0] == box["blade_angle"][1] else
+                  'combinator.relation = "model" (the cam of the fitted model; "table" with the unit\'s measured '
+                  'cam is better)')
         print(f"plant: combinator.opening_at_zero_stroke = {model.opening_closed:.4g} (the closed vane, deg), "
-              f"turbine.opening_max = {box['opening'][1] - model.opening_closed:.4g} (to the largest tested angle)")
+              f"turbine.opening_max = {box['opening'][1] - model.opening_closed:.4g} (to the largest tested angle), "
+              f"{blades}")
     print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")
     return 0
 

@@ -212,6 +212,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         from hillchart.fccm.on_cam import ON_CAM_WARNING
 
         warnings.append(ON_CAM_WARNING)
+    if getattr(chars, "cam_warning", None):  # the nets' cam and their fitted model's disagree
+        warnings.append(chars.cam_warning)
     parts, schedules = build_parts(plant, steady, dt, n_sub, chars)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,

@@ -28,7 +28,7 @@ from simulate.components.control.governor import governor_parameters, governor_s
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
 
 BLADE_MODES = ("combinator", "held", "law")
-COMBINATOR_RELATIONS = ("cam", "table", "off")
+COMBINATOR_RELATIONS = ("cam", "model", "table", "off")
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,9 @@ class CombinatorConfig:
     """``[combinator]``: the relation that sets the blades from the guide vanes.
 
     ``relation``: ``"cam"`` (the blade angle of best efficiency of the characteristics at the plant's speed,
-    phi(a, H)), ``"table"`` (the user's cam: ``table_openings`` (chart units of the characteristics),
+    phi(a, H)), ``"model"`` (the same of the physical model fitted to the test table, which nets from
+    ``hillsim fccm --simulator-nets`` carry: smooth where the nets' flat efficiency optimum moves with their
+    misfit), ``"table"`` (the user's cam: ``table_openings`` (chart units of the characteristics),
     ``table_heads_m`` (increasing), ``table_angles_deg`` (one row of angles per head)) or ``"off"`` (blades fixed
     at ``fixed_angle_deg``). ``opening_at_zero_stroke``: the characteristics' guide-vane opening at the closed vane
     (their units; the plant's opening a = y opening_max is counted from it). ``head_m``: the head the combinator

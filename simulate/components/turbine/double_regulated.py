@@ -275,10 +275,12 @@ class DoubleRegulatedTurbine:
         self.cam, self.fixed_angle_deg = cam, fixed_angle_deg
         self.speed_rpm, self.runner_diameter_m = float(speed_rpm), float(runner_diameter_m)
         self._kernel = _inner_kernel(inner)
+        self.cam_warning = None  # set by the plant's view when the nets' cam and their fitted model's disagree
         # the nets' fitted box in the plant's units, for the trusted domain (simulate.loop.domain reads
         # flow/torque.x_min, x_max: N11 and the opening); the blade angle's range: blade_range_deg
         # (nets trained down to the closed vane, within 1e-3 deg, count as trained there); the nets were fitted on a
-        # box, so the digitized region is that box in (N11, opening)
+        # box, so the digitized region is that box in (N11, opening), or the test table's box when the nets were
+        # extended beyond it (training.measured_box)
         self.blade_range_deg = None
         for name in ("flow", "torque"):
             net = getattr(inner, name, None)
@@ -291,6 +293,11 @@ class DoubleRegulatedTurbine:
                 self.blade_range_deg = (float(net.x_min[2]), float(net.x_max[2]))
         if self.blade_range_deg is not None:
             lo, hi = self.flow.x_min, self.flow.x_max
+            training = getattr(inner, "training", None)
+            box = training.get("measured_box") if isinstance(training, dict) else None
+            if isinstance(box, dict) and {"n11", "opening"} <= set(box):  # the test table's own box, not the extension
+                lo = np.array([box["n11"][0], box["opening"][0] - self.opening_at_zero_stroke])
+                hi = np.array([box["n11"][1], box["opening"][1] - self.opening_at_zero_stroke])
             self.digitized_region = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
 
     @property
@@ -478,27 +485,69 @@ def _wrap(plant, inner) -> DoubleRegulatedTurbine:
         lo, hi = servo.angle_min_deg, servo.angle_max_deg
     else:  # blades fixed: the stroke fraction is read against a nominal range around the fixed angle
         lo, hi = comb.fixed_angle_deg - 1.0, comb.fixed_angle_deg + 1.0
-    cam = None
-    if comb.relation == "cam":
+    cam, cam_warning = None, None
+    fitted = getattr(inner, "silent_model", None)  # nets from a test table carry the physical model fitted to it
+    if comb.relation == "model" and fitted is None:
+        raise InputError(f"combinator.relation = \"model\" takes the cam from the physical model fitted to the test "
+                         f"table, which nets from hillsim fccm --simulator-nets carry (silent_model in nets.json); "
+                         f"turbine.characteristics = {plant.turbine.characteristics!r} has none: use \"cam\" or "
+                         f"\"table\"")
+    if comb.relation in ("cam", "model"):
         # the cam depends on the characteristics' numbers, not on the object: the same nets read again (each run
         # of a study loads its nets.json) find their cam here; characteristics without a compiled kernel by object
         kernel, first = _inner_kernel(inner)
         content = (kernel, tuple(np.asarray(v).tobytes() for v in first)) if kernel is not None else (id(inner),)
-        key = content + (comb.opening_at_zero_stroke, turbine.opening_max, turbine.rated_speed_rpm,
+        key = content + (comb.relation, comb.opening_at_zero_stroke, turbine.opening_max, turbine.rated_speed_rpm,
                          turbine.runner_diameter_m, turbine.rated_head_m, lo, hi)
         if key not in _CAMS or (kernel is None and _CAMS[key][0] is not inner):
             _CAMS.clear()  # one plant at a time; keeps the cache from holding characteristics alive
-            _CAMS[key] = (inner if kernel is None else None, cam_from_characteristics(
-                inner, opening_at_zero_stroke=comb.opening_at_zero_stroke, opening_max=turbine.opening_max,
-                speed_rpm=turbine.rated_speed_rpm, runner_diameter_m=turbine.runner_diameter_m,
-                rated_head_m=turbine.rated_head_m, blade_range_deg=(lo, hi)))
-        cam = _CAMS[key][1]
+            _CAMS[key] = (inner if kernel is None else None, *_cams(inner, fitted, comb, turbine, (lo, hi)))
+        cam, cam_warning = _CAMS[key][1:]
     elif comb.relation == "table":
         cam = Cam(np.asarray(comb.table_openings, float) - comb.opening_at_zero_stroke, comb.table_heads_m,
                   comb.table_angles_deg, source="the combinator table of the plant file")
-    return DoubleRegulatedTurbine(inner, opening_at_zero_stroke=comb.opening_at_zero_stroke, angle_min_deg=lo,
+    view = DoubleRegulatedTurbine(inner, opening_at_zero_stroke=comb.opening_at_zero_stroke, angle_min_deg=lo,
                                   angle_max_deg=hi, cam=cam, fixed_angle_deg=comb.fixed_angle_deg,
                                   speed_rpm=turbine.rated_speed_rpm, runner_diameter_m=turbine.runner_diameter_m)
+    view.cam_warning = cam_warning
+    return view
+
+
+#: Largest difference (deg) between the cam of the nets and that of the physical model fitted to their test table
+#: before a run warns: the efficiency is flat in the blade angle near its optimum, so the nets' misfit of a few
+#: tenths of a percent can move their cam by degrees (3-5 deg on 150-point synthetic tables, where the model's cam
+#: is within 0.2 deg of the truth), and the initial opening and the overspeed with it.
+CAM_DISAGREEMENT_DEG = 1.0
+
+
+def _cams(inner, fitted, comb, turbine, blade_range) -> tuple:
+    """``(cam, warning)`` of ``combinator.relation`` "cam" (the characteristics') or "model" (the fitted model's);
+    with a fitted model, the other cam is computed too and a warning says where the two differ by more than
+    :data:`CAM_DISAGREEMENT_DEG`."""
+    kwargs = dict(opening_at_zero_stroke=comb.opening_at_zero_stroke, opening_max=turbine.opening_max,
+                  speed_rpm=turbine.rated_speed_rpm, runner_diameter_m=turbine.runner_diameter_m,
+                  rated_head_m=turbine.rated_head_m, blade_range_deg=blade_range)
+    if fitted is None:
+        return cam_from_characteristics(inner, **kwargs), None
+    box = inner.training.get("measured_box", {}) if isinstance(getattr(inner, "training", None), dict) else {}
+    opening_range = tuple(box["opening"]) if "opening" in box else None
+    nets_cam = cam_from_characteristics(inner, **kwargs)
+    model_cam = cam_from_characteristics(fitted, opening_range=opening_range, **kwargs)
+    model_cam.source = "best efficiency of the physical model fitted to the test table"
+    difference = np.abs(nets_cam.angles_deg - model_cam.angles_deg)
+    warning = None
+    if difference.max() > CAM_DISAGREEMENT_DEG:
+        h, i = np.unravel_index(int(np.argmax(difference)), difference.shape)
+        warning = (f"the cam of the nets and that of the physical model fitted to their test table differ by up to "
+                   f"{difference.max():.1f} deg (at the guide-vane angle "
+                   f"{nets_cam.openings[i] + comb.opening_at_zero_stroke:.4g} deg and {nets_cam.heads_m[h]:.4g} m): "
+                   "the efficiency is flat in the blade angle near its optimum and the table does not fix it; "
+                   + ("the run uses the nets' (combinator.relation = \"cam\"): set relation = \"model\" for the "
+                      "fitted model's, or give the unit's measured cam (relation = \"table\")"
+                      if comb.relation == "cam" else
+                      "the run uses the model's (combinator.relation = \"model\"); a measured cam (relation = "
+                      "\"table\") is better than either"))
+    return (nets_cam if comb.relation == "cam" else model_cam), warning
 
 
 __all__ = ["Cam", "DoubleRegulatedTurbine", "FixedBladeBulb", "cam_from_characteristics", "is_three_input",

@@ -209,6 +209,14 @@ def test_bad_double_regulated_input_names_the_key(over, match):
         load_plant(PLANT_BULB, {**EXACT, **over})
 
 
+def test_the_fitted_model_cam_needs_nets_that_carry_the_model():
+    # the shipped nets come from exact samples, not from a test table: no fitted model, no "model" cam
+    with pytest.raises(InputError, match=r"relation = \"model\" takes the cam from the physical model fitted.*"
+                                         r"has none: use \"cam\" or \"table\""):
+        run_simulation(load_plant(PLANT_BULB, {"combinator.relation": "model", "scenario.t_end_s": 0.1,
+                                               "scenario.event_time_s": 0.05}))
+
+
 def test_three_input_characteristics_need_a_combinator_and_two_input_ones_refuse_it():
     plant = load_plant(PLANT_BULB, EXACT)
     with pytest.raises(InputError, match=r"needs a \[combinator\] section"):

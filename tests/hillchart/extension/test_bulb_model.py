@@ -1,0 +1,101 @@
+"""The physical bulb model fitted to a double-regulated test table, and its samples where the table is silent."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from hillchart.errors import InputError
+from hillchart.extension.bulb_model import extension_samples, fit_bulb_model, unit_values
+from hillchart.fccm.double_regulated import table_unit_samples
+from hillchart.fccm.table import load_test_table
+from hillchart.synthetic.bulb import SyntheticBulb, write_bulb_table
+
+TRUTH = SyntheticBulb()
+
+
+@pytest.fixture(scope="module")
+def water_system_samples(tmp_path_factory):
+    """A 150-point table of the synthetic bulb on its water system (0.3 % noise), as the user's table."""
+    folder = tmp_path_factory.mktemp("ws_table")
+    write_bulb_table(folder, n_points=150, closure="water-system", seed=0)
+    samples, _, _ = table_unit_samples(load_test_table(folder), extension=False)
+    return samples
+
+
+def _fit(samples, **kwargs):
+    return fit_bulb_model(samples["n11"], samples["opening"], samples["blade_angle"], samples["q11"],
+                          samples["m11"], **kwargs)
+
+
+def _true_runaway(opening, blade):
+    return brentq(lambda n: float(TRUTH.m11(n, opening, blade)), 50.0, 1500.0, xtol=1e-10)
+
+
+def test_unit_values_are_the_kernel_of_the_exact_bulb():
+    n11, gv, blade = np.array([0.0, 150.0, 320.0]), np.array([36.0, 55.0, 78.0]), np.array([-18.0, 0.0, 16.0])
+    q, m = unit_values(TRUTH.point_parameters(), n11, gv, blade)
+    # the same equations in another order of operations (numpy vs the scalar kernel): rounding only
+    np.testing.assert_allclose(q, TRUTH.q11(n11, gv, blade), rtol=1e-12)
+    np.testing.assert_allclose(m, TRUTH.m11(n11, gv, blade), rtol=1e-12, atol=1e-9)
+
+
+def test_the_fit_finds_the_runaway_the_table_never_measured(water_system_samples):
+    s = water_system_samples
+    model = _fit(s)
+    assert model.q11_rms_pct < 0.5 and model.m11_rms_pct < 0.5  # the table's own noise: 0.3 % (0.5 % on M11)
+    assert model.closed_fitted and model.opening_closed == pytest.approx(35.0, abs=0.2)  # truth 35 deg
+    assert s["n11"].max() < 175.0  # the table stops at N11 173; runaway lies at 287-400
+    for opening, blade in ((40.0, -10.0), (60.0, 0.0), (78.0, 16.0), (45.0, -18.0)):
+        # measured: within 1.5 % (0.1-1.5 %) at these settings; 2.5 % allows another CPU's least-squares path
+        assert model.runaway_n11(opening, blade) == pytest.approx(_true_runaway(opening, blade), rel=0.025)
+    # the closed-vane torque M11 = -K N11^2: K is the disc friction, 4e-4 in truth
+    assert model.k_zero_opening == pytest.approx(4.0e-4, rel=0.2)
+
+
+def test_a_given_closed_vane_is_kept(water_system_samples):
+    model = _fit(water_system_samples, opening_closed=34.5)
+    assert not model.closed_fitted and model.opening_closed == 34.5
+    with pytest.raises(InputError, match="must be below the table's smallest guide_vane_deg"):
+        _fit(water_system_samples, opening_closed=41.0)
+
+
+def test_a_table_the_model_cannot_represent_is_refused(water_system_samples):
+    s = dict(water_system_samples)
+    rng = np.random.default_rng(0)
+    s["m11"] = rng.permutation(s["m11"])  # torque unrelated to the settings: no turbine gives this
+    with pytest.raises(InputError, match=r"physical bulb model fits it with .* \(allowed <= 5.0 %\).*--no-extension"):
+        _fit(s)
+
+
+def test_draws_stay_models_the_table_cannot_tell_apart(water_system_samples):
+    s = water_system_samples
+    model = _fit(s)
+    rng = np.random.default_rng(3)
+    draws = [model.draw(rng) for _ in range(6)]
+    assert all(d is not model for d in draws)  # a draw was accepted every time
+    for d in draws:
+        q, m = unit_values(d.params, s["n11"], s["opening"], s["blade_angle"])
+        # the acceptance bound (chi^2_0.95 of 11 parameters over 301 residuals) keeps the misfit near the fit's
+        assert np.sqrt(np.mean((q - s["q11"]) ** 2)) / s["q11"].max() < 0.01
+    runaways = [d.runaway_n11(60.0, 0.0) for d in draws]
+    assert np.ptp(runaways) > 0  # they differ where the table is silent ...
+    assert np.ptp(runaways) < 0.05 * model.runaway_n11(60.0, 0.0)  # ... by what the table leaves open
+
+
+def test_extension_samples_cover_what_the_table_leaves_out(water_system_samples):
+    s = water_system_samples
+    model = _fit(s)
+    ext = extension_samples(model, s["n11"], s["opening"], s["blade_angle"])
+    origins = set(ext["origin"])
+    assert origins == {"zero-opening", "runaway", "zero-speed", "silent-region"}
+    closed = ext["origin"] == "zero-opening"
+    assert np.all(ext["q11"][closed] == 0.0)  # eq. (6) of paper 004, exactly
+    np.testing.assert_allclose(ext["m11"][closed], -model.k_zero_opening * ext["n11"][closed] ** 2, rtol=1e-15)
+    run = ext["origin"] == "runaway"
+    assert np.all(ext["m11"][run] == 0.0) and ext["n11"][run].min() > s["n11"].max()
+    # the grid reaches past the largest runaway speed, and no model sample sits on a measured point
+    assert ext["n11"].max() >= ext["n11"][run].max()
+    silent = ext["origin"] == "silent-region"
+    d = np.min(np.abs(ext["n11"][silent, None] - s["n11"][None, :]) + np.abs(ext["opening"][silent, None]
+                                                                           - s["opening"][None, :]), axis=1)
+    assert d.min() > 0.5
