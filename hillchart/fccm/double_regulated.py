@@ -664,7 +664,9 @@ def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_d
     -------
     dict
         ``opening`` (na,), ``head_m`` (nh,), ``blade_angle`` (nh, na) in deg, ``efficiency`` (nh, na), ``at_bound``
-        (nh, na) bool: the optimum is on the blade range's edge (the cam saturates there).
+        (nh, na) bool: the optimum is on the blade range's edge (the cam saturates there), ``held`` (nh, na) bool:
+        no blade angle passes water there (Q11 <= 0 at the closed vane), the angle is that of the nearest opening
+        that does and the efficiency NaN.
     """
     openings = np.atleast_1d(np.asarray(openings, dtype=float))
     heads = np.atleast_1d(np.asarray(heads_m, dtype=float))
@@ -673,19 +675,31 @@ def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_d
     phi = np.arange(blade_range[0], blade_range[1] + 1e-9, step_deg)
     n11 = speed_rpm * runner_diameter_m / np.sqrt(heads)  # eq. (2), paper 003
     eta = np.asarray(efficiency(n11[:, None, None], openings[None, :, None], phi[None, None, :]), dtype=float)
-    if not np.all(np.isfinite(eta)):
-        raise NumericalError("on_cam_relation: efficiency is not finite on the scan (Q11 <= 0 somewhere)")
+    finite = np.isfinite(eta)
+    flowing = finite.any(axis=2)  # (nh, na): some blade angle passes water at this opening and head
+    if not flowing.any(axis=1).all():
+        raise NumericalError("on_cam_relation: efficiency is not finite on the scan (Q11 <= 0 at every opening and "
+                             "blade angle of a head): the characteristics pass no water there")
+    eta = np.where(finite, eta, -np.inf)  # no flow: not a best efficiency
     k = np.argmax(eta, axis=2)
     kk = np.clip(k, 1, phi.size - 2)
     take = lambda off: np.take_along_axis(eta, (kk + off)[..., None], axis=2)[..., 0]  # noqa: E731
     e0, em, ep = take(0), take(-1), take(1)
-    curvature = em - 2 * e0 + ep
-    shift = np.where(curvature < 0, 0.5 * (em - ep) / np.where(curvature < 0, curvature, -1.0), 0.0)
     at_bound = (k == 0) | (k == phi.size - 1)
-    best = np.where(at_bound, phi[k], phi[kk] + np.clip(shift, -1, 1) * step_deg)
-    best_eta = np.where(at_bound, np.take_along_axis(eta, k[..., None], axis=2)[..., 0],
-                        e0 - 0.125 * (em - ep) ** 2 / np.where(curvature < 0, curvature, -1.0))
-    return {"opening": openings, "head_m": heads, "blade_angle": best, "efficiency": best_eta, "at_bound": at_bound}
+    with np.errstate(invalid="ignore"):  # -inf neighbours where a blade angle passes no water
+        curvature = em - 2 * e0 + ep
+        curvature = np.where(np.isfinite(curvature), curvature, 0.0)
+        shift = np.where(curvature < 0, 0.5 * (em - ep) / np.where(curvature < 0, curvature, -1.0), 0.0)
+        best = np.where(at_bound, phi[k], phi[kk] + np.clip(shift, -1, 1) * step_deg)
+        best_eta = np.where(at_bound | ~(curvature < 0), np.take_along_axis(eta, k[..., None], axis=2)[..., 0],
+                            e0 - 0.125 * (em - ep) ** 2 / np.where(curvature < 0, curvature, -1.0))
+    held = ~flowing
+    for h, i in zip(*np.nonzero(held)):  # no flow at any blade angle (at the closed vane): the nearest flowing cam
+        j = np.flatnonzero(flowing[h])
+        nearest = j[np.argmin(np.abs(j - i))]
+        best[h, i], best_eta[h, i] = best[h, nearest], np.nan
+    return {"opening": openings, "head_m": heads, "blade_angle": best, "efficiency": best_eta, "at_bound": at_bound,
+            "held": held}
 
 
 def plot_on_cam(nets_cam: dict, truth_cam: dict | None, path) -> Path:

@@ -241,7 +241,7 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
         f_new = efficiency(n11, a, new)
         x1, x2, f1, f2 = (np.where(left, new, x2), np.where(left, x1, new), np.where(left, f_new, f2),
                           np.where(left, f1, f_new))
-    best = np.where(cam["at_bound"], cam["blade_angle"], 0.5 * (low + high))
+    best = np.where(cam["at_bound"] | cam["held"], cam["blade_angle"], 0.5 * (low + high))
     return Cam(openings - opening_at_zero_stroke, heads, best, source="best efficiency of the characteristics")
 
 

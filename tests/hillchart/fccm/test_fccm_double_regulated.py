@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hillchart.synthetic.bulb import SyntheticBulb
-from hillchart.errors import InputError
+from hillchart.errors import InputError, NumericalError
 from hillchart.fccm.double_regulated import (DoubleRegulatedNets, bulb_chart_samples, load_double_regulated_nets,
                                              on_cam_relation, plot_on_cam, train_double_regulated_nets)
 from hillchart.nets.hill_nets import load_nets
@@ -88,6 +88,21 @@ def test_on_cam_refinement_is_exact_for_a_quadratic():
     np.testing.assert_allclose(cam["blade_angle"], expected, atol=1e-9)
     np.testing.assert_allclose(cam["efficiency"], 0.9, atol=1e-12)
     assert not cam["at_bound"].any()
+
+
+def test_on_cam_holds_the_nearest_cam_where_no_blade_angle_passes_water():
+    """Near the closed vane nets may give Q11 <= 0 (efficiency NaN) at every blade angle: the cam there is the
+    nearest flowing opening's, flagged ``held``; with no flow at any opening of a head the cam is refused."""
+    def eta(n11, a, phi):
+        value = 0.9 - (phi - (a / 10 - 5)) ** 2 / 100
+        return np.where(np.broadcast_to(a, np.broadcast_shapes(np.shape(n11), np.shape(a), np.shape(phi))) < 45.0,
+                        np.nan, value)
+    cam = on_cam_relation(eta, [40.0, 44.0, 50.0, 60.0], [10.0], speed_rpm=100.0, runner_diameter_m=2.0)
+    np.testing.assert_array_equal(cam["held"], [[True, True, False, False]])
+    np.testing.assert_allclose(cam["blade_angle"], [[0.0, 0.0, 0.0, 1.0]], atol=1e-9)  # 50 deg's cam held below
+    assert np.isnan(cam["efficiency"][0, :2]).all()
+    with pytest.raises(NumericalError, match="Q11 <= 0 at every opening and blade angle of a head"):
+        on_cam_relation(eta, [40.0, 44.0], [10.0], speed_rpm=100.0, runner_diameter_m=2.0)
 
 
 def test_on_cam_from_the_nets_follows_the_exact_one(trained, tmp_path):
