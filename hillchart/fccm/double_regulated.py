@@ -251,10 +251,13 @@ class DoubleRegulatedNets:
     silent_model : BulbSilentModel, optional
         The fitted bulb model that answers below the table's smallest guide-vane angle (the extension of
         :func:`table_unit_samples`); None: the nets alone everywhere.
+    ensemble : list of (flow, torque, silent_model or None), optional
+        The ensemble members (:func:`train_table_nets`; the point nets among them), each run by ``hillsim run
+        --uncertainty`` as characteristics of its own (:meth:`members`).
     """
 
     def __init__(self, flow: FCCMWeights, torque: FCCMWeights, opening_unit: str = "deg",
-                 training: dict | None = None, silent_model: BulbSilentModel | None = None):
+                 training: dict | None = None, silent_model: BulbSilentModel | None = None, ensemble=None):
         for name, w in (("flow", flow), ("torque", torque)):
             if not isinstance(w, FCCMWeights) or len(w.inputs) != 3 or len(w.outputs) != 1:
                 raise InputError(f"DoubleRegulatedNets.{name} must be a 3-input, 1-output FCCMWeights")
@@ -264,6 +267,12 @@ class DoubleRegulatedNets:
         self.opening_unit = opening_unit
         self.training = dict(training or {})
         self.silent_model = silent_model
+        self.ensemble = [tuple(member) for member in (ensemble or [])]
+
+    def members(self) -> list["DoubleRegulatedNets"]:
+        """The ensemble members as nets of their own (empty when the file has no ensemble)."""
+        return [DoubleRegulatedNets(f, t, opening_unit=self.opening_unit, training=self.training, silent_model=s)
+                for f, t, s in self.ensemble]
 
     def blend_packed(self) -> np.ndarray:
         """The blend vector of :func:`blended_point` (:data:`NO_BLEND` without a silent model)."""
@@ -349,6 +358,9 @@ class DoubleRegulatedNets:
                           "m11": "N*m"},
                 "flow": _net_block(self.flow, "q11"), "torque": _net_block(self.torque, "m11"),
                 **({} if self.silent_model is None else {"silent_model": self.silent_model.to_dict()}),
+                **({} if not self.ensemble else {"ensemble": [
+                    {"flow": _net_block(f, "q11"), "torque": _net_block(t, "m11"),
+                     **({} if s is None else {"silent_model": s.to_dict()})} for f, t, s in self.ensemble]}),
                 "training": self.training}
 
     def to_json(self) -> str:
@@ -385,9 +397,22 @@ class DoubleRegulatedNets:
         if not isinstance(training, dict):
             raise InputError(f"training must be an object, got {type(training).__name__}")
         silent = BulbSilentModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
+        ensemble = []
+        members = doc.get("ensemble", [])
+        if not isinstance(members, list):
+            raise InputError(f"ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
+                             f"{type(members).__name__}")
+        for i, member in enumerate(members):
+            if not isinstance(member, dict) or set(member) - {"silent_model"} != {"flow", "torque"}:
+                raise InputError(f"ensemble[{i}] must be an object with the keys flow and torque (and silent_model), "
+                                 f"got {member if not isinstance(member, dict) else sorted(member)!r}")
+            ensemble.append((_weights_from_block(member["flow"], f"ensemble[{i}].flow", "q11"),
+                             _weights_from_block(member["torque"], f"ensemble[{i}].torque", "m11"),
+                             BulbSilentModel.from_dict(member["silent_model"], key=f"ensemble[{i}].silent_model")
+                             if "silent_model" in member else None))
         return cls(flow=_weights_from_block(doc["flow"], "flow", "q11"),
                    torque=_weights_from_block(doc["torque"], "torque", "m11"), opening_unit=units["opening"],
-                   training=training, silent_model=silent)
+                   training=training, silent_model=silent, ensemble=ensemble)
 
 
 def load_double_regulated_nets(path) -> DoubleRegulatedNets:
@@ -642,6 +667,8 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     nets.training["measured_box"] = {k: [float(X[k][measured].min()), float(X[k][measured].max())]
                                      for k in NET3_INPUTS}
     nets.training["ensemble_seeds"] = [seed + 2 * i for i in range(len(ensemble))]
+    if len(ensemble) > 1:  # kept for the bands of the guarantee figures (hillsim run --uncertainty)
+        nets.ensemble = [(m.flow, m.torque, m.silent_model) for m in ensemble]
     return nets, report
 
 

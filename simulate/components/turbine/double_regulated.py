@@ -499,10 +499,12 @@ def _wrap(plant, inner) -> DoubleRegulatedTurbine:
         content = (kernel, tuple(np.asarray(v).tobytes() for v in first)) if kernel is not None else (id(inner),)
         key = content + (comb.relation, comb.opening_at_zero_stroke, turbine.opening_max, turbine.rated_speed_rpm,
                          turbine.runner_diameter_m, turbine.rated_head_m, lo, hi)
-        if key not in _CAMS or (kernel is None and _CAMS[key][0] is not inner):
+        entry = _CAMS.get(key)  # read once: ensemble members run on threads, each may replace the entry
+        if entry is None or (kernel is None and entry[0] is not inner):
+            entry = (inner if kernel is None else None, *_cams(inner, fitted, comb, turbine, (lo, hi)))
             _CAMS.clear()  # one plant at a time; keeps the cache from holding characteristics alive
-            _CAMS[key] = (inner if kernel is None else None, *_cams(inner, fitted, comb, turbine, (lo, hi)))
-        cam, cam_warning = _CAMS[key][1:]
+            _CAMS[key] = entry
+        cam, cam_warning = entry[1:]
     elif comb.relation == "table":
         cam = Cam(np.asarray(comb.table_openings, float) - comb.opening_at_zero_stroke, comb.table_heads_m,
                   comb.table_angles_deg, source="the combinator table of the plant file")

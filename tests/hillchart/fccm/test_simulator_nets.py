@@ -283,3 +283,24 @@ def test_real_fixed_blade_bulb_is_extended_and_rejects_load_plausibly(tmp_path):
     assert 0.25 < s["max_speed_rise"] < 0.7
     assert 0.3 < s["max_head_rise"] < 1.5
     assert s["min_outlet_pressure_head_m"] > 0.0
+
+
+def test_the_ensemble_is_kept_and_gives_the_band_of_a_rejection(bulb_table, tmp_path):
+    from data_synthetic import PLANT_BULB
+    from simulate.config import load_plant
+    from simulate.studies.uncertainty import run_ensemble
+
+    samples, _, model = table_unit_samples(load_test_table(bulb_table))
+    nets, _ = train_table_nets(samples, hidden=8, restarts=1, members=2, seed=0, model=model)
+    again = load_double_regulated_nets(nets.save(tmp_path / "nets.json"))
+    members = again.members()
+    assert len(members) == 2 and all(m.silent_model is not None for m in members)
+    x = (150.0, 50.0, -5.0)
+    assert float(members[0].m11(*x)) == float(nets.m11(*x))  # the first member is the point nets, bit-exact in JSON
+    assert float(members[1].m11(*x)) != float(members[0].m11(*x))  # another seed and another draw of the model
+    plant = load_plant(PLANT_BULB, {"turbine.characteristics": str(tmp_path / "nets.json"),
+                                    "combinator.relation": "model", "scenario.t_end_s": 8.0})
+    band, _ = run_ensemble(plant)
+    assert band["members"] == 2 and not band["failed"]
+    values = band["max_speed_rise"]["values"]
+    assert len(values) == 2 and values[0] != values[1] and 0.3 < min(values) <= max(values) < 0.8
