@@ -495,6 +495,19 @@ def write_bulb_nets(out_dir) -> Path:
     closed = bulb_closed_vane_samples(n_points=cfg["n_closed"], seed=cfg["seed"], n11_range=cfg["n11_range"])
     samples = {k: np.concatenate([samples[k], closed[k]]) for k in samples}
     nets = train_double_regulated_nets(samples, hidden=cfg["hidden"], restarts=cfg["restarts"], seed=cfg["seed"])
+    # below the sampled box (0.2 deg above the closed vane) the physical bulb model answers, fitted to the samples as
+    # it is to a user's table (hillchart.extension.bulb_model): at the closed vane, where a rejection spends most of
+    # its run, the loop then evaluates the model and not the two 3-30-1 nets
+    from hillchart.extension.bulb_model import fit_bulb_model
+    from hillchart.synthetic.bulb import SyntheticBulb
+
+    chart = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
+                               opening_range=cfg["opening_range"])
+    model = fit_bulb_model(chart["n11"], chart["opening"], chart["blade_angle"], chart["q11"], chart["m11"],
+                           opening_closed=SyntheticBulb().params.guide_vane_closed_deg, seed=cfg["seed"],
+                           source="the shipped bulb samples")
+    nets.silent_model = BulbSilentModel.from_fitted(model, cfg["opening_range"][0])
+    nets.training["boundary_model"] = model.to_dict()
     nets.training["source"] = ("samples of the synthetic bulb's unit characteristic (hillchart.synthetic.bulb): "
                                f"{cfg['n_points']} scattered, {cfg['n_closed']} at the closed vane, seed {cfg['seed']}")
     out = Path(out_dir)

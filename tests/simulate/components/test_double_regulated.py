@@ -209,12 +209,22 @@ def test_bad_double_regulated_input_names_the_key(over, match):
         load_plant(PLANT_BULB, {**EXACT, **over})
 
 
-def test_the_fitted_model_cam_needs_nets_that_carry_the_model():
-    # the shipped nets come from exact samples, not from a test table: no fitted model, no "model" cam
+def test_the_fitted_model_cam_needs_nets_that_carry_the_model(tmp_path):
+    import json
+
+    from data_synthetic import BULB_DIR
+
+    doc = json.loads((BULB_DIR / "nets.json").read_text())
+    del doc["silent_model"]  # nets without the physical model (e.g. trained with --no-extension)
+    (tmp_path / "nets.json").write_text(json.dumps(doc))
+    over = {"combinator.relation": "model", "scenario.t_end_s": 0.1, "scenario.event_time_s": 0.05,
+            "turbine.characteristics": str(tmp_path / "nets.json")}
     with pytest.raises(InputError, match=r"relation = \"model\" takes the cam from the physical model fitted.*"
                                          r"has none: use \"cam\" or \"table\""):
-        run_simulation(load_plant(PLANT_BULB, {"combinator.relation": "model", "scenario.t_end_s": 0.1,
-                                               "scenario.event_time_s": 0.05}))
+        run_simulation(load_plant(PLANT_BULB, over))
+    # with it (the shipped nets), the model's cam: the run starts on it
+    r = run_simulation(load_plant(PLANT_BULB, {**over, "turbine.characteristics": "bulb/nets.json"}))
+    assert r.signals["blade_angle_cam_deg"][0] == pytest.approx(r.signals["blade_angle_deg"][0], rel=1e-12)
 
 
 def test_three_input_characteristics_need_a_combinator_and_two_input_ones_refuse_it():
