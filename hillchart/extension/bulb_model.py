@@ -64,6 +64,14 @@ def unit_values(params, n11, guide_vane_deg, blade_deg):
     return q, m
 
 
+def model_values(params, n11, opening, blade):
+    """Q11 (m^3/s) and M11 (N*m) of the model with parameter vector ``params`` (:data:`POINT_PARAMETERS`) at
+    broadcast arrays of N11 (r/min), guide-vane angle and blade angle (deg)."""
+    arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (n11, opening, blade)))
+    q, m = unit_values(params, *(np.ascontiguousarray(a).ravel() for a in arrays))
+    return q.reshape(arrays[0].shape), m.reshape(arrays[0].shape)
+
+
 def _point_parameters(x, opening_min: float, opening_closed: float | None) -> np.ndarray:
     """The :data:`hillchart.synthetic.bulb.POINT_PARAMETERS` vector of fit coordinates ``x``."""
     p = dict(zip(PARAMETER_NAMES, x))
@@ -130,18 +138,13 @@ class FittedBulbModel:
         """K of M11 = -K N11^2 at the closed vane (eq. (8) of paper 004), N*m/(r/min)^2: the disc friction."""
         return float(self.params[POINT_PARAMETERS.index("k_disc_friction")])
 
-    def _eval(self, n11, opening, blade):
-        arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (n11, opening, blade)))
-        q, m = unit_values(self.params, *(np.ascontiguousarray(a.ravel()) for a in arrays))
-        return q.reshape(arrays[0].shape), m.reshape(arrays[0].shape)
-
     def q11(self, n11, opening, blade):
         """Unit flow, m^3/s (broadcast; 0 at and below the closed vane)."""
-        return self._eval(n11, opening, blade)[0]
+        return model_values(self.params, n11, opening, blade)[0]
 
     def m11(self, n11, opening, blade):
         """Unit torque, N*m (broadcast)."""
-        return self._eval(n11, opening, blade)[1]
+        return model_values(self.params, n11, opening, blade)[1]
 
     def runaway_n11(self, opening: float, blade: float, *, n11_max: float = 2000.0) -> float:
         """Runaway unit speed (M11 = 0), r/min, at one setting; NaN when the torque stays positive up to ``n11_max``

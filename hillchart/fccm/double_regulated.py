@@ -151,11 +151,9 @@ class BulbSilentModel:
         return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)))
 
     def _values(self, n11, opening, blade_angle):
-        from hillchart.extension.bulb_model import unit_values
+        from hillchart.extension.bulb_model import model_values
 
-        arrays = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (n11, opening, blade_angle)))
-        q, m = unit_values(self.parameters, *(np.ascontiguousarray(a).ravel() for a in arrays))
-        return q.reshape(arrays[0].shape), m.reshape(arrays[0].shape)
+        return model_values(self.parameters, n11, opening, blade_angle)
 
     def q11(self, n11, opening, blade_angle):
         """The model's unit flow, m^3/s (broadcast): the model alone, everywhere."""
