@@ -22,9 +22,12 @@ def register(subparsers) -> None:
     parser.add_argument("plant", type=Path, help="plant TOML file")
     parser.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:COUNT|KEY=v1,v2,...",
                         help="a numeric plant key and its values: COUNT evenly spaced values with both ends "
-                             "included, or a list (repeatable; the sweep is the Cartesian product)")
+                             "included, or a list (repeatable; the sweep is the Cartesian product); or a key that "
+                             "selects a model (penstock.model, solver.pressure_loop, scenario.kind, "
+                             "turbine.characteristics) and a list of names: the cases are grouped by them")
     parser.add_argument("--cases", type=Path, default=None, metavar="CASES.CSV",
-                        help="one column per key (section.key header), one row of numbers per case")
+                        help="one column per key (section.key header), one row of numbers (or model names) per "
+                             "case")
     parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
     parser.add_argument("--scheduler", nargs="+", default=["local"], metavar="local|dask [ADDRESS]",
                         help="local cores (default) or Dask: a LocalCluster, or the scheduler at ADDRESS "

@@ -27,6 +27,7 @@ series; N11 and opening extremes from the series, checked against the training r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import multiprocessing
 import signal
@@ -49,7 +50,9 @@ SERIAL_BELOW = 200
 #: Keys that are numbers but change the structure the cases share (none today: ``penstock.reaches`` sizes the MOC
 #: grid's arrays, and every case builds its own, so a grid-convergence sweep over it is a batch like any other).
 STRUCTURE_KEYS: dict[str, str] = {}
-#: Non-numeric keys named in the refusal message.
+#: Keys whose value is a name that selects a model. :func:`run_batch` (so ``hillsim sweep``) groups the cases by
+#: them and runs one batch of numbers per group (each with its own compiled loop, characteristics and pool);
+#: studies that share one structure among their cases (:class:`BatchPool`, closure optimization) refuse them.
 STRUCTURE_CHOICE_KEYS = ("penstock.model", "scenario.kind", "solver.pressure_loop", "turbine.characteristics")
 #: The two scenario keys of which exactly one is set; varying one removes the other.
 _EXCLUSIVE = {"scenario.initial_power_mw": "scenario.initial_opening",
@@ -84,8 +87,9 @@ def numeric_keys() -> dict[str, tuple[str, ...]]:
     return dict(_NUMERIC_KEYS)
 
 
-def check_key(plant: PlantConfig, key: Any) -> str:
-    """Validate a varied key against ``plant``: a numeric ``section.key`` that keeps the structure.
+def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
+    """Validate a varied key against ``plant``: a numeric ``section.key`` that keeps the structure, or with
+    ``choices`` also a key of :data:`STRUCTURE_CHOICE_KEYS` (a model's name; the batch groups the cases by it).
 
     Raises
     ------
@@ -106,10 +110,12 @@ def check_key(plant: PlantConfig, key: Any) -> str:
     table = _NUMERIC_KEYS
     if section not in table:
         raise InputError(f"unknown section in varied key {key!r}; valid sections: {', '.join(table)}")
+    if key in STRUCTURE_CHOICE_KEYS and choices:
+        return key
     if key in STRUCTURE_KEYS or key in STRUCTURE_CHOICE_KEYS:
         why = STRUCTURE_KEYS.get(key, "it selects a model every case shares")
-        raise InputError(f"varied key {key!r} changes the plant structure ({why}); a batch varies numbers of one "
-                         f"structure: run one batch per {key}")
+        raise InputError(f"varied key {key!r} changes the plant structure ({why}); this study's cases share one "
+                         f"structure: run one study per {key} (a sweep groups its cases by it)")
     if name not in _ALL_KEYS[section]:
         raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(table[section])}")
     if key not in table[section]:
@@ -321,7 +327,10 @@ class BatchResult:
         return sum(c.ok for c in self.cases)
 
     def column(self, name: str) -> np.ndarray:
-        """A figure (or a varied key) over the cases, float array (NaN where missing)."""
+        """A figure (or a varied key) over the cases, float array (NaN where missing); a varied model's name
+        (:data:`STRUCTURE_CHOICE_KEYS`) as a string array."""
+        if name in STRUCTURE_CHOICE_KEYS and name in self.keys:
+            return np.array([str(c.values.get(name, "")) for c in self.cases])
         if name in self.keys:
             return np.array([float(c.values.get(name, math.nan)) for c in self.cases])
         return np.array([float(getattr(c, name)) if getattr(c, name) is not None else math.nan
@@ -424,16 +433,26 @@ def run_chunk(plant: PlantConfig, characteristics, chunk: Sequence[tuple[int, di
     return [run_case(plant, characteristics, i, v, domain=domain, keep_series=keep_series) for i, v in chunk]
 
 
-def validate_variants(plant: PlantConfig, variants: Iterable[dict]) -> tuple[tuple[str, ...], list[dict]]:
-    """Check every variant's keys (:func:`check_key`) and values (:func:`check_value`); returns (keys, variants)."""
+def check_choice_value(key: str, value: Any) -> str:
+    """The value of a :data:`STRUCTURE_CHOICE_KEYS` key: a non-empty name (what the plant file would hold)."""
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"value of varied key {key!r} selects a model: a name (e.g. penstock.model = \"rigid\"), "
+                         f"got {value!r}")
+    return value.strip()
+
+
+def validate_variants(plant: PlantConfig, variants: Iterable[dict], *,
+                      choices: bool = False) -> tuple[tuple[str, ...], list[dict]]:
+    """Check every variant's keys (:func:`check_key`) and values (:func:`check_value`, or
+    :func:`check_choice_value` for a model's name with ``choices``); returns (keys, variants)."""
     out, keys = [], []
     for i, variant in enumerate(variants):
         if not isinstance(variant, dict):
             raise InputError(f"variant {i} must be a dictionary {{section.key: number}}, got {variant!r}")
         clean = {}
         for key, value in variant.items():
-            check_key(plant, key)
-            clean[key] = check_value(key, value)
+            check_key(plant, key, choices=choices)
+            clean[key] = check_choice_value(key, value) if key in STRUCTURE_CHOICE_KEYS else check_value(key, value)
             if key not in keys:
                 keys.append(key)
         out.append(clean)
@@ -485,7 +504,10 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
     """
     if mechanism not in MECHANISMS:
         raise InputError(f"mechanism must be one of {', '.join(MECHANISMS)}, got {mechanism!r}")
-    keys, variants = validate_variants(plant, variants)
+    keys, variants = validate_variants(plant, variants, choices=True)
+    if any(key in STRUCTURE_CHOICE_KEYS for key in keys):
+        return _run_grouped(plant, keys, variants, characteristics=characteristics, mechanism=mechanism,
+                            workers=workers, chunk_size=chunk_size, keep_series=keep_series, progress=progress)
     n = len(variants)
     workers = checked_workers(workers)
     if chunk_size is None:
@@ -534,6 +556,51 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
     cases.sort(key=lambda c: c.index)
     return BatchResult(keys=keys, cases=cases, mechanism=mechanism, workers=workers, chunk_size=chunk_size,
                        wall_time_s=time.perf_counter() - wall)
+
+
+def _run_grouped(plant: PlantConfig, keys: tuple, variants: list[dict], *, characteristics, mechanism, workers,
+                 chunk_size, keep_series, progress) -> BatchResult:
+    """:func:`run_batch` of variants that vary :data:`STRUCTURE_CHOICE_KEYS`: the cases grouped by their model
+    names, each group's plant (and characteristics, when ``turbine.characteristics`` varies) built and checked
+    before anything runs, one batch of numbers per group, the records back in the variants' order."""
+    choice_keys = [k for k in keys if k in STRUCTURE_CHOICE_KEYS]
+    groups: dict[tuple, list[int]] = {}
+    for i, variant in enumerate(variants):
+        groups.setdefault(tuple(variant.get(k) for k in choice_keys), []).append(i)
+    plan = []
+    shared = characteristics
+    for choice, indices in groups.items():
+        names = {k: v for k, v in zip(choice_keys, choice) if v is not None}
+        try:
+            group_plant = plant.with_overrides(names) if names else plant
+        except InputError as exc:
+            raise InputError(f"varied {', '.join(f'{k} = {v!r}' for k, v in names.items())}: {exc}") from None
+        if "turbine.characteristics" in names:
+            chars = load_characteristics(group_plant.turbine, group_plant.base_dir)
+        else:
+            if shared is None:
+                shared = load_characteristics(plant.turbine, plant.base_dir)
+            chars = shared
+        numeric = [{k: v for k, v in variants[i].items() if k not in STRUCTURE_CHOICE_KEYS} for i in indices]
+        plan.append((group_plant, chars, indices, numeric))
+    wall = time.perf_counter()
+    cases: list[CaseResult] = []
+    done = 0
+    result = None
+    for group_plant, chars, indices, numeric in plan:
+        def report(count, _total, offset=done):
+            if progress is not None:
+                progress(offset + count, len(variants))
+
+        result = run_batch(group_plant, numeric, characteristics=chars, mechanism=mechanism, workers=workers,
+                           chunk_size=chunk_size, keep_series=keep_series, progress=report)
+        for case in result.cases:  # the record of the whole variant, at its place among all the variants
+            index = indices[case.index]
+            cases.append(dataclasses.replace(case, index=index, values=dict(variants[index])))
+        done += len(indices)
+    cases.sort(key=lambda c: c.index)
+    return BatchResult(keys=keys, cases=cases, mechanism=result.mechanism, workers=result.workers,
+                       chunk_size=result.chunk_size, wall_time_s=time.perf_counter() - wall)
 
 
 def _init_pool_worker(plant, members, domains):
@@ -660,7 +727,7 @@ class BatchPool:
         self.close()
 
 
-__all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "MECHANISMS", "FIGURES", "CaseResult", "BatchResult", "BatchPool",
-           "numeric_keys",
-           "check_key", "check_value", "variant_overrides", "extrapolation_kinds", "nets_domain", "case_from_result",
-           "run_case", "run_chunk", "run_chunk_members", "run_batch", "validate_variants", "default_workers"]
+__all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "STRUCTURE_CHOICE_KEYS", "MECHANISMS", "FIGURES", "CaseResult",
+           "BatchResult", "BatchPool", "numeric_keys", "check_key", "check_value", "check_choice_value",
+           "variant_overrides", "extrapolation_kinds", "nets_domain", "case_from_result", "run_case", "run_chunk",
+           "run_chunk_members", "run_batch", "validate_variants", "default_workers"]

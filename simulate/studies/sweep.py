@@ -24,8 +24,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.studies.batch import (BatchResult, check_key, check_value, default_workers, nets_domain, run_batch,
-                            run_chunk, validate_variants)
+from simulate.studies.batch import (STRUCTURE_CHOICE_KEYS, BatchResult, check_choice_value, check_key, check_value,
+                            default_workers, nets_domain, run_batch, run_chunk, validate_variants)
 from simulate.config import PlantConfig, load_characteristics
 
 #: Largest number of cases one sweep accepts (a typo such as 4:20:90000 x 3 keys should not start).
@@ -45,8 +45,9 @@ def _number(text: str, what: str) -> float:
     return value
 
 
-def parse_vary(text: str) -> tuple[str, list[float]]:
-    """``"KEY=START:STOP:COUNT"`` or ``"KEY=v1,v2,..."`` -> (key, values).
+def parse_vary(text: str) -> tuple[str, list]:
+    """``"KEY=START:STOP:COUNT"`` or ``"KEY=v1,v2,..."`` -> (key, values); for a key that selects a model
+    (:data:`simulate.studies.batch.STRUCTURE_CHOICE_KEYS`) ``"KEY=name1,name2"`` -> (key, names).
 
     Examples
     --------
@@ -54,6 +55,8 @@ def parse_vary(text: str) -> tuple[str, list[float]]:
     ('governor.closing_time_s', [4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0])
     >>> parse_vary("scenario.initial_power_mw=100,160,225")
     ('scenario.initial_power_mw', [100.0, 160.0, 225.0])
+    >>> parse_vary("penstock.model=moc,rigid")
+    ('penstock.model', ['moc', 'rigid'])
     >>> parse_vary("governor.kp=1:2:0")
     Traceback (most recent call last):
     ...
@@ -67,6 +70,13 @@ def parse_vary(text: str) -> tuple[str, list[float]]:
         raise InputError(f"--vary {text!r}: the key before '=' is empty (e.g. governor.closing_time_s)")
     if not spec:
         raise InputError(f"{what}: no values after '='; give START:STOP:COUNT or v1,v2,...")
+    if key in STRUCTURE_CHOICE_KEYS:  # a model's name per value (the sweep groups its cases by it)
+        names = [v.strip() for v in spec.split(",")]
+        if not all(names):
+            raise InputError(f"{what}: an empty name in the list; give names separated by commas")
+        if len(set(names)) != len(names):
+            raise InputError(f"{what}: a name is repeated; each name once")
+        return key, names
     if ":" in spec:
         parts = spec.split(":")
         if len(parts) != 3:
@@ -144,7 +154,7 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
         if header.count(key) > 1:
             raise InputError(f"--cases {str(path)!r}: column {key!r} appears more than once")
         try:
-            check_key(plant, key)
+            check_key(plant, key, choices=True)
         except InputError as exc:
             raise InputError(f"--cases {str(path)!r} column {j + 1}: {exc}") from None
     if len(rows) < 2:
@@ -153,8 +163,8 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
     for i, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
             raise InputError(f"--cases {str(path)!r} row {i}: {len(row)} cells, the header has {len(header)}")
-        out.append({key: _number(cell, f"--cases {str(path)!r} row {i} column {key!r}")
-                    for key, cell in zip(header, row)})
+        out.append({key: cell.strip() if key in STRUCTURE_CHOICE_KEYS else
+                    _number(cell, f"--cases {str(path)!r} row {i} column {key!r}") for key, cell in zip(header, row)})
     return out
 
 
@@ -162,9 +172,9 @@ def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: st
     """Variants of a sweep from ``--vary`` texts and an optional ``cases.csv`` (rows x product); keys validated."""
     parsed = [parse_vary(t) for t in varies]
     for key, values in parsed:
-        check_key(plant, key)
+        check_key(plant, key, choices=True)
         for v in values:
-            check_value(key, v)
+            check_choice_value(key, v) if key in STRUCTURE_CHOICE_KEYS else check_value(key, v)
     product = cartesian(parsed)
     if cases_csv is None:
         if not product:
@@ -178,7 +188,15 @@ def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: st
         variants = [{**row, **combo} for row in rows for combo in (product or [{}])]
         if len(variants) > MAX_CASES:
             raise InputError(f"the sweep has {len(variants)} cases, more than {MAX_CASES}")
-    validate_variants(plant, variants)
+    keys, _ = validate_variants(plant, variants, choices=True)
+    for key in (k for k in keys if k in STRUCTURE_CHOICE_KEYS):  # every model name checked before anything runs
+        for name in dict.fromkeys(v[key] for v in variants if key in v):
+            try:
+                varied = plant.with_overrides({key: name})
+                if key == "turbine.characteristics":
+                    load_characteristics(varied.turbine, varied.base_dir)
+            except InputError as exc:
+                raise InputError(f"varied {key} = {name!r}: {exc}") from None
     return variants
 
 
@@ -203,7 +221,7 @@ def run_batch_dask(plant: PlantConfig, variants, *, characteristics=None, addres
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
         raise InputError(DASK_MISSING) from None
-    keys, variants = validate_variants(plant, variants)
+    keys, variants = validate_variants(plant, variants)  # one structure: the model choices run locally (grouped)
     if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
         raise InputError(f"n_workers must be a positive integer, got {n_workers!r}")
     n = len(variants)
@@ -265,8 +283,10 @@ def plot_sweep(batch: BatchResult, path: str | Path) -> Path | None:
     fig, axes = plt.subplots(len(figures), len(keys), figsize=(4.2 * len(keys), 3.0 * len(figures)),
                              squeeze=False)
     for j, key in enumerate(keys):
-        x = batch.column(key)[ok]
+        x = batch.column(key)[ok]  # a model's name: a categorical axis
         colour_key = keys[(j + 1) % len(keys)] if len(keys) > 1 else None
+        if colour_key in STRUCTURE_CHOICE_KEYS:
+            colour_key = None  # a colour scale needs numbers
         colour = batch.column(colour_key)[ok] if colour_key else None
         for i, (name, label) in enumerate(figures):
             ax = axes[i, j]

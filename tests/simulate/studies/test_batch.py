@@ -118,8 +118,8 @@ def test_extrapolation_record_shapes():
 
 
 @pytest.mark.parametrize("variant,message", [
-    ({"penstock.model": 1.0}, "changes the plant structure"),
-    ({"scenario.kind": 1.0}, "changes the plant structure"),
+    ({"penstock.model": 1.0}, "value of varied key 'penstock.model' selects a model: a name"),
+    ({"scenario.kind": "nope"}, "varied scenario.kind = 'nope': scenario.kind must be one of load-rejection"),
     ({"governor.kpp": 1.0}, "unknown key 'governor.kpp'; numeric keys of [governor]: governor.kp"),
     ({"rotor.inertia": 1.0}, "unknown section in varied key 'rotor.inertia'"),
     ({"kp": 1.0}, "varied key must be section.key"),
@@ -217,3 +217,51 @@ def test_a_grid_convergence_batch_varies_the_reaches(plant, nets):
                                 characteristics=nets).summary()
         assert case.status == "ok" and (case.max_head_m, case.steps) == (single["max_head_m"], single["steps"])
     assert batch.cases[0].steps < batch.cases[1].steps < batch.cases[2].steps
+
+
+# --- cases that differ in structure: grouped by the model's name -------------------------------------------------
+MIXED = [{"penstock.model": "rigid", "governor.closing_time_s": 8.0},
+         {"governor.closing_time_s": 14.0},  # the base plant's model (moc)
+         {"penstock.model": "moc", "governor.closing_time_s": 8.0},
+         {"penstock.model": "rigid", "solver.pressure_loop": "newton", "governor.kp": 3.5},
+         {"penstock.model": "lumped", "governor.closing_time_s": -1.0}]  # a failing case inside a group
+
+
+@pytest.mark.parametrize("mechanism", ["serial", "processes"])
+def test_cases_of_other_structures_are_grouped_and_equal_their_single_runs(plant, nets, mechanism):
+    batch = run_batch(plant, MIXED, characteristics=nets, mechanism=mechanism, workers=2, chunk_size=1)
+    assert [c.index for c in batch.cases] == [0, 1, 2, 3, 4]
+    assert batch.keys == ("penstock.model", "governor.closing_time_s", "solver.pressure_loop", "governor.kp")
+    for variant, case in zip(MIXED[:4], batch.cases):
+        assert case.status == "ok", case.error
+        assert case.values == variant  # the record names the model it ran
+        s = run_simulation(load_plant(PLANT_HLA339, {**BASE, **variant}), characteristics=nets).summary()
+        # the same code path on the same inputs: bit-identical
+        assert case.max_speed_rise == s["max_speed_rise"] and case.max_head_m == s["max_head_m"]
+    # the groups really ran other models: a rigid column has no water hammer wave, so its head differs
+    assert batch.cases[0].max_head_m != batch.cases[2].max_head_m
+    assert batch.cases[4].status == "error" and "closing_time_s" in batch.cases[4].error
+    assert list(batch.column("penstock.model")) == ["rigid", "", "moc", "rigid", "lumped"]
+
+
+def test_varied_characteristics_run_each_nets(plant, nets, tmp_path):
+    import shutil
+
+    from data_synthetic import FRANCIS_DIR
+
+    copy = shutil.copy(FRANCIS_DIR / "nets.json", tmp_path / "nets.json")
+    variants = [{"turbine.characteristics": str(copy)}, {"turbine.characteristics": "synthetic"}]
+    batch = run_batch(plant, variants, mechanism="serial")
+    for variant, case in zip(variants, batch.cases):
+        s = run_simulation(load_plant(PLANT_HLA339, {**BASE, **variant})).summary()
+        assert case.status == "ok" and case.max_speed_rise == s["max_speed_rise"]
+    assert batch.cases[0].max_speed_rise != batch.cases[1].max_speed_rise  # nets against the exact turbine
+
+
+def test_studies_of_one_structure_refuse_a_model_choice(plant, nets):
+    from simulate.studies.batch import BatchPool
+
+    with BatchPool(plant, [nets], workers=1) as pool:
+        with pytest.raises(InputError, match=r"'penstock.model' changes the plant structure .* run one study per "
+                                             r"penstock.model \(a sweep groups its cases by it\)"):
+            pool.run([{"penstock.model": "rigid"}])
