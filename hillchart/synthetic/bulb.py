@@ -36,7 +36,8 @@ r_m = D/2 sqrt((1 + nu^2)/2) (the radius that halves the annulus area), blade sp
 * Unit quantities (paper 003 eqs. (1)-(2)): ``n11 = n D / sqrt(H)``, ``Q11 = Q / (D^2 sqrt(H))``; the unit
   characteristic is the same model with D = 1 m, H = 1 m and u = 2 pi r_m n11 / 60 (:meth:`SyntheticBulb.q11`).
 
-Operation: two closures fix the operating point of a setting (a0, beta) at constant speed n.
+Operation: two closures fix the operating point of a setting (a0, beta) at constant speed n (a third, the
+propeller curves of :meth:`SyntheticBulb.propeller_points`, measures each setting at several unit speeds).
 
 * ``"water-system"`` (:meth:`SyntheticBulb.operate`, the default of the synthetic test table, as a model
   test on a real water system runs): the head is set by the plant's water system,
@@ -81,7 +82,11 @@ from hillchart.errors import InputError, NumericalError
 BLADE_RANGE_DEG = (-18.0, 16.0)
 GUIDE_VANE_RANGE_DEG = (40.0, 78.0)
 #: Operating closures (module docstring).
-CLOSURES = ("water-system", "best-efficiency")
+CLOSURES = ("water-system", "best-efficiency", "propeller-curves")
+#: Unit speeds (r/min) of each setting in the ``"propeller-curves"`` closure: a model test's propeller curves, the
+#: head stepped at each (blade, guide-vane) setting, over the range around the example plant's N11 (150) up to the
+#: overspeed of a rejection's first seconds.
+PROPELLER_N11_RPM = (120.0, 140.0, 160.0, 180.0, 200.0)
 #: Columns of the synthetic test table (units in the names, efficiency as a fraction).
 TABLE_COLUMNS = ("blade_angle_deg", "guide_vane_deg", "efficiency", "head_m", "power_kw", "flow_m3_s")
 #: Columns of the dense truth grid (the table's plus exact unit quantities).
@@ -412,12 +417,35 @@ class SyntheticBulb:
         return OperatingPoints(blade_angle_deg=bl, guide_vane_deg=gv, head_m=head, flow_m3_s=flow,
                                power_kw=power_w / 1e3, efficiency=efficiency, n11_rpm=n11, q11_m3_s=q11)
 
+    def propeller_points(self, blade_angle_deg, guide_vane_deg, n11_rpm=PROPELLER_N11_RPM) -> OperatingPoints:
+        """Operating points of the model test's propeller curves: constant speed, each (blade, guide-vane) setting
+        measured at every unit speed of ``n11_rpm`` (the rig steps the head, ``H = (n D / n11)^2``, eq. (2) of paper
+        003), flattened setting by setting; the same unit characteristic as the other closures."""
+        p = self.params
+        gv, bl = self._check_controls(guide_vane_deg, blade_angle_deg)
+        speeds = np.asarray(n11_rpm, dtype=float)
+        if speeds.ndim != 1 or speeds.size == 0 or not np.all(np.isfinite(speeds) & (speeds > 0)):
+            raise InputError(f"n11_rpm must be a non-empty list of positive unit speeds, got {n11_rpm!r}")
+        gv, bl = np.repeat(gv.ravel(), speeds.size), np.repeat(bl.ravel(), speeds.size)
+        n11 = np.tile(speeds, gv.size // speeds.size)
+        q11, m11 = self._unit(n11, gv, bl)
+        d = p.runner_diameter_m
+        head = (p.speed_rpm * d / n11) ** 2  # eq. (2), paper 003
+        flow = q11 * d * d * np.sqrt(head)  # eq. (1), paper 003
+        power_w = m11 * d ** 3 * head * p.speed_rpm * RPM_TO_RAD_S
+        efficiency = power_w / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)
+        return OperatingPoints(blade_angle_deg=bl, guide_vane_deg=gv, head_m=head, flow_m3_s=flow,
+                               power_kw=power_w / 1e3, efficiency=efficiency, n11_rpm=n11, q11_m3_s=q11)
+
     def operating_points(self, blade_angle_deg, guide_vane_deg, closure: str) -> OperatingPoints:
-        """The points of ``closure`` ``"best-efficiency"`` or ``"water-system"`` (see the module docstring)."""
+        """The points of ``closure`` ``"best-efficiency"``, ``"water-system"`` or ``"propeller-curves"`` (one per
+        setting and unit speed of :data:`PROPELLER_N11_RPM`; see the module docstring)."""
         if closure not in CLOSURES:
             raise InputError(f"closure must be one of {CLOSURES}, got {closure!r}")
         if closure == "water-system":
             return self.operate(blade_angle_deg, guide_vane_deg)
+        if closure == "propeller-curves":
+            return self.propeller_points(blade_angle_deg, guide_vane_deg)
         return self.best_efficiency_points(blade_angle_deg, guide_vane_deg)
 
 
@@ -480,8 +508,10 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     ``table.toml``. ``truth.csv`` (columns :data:`TRUTH_COLUMNS`) is the exact, noise-free grid of step
     ``truth_step_deg`` over the paper's ranges. ``closure`` picks how a setting's operating point is fixed
     (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11) plane;
-    "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it). Same seed, same
-    bytes; all files are built in memory first.
+    "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it;
+    "propeller-curves", ``n_points // 5`` settings each at the unit speeds :data:`PROPELLER_N11_RPM`, the rig
+    stepping the head as a model test's propeller curves do). Same seed, same bytes; all files are built in memory
+    first.
 
     Returns
     -------
@@ -496,15 +526,24 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
         raise InputError(f"closure must be one of {CLOSURES}, got {closure!r}")
     turbine = turbine or SyntheticBulb()
     p = turbine.params
-    blade, gv = scattered_settings(n_points, seed)
+    if closure == "propeller-curves":  # n_points in all, one per setting and unit speed of PROPELLER_N11_RPM
+        per_setting = len(PROPELLER_N11_RPM)
+        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 10 * per_setting:
+            raise InputError(f"n_points must be an integer >= {10 * per_setting} with closure \"propeller-curves\" "
+                             f"(10 settings x {per_setting} unit speeds), got {n_points!r}")
+        blade, gv = scattered_settings(n_points // per_setting, seed)
+    else:
+        blade, gv = scattered_settings(n_points, seed)
     # the rig sets (and logs) the angles to DIGITS decimals: the operating point is that of the logged angles
     blade, gv = np.round(blade, DIGITS["blade_angle_deg"]), np.round(gv, DIGITS["guide_vane_deg"])
     op = turbine.operating_points(blade, gv, closure)
     rng = np.random.default_rng([seed, 1])  # a separate stream for the measurement noise
-    head = op.head_m * (1.0 + noise * rng.standard_normal(blade.size))
-    flow = op.flow_m3_s * (1.0 + noise * rng.standard_normal(blade.size))
-    power = op.power_kw * (1.0 + noise * rng.standard_normal(blade.size))
-    table = {"blade_angle_deg": blade, "guide_vane_deg": gv, "head_m": head, "flow_m3_s": flow, "power_kw": power,
+    size = op.head_m.size
+    head = op.head_m * (1.0 + noise * rng.standard_normal(size))
+    flow = op.flow_m3_s * (1.0 + noise * rng.standard_normal(size))
+    power = op.power_kw * (1.0 + noise * rng.standard_normal(size))
+    table = {"blade_angle_deg": op.blade_angle_deg, "guide_vane_deg": op.guide_vane_deg, "head_m": head,
+             "flow_m3_s": flow, "power_kw": power,
              "efficiency": power * 1e3 / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)}
     bl_grid = np.arange(BLADE_RANGE_DEG[0], BLADE_RANGE_DEG[1] + 1e-9, truth_step_deg)
     gv_grid = np.arange(GUIDE_VANE_RANGE_DEG[0], GUIDE_VANE_RANGE_DEG[1] + 1e-9, truth_step_deg)

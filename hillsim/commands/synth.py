@@ -80,8 +80,10 @@ def register(subparsers) -> None:
                         help="Francis: use only this many opening lines (>= 3)")
     parser.add_argument("--no-runaway", action="store_true", help="Francis: do not write runaway.csv")
     parser.add_argument("--points", type=int, default=150, help="bulb: scattered test points (default 150)")
-    parser.add_argument("--closure", choices=("water-system", "best-efficiency"), default="water-system",
-                        help="bulb: head on the plant's water system (default) or at each setting's best efficiency")
+    parser.add_argument("--closure", choices=("water-system", "best-efficiency", "propeller-curves"),
+                        default="water-system",
+                        help="bulb: head on the plant's water system (default), at each setting's best efficiency, "
+                             "or stepped at each setting over five unit speeds (a model test's propeller curves)")
     parser.set_defaults(func=run)
 
 

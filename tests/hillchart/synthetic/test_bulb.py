@@ -118,6 +118,23 @@ def test_noise_free_table_equals_the_truth_to_the_written_digits(tmp_path):
     assert truth.dtype.names == TRUTH_COLUMNS and truth.size == 69 * 77  # 0.5 deg grid over the paper's ranges
 
 
+def test_propeller_curve_table_measures_each_setting_at_every_unit_speed(tmp_path):
+    from hillchart.synthetic.bulb import PROPELLER_N11_RPM
+
+    write_bulb_table(tmp_path, seed=0, noise=0.0, n_points=100, closure="propeller-curves", truth_step_deg=5.0)
+    table = load_test_table(tmp_path)
+    assert table.n_rows == 100  # 20 settings x 5 unit speeds
+    n11 = table.column("n11_rpm").reshape(20, len(PROPELLER_N11_RPM))
+    # the loader derives N11 from the written head (4 decimals): the propeller curves' speeds to 1e-4 relative
+    np.testing.assert_allclose(n11, np.broadcast_to(PROPELLER_N11_RPM, n11.shape), rtol=1e-4)
+    blade = table.column("blade_angle_deg").reshape(20, -1)
+    assert np.all(blade == blade[:, :1])  # one setting per curve
+    exact = SyntheticBulb().unit_efficiency(n11.ravel(), table.column("guide_vane_deg"), blade.ravel())
+    np.testing.assert_allclose(table.column("efficiency"), exact, atol=2e-5)  # 5 decimals + P, Q, H rounding
+    with pytest.raises(InputError, match="n11_rpm must be a non-empty list of positive unit speeds"):
+        SyntheticBulb().propeller_points(0.0, 50.0, n11_rpm=[150.0, -1.0])
+
+
 def test_best_efficiency_closure_is_the_optimum_of_each_propeller_curve():
     """The golden-section optimum against a 0.01 r/min scan, and its stationarity."""
     bulb = SyntheticBulb()
