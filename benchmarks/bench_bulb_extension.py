@@ -39,6 +39,8 @@ from hillchart.synthetic.bulb import BulbParameters, SyntheticBulb, write_bulb_t
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 
+#: Hidden neurons of the extended nets, as hillsim fccm --simulator-nets trains them.
+EXTENDED_HIDDEN = 30
 TABLES = (("water-system", 150), ("best-efficiency", 300), ("propeller-curves", 300))
 #: The synthetic bulb and two others the extension was not developed on (geometry, closed vane and losses changed).
 BULBS = {"default": {},
@@ -100,6 +102,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=1, help="table seeds 0..N-1 (default 1)")
     parser.add_argument("--restarts", type=int, default=2, help="LM initialisations per net (default 2)")
+    parser.add_argument("--hidden", type=int, default=None,
+                        help="hidden neurons of the extended nets (default: hillsim fccm's)")
+    parser.add_argument("--tables", default=",".join(c for c, _ in TABLES),
+                        help=f"comma-separated table kinds among {', '.join(c for c, _ in TABLES)} (default: all)")
     parser.add_argument("--bulbs", default="default", help="comma-separated synthetic bulbs among "
                         f"{', '.join(BULBS)} (default: default; the rejections only for the default bulb, whose "
                         "plant the example is)")
@@ -113,12 +119,18 @@ def main(argv=None) -> int:
           "runaway N11 median / worst % (none) | rejection, blades fixed | rejection, the nets' cam | "
           "rejection, the fitted model's cam |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for bulb, closure, points, seed in ((b, c, p, s) for b in bulbs for c, p in TABLES for s in range(args.seeds)):
+    kinds = [k.strip() for k in args.tables.split(",")]
+    if any(k not in dict(TABLES) for k in kinds):
+        parser.error(f"--tables: choose among {', '.join(c for c, _ in TABLES)}, got {args.tables!r}")
+    tables = [(c, p) for c, p in TABLES if c in kinds]
+    extended_hidden = EXTENDED_HIDDEN if args.hidden is None else args.hidden
+    for bulb, closure, points, seed in ((b, c, p, s) for b in bulbs for c, p in tables for s in range(args.seeds)):
         truth = SyntheticBulb(BulbParameters(**BULBS[bulb]))
         folder = work / f"{bulb}_{closure}_{seed}"
         write_bulb_table(folder, n_points=points, closure=closure, seed=seed, turbine=truth)
         table = load_test_table(folder)
-        for name, extension, hidden in (("table only 3-15-1", False, 15), ("extended 3-30-1", True, 30)):
+        for name, extension, hidden in (("table only 3-15-1", False, 15),
+                                        (f"extended 3-{extended_hidden}-1", True, extended_hidden)):
             t0 = time.perf_counter()
             samples, _, model = table_unit_samples(table, extension=extension, seed=seed)
             nets, _ = train_table_nets(samples, hidden=hidden, restarts=args.restarts, members=1, seed=seed,

@@ -69,25 +69,33 @@ BLEND_START_FRACTION = 0.5
 #: Model identifier of the ``silent_model`` block of a three-input nets.json.
 SILENT_KIND = "bulb-1d"
 #: The packed blend of nets without a model: the nets alone everywhere (the smoothstep is 1 for any opening).
-NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf]])
+NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf, 0.0]])
 
 
 @numba.njit(cache=True)
 def blended_point(flow, torque, blend, n11, opening, blade):
-    """``(q11, dq11/dn11, m11, dm11/dn11)`` of packed three-input nets blended into the fitted bulb model below the
-    table's smallest guide-vane angle (:class:`BulbSilentModel`; ``blend`` = its :meth:`~BulbSilentModel.packed`,
-    or :data:`NO_BLEND`): ``y = w y_nets + (1 - w) y_model`` with w a C1 smoothstep in the opening (w does not
-    depend on N11, so the N11-derivatives blend the same way). Where w is 0 the nets are not evaluated."""
+    """``(q11, dq11/dn11, m11, dm11/dn11)`` of packed three-input nets with the fitted bulb model
+    (:class:`BulbSilentModel`; ``blend`` = its :meth:`~BulbSilentModel.packed`, or :data:`NO_BLEND`), w a C1
+    smoothstep in the opening, 0 below the table's smallest guide-vane angle (w does not depend on N11, so the
+    N11-derivatives follow the same formula):
+
+    * nets of the characteristics (``blend[14]`` 0): ``y = w y_nets + (1 - w) y_model``;
+    * nets of the residual to the model (``blend[14]`` 1): ``y = y_model + w y_nets``.
+
+    Where w is 0 the nets are not evaluated."""
     w = _smoothstep(opening, blend[12], blend[13])[0]
     if w <= 0.0:
         return unit_point(blend[:12], n11, opening, blade)
     q, dq = net3_point(flow, n11, opening, blade)
     m, dm = net3_point(torque, n11, opening, blade)
-    if w >= 1.0:
-        return q, dq, m, dm
+    if blend[14] == 0.0:
+        if w >= 1.0:
+            return q, dq, m, dm
+        mq, mdq, mm, mdm = unit_point(blend[:12], n11, opening, blade)
+        v = 1.0 - w
+        return w * q + v * mq, w * dq + v * mdq, w * m + v * mm, w * dm + v * mdm
     mq, mdq, mm, mdm = unit_point(blend[:12], n11, opening, blade)
-    v = 1.0 - w
-    return w * q + v * mq, w * dq + v * mdq, w * m + v * mm, w * dm + v * mdm
+    return mq + w * q, mdq + w * dq, mm + w * m, mdm + w * dm
 
 
 @numba.njit(cache=True)
@@ -97,12 +105,14 @@ def blended_value(net, blend, n11, opening, blade, which):
     head read."""
     w = _smoothstep(opening, blend[12], blend[13])[0]
     model = 0.0
-    if w < 1.0:
+    if w < 1.0 or blend[14] != 0.0:
         mq, _, mm, _ = unit_point(blend[:12], n11, opening, blade)
         model = mq if which == 0 else mm
         if w <= 0.0:
             return model
     y = net3_point(net, n11, opening, blade)[0]
+    if blend[14] != 0.0:
+        return model + w * y
     if w >= 1.0:
         return y
     return w * y + (1.0 - w) * model
@@ -129,10 +139,15 @@ class BulbSilentModel:
     parameters : sequence of 12 float
         :data:`hillchart.synthetic.bulb.POINT_PARAMETERS` (unit quantities, angles in degrees).
     blend_openings : (float, float)
-        Guide-vane angles (deg): the model alone at or below the first, the nets alone at or above the second.
+        Guide-vane angles (deg): the model alone at or below the first, the nets (or the model plus the nets'
+        residual) at or above the second.
+    residual : bool
+        The nets give the residual to the model (``y = y_model + w y_nets``, :func:`blended_point`), as nets
+        trained on a table with the extension do: they learn what the model misses, and the model's physics carries
+        every region the table leaves out; False: the nets give the characteristics themselves.
     """
 
-    def __init__(self, parameters, blend_openings):
+    def __init__(self, parameters, blend_openings, residual: bool = False):
         from hillchart.synthetic.bulb import POINT_PARAMETERS
 
         values = np.asarray(parameters, dtype=float)
@@ -142,13 +157,16 @@ class BulbSilentModel:
         lo, hi = (float(v) for v in blend_openings)
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise InputError(f"silent_model.blend_openings must be two finite angles low < high, got {[lo, hi]!r}")
-        self.parameters, self.blend_openings = values, (lo, hi)
+        if not isinstance(residual, bool):
+            raise InputError(f"silent_model.residual must be true or false, got {residual!r}")
+        self.parameters, self.blend_openings, self.residual = values, (lo, hi), residual
 
     @classmethod
-    def from_fitted(cls, model, opening_min: float) -> "BulbSilentModel":
+    def from_fitted(cls, model, opening_min: float, residual: bool = False) -> "BulbSilentModel":
         """From a :class:`hillchart.extension.bulb_model.FittedBulbModel` and the table's smallest guide-vane angle."""
         closed = model.opening_closed
-        return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)))
+        return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)),
+                   residual=residual)
 
     def _values(self, n11, opening, blade_angle):
         from hillchart.extension.bulb_model import model_values
@@ -171,23 +189,31 @@ class BulbSilentModel:
         return efficiency_from_unit_torque(q, n11, m)
 
     def packed(self) -> np.ndarray:
-        """The 14 numbers :func:`blended_point` reads: the model's parameters, then the blend openings."""
-        return np.concatenate([self.parameters, self.blend_openings])
+        """The 15 numbers :func:`blended_point` reads: the model's parameters, the blend openings, the residual
+        flag (1.0 or 0.0)."""
+        return np.concatenate([self.parameters, self.blend_openings, [1.0 if self.residual else 0.0]])
 
     def to_dict(self) -> dict:
         from hillchart.synthetic.bulb import POINT_PARAMETERS
 
-        return {"kind": SILENT_KIND, "parameters": {k: float(v) for k, v in zip(POINT_PARAMETERS, self.parameters)},
-                "blend_openings": list(self.blend_openings)}
+        doc = {"kind": SILENT_KIND, "parameters": {k: float(v) for k, v in zip(POINT_PARAMETERS, self.parameters)},
+               "blend_openings": list(self.blend_openings)}
+        if self.residual:
+            doc["residual"] = True
+        return doc
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model") -> "BulbSilentModel":
         """Validate a parsed ``silent_model`` block of a three-input nets.json."""
         from hillchart.synthetic.bulb import POINT_PARAMETERS
 
-        if not isinstance(doc, dict) or set(doc) != {"kind", "parameters", "blend_openings"}:
-            raise InputError(f"{key} must be an object with exactly the keys kind, parameters, blend_openings, got "
-                             f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
+        required = {"kind", "parameters", "blend_openings"}
+        if not isinstance(doc, dict) or not required <= set(doc) <= required | {"residual"}:
+            raise InputError(f"{key} must be an object with the keys kind, parameters, blend_openings (and optionally "
+                             f"residual), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
+        residual = doc.get("residual", False)
+        if not isinstance(residual, bool):
+            raise InputError(f"{key}.residual must be true or false, got {residual!r}")
         if doc["kind"] != SILENT_KIND:
             raise InputError(f"{key}.kind must be {SILENT_KIND!r}, got {doc['kind']!r}")
         params = doc["parameters"]
@@ -201,7 +227,7 @@ class BulbSilentModel:
             pair = [float(check_finite(f"{key}.blend_openings", v)) for v in blend]
         except (TypeError, ValueError):
             raise InputError(f"{key} must hold numbers (parameters, blend_openings)") from None
-        return cls(values, pair)
+        return cls(values, pair, residual=residual)
 
 
 def _net_block(weights: FCCMWeights, output: str) -> dict:
@@ -298,7 +324,7 @@ class DoubleRegulatedNets:
         x, shape = self._x(n11, opening, blade_angle)
         g = (self.flow, self.torque)[which].predict_grad(x)[:, 0, :]
         if self.silent_model is not None:
-            blended = x[:, 1] < self.silent_model.blend_openings[1]
+            blended = (x[:, 1] < self.silent_model.blend_openings[1]) | self.silent_model.residual
             if blended.any():  # the blend: N11 analytic, the opening and blade angle by central differences
                 xb = x[blended]
                 g[blended, 0] = self._blended(xb)[2 * which + 1]
@@ -317,8 +343,9 @@ class DoubleRegulatedNets:
         return self._value(1, n11, opening, blade_angle)
 
     def q11_grad(self, n11, opening, blade_angle):
-        """(dQ11/dN11, dQ11/da, dQ11/dphi): analytic, below the table's smallest guide-vane angle (the blend into
-        the silent model) the opening and blade-angle derivatives by central differences of step 1e-5 deg."""
+        """(dQ11/dN11, dQ11/da, dQ11/dphi): analytic; with the silent model (below the table's smallest guide-vane
+        angle, or everywhere when the nets give the residual to it) the opening and blade-angle derivatives by
+        central differences of step 1e-5 deg."""
         return self._grad(0, n11, opening, blade_angle)
 
     def m11_grad(self, n11, opening, blade_angle):
@@ -596,10 +623,13 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     % of their ranges). A constant input (a fixed-blade table) is widened by 1 on either side (copies of the samples
     at -1, 0, +1) so the net's scaling is defined; the nets do not depend on it.
 
-    With ``model`` (the fitted bulb model :func:`table_unit_samples` returns), every member after the first trains
-    on the measured samples plus the extension of its own draw of the model (:meth:`FittedBulbModel.draw`, seeded
-    by ``seed``): what the table leaves open about runaway and the closed vane shows in the spread, as for the
-    Francis nets.
+    With ``model`` (the fitted bulb model :func:`table_unit_samples` returns), the nets learn the residual to the
+    model (what it misses at the measured samples, zero at its own extension samples), and the model is stored with
+    them (:class:`BulbSilentModel`, ``residual``): the characteristics are the model's plus the nets' residual, the
+    model alone below the table's smallest guide-vane angle. Every member after the first trains on the measured
+    samples plus the extension of its own draw of the model (:meth:`FittedBulbModel.draw`, seeded by ``seed``), as
+    the residual to that draw: what the table leaves open about runaway and the closed vane shows in the spread, as
+    for the Francis nets.
 
     Returns
     -------
@@ -634,12 +664,20 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
             member_models[i] = model.draw(rng)
             extra = extension_samples(member_models[i], base["n11"], base["opening"], base["blade_angle"])
             member_samples[i] = {k: np.concatenate([base[k], extra[k]]) for k in arrays}
-    ensemble = [train_double_regulated_nets(widened(member_samples[i]), hidden=hidden, restarts=restarts,
-                                            seed=seed + 2 * i, split=split)
+    def residual(member_samples, member_model):  # what the member's model misses (0 where the model sampled)
+        if member_model is None:
+            return member_samples
+        n, a, b = (np.asarray(member_samples[k], float) for k in NET3_INPUTS)
+        return {**member_samples, "q11": np.asarray(member_samples["q11"], float) - member_model.q11(n, a, b),
+                "m11": np.asarray(member_samples["m11"], float) - member_model.m11(n, a, b)}
+
+    ensemble = [train_double_regulated_nets(widened(residual(member_samples[i], member_models[i])), hidden=hidden,
+                                            restarts=restarts, seed=seed + 2 * i, split=split)
                 for i in range(max(1, members))]
-    if model is not None:  # below the smallest tested guide-vane angle each member's own model answers
+    if model is not None:  # the nets are the residual to each member's own model, which alone answers below the table
         for member, member_model in zip(ensemble, member_models):
-            member.silent_model = BulbSilentModel.from_fitted(member_model, float(X["opening"][measured].min()))
+            member.silent_model = BulbSilentModel.from_fitted(member_model, float(X["opening"][measured].min()),
+                                                              residual=True)
     nets = ensemble[0]
     lo = np.array([X[k].min() for k in NET3_INPUTS])
     hi = np.array([X[k].max() for k in NET3_INPUTS])

@@ -510,7 +510,7 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11) plane;
     "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it;
     "propeller-curves", ``n_points // 5`` settings each at the unit speeds :data:`PROPELLER_N11_RPM`, the rig
-    stepping the head as a model test's propeller curves do). Same seed, same bytes; all files are built in memory
+    stepping the head as a model test's propeller curves do, less the points beyond a setting's runaway). Same seed, same bytes; all files are built in memory
     first.
 
     Returns
@@ -537,6 +537,9 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     # the rig sets (and logs) the angles to DIGITS decimals: the operating point is that of the logged angles
     blade, gv = np.round(blade, DIGITS["blade_angle_deg"]), np.round(gv, DIGITS["guide_vane_deg"])
     op = turbine.operating_points(blade, gv, closure)
+    if closure == "propeller-curves":  # a rig measures turbine operation: no point beyond a setting's runaway
+        keep = op.power_kw > 0
+        op = OperatingPoints(**{f.name: getattr(op, f.name)[keep] for f in fields(OperatingPoints)})
     rng = np.random.default_rng([seed, 1])  # a separate stream for the measurement noise
     size = op.head_m.size
     head = op.head_m * (1.0 + noise * rng.standard_normal(size))

@@ -82,7 +82,7 @@ def nets_control_flow(params, n11, controls):
     loop reads in each iteration (the torque net is evaluated once, at the converged head)."""
     flow, torque, blend, scal = params
     opening, blade = _chart_point(scal, controls)
-    if blend[13] <= opening:  # the nets alone (always, without a silent model)
+    if blend[14] == 0.0 and blend[13] <= opening:  # the nets alone (always, without a silent model)
         return net3_point(flow, n11, opening, blade)
     q, dq, m, dm = blended_point(flow, torque, blend, n11, opening, blade)
     return q, dq
@@ -518,10 +518,10 @@ def _wrap(plant, inner) -> DoubleRegulatedTurbine:
 #: Largest difference (deg) between the cam of the nets and that of the physical model fitted to their test table
 #: before a run warns, compared above the lowest :data:`CAM_COMPARE_FROM` of the cam's opening range (near the closed
 #: vane the efficiency, and which blade angle is best, means little): the efficiency is flat in the blade angle near
-#: its optimum, so the nets' misfit of a few tenths of a percent can move their cam by degrees (2.8-7.9 deg on
-#: 150-point synthetic tables, where the model's cam is within 0.2 deg of the truth and a rejection's speed rise
-#: was 3-54 points off on the nets' cam), and the initial opening and the overspeed with it. The shipped bulb nets
-#: (2000 exact samples) differ by up to 0.94 deg.
+#: its optimum, so the nets' misfit of a few tenths of a percent can move their cam by degrees (nets of the
+#: characteristics themselves from 150-point synthetic tables: 2.8-7.9 deg, where the model's cam is within 0.2 deg of
+#: the truth, and a rejection's speed rise 3-54 points off on the nets' cam), and the initial opening and the
+#: overspeed with it. The shipped bulb nets (2000 exact samples) differ by up to 0.94 deg.
 CAM_DISAGREEMENT_DEG = 1.5
 CAM_COMPARE_FROM = 0.1
 

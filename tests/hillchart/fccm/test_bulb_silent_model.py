@@ -93,3 +93,29 @@ def test_json_round_trip_and_bad_blocks(nets, tmp_path):
     del doc["silent_model"]["parameters"]["k_swirl"]
     with pytest.raises(InputError, match=r"silent_model.parameters must have exactly the keys"):
         DoubleRegulatedNets.from_dict(doc)
+
+
+def test_residual_nets_add_to_the_model_above_the_blend(nets, tmp_path):
+    """Nets of the residual (``silent_model.residual``): model + w nets, the model alone below the blend."""
+    plain, _ = nets
+    model = BulbSilentModel(SyntheticBulb().point_parameters(), (LOW, HIGH), residual=True)
+    residual = DoubleRegulatedNets(plain.flow, plain.torque, training=plain.training, silent_model=model)
+    params = SyntheticBulb().point_parameters()
+    n11, blade = np.array([120.0, 180.0]), np.array([-10.0, 12.0])
+    for gv, w in ((36.0, 0.0), (55.0, 1.0)):
+        q, m = unit_values(params, n11, np.full(2, gv), blade)
+        np.testing.assert_allclose(residual.q11(n11, gv, blade), q + w * plain.q11(n11, gv, blade), rtol=1e-13)
+        np.testing.assert_allclose(residual.m11(n11, gv, blade), m + w * plain.m11(n11, gv, blade), rtol=1e-13)
+    flow, torque, blend = packed_net3(residual.flow), packed_net3(residual.torque), residual.blend_packed()
+    q, dq, m, dm = blended_point(flow, torque, blend, 160.0, 50.0, 3.0)
+    assert blended_value(flow, blend, 160.0, 50.0, 3.0, 0) == q
+    assert blended_value(torque, blend, 160.0, 50.0, 3.0, 1) == m
+    g = residual.q11_grad(160.0, 50.0, 3.0)
+    fd = (residual.q11(160.0, 50.0 + 1e-4, 3.0) - residual.q11(160.0, 50.0 - 1e-4, 3.0)) / 2e-4
+    assert float(g[1]) == pytest.approx(float(fd), rel=1e-5)  # the model's part is in the gradient too
+    again = load_double_regulated_nets(residual.save(tmp_path / "nets.json"))
+    assert again.silent_model.residual and float(again.m11(160.0, 50.0, 3.0)) == m
+    doc = json.loads((tmp_path / "nets.json").read_text())
+    doc["silent_model"]["residual"] = "yes"
+    with pytest.raises(InputError, match=r"silent_model.residual must be true or false, got 'yes'"):
+        DoubleRegulatedNets.from_dict(doc)
