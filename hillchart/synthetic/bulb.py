@@ -510,8 +510,8 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     (:data:`CLOSURES`; the default, the plant's water system, puts all points on one curve of the (Q11, n11) plane;
     "best-efficiency", each setting's best-efficiency point, spreads them over a 2-D region of it;
     "propeller-curves", ``n_points // 5`` settings each at the unit speeds :data:`PROPELLER_N11_RPM`, the rig
-    stepping the head as a model test's propeller curves do, less the points beyond a setting's runaway). Same seed, same bytes; all files are built in memory
-    first.
+    stepping the head as a model test's propeller curves do, less the points beyond a setting's runaway). Same seed,
+    same bytes; all files are built in memory first.
 
     Returns
     -------
