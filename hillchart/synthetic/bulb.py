@@ -405,9 +405,13 @@ class SyntheticBulb:
         """Operating points of the model test: constant speed, head set to each setting's best-efficiency point
         (module docstring), ``H = (n D / n11*)^2`` (eq. (2) of paper 003 solved for H), ``Q = Q11 D^2 sqrt(H)``
         (eq. (1)), ``M = M11 D^3 H``, ``P = M omega``."""
-        p = self.params
         gv, bl = self._check_controls(guide_vane_deg, blade_angle_deg)
-        n11 = self.best_efficiency_n11(bl, gv)
+        return self._rig_points(self.best_efficiency_n11(bl, gv), gv, bl)
+
+    def _rig_points(self, n11, gv, bl) -> OperatingPoints:
+        """The model test at constant speed and unit speed ``n11`` (the rig sets the head): ``H = (n D / n11)^2``
+        (eq. (2) of paper 003 solved for H), ``Q = Q11 D^2 sqrt(H)`` (eq. (1)), ``M = M11 D^3 H``, ``P = M omega``."""
+        p = self.params
         q11, m11 = self._unit(n11, gv, bl)
         d = p.runner_diameter_m
         head = (p.speed_rpm * d / n11) ** 2  # eq. (2), paper 003
@@ -421,21 +425,12 @@ class SyntheticBulb:
         """Operating points of the model test's propeller curves: constant speed, each (blade, guide-vane) setting
         measured at every unit speed of ``n11_rpm`` (the rig steps the head, ``H = (n D / n11)^2``, eq. (2) of paper
         003), flattened setting by setting; the same unit characteristic as the other closures."""
-        p = self.params
         gv, bl = self._check_controls(guide_vane_deg, blade_angle_deg)
         speeds = np.asarray(n11_rpm, dtype=float)
         if speeds.ndim != 1 or speeds.size == 0 or not np.all(np.isfinite(speeds) & (speeds > 0)):
             raise InputError(f"n11_rpm must be a non-empty list of positive unit speeds, got {n11_rpm!r}")
         gv, bl = np.repeat(gv.ravel(), speeds.size), np.repeat(bl.ravel(), speeds.size)
-        n11 = np.tile(speeds, gv.size // speeds.size)
-        q11, m11 = self._unit(n11, gv, bl)
-        d = p.runner_diameter_m
-        head = (p.speed_rpm * d / n11) ** 2  # eq. (2), paper 003
-        flow = q11 * d * d * np.sqrt(head)  # eq. (1), paper 003
-        power_w = m11 * d ** 3 * head * p.speed_rpm * RPM_TO_RAD_S
-        efficiency = power_w / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)
-        return OperatingPoints(blade_angle_deg=bl, guide_vane_deg=gv, head_m=head, flow_m3_s=flow,
-                               power_kw=power_w / 1e3, efficiency=efficiency, n11_rpm=n11, q11_m3_s=q11)
+        return self._rig_points(np.tile(speeds, gv.size // speeds.size), gv, bl)
 
     def operating_points(self, blade_angle_deg, guide_vane_deg, closure: str) -> OperatingPoints:
         """The points of ``closure`` ``"best-efficiency"``, ``"water-system"`` or ``"propeller-curves"`` (one per
