@@ -35,9 +35,9 @@ def register(subparsers) -> None:
                              "blade-angle lines)")
     parser.add_argument("--no-extension", action="store_true",
                         help="with --simulator-nets: train on the table alone (with --closed-opening: plus Q11 = 0 "
-                             "at the closed vane). By default the physical bulb model fitted to the table gives the "
-                             "samples where it is silent: runaway, the closed vane (M11 = -K N11^2), zero speed and "
-                             "the overspeed between them")
+                             "at the closed vane). By default the nets learn the residual to the physical bulb model "
+                             "fitted to the table, which answers where the table is silent: runaway, the closed vane "
+                             "(M11 = -K N11^2), zero speed and the overspeed between them")
     parser.add_argument("--members", type=int, default=5,
                         help="with --simulator-nets: ensemble members, the point nets included (default 5)")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
