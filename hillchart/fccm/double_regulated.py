@@ -515,10 +515,10 @@ def write_bulb_nets(out_dir) -> Path:
     """Train and write the shipped three-input nets of the synthetic bulb (:data:`SHIPPED_BULB_NETS`) to
     ``out_dir/nets.json``; the same settings give the same nets (seeded)."""
     cfg = SHIPPED_BULB_NETS
-    samples = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
-                                 opening_range=cfg["opening_range"])
+    chart = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
+                               opening_range=cfg["opening_range"])
     closed = bulb_closed_vane_samples(n_points=cfg["n_closed"], seed=cfg["seed"], n11_range=cfg["n11_range"])
-    samples = {k: np.concatenate([samples[k], closed[k]]) for k in samples}
+    samples = {k: np.concatenate([chart[k], closed[k]]) for k in chart}
     nets = train_double_regulated_nets(samples, hidden=cfg["hidden"], restarts=cfg["restarts"], seed=cfg["seed"])
     # below the sampled box (0.2 deg above the closed vane) the physical bulb model answers, fitted to the samples as
     # it is to a user's table (hillchart.extension.bulb_model): at the closed vane, where a rejection spends most of
@@ -526,8 +526,6 @@ def write_bulb_nets(out_dir) -> Path:
     from hillchart.extension.bulb_model import fit_bulb_model
     from hillchart.synthetic.bulb import SyntheticBulb
 
-    chart = bulb_chart_samples(n_points=cfg["n_points"], seed=cfg["seed"], n11_range=cfg["n11_range"],
-                               opening_range=cfg["opening_range"])
     model = fit_bulb_model(chart["n11"], chart["opening"], chart["blade_angle"], chart["q11"], chart["m11"],
                            opening_closed=SyntheticBulb().params.guide_vane_closed_deg, seed=cfg["seed"],
                            source="the shipped bulb samples")
@@ -664,6 +662,7 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
             member_models[i] = model.draw(rng)
             extra = extension_samples(member_models[i], base["n11"], base["opening"], base["blade_angle"])
             member_samples[i] = {k: np.concatenate([base[k], extra[k]]) for k in arrays}
+
     def residual(member_samples, member_model):  # what the member's model misses (0 where the model sampled)
         if member_model is None:
             return member_samples

@@ -558,6 +558,25 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
                        wall_time_s=time.perf_counter() - wall)
 
 
+def structure_variant(plant: PlantConfig, names: dict[str, str]) -> tuple[PlantConfig, Any]:
+    """``plant`` with the model names ``names`` (:data:`STRUCTURE_CHOICE_KEYS` -> name), and its characteristics
+    when ``turbine.characteristics`` is among them (None otherwise: the base plant's serve).
+
+    Raises
+    ------
+    InputError
+        A name the plant file would refuse, or characteristics that cannot be read; the message names the varied
+        key and value.
+    """
+    try:
+        varied = plant.with_overrides(names) if names else plant
+        chars = (load_characteristics(varied.turbine, varied.base_dir) if "turbine.characteristics" in names
+                 else None)
+    except InputError as exc:
+        raise InputError(f"varied {', '.join(f'{k} = {v!r}' for k, v in names.items())}: {exc}") from None
+    return varied, chars
+
+
 def _run_grouped(plant: PlantConfig, keys: tuple, variants: list[dict], *, characteristics, mechanism, workers,
                  chunk_size, keep_series, progress) -> BatchResult:
     """:func:`run_batch` of variants that vary :data:`STRUCTURE_CHOICE_KEYS`: the cases grouped by their model
@@ -570,14 +589,8 @@ def _run_grouped(plant: PlantConfig, keys: tuple, variants: list[dict], *, chara
     plan = []
     shared = characteristics
     for choice, indices in groups.items():
-        names = {k: v for k, v in zip(choice_keys, choice) if v is not None}
-        try:
-            group_plant = plant.with_overrides(names) if names else plant
-        except InputError as exc:
-            raise InputError(f"varied {', '.join(f'{k} = {v!r}' for k, v in names.items())}: {exc}") from None
-        if "turbine.characteristics" in names:
-            chars = load_characteristics(group_plant.turbine, group_plant.base_dir)
-        else:
+        group_plant, chars = structure_variant(plant, {k: v for k, v in zip(choice_keys, choice) if v is not None})
+        if chars is None:
             if shared is None:
                 shared = load_characteristics(plant.turbine, plant.base_dir)
             chars = shared
@@ -730,4 +743,4 @@ class BatchPool:
 __all__ = ["SERIAL_BELOW", "STRUCTURE_KEYS", "STRUCTURE_CHOICE_KEYS", "MECHANISMS", "FIGURES", "CaseResult",
            "BatchResult", "BatchPool", "numeric_keys", "check_key", "check_value", "check_choice_value",
            "variant_overrides", "extrapolation_kinds", "nets_domain", "case_from_result", "run_case", "run_chunk",
-           "run_chunk_members", "run_batch", "validate_variants", "default_workers"]
+           "run_chunk_members", "run_batch", "structure_variant", "validate_variants", "default_workers"]

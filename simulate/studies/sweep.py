@@ -25,7 +25,8 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.studies.batch import (STRUCTURE_CHOICE_KEYS, BatchResult, check_choice_value, check_key, check_value,
-                            default_workers, nets_domain, run_batch, run_chunk, validate_variants)
+                            default_workers, nets_domain, run_batch, run_chunk, structure_variant,
+                            validate_variants)
 from simulate.config import PlantConfig, load_characteristics
 
 #: Largest number of cases one sweep accepts (a typo such as 4:20:90000 x 3 keys should not start).
@@ -191,12 +192,7 @@ def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: st
     keys, _ = validate_variants(plant, variants, choices=True)
     for key in (k for k in keys if k in STRUCTURE_CHOICE_KEYS):  # every model name checked before anything runs
         for name in dict.fromkeys(v[key] for v in variants if key in v):
-            try:
-                varied = plant.with_overrides({key: name})
-                if key == "turbine.characteristics":
-                    load_characteristics(varied.turbine, varied.base_dir)
-            except InputError as exc:
-                raise InputError(f"varied {key} = {name!r}: {exc}") from None
+            structure_variant(plant, {key: name})
     return variants
 
 
