@@ -21,10 +21,11 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import _ROLES, _header_lines, _import_line, _load, _python_kernel, _turbine_lines
+from simulate.loop.assembly import (_ROLES, CompiledLoop, _header_lines, _import_line, _load, _python_kernel,
+                                   _turbine_lines, with_counted_twin)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
-MULTI_TEMPLATE_VERSION = 1
+MULTI_TEMPLATE_VERSION = 2
 
 #: Per-unit series in ``out_units[row, unit, :]``.
 UNIT_SERIES = ("speed_rpm", "head_m", "flow_m3_s", "torque_nm", "opening")
@@ -87,15 +88,15 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
                         ("branch_inlet_head", junction.moc_inlet_head),
                         ("conduit_outlet_flow", junction.moc_outlet_flow),
                         ("conduit_outlet_head", junction.moc_outlet_head)):
-        lines.append(_import_line(func, alias))
+        lines.append(_import_line(func, alias, inline=True))
     for alias, (kind, role) in _COMMON_ROLES.items():
         func = common[kind].functions[role]
-        lines.append(_import_line(func, alias))
+        lines.append(_import_line(func, alias, inline=True))
         modules.add(func.__module__)
     records = []
     if common["upstream"].signals:
         func = common["upstream"].functions["record"]
-        lines.append(_import_line(func, "upstream_record"))
+        lines.append(_import_line(func, "upstream_record", inline=True))
         modules.add(func.__module__)
         records.append(f"            upstream_record(up, up_s, out_signals[row, 0:{len(common['upstream'].signals)}])")
     unpack, init, substep, inlets, turbines = [], [], [], [], []
@@ -103,10 +104,10 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
     for i, parts in enumerate(units):
         for alias, (kind, role) in _UNIT_ROLES.items():
             func = parts[kind].functions[role]
-            lines.append(_import_line(func, f"u{i}_{alias}"))
+            lines.append(_import_line(func, f"u{i}_{alias}", inline=True))
             modules.add(func.__module__)
         func = parts["branch"].functions["inlet_flow"]
-        lines.append(_import_line(func, f"u{i}_branch_inlet_flow"))
+        lines.append(_import_line(func, f"u{i}_branch_inlet_flow", inline=True))
         unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s = units[{i}]")
         init.append(f"    torque{i} = turbine_signals(tb{i}_s)[2]")
         substep += [f"            controls{i} = u{i}_control_step(ctl{i}, ctl{i}_s, u{i}_shaft_speed(sh{i}, sh{i}_s), "
@@ -134,13 +135,14 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
     body = _HEAD.replace("{n}", str(len(units))) + "\n".join(unpack + init) + "\n"
     body += (_STEP.replace("{substep}", "\n".join(substep)).replace("{inlets}", "\n".join(inlets))
              .replace("{turbines}", "\n".join(turbines)).replace("{records}", "\n".join(records)))
-    lines.append(body)
+    lines.append(with_counted_twin(body, compiled))
     return "\n".join(lines) + "\n", sorted(modules)
 
 
 def assemble_units(common: dict, units: list[dict], characteristics, pressure_loop: str, *, compiled: bool = True):
     """The ``time_loop`` of a plant with several units (compiled and disk-cached, or plain Python)."""
     import sys
+    import types
 
     source, modules = multi_loop_source(common, units, characteristics, pressure_loop, compiled)
     if not compiled:
@@ -152,5 +154,5 @@ def assemble_units(common: dict, units: list[dict], characteristics, pressure_lo
         source, _ = multi_loop_source(common, units, characteristics, pressure_loop, compiled, cache=False)
         namespace = {"__name__": "hillsim_loop_uncached"}
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
-        return namespace["time_loop"]
+        return CompiledLoop(types.SimpleNamespace(**namespace))
     return _load(source, modules)
