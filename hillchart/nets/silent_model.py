@@ -29,8 +29,8 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
-from hillchart.synthetic.francis import _synthetic_kernel, _synthetic_values
+from hillchart.nets.weights import _PYTHON_POINTS, _net_value, _net_value_grad
+from hillchart.synthetic.francis import _synthetic_kernel_at, _synthetic_values_at, francis_angles
 
 #: Parameter names of the model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
 PARAMETER_NAMES = ("d2", "b1", "guide_vane_pitch", "beta1_deg", "beta2_deg", "k_guide_vane", "k_incidence",
@@ -66,13 +66,14 @@ def _blend_weight(blend, n11, opening):
 @numba.njit(cache=True)
 def _silent_nets_kernel(params, n11, opening):
     """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``: the nets (``params[0]``,
-    ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1 and the
-    model's torque factor) below
+    ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1, the
+    model's torque factor and its three blade-angle terms) below
     the lowest digitized opening (module docstring)."""
     blend = params[2]
+    angles = (blend[17], blend[18], blend[19])
     w, w_n, w_a = _blend_weight(blend, n11, opening)
     if w <= 0.0:  # the model alone (the blend's derivatives are 0 there too): the nets need not be evaluated
-        mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
+        mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel_at(blend[:12], angles, n11, max(opening, 0.0))
         if math.isfinite(mq) and math.isfinite(mm):
             factor = blend[16]
             return mq, mq_n, mq_a, factor * mm, factor * mm_n, factor * mm_a
@@ -80,7 +81,7 @@ def _silent_nets_kernel(params, n11, opening):
     m, m_n, m_a = _net_value_grad(params[1], n11, opening)
     if w >= 1.0:
         return q, q_n, q_a, m, m_n, m_a
-    mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel(blend[:12], n11, max(opening, 0.0))
+    mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel_at(blend[:12], angles, n11, max(opening, 0.0))
     if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
         return q, q_n, q_a, m, m_n, m_a
     factor = blend[16]  # the model's torque factor (the prototype step-up; 1 for the model test)
@@ -98,10 +99,12 @@ def _silent_nets_value(params, n11, opening, which):
     blend = params[2]
     w = _blend_weight(blend, n11, opening)[0]
     if w < 1.0:
-        mq, mm = _synthetic_values(blend[:12], n11, max(opening, 0.0))
+        mq, mm = _synthetic_values_at(blend[:12], (blend[17], blend[18], blend[19]), n11, max(opening, 0.0))
         if w <= 0.0 and math.isfinite(mq) and math.isfinite(mm):  # the model alone
             return mq if which == 0 else blend[16] * mm
-    y = _net_value_grad(params[which], n11, opening)[0]
+    # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
+    # without reference counting refuses (simulate.loop.assembly)
+    y = _net_value(params[0], n11, opening) if which == 0 else _net_value(params[1], n11, opening)
     if w >= 1.0:
         return y
     if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
@@ -189,8 +192,10 @@ class SilentRegionModel:
                    n11_blend=(lo * limit, hi * limit))
 
     def packed(self) -> np.ndarray:
-        """The 17 numbers the kernel reads: parameters, blend openings, N11 blend, torque factor."""
-        return np.array([*self.parameters, *self.blend_openings, *self.n11_blend, self.torque_factor], dtype=float)
+        """The 20 numbers the kernel reads: parameters, blend openings, N11 blend, torque factor and the model's
+        blade-angle terms (:func:`hillchart.synthetic.francis.francis_angles`)."""
+        return np.array([*self.parameters, *self.blend_openings, *self.n11_blend, self.torque_factor,
+                         *francis_angles(self.parameters)], dtype=float)
 
     def evaluate(self, flow, torque, n11, opening):
         """``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` of the blended characteristics, broadcast arrays;

@@ -45,11 +45,13 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from hillchart.characteristics import efficiency_from_unit_torque
 from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
@@ -58,13 +60,30 @@ from hillchart.errors import InputError, NumericalError
 _COMPLEX_STEP = 1e-30
 
 
+@register_jitable
+def _francis_angles(p):
+    """``(cot beta1, cot beta2, sin beta2)`` of the parameters ``p`` (see :func:`_francis_terms`): the blade-angle
+    terms, constants of a runner. The simulator's kernels take them packed with the parameters
+    (:func:`_synthetic_values_at`), so a step does not evaluate three trigonometric functions of constants.
+    ``math`` (the C library) in Python and compiled alike, so the packed terms are the ones the compiled model
+    computes, to the bit."""
+    return 1.0 / math.tan(math.radians(p[3])), 1.0 / math.tan(math.radians(p[4])), math.sin(math.radians(p[4]))
+
+
 def _francis_terms(p, n11, opening):
     """``(Q11, M11, gamma)`` of the 1-D model (module docstring) for parameters ``p`` = (d2, b1, t_gv, beta1_deg,
     beta2_deg, k_gv, k_sh, k_r, k_dt, k_sw, k_df, opening_max) at real or complex N11 (r/min) and opening (mm),
-    arrays or scalars. The single implementation of the model equations: numpy evaluates it on arrays, numba
-    compiles it for the simulator's kernel (:func:`_synthetic_kernel`). ``gamma >= 0`` means no positive flow."""
-    d2, b1, pitch, beta1, beta2, k_gv, k_sh, k_r, k_dt, k_sw, k_df = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7],
-                                                                       p[8], p[9], p[10])
+    arrays or scalars. The single implementation of the model equations (:func:`_francis_terms_at`): numpy evaluates
+    it on arrays, numba compiles it for the simulator's kernel (:func:`_synthetic_kernel`). ``gamma >= 0`` means no
+    positive flow."""
+    return _francis_terms_at(p, _francis_angles(p), n11, opening)
+
+
+@register_jitable
+def _francis_terms_at(p, angles, n11, opening):
+    """:func:`_francis_terms` with the blade-angle terms ``angles`` of :func:`_francis_angles` given."""
+    d2, b1, pitch, k_gv, k_sh, k_r, k_dt, k_sw, k_df = p[0], p[1], p[2], p[5], p[6], p[7], p[8], p[9], p[10]
+    cot_b1, cot_b2, sin_b2 = angles
     u1 = np.pi * n11 / 60.0
     u2 = d2 * u1
     sin_a = opening / pitch
@@ -72,9 +91,6 @@ def _francis_terms(p, n11, opening):
     inlet_area = np.pi * b1  # pi D1 B1 with D1 = 1
     outlet_area = np.pi * d2**2 / 4.0
     r = inlet_area * sin_a / outlet_area  # cm2 = r c1
-    cot_b1 = 1.0 / np.tan(np.radians(beta1))
-    cot_b2 = 1.0 / np.tan(np.radians(beta2))
-    sin_b2 = np.sin(np.radians(beta2))
     e = cos_a + sin_a * cot_b1  # incidence: cu1 - u1 + cm1 cot(beta1) = e c1 - u1
     f = r * cot_b2  # cu2 = u2 - f c1
     alpha = k_gv + k_sh * e * e + k_r * r * r / sin_b2**2 + k_dt * r * r + k_sw * f * f
@@ -90,29 +106,49 @@ def _francis_terms(p, n11, opening):
 
 
 _francis_terms_compiled = numba.njit(cache=True)(_francis_terms)
+_francis_terms_at_compiled = numba.njit(cache=True)(_francis_terms_at)
+
+
+def francis_angles(params) -> tuple[float, float, float]:
+    """The blade-angle terms (:func:`_francis_angles`) of ``params``, for a kernel's packed parameters: kernels given
+    them (:func:`_synthetic_values_at`) return what :func:`_synthetic_values` computes, to the bit."""
+    return _francis_angles([float(v) for v in params[:5]])
 
 
 @numba.njit(cache=True)
-def _synthetic_values(params, n11, opening):
-    """``(q11, m11)`` of :func:`_francis_terms` at a scalar point; NaN outside ``0 <= opening <= opening_max``,
-    N11 >= 0 or beyond the model's range (no positive flow)."""
-    q, m, gamma = _francis_terms_compiled(params, n11, opening)
+def _synthetic_values_at(params, angles, n11, opening):
+    """``(q11, m11)`` of :func:`_francis_terms` at a scalar point, with the blade-angle terms ``angles``; NaN
+    outside ``0 <= opening <= opening_max``, N11 >= 0 or beyond the model's range (no positive flow)."""
+    q, m, gamma = _francis_terms_at_compiled(params, angles, n11, opening)
     if not (gamma < 0.0 and n11 >= 0.0 and 0.0 <= opening <= params[11]):
         return np.nan, np.nan
     return q, m
 
 
 @numba.njit(cache=True)
-def _synthetic_kernel(params, n11, opening):
-    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point: the values of
-    :func:`_synthetic_values` and complex-step derivatives (``f'(x) = Im f(x + i h) / h``) of :func:`_francis_terms`."""
-    q, m = _synthetic_values(params, n11, opening)
+def _synthetic_values(params, n11, opening):
+    """:func:`_synthetic_values_at` with the angles computed from ``params``."""
+    return _synthetic_values_at(params, _francis_angles(params), n11, opening)
+
+
+@numba.njit(cache=True)
+def _synthetic_kernel_at(params, angles, n11, opening):
+    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` at a scalar point, with the
+    blade-angle terms ``angles``: the values of :func:`_synthetic_values_at` and complex-step derivatives
+    (``f'(x) = Im f(x + i h) / h``) of :func:`_francis_terms_at`."""
+    q, m = _synthetic_values_at(params, angles, n11, opening)
     if q != q:
         return np.nan, np.nan, np.nan, np.nan, np.nan, np.nan
     h = _COMPLEX_STEP
-    q_n, m_n, _ = _francis_terms_compiled(params, complex(n11, h), complex(opening, 0.0))
-    q_a, m_a, _ = _francis_terms_compiled(params, complex(n11, 0.0), complex(opening, h))
+    q_n, m_n, _ = _francis_terms_at_compiled(params, angles, complex(n11, h), complex(opening, 0.0))
+    q_a, m_a, _ = _francis_terms_at_compiled(params, angles, complex(n11, 0.0), complex(opening, h))
     return q, q_n.imag / h, q_a.imag / h, m, m_n.imag / h, m_a.imag / h
+
+
+@numba.njit(cache=True)
+def _synthetic_kernel(params, n11, opening):
+    """:func:`_synthetic_kernel_at` with the angles computed from ``params``."""
+    return _synthetic_kernel_at(params, _francis_angles(params), n11, opening)
 
 
 @dataclass(frozen=True)

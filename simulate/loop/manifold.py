@@ -21,8 +21,7 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import (_ROLES, CompiledLoop, _header_lines, _import_line, _load, _python_kernel,
-                                   _turbine_lines, with_counted_twin)
+from simulate.loop.assembly import _ROLES, _header_lines, _import_line, _python_kernel, _turbine_lines, compiled_loop
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
 MULTI_TEMPLATE_VERSION = 2
@@ -75,12 +74,12 @@ _COMMON_ROLES = {alias: role for alias, role in _ROLES.items() if role[0] in ("u
 
 
 def multi_loop_source(common: dict, units: list[dict], characteristics, pressure_loop: str, compiled: bool,
-                      cache: bool = True) -> tuple[str, list[str]]:
+                      cache: bool = True, counted: bool = False) -> tuple[str, list[str]]:
     """Text of the loop module for the common parts (``upstream``, ``penstock``) and one dict of parts per unit
     (``branch``, ``control``, ``shaft``), and the module names it imports."""
     from simulate.components.hydraulic import junction
 
-    lines = _header_lines(compiled, cache)
+    lines = _header_lines(compiled, cache, counted)
     lines[0] += f" (several units, template {MULTI_TEMPLATE_VERSION})"
     modules = {"simulate.components.turbine.boundary", junction.__name__}
     for alias, func in (("manifold_solve", junction.manifold_solve),
@@ -135,24 +134,17 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
     body = _HEAD.replace("{n}", str(len(units))) + "\n".join(unpack + init) + "\n"
     body += (_STEP.replace("{substep}", "\n".join(substep)).replace("{inlets}", "\n".join(inlets))
              .replace("{turbines}", "\n".join(turbines)).replace("{records}", "\n".join(records)))
-    lines.append(with_counted_twin(body, compiled))
+    lines.append(body)
     return "\n".join(lines) + "\n", sorted(modules)
 
 
 def assemble_units(common: dict, units: list[dict], characteristics, pressure_loop: str, *, compiled: bool = True):
     """The ``time_loop`` of a plant with several units (compiled and disk-cached, or plain Python)."""
-    import sys
-    import types
-
-    source, modules = multi_loop_source(common, units, characteristics, pressure_loop, compiled)
     if not compiled:
+        source, _ = multi_loop_source(common, units, characteristics, pressure_loop, compiled)
         namespace = {"__name__": "hillsim_loop_python"}
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
         namespace["kernel"] = _python_kernel(characteristics)
         return namespace["time_loop"]
-    if not all(getattr(sys.modules.get(m), "__file__", None) for m in modules):
-        source, _ = multi_loop_source(common, units, characteristics, pressure_loop, compiled, cache=False)
-        namespace = {"__name__": "hillsim_loop_uncached"}
-        exec(compile(source, "<hillsim loop>", "exec"), namespace)
-        return CompiledLoop(types.SimpleNamespace(**namespace))
-    return _load(source, modules)
+    return compiled_loop(lambda cache, counted: multi_loop_source(
+        common, units, characteristics, pressure_loop, True, cache=cache, counted=counted))
