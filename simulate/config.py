@@ -691,10 +691,37 @@ class PlantConfig:
         return self.grid.island_frequency_p * float(load_pu)
 
     def with_overrides(self, overrides: dict[str, Any]) -> "PlantConfig":
-        """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`)."""
+        """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`).
+
+        Keys of the sections read from one table of scalars are replaced in place (:func:`dataclasses.replace`,
+        which validates each section and the plant as the file does: a batch makes one variant per case, and the
+        whole dictionary round trip costs ten times as much); anything else (a list, a switch of scenario kind, an
+        optional section, several units, an unknown key) takes the file's path."""
+        replaced = self._replaced(overrides)
+        if replaced is not None:
+            return replaced
         raw = to_dict(self)
         apply_overrides(raw, overrides)
         return plant_from_dict(raw, base_dir=self.base_dir)
+
+    def _replaced(self, overrides: dict[str, Any]) -> "PlantConfig | None":
+        """:meth:`with_overrides` by :func:`dataclasses.replace`, or None where the file's path is needed."""
+        if self.units or not isinstance(overrides, dict):
+            return None
+        changes: dict[str, dict[str, Any]] = {}
+        for dotted, value in overrides.items():
+            if not isinstance(dotted, str) or dotted.count(".") != 1 or isinstance(value, (list, tuple, dict)):
+                return None
+            section, key = dotted.split(".")
+            spec = _SCALAR_FIELDS.get(section, {}).get(key)
+            if spec is None or (section, key) in _REBUILT_KEYS:
+                return None
+            if value is None:  # the file's path removes the key: its default, when it has one
+                if spec.default is MISSING:
+                    return None
+                value = spec.default
+            changes.setdefault(section, {})[key] = value
+        return replace(self, **{name: replace(getattr(self, name), **kv) for name, kv in changes.items()})
 
 
 def __getattr__(name: str):
@@ -721,6 +748,15 @@ _SECTIONS = {
     "combinator": "simulate.components.control.blade_servo:CombinatorConfig",
     "draft_tube": DraftTubeConfig,
 }
+
+
+#: Fields of the sections that :meth:`PlantConfig.with_overrides` may replace in place (one table of scalars each).
+_SCALAR_FIELDS = {name: {f.name: f for f in fields(cls)} for name, cls in
+                  (("turbine", TurbineConfig), ("penstock", PenstockConfig), ("generator", GeneratorConfig),
+                   ("governor", GovernorConfig), ("scenario", ScenarioConfig), ("solver", SolverConfig))}
+#: Keys whose change rebuilds more than their own field: the segments (an array of tables) and the scenario kind
+#: (it drops the keys the new kind does not use).
+_REBUILT_KEYS = {("penstock", "segments"), ("scenario", "kind")}
 
 
 def _section_class(name: str):

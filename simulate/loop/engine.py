@@ -127,14 +127,15 @@ def plant_schedules(plant: PlantConfig, steady: SteadyState):
 
 
 def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: int = 1,
-                characteristics=None) -> dict:
+                characteristics=None, schedules=None) -> dict:
     """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft, downstream), from the
-    registries. Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`).
+    registries, and the scenario's schedules (``schedules``: those of :func:`plant_schedules`, when the caller has
+    them). Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`).
     ``characteristics``: the plant's view of them (a double-regulated unit's blade control reads its cam)."""
     from simulate.components.registry import (CONTROLS, DOWNSTREAM, PENSTOCKS, SHAFTS, UPSTREAM, control_name,
                                               downstream_section, shaft_section, upstream_section)
 
-    schedules = plant_schedules(plant, steady)
+    schedules = plant_schedules(plant, steady) if schedules is None else schedules
     sub_dt = dt_s / substeps
     upstream = UPSTREAM.builder(upstream_section(plant)[0])(plant, steady, dt_s)
     head0 = upstream.hooks.initial_head_m
@@ -200,7 +201,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     domain = _memo(chars, ("domain", plant.turbine.characteristics, str(plant.base_dir)),
                    lambda: plant_domain(plant, chars))
     steady = initial_state(plant, chars)
-    plan = plan_step(plant, plant_schedules(plant, steady))  # the step from the components' time scales
+    schedules = plant_schedules(plant, steady)
+    plan = plan_step(plant, schedules)  # the step from the components' time scales
     dt, n_sub = plan.dt_s, plan.substeps
     n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
@@ -214,7 +216,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         warnings.append(ON_CAM_WARNING)
     if getattr(chars, "cam_warning", None):  # the nets' cam and their fitted model's disagree
         warnings.append(chars.cam_warning)
-    parts, schedules = build_parts(plant, steady, dt, n_sub, chars)
+    parts, schedules = build_parts(plant, steady, dt, n_sub, chars, schedules)
 
     tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
                             closed_stroke=CLOSED_STROKE, control_scales=[turbine.opening_max] + [1.0] * (

@@ -330,11 +330,12 @@ def iir_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
     env_min[1] = min(env_min[1], head_m)
 
 
-def node_positions_m(penstock, model: str, dt_s: float) -> np.ndarray:
-    """Distance of every computing node from the penstock inlet, m (MOC: the grid; other models: inlet, turbine)."""
+def node_positions_m(penstock, model: str, dt_s: float, grid: MocGrid | None = None) -> np.ndarray:
+    """Distance of every computing node from the penstock inlet, m (MOC: the grid, ``grid`` when the caller has
+    built it; other models: inlet, turbine)."""
     if model != "moc":
         return np.array([0.0, penstock.length_m])
-    grid = build_moc_grid(penstock, dt_s)
+    grid = build_moc_grid(penstock, dt_s) if grid is None else grid
     x = [0.0]
     for seg, n in zip(penstock.segments, grid.reaches_per_segment):
         x += list(x[-1] + seg.length_m * np.arange(1, n + 1) / n)
@@ -356,7 +357,7 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
         params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
         hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
                                  "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment}),
-        n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s))
+        n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s, grid))
 
 
 def _build_iir(model: str):
