@@ -5,7 +5,9 @@ function uncacheable: "dynamic globals"). So the components are not passed to th
 combination of (characteristics kernel, pressure loop, penstock, upstream, control, shaft) this module writes a small
 Python module that imports the components' module-level numba functions as globals, pastes the kernel-dependent
 templates of :mod:`simulate.components.turbine.boundary` (the pressure loop and the turbine step, with the kernel bound
-as a global), and defines ``time_loop`` with ``numba.njit(cache=True, nogil=True)``. The module's file name is a hash of
+as a global), and defines ``time_loop`` with ``numba.njit(cache=True, nogil=True, _nrt=False)``, the components' step
+functions inlined into it (see :func:`_header_lines` for why, and :class:`CompiledLoop` for a component that needs
+numba's reference counting). The module's file name is a hash of
 its own text and of the source files of every module it imports (numba's cache checks only the file that defines the
 function, so a change in a component's source must produce a new file), so a second run of the same combination
 loads the compiled loop from numba's cache instead of compiling it.

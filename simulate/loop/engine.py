@@ -198,8 +198,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     turbine, pen = plant.turbine, plant.penstock
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
 
-    domain = _memo(chars, ("domain", plant.turbine.characteristics, str(plant.base_dir)),
-                   lambda: plant_domain(plant, chars))
+    domain_key = ("domain", plant.turbine.characteristics, str(plant.base_dir))
+    domain = _memo(chars, domain_key, lambda: plant_domain(plant, chars))
     steady = initial_state(plant, chars)
     schedules = plant_schedules(plant, steady)
     plan = plan_step(plant, schedules)  # the step from the components' time scales
@@ -207,7 +207,8 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
     guards.check_run_size(plant, dt, n_steps, stride)
-    guards.check_initial_state(plant, steady, domain)
+    guards.check_initial_state(plant, steady, domain, remember=lambda key, compute: _memo(chars, key + domain_key,
+                                                                                          compute))
     warnings = guards.plausibility_warnings(plant) + list(plan.warnings)
     training = getattr(chars, "training", None)
     if isinstance(training, dict) and training.get("kind") == "on-cam":  # nets of a chart without vane angles

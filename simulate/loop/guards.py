@@ -63,9 +63,10 @@ def check_run_size(plant, dt_s: float, n_steps: int, stride: int) -> dict:
     return est
 
 
-def check_initial_state(plant, steady, domain=None) -> None:
+def check_initial_state(plant, steady, domain=None, *, remember=None) -> None:
     """A negative or implausible initial power, or a start outside the characteristics' trusted domain, is an
-    error naming the cause."""
+    error naming the cause. ``remember(key, compute)``: where the verdict of ``domain`` on a point is remembered
+    (the engine's memo of the domain's characteristics: a batch's cases share a few steady states)."""
     t = plant.turbine
     if steady.power_mw < -1e-6 * t.rated_power_mw:
         raise InputError(
@@ -77,7 +78,11 @@ def check_initial_state(plant, steady, domain=None) -> None:
         raise InputError(f"the initial power {steady.power_mw:.4g} MW is more than 1.5 x turbine.rated_power_mw = "
                          f"{t.rated_power_mw!r}: check scenario.initial_opening and the rated values")
     if domain is not None:
-        problem = domain.outside_reason(steady.unit_speed_rpm, steady.opening_chart, steady.stroke)
+        def outside():
+            return domain.outside_reason(steady.unit_speed_rpm, steady.opening_chart, steady.stroke)
+
+        point = ("outside", steady.unit_speed_rpm, steady.opening_chart, steady.stroke)
+        problem = outside() if remember is None else remember(point, outside)
         if problem:
             raise InputError(
                 f"the initial operating point is outside the characteristics' trusted domain: {problem} (N11 = "

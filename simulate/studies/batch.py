@@ -7,8 +7,8 @@ run of the same plant. Only numeric keys may vary; keys that choose a model (pen
 loop, characteristics) are refused, because the batch shares one set of characteristics and its cases one compiled
 loop. ``penstock.reaches`` may vary (a grid-convergence study): each case builds its own grid.
 
-Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): the compiled loop releases the GIL, but about a
-third of a shipped-plant case is Python around it (the plant variant, the figures), which threads run one at a time;
+Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): the compiled loop releases the GIL, but about
+half of a shipped-plant case is Python around it (the plant variant, the figures), which threads run one at a time;
 ``mechanism="processes"`` (the default for more than :data:`SERIAL_BELOW` cases) forks worker processes *after* the
 parent has run the first case, so the workers inherit the compiled loop instead of compiling it again (about 3 s
 each), and hands them chunks of cases. ``mechanism="threads"`` shares the memory instead (about 10 % slower on 2
