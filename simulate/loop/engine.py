@@ -104,8 +104,6 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
 
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
     view = plant_characteristics(plant, chars)
-    # a double-regulated unit: values at the cam through the compiled kernel (the steady state reads no derivative)
-    kernel, params = view.steady_kernel() if hasattr(view, "steady_kernel") else scalar_kernel(view)[:2]
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:
@@ -116,9 +114,16 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     target = initial_target(plant.scenario)
     inputs = ("steady", plant.turbine, plant.penstock.static_head_m, friction, plant.governor.stroke_min,
               plant.governor.stroke_max, tuple(sorted(target.items())))
-    return _memo(view, inputs, lambda: steady_state(
-        kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m, friction_s2_m5=friction,
-        stroke_min=plant.governor.stroke_min, stroke_max=plant.governor.stroke_max, **target))
+
+    def compute():
+        # a double-regulated unit: values at the cam through the compiled kernel (the steady state reads no
+        # derivative)
+        kernel, params = view.steady_kernel() if hasattr(view, "steady_kernel") else scalar_kernel(view)[:2]
+        return steady_state(kernel, params, turbine=plant.turbine, static_head_m=plant.penstock.static_head_m,
+                            friction_s2_m5=friction, stroke_min=plant.governor.stroke_min,
+                            stroke_max=plant.governor.stroke_max, **target)
+
+    return _memo(view, inputs, compute)
 
 
 def plant_schedules(plant: PlantConfig, steady: SteadyState):
@@ -194,7 +199,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     plant.time_step_s  # noqa: B018  (the Courant check of the grid before anything heavier)
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
     chars = plant_characteristics(plant, chars)
-    compiled_chars = compile_characteristics(chars)
+    compiled_chars = _memo(chars, ("compiled",), lambda: compile_characteristics(chars))
     turbine, pen = plant.turbine, plant.penstock
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
 
