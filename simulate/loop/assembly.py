@@ -326,7 +326,9 @@ def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
             getattr(characteristics, "torque_value", None), pressure_loop, boundary.SOLVERS[pressure_loop])
 
 
-_ASSEMBLING = threading.Lock()
+_ASSEMBLING = threading.RLock()
+#: :class:`CompiledLoop` by the fingerprint of its module (:func:`_fingerprint`)
+_COMPILED: dict[str, "CompiledLoop"] = {}
 
 
 def assemble(parts: dict, characteristics, pressure_loop: str, *, compiled: bool = True):
@@ -355,8 +357,9 @@ def _assemble(parts, characteristics, pressure_loop, compiled, key):
 
 def compiled_loop(make_source) -> CompiledLoop:
     """The :class:`CompiledLoop` of the module ``make_source(cache, counted) -> (source, modules)`` generates:
-    written under the cache directory and imported (:func:`_load`), or, when a module it imports has no source
-    file (a kernel defined interactively), compiled in memory once per process."""
+    written under the cache directory and imported (:func:`_load`; one :class:`CompiledLoop` per module, so a
+    fallback found once is kept), or, when a module it imports has no source file (a kernel defined
+    interactively), compiled in memory."""
     def load(counted: bool):
         source, modules = make_source(True, counted)
         if all(getattr(sys.modules.get(m), "__file__", None) for m in modules):
@@ -366,7 +369,14 @@ def compiled_loop(make_source) -> CompiledLoop:
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
         return namespace["time_loop"]
 
-    return CompiledLoop(load(False), lambda: load(True))
+    source, modules = make_source(True, False)
+    if not all(getattr(sys.modules.get(m), "__file__", None) for m in modules):
+        return CompiledLoop(load(False), lambda: load(True))
+    key = _fingerprint(source, modules)  # the text and the imported modules' files: an edited component is new
+    with _ASSEMBLING:
+        if key not in _COMPILED:
+            _COMPILED[key] = CompiledLoop(_load(source, modules).time_loop, lambda: load(True))
+        return _COMPILED[key]
 
 
 def _load(source: str, modules: list[str]) -> types.ModuleType:
