@@ -92,3 +92,27 @@ def torch_autograd():
     from tests.torch_reference import torch_forward
 
     return torch, torch_forward
+
+
+@pytest.fixture
+def register_penstock(tmp_path, monkeypatch):
+    """``register_penstock(name, module_text)``: a penstock model written as a module in ``tmp_path`` and registered
+    under ``name`` (builder ``build``) as a user would, after ``simulate.config`` is imported; both undone after."""
+    import sys
+
+    import simulate.config  # noqa: F401  (imported before the component is registered: the order that must work)
+    from simulate.components.registry import PENSTOCKS
+
+    modules = []
+
+    def register(name: str, text: str) -> str:
+        module = f"{name}_model"
+        (tmp_path / f"{module}.py").write_text(text, encoding="utf-8")
+        monkeypatch.syspath_prepend(str(tmp_path))
+        monkeypatch.setitem(PENSTOCKS._entries, name, f"{module}:build")
+        modules.append(module)
+        return name
+
+    yield register
+    for module in modules:
+        sys.modules.pop(module, None)

@@ -2,7 +2,6 @@
 imported. The module below is a rigid water column written in physical units (backward Euler of
 H = H_up - K Q|Q| - (sum L / (g A)) dQ/dt); the loop runs it like the built-in ``rigid`` model, to the same numbers."""
 
-import sys
 import textwrap
 
 import numpy as np
@@ -11,7 +10,6 @@ import pytest
 import simulate.config  # noqa: F401  (imported before the component is registered: the order that must work)
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
-from simulate.components.registry import PENSTOCKS
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 
@@ -58,12 +56,8 @@ MODULE = textwrap.dedent('''
 
 
 @pytest.fixture
-def user_penstock(tmp_path, monkeypatch):
-    (tmp_path / "user_penstock_model.py").write_text(MODULE, encoding="utf-8")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setitem(PENSTOCKS._entries, "user_rigid", "user_penstock_model:build")  # one line, restored after
-    yield "user_rigid"
-    sys.modules.pop("user_penstock_model", None)
+def user_penstock(register_penstock):
+    return register_penstock("user_rigid", MODULE)  # one registry line, restored after
 
 
 def test_a_penstock_registered_after_the_config_is_imported_runs_like_the_built_in_one(user_penstock):

@@ -2,16 +2,13 @@
 leave no reference behind, and a component that needs the runtime (its step allocates) runs in the counted twin."""
 
 import gc
-import sys
 import textwrap
 
 import numpy as np
 import pytest
 from numba.core.runtime import _nrt_python, rtsys
 
-import simulate.config  # noqa: F401  (imported before the component is registered)
 from data_synthetic import PLANT_HLA339
-from simulate.components.registry import PENSTOCKS
 from simulate.config import load_plant
 from simulate.loop import assembly
 from simulate.loop.engine import run_simulation
@@ -75,16 +72,8 @@ ALLOCATING = textwrap.dedent('''
 ''')
 
 
-@pytest.fixture
-def allocating_penstock(tmp_path, monkeypatch):
-    (tmp_path / "allocating_penstock_model.py").write_text(ALLOCATING, encoding="utf-8")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setitem(PENSTOCKS._entries, "allocating_rigid", "allocating_penstock_model:build")
-    yield "allocating_rigid"
-    sys.modules.pop("allocating_penstock_model", None)
-
-
-def test_a_component_that_allocates_runs_in_the_counted_loop(allocating_penstock):
+def test_a_component_that_allocates_runs_in_the_counted_loop(register_penstock):
+    allocating_penstock = register_penstock("allocating_rigid", ALLOCATING)
     overrides = {"turbine.characteristics": "ideal", "scenario.t_end_s": 8.0}
     user = run_simulation(load_plant(PLANT_HLA339, overrides | {"penstock.model": allocating_penstock}))
     built_in = run_simulation(load_plant(PLANT_HLA339, overrides | {"penstock.model": "rigid"}))
