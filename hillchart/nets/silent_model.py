@@ -29,7 +29,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.nets.weights import _PYTHON_POINTS, _net_value, _net_value_grad
+from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
 from hillchart.synthetic.francis import _synthetic_kernel_at, _synthetic_values_at, francis_angles
 
 #: Parameter names of the model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
@@ -104,7 +104,7 @@ def _silent_nets_value(params, n11, opening, which):
             return mq if which == 0 else blend[16] * mm
     # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
     # without reference counting refuses (simulate.loop.assembly)
-    y = _net_value(params[0], n11, opening) if which == 0 else _net_value(params[1], n11, opening)
+    y = _net_value_grad(params[0], n11, opening)[0] if which == 0 else _net_value_grad(params[1], n11, opening)[0]
     if w >= 1.0:
         return y
     if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone

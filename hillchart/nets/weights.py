@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
-from numba.extending import register_jitable
 
 from hillchart.errors import InputError
 from hillchart.validation import check_finite, check_vector
@@ -29,16 +28,6 @@ ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed", "silent-region")
 _HEADER = 8
 
 
-@register_jitable
-def _logsig(z):
-    """eq. (10), paper 004: logsig, evaluated without overflow for either sign of z (plain Python where the
-    kernels run as Python: see :data:`_PYTHON_POINTS`)."""
-    if z >= 0.0:
-        return 1.0 / (1.0 + math.exp(-z))
-    ez = math.exp(z)
-    return ez / (1.0 + ez)
-
-
 @numba.njit(cache=True)
 def _net_value_grad(p, n11, opening):
     """Value y and (dy/dN11, dy/da) of one packed net at a scalar point (physical units)."""
@@ -57,7 +46,13 @@ def _net_value_grad(p, n11, opening):
         w_a = p[_HEADER + 2 * i + 1]
         b1 = p[_HEADER + 2 * hidden + i]
         w2 = p[_HEADER + 3 * hidden + i]
-        f = _logsig(w_n * xn_n + w_a * xn_a + b1)
+        z = w_n * xn_n + w_a * xn_a + b1
+        # eq. (10), paper 004: logsig, evaluated without overflow for either sign of z
+        if z >= 0.0:
+            f = 1.0 / (1.0 + math.exp(-z))
+        else:
+            ez = math.exp(z)
+            f = ez / (1.0 + ez)
         yn += w2 * f  # eq. (11), paper 004
         d = w2 * f * (1.0 - f)
         g_n += d * w_n
@@ -65,22 +60,6 @@ def _net_value_grad(p, n11, opening):
     half_range = 0.5 * (y_max - y_min)
     y = (yn + 1.0) * half_range + y_min  # reverse mapminmax
     return y, half_range * g_n * s_n, half_range * g_a * s_a
-
-
-@numba.njit(cache=True)
-def _net_value(p, n11, opening):
-    """The value y of :func:`_net_value_grad` alone, by the same operations (what the pressure loop's iterations
-    read: the gradient's products cost a third of the evaluation)."""
-    hidden = int(p[0])
-    n11_min, a_min, n11_max, a_max = p[1], p[2], p[3], p[4]
-    y_min, y_max, b2 = p[5], p[6], p[7]
-    xn_n = 2.0 / (n11_max - n11_min) * (n11 - n11_min) - 1.0
-    xn_a = 2.0 / (a_max - a_min) * (opening - a_min) - 1.0
-    yn = b2
-    for i in range(hidden):
-        f = _logsig(p[_HEADER + 2 * i] * xn_n + p[_HEADER + 2 * i + 1] * xn_a + p[_HEADER + 2 * hidden + i])
-        yn += p[_HEADER + 3 * hidden + i] * f  # eq. (11), paper 004
-    return (yn + 1.0) * (0.5 * (y_max - y_min)) + y_min  # reverse mapminmax
 
 
 @numba.njit(cache=True)
@@ -100,13 +79,13 @@ def _nets_kernel(params, n11, opening):
 @numba.njit(cache=True)
 def _nets_flow(params, n11, opening):
     """Q11 of :func:`_nets_kernel` (value only: the pressure loop's iterations)."""
-    return _net_value(params[0], n11, opening)
+    return _net_value_grad(params[0], n11, opening)[0]
 
 
 @numba.njit(cache=True)
 def _nets_torque(params, n11, opening):
     """M11 of :func:`_nets_kernel` (value only: the torque at the converged head)."""
-    return _net_value(params[1], n11, opening)
+    return _net_value_grad(params[1], n11, opening)[0]
 
 
 #: Up to this many points ``evaluate`` runs the kernel's Python source (``py_func``): a process evaluating a few

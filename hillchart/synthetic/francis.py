@@ -111,7 +111,7 @@ _francis_terms_at_compiled = numba.njit(cache=True)(_francis_terms_at)
 
 def francis_angles(params) -> tuple[float, float, float]:
     """The blade-angle terms (:func:`_francis_angles`) of ``params``, for a kernel's packed parameters: kernels given
-    them (:func:`_synthetic_values_at`) return what :func:`_synthetic_values` computes, to the bit."""
+    them (:func:`_synthetic_values_at`) return what :func:`_francis_terms` computes, to the bit."""
     return _francis_angles([float(v) for v in params[:5]])
 
 
@@ -123,12 +123,6 @@ def _synthetic_values_at(params, angles, n11, opening):
     if not (gamma < 0.0 and n11 >= 0.0 and 0.0 <= opening <= params[11]):
         return np.nan, np.nan
     return q, m
-
-
-@numba.njit(cache=True)
-def _synthetic_values(params, n11, opening):
-    """:func:`_synthetic_values_at` with the angles computed from ``params``."""
-    return _synthetic_values_at(params, _francis_angles(params), n11, opening)
 
 
 @numba.njit(cache=True)
