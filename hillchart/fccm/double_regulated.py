@@ -15,6 +15,7 @@ from hillchart.errors import InputError, NumericalError
 from hillchart.fccm.net import FCCMNet, FCCMWeights
 from hillchart.fccm.plots import _figure
 from hillchart.nets.silent_model import _smoothstep
+from hillchart.nets.weights import ensemble_blocks
 from hillchart.synthetic.bulb import unit_point
 from hillchart.validation import check_finite
 
@@ -423,14 +424,7 @@ class DoubleRegulatedNets:
             raise InputError(f"training must be an object, got {type(training).__name__}")
         silent = BulbSilentModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
         ensemble = []
-        members = doc.get("ensemble", [])
-        if not isinstance(members, list):
-            raise InputError(f"ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
-                             f"{type(members).__name__}")
-        for i, member in enumerate(members):
-            if not isinstance(member, dict) or set(member) - {"silent_model"} != {"flow", "torque"}:
-                raise InputError(f"ensemble[{i}] must be an object with the keys flow and torque (and silent_model), "
-                                 f"got {member if not isinstance(member, dict) else sorted(member)!r}")
+        for i, member in enumerate(ensemble_blocks(doc)):
             ensemble.append((_weights_from_block(member["flow"], f"ensemble[{i}].flow", "q11"),
                              _weights_from_block(member["torque"], f"ensemble[{i}].torque", "m11"),
                              BulbSilentModel.from_dict(member["silent_model"], key=f"ensemble[{i}].silent_model")

@@ -12,8 +12,8 @@ from hillchart.errors import InputError
 from hillchart.nets.estimator import _check_percentiles
 from hillchart.nets.silent_model import (SilentRegionModel, _silent_nets_flow, _silent_nets_kernel,
                                          _silent_nets_torque)
-from hillchart.nets.weights import (FIXED_UNITS, FORMAT, VERSION, NetWeights, _nets_flow, _nets_kernel,
-                                    _nets_torque)
+from hillchart.nets.weights import (FIXED_UNITS, FORMAT, VERSION, NetWeights, _nets_flow, _nets_kernel, _nets_torque,
+                                    ensemble_blocks)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -222,21 +222,14 @@ class HillNets:
         if not isinstance(training, dict):
             raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
         ensemble, member_silent = [], []
-        if "ensemble" in doc:  # optional; a file without it is the version-1 file of before
-            members = doc["ensemble"]
-            if not isinstance(members, list):
-                raise InputError(f"nets.json: ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
-                                 f"{type(members).__name__}")
-            for i, member in enumerate(members):
-                if not isinstance(member, dict) or set(member) - {"silent_model"} != {"flow", "torque"}:
-                    raise InputError(f"nets.json: ensemble[{i}] must be an object with the keys flow and torque "
-                                     "(and silent_model beside a top-level silent_model), got "
-                                     f"{member if not isinstance(member, dict) else sorted(member)!r}")
-                ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
-                                 NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
-                if "silent_model" in member:
-                    member_silent.append(SilentRegionModel.from_dict(member["silent_model"],
-                                                                     key=f"ensemble[{i}].silent_model"))
+        # optional; a file without it is the version-1 file of before
+        for i, member in enumerate(ensemble_blocks(doc, prefix="nets.json: ",
+                                                   silent_hint=" beside a top-level silent_model")):
+            ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
+                             NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
+            if "silent_model" in member:
+                member_silent.append(SilentRegionModel.from_dict(member["silent_model"],
+                                                                 key=f"ensemble[{i}].silent_model"))
         region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
         silent = SilentRegionModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
         if member_silent and (silent is None or len(member_silent) != len(ensemble)):

@@ -111,6 +111,22 @@ def _evaluate(packed: np.ndarray, n11, opening):
     return y.reshape(shape), d_n.reshape(shape), d_a.reshape(shape)
 
 
+def ensemble_blocks(doc: dict, *, prefix: str = "", silent_hint: str = "") -> list[dict]:
+    """The members of ``doc["ensemble"]`` of a nets.json (none when absent): each an object with the keys flow and
+    torque and, optionally, silent_model; anything else is an :class:`InputError` naming the member (``prefix``
+    begins the message, ``silent_hint`` follows "silent_model" in it)."""
+    members = doc.get("ensemble", [])
+    if not isinstance(members, list):
+        raise InputError(f"{prefix}ensemble must be a list of {{\"flow\": NET, \"torque\": NET}}, got "
+                         f"{type(members).__name__}")
+    for i, member in enumerate(members):
+        if not isinstance(member, dict) or set(member) - {"silent_model"} != {"flow", "torque"}:
+            raise InputError(f"{prefix}ensemble[{i}] must be an object with the keys flow and torque (and "
+                             f"silent_model{silent_hint}), got "
+                             f"{member if not isinstance(member, dict) else sorted(member)!r}")
+    return members
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # weights of one net
 # ----------------------------------------------------------------------------------------------------------------
