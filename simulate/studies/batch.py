@@ -3,9 +3,10 @@
 A *variant* is a dictionary ``{"section.key": number}`` applied to a base plant with
 :meth:`simulate.config.PlantConfig.with_overrides`; every case then runs through the same
 :func:`simulate.loop.engine.run_simulation` that ``hillsim run`` uses, so a batch result is bit-identical to the single
-run of the same plant. Only numeric keys may vary; keys that choose a model (penstock model, scenario kind, pressure
-loop, characteristics) are refused, because the batch shares one set of characteristics and its cases one compiled
-loop. ``penstock.reaches`` may vary (a grid-convergence study): each case builds its own grid.
+run of the same plant. Numeric keys vary within one structure; keys that choose a model (penstock model, scenario
+kind, pressure loop, characteristics: :data:`STRUCTURE_CHOICE_KEYS`) group the cases, one batch of numbers per group
+with its own characteristics and compiled loop (:class:`BatchPool` and the closure optimization, whose cases share
+one structure, refuse them). ``penstock.reaches`` may vary (a grid-convergence study): each case builds its own grid.
 
 Parallelism (chosen by measurement, ``benchmarks/bench_batch.py``): the compiled loop releases the GIL, but about
 half of a shipped-plant case is Python around it (the plant variant, the figures), which threads run one at a time;
