@@ -166,17 +166,20 @@ def unit_warnings(columns: dict, path) -> list[str]:
     large), power in W or MW (efficiency 1000 x off), angles in radians (a control spanning less than pi)."""
     out = []
     q11 = columns.get("q11_m3_s")
+    flow_scale, flow_note = 1.0, ""
     if q11 is not None and np.median(np.abs(q11)) > Q11_PLAUSIBLE_M3_S:
         out.append(f"{path}: flow_m3_s gives a median unit flow Q11 = {float(np.median(q11)):.4g} m^3/s; turbines "
                    f"have Q11 below about {Q11_PLAUSIBLE_M3_S:g}: is the flow in l/s (divide by 1000)?")
+        # the power is judged against the flow in m^3/s: a flow in l/s alone must not blame the power too
+        flow_scale, flow_note = 1e-3, " with the flow divided by 1000"
     if all(k in columns for k in ("power_kw", "flow_m3_s", "head_m")):
         with np.errstate(divide="ignore", invalid="ignore"):
-            eta = columns["power_kw"] * 1e3 / (1000.0 * 9.81 * columns["flow_m3_s"] * columns["head_m"])
+            eta = columns["power_kw"] * 1e3 / (1000.0 * 9.81 * flow_scale * columns["flow_m3_s"] * columns["head_m"])
         median = float(np.nanmedian(eta)) if np.any(np.isfinite(eta)) else float("nan")
         if median > 2.0 or median < 0.02:
             guess = "W (divide by 1000)" if median > 2.0 else "MW (multiply by 1000)"
-            out.append(f"{path}: power_kw gives a median efficiency P / (rho g Q H) = {median:.4g}, not 0.3-0.95: "
-                       f"is the power in {guess}?")
+            out.append(f"{path}: power_kw gives a median efficiency P / (rho g Q H) = {median:.4g}{flow_note}, not "
+                       f"0.3-0.95: is the power in {guess}?")
     for name, values in columns.items():
         if name.endswith("_deg") and values.size > 1 and 0 < np.ptp(values) and np.max(np.abs(values)) < \
                 ANGLE_SPAN_MIN_DEG:

@@ -587,8 +587,31 @@ def test_model_test_tables_in_other_units_warn(tmp_path, column, factor, word):
     scaled = [lines[0]] + [",".join(repr(float(c) * factor) if i == j else c for i, c in enumerate(line.split(",")))
                            for line in lines[1:]]
     (table / "table.csv").write_text("\n".join(scaled) + "\n")
-    with pytest.warns(UserWarning, match=word):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         load_test_table(table)
+    # one column in another unit: one warning, naming that column (a flow in l/s once also blamed the power)
+    assert len(caught) == 1, [str(w.message) for w in caught]
+    assert column in str(caught[0].message) and word in str(caught[0].message)
+
+
+def test_a_table_with_flow_and_power_both_in_other_units_warns_of_both(tmp_path):
+    from hillchart.fccm.table import unit_warnings
+
+    flow = np.array([1.0, 1.2, 1.4])
+    head = np.array([15.0, 16.0, 17.0])
+    q11 = flow / (0.4 ** 2 * np.sqrt(head))
+    power_kw = 0.85 * 9.81 * flow * head  # efficiency 0.85
+    assert unit_warnings({"q11_m3_s": q11, "flow_m3_s": flow, "power_kw": power_kw, "head_m": head}, "t") == []
+    # the flow in l/s alone: the power is right against the flow in m^3/s
+    alone = unit_warnings({"q11_m3_s": 1e3 * q11, "flow_m3_s": 1e3 * flow, "power_kw": power_kw, "head_m": head},
+                          "t")
+    assert len(alone) == 1 and "flow in l/s" in alone[0]
+    # flow in l/s and power in W: both
+    both = unit_warnings({"q11_m3_s": 1e3 * q11, "flow_m3_s": 1e3 * flow, "power_kw": 1e3 * power_kw,
+                          "head_m": head}, "t")
+    assert len(both) == 2 and "flow in l/s" in both[0] and "power in W" in both[1], both
+    assert "efficiency P / (rho g Q H) = 850 with the flow divided by 1000" in both[1], both
 
 
 # ------------------------------------------------------------------------------ messages that help
