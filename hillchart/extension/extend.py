@@ -32,6 +32,7 @@ a thin-plate RBF was tried and was about 40 % worse.
 from __future__ import annotations
 
 import csv
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,7 +44,7 @@ from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from hillchart.characteristics import unit_torque_from_efficiency
 from hillchart.errors import InputError, NumericalError
-from hillchart.io.samples import ChartSamples, parse_cell
+from hillchart.io.samples import ChartSamples
 
 ORIGINS = ("measured", "runaway", "zero-opening", "zero-speed", "silent-region")
 #: Plot colour of each origin family (shared by every figure that shows the samples).
@@ -500,11 +501,17 @@ def read_extended_csv(path, *, opening_unit: str, opening_max: float) -> Extende
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: missing file")
-    from hillchart.io.tabular import csv_rows, read_text
+    from hillchart.io.tabular import csv_rows, decimal_commas, detect_delimiter, parse_number, read_text
 
-    rows = csv_rows(read_text(path, "extended-samples CSV"), path)
+    text = read_text(path, "extended-samples CSV")
+    # saved again by a spreadsheet: semicolon- or tab-separated, perhaps with decimal commas (hillchart.io.tabular)
+    delimiter = detect_delimiter(text.split("\n", 1)[0])
+    rows = csv_rows(text, path, delimiter=delimiter)
     if not rows or tuple(c.strip() for c in rows[0]) != CSV_COLUMNS:
         raise InputError(f"{path}: the header must be {','.join(CSV_COLUMNS)}, got {rows[0] if rows else 'nothing'}")
+    decimal_comma, note = decimal_commas(path, delimiter, (c for row in rows[1:] for c in row[2:]))
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=2)
     cols = {c: [] for c in CSV_COLUMNS}
     for line_no, row in enumerate(rows[1:], start=2):
         if len(row) != len(CSV_COLUMNS):
@@ -517,7 +524,7 @@ def read_extended_csv(path, *, opening_unit: str, opening_max: float) -> Extende
         cols["target"].append(t)
         cols["origin"].append(o)
         for name, cell in zip(CSV_COLUMNS[2:], row[2:]):
-            cols[name].append(parse_cell(path, line_no, name, cell))
+            cols[name].append(parse_number(path, line_no, name, cell, decimal_comma=decimal_comma))
     return ExtendedSamples(
         target=np.array(cols["target"]),
         origin=np.array(cols["origin"]),

@@ -11,7 +11,8 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.fccm.net import FCCMWeights
-from hillchart.fccm.table import TableInfo, TestTable, _parse_cell
+from hillchart.fccm.table import TableInfo, TestTable
+from hillchart.io.tabular import parse_number
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -364,5 +365,5 @@ def read_truth_csv(path) -> dict:
         if len(row) != len(header):
             raise InputError(f"{path}: row {line_no} has {len(row)} fields, the header has {len(header)}")
         for h, cell in zip(header, row):
-            data[h].append(_parse_cell(path, line_no, h, cell))
+            data[h].append(parse_number(path, line_no, h, cell))
     return {h: np.asarray(v) for h, v in data.items()}

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 import tomllib
 import warnings
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.io.tabular import decimal_commas, detect_delimiter, parse_number, read_text
 
 # ----------------------------------------------------------------------------------------------------------------
 # test-table folder
@@ -145,16 +147,6 @@ class TestTable:
         return np.column_stack([self.column(n) for n in names])
 
 
-def _parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
-    try:
-        value = float(cell)
-    except ValueError:
-        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r}") from None
-    if not math.isfinite(value):
-        raise InputError(f"{path}: row {line_no}, column {column!r}: value must be finite, got {cell!r}")
-    return value
-
-
 #: Plausible ranges of the quantities a model-test table gives in fixed units: unit flow Q11 (m^3/s, eq. (1) of
 #: paper 003), efficiency P / (rho g Q H) from the power column, angles (deg).
 Q11_PLAUSIBLE_M3_S = 10.0
@@ -223,15 +215,16 @@ def load_test_table(folder) -> TestTable:
     path = folder / TABLE_FILE
     if not path.is_file():
         raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
+    # a byte-order mark, and a spreadsheet's semicolon- or tab-separated export with decimal commas, are read as
+    # every hillsim CSV is (hillchart.io.tabular)
+    text = read_text(path, "test table")
+    lines = [(no, line) for no, line in enumerate(io.StringIO(text, newline=""), start=1)
+             if not line.lstrip().startswith("#")]
+    header_line = next((line for _, line in lines if line.strip()), "")
+    delimiter = detect_delimiter(header_line)
     try:
-        with path.open(newline="", encoding="utf-8-sig") as handle:  # a byte-order mark is accepted
-            lines = [(no, line) for no, line in enumerate(handle, start=1) if not line.lstrip().startswith("#")]
-    except UnicodeDecodeError as exc:
-        from hillchart.io.tabular import not_utf8_detail
-
-        raise InputError(f"{path}: not a UTF-8 text file {not_utf8_detail(exc)}") from None
-    try:
-        rows = [(no, row) for (no, _), row in zip(lines, csv.reader(line for _, line in lines))]
+        rows = [(no, row) for (no, _), row in zip(lines, csv.reader((line for _, line in lines),
+                                                                    delimiter=delimiter))]
     except csv.Error as exc:
         raise InputError(f"{path}: not a readable CSV table ({exc})") from None
     rows = [(no, row) for no, row in rows if row and any(cell.strip() for cell in row)]
@@ -255,10 +248,15 @@ def load_test_table(folder) -> TestTable:
             cells[name].append(cell.strip())
     if not line_numbers:
         raise InputError(f"{path}: no data rows below the header")
+    decimal_comma, note = decimal_commas(path, delimiter, (c for name in header if name in KNOWN_COLUMNS
+                                                           for c in cells[name]))
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=2)
     columns, text_columns = {}, []
     for name in header:
         if name in KNOWN_COLUMNS:
-            values = np.array([_parse_cell(path, no, name, c) for no, c in zip(line_numbers, cells[name])])
+            values = np.array([parse_number(path, no, name, c, decimal_comma=decimal_comma)
+                               for no, c in zip(line_numbers, cells[name])])
             _, ok, allowed = KNOWN_COLUMNS[name]
             bad = np.flatnonzero(~ok(values))
             if bad.size:
@@ -268,7 +266,7 @@ def load_test_table(folder) -> TestTable:
             columns[name] = values
         else:  # extra column: numeric if every cell is a finite number, else kept out as text
             try:
-                values = np.array([float(c) for c in cells[name]])
+                values = np.array([float(c.replace(",", ".") if decimal_comma else c) for c in cells[name]])
             except ValueError:
                 text_columns.append(name)
                 continue

@@ -156,17 +156,6 @@ def read_chart_info(path) -> ChartInfo:
     return ChartInfo(**data)
 
 
-def parse_cell(path: Path, line_no: int, column: str, cell: str) -> float:
-    """One finite number from a CSV cell; the error names file, row (line number) and column."""
-    try:
-        value = float(cell)
-    except ValueError:
-        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r}") from None
-    if not np.isfinite(value):
-        raise InputError(f"{path}: row {line_no}, column {column!r}: value must be finite, got {cell!r}")
-    return value
-
-
 def _read_csv(path: Path, columns: tuple[str, ...]) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Read a numeric CSV with exactly ``columns`` (any order); errors name file, row (line number) and column.
     Returns the columns and the line number of every data row. A byte-order mark, semicolon/tab delimiters and

@@ -94,6 +94,22 @@ def detect_delimiter(header_line: str) -> str:
     return best if counts[best] else ","
 
 
+def decimal_commas(path, delimiter: str, cells) -> tuple[bool, str | None]:
+    """Whether the numeric ``cells`` of a ``delimiter``-separated file write their decimals with a comma (only a
+    semicolon- or tab-separated file may), and how the file was read, for a warning (None for a plain CSV). A cell
+    that holds both a comma and a point is an InputError: the separator cannot be told."""
+    if delimiter == ",":
+        return False, None
+    cells = list(cells)
+    has_comma = any("," in c for c in cells)
+    mixed = next((c for c in cells if "," in c and "." in c), None)
+    if has_comma and mixed is not None:
+        raise InputError(f"{path}: {DELIMITER_NAMES[delimiter]}-separated, but the cell {mixed!r} holds both a "
+                         "comma and a point: save the file as CSV with a point as the decimal separator")
+    return has_comma, (f"{path}: {DELIMITER_NAMES[delimiter]}-separated" + (" with decimal commas" if has_comma
+                                                                            else "") + "; read as such")
+
+
 def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: bool = False) -> float:
     """One finite number from a cell; the error names file, line and column and shows the cell as written."""
     text = cell.strip()
@@ -157,18 +173,8 @@ def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example:
         raise InputError(f"{path}: repeated column in header {header}")
     body = [(line_no, row) for line_no, row in enumerate(rows[first + 1:], start=first + 2)
             if row and any(cell.strip() for cell in row)]
-    decimal_comma = False
-    note = None
-    if delimiter != ",":
-        cells = [row[header.index(c)] for _, row in body for c in columns if header.index(c) < len(row)]
-        has_comma = any("," in c for c in cells)
-        mixed = next((c for c in cells if "," in c and "." in c), None)
-        if has_comma and mixed is not None:
-            raise InputError(f"{path}: {DELIMITER_NAMES[delimiter]}-separated, but the cell {mixed!r} holds both a "
-                             "comma and a point: save the file as CSV with a point as the decimal separator")
-        decimal_comma = has_comma
-        note = (f"{path}: {DELIMITER_NAMES[delimiter]}-separated" + (" with decimal commas" if decimal_comma else "")
-                + "; read as such")
+    decimal_comma, note = decimal_commas(path, delimiter, (row[header.index(c)] for _, row in body for c in columns
+                                                          if header.index(c) < len(row)))
     data = {c: [] for c in columns}
     index = [(c, header.index(c)) for c in columns]
     lines = []

@@ -148,6 +148,18 @@ def test_csv_round_trip(tmp_path):
         np.testing.assert_array_equal(getattr(back, name), getattr(EXTENDED, name))  # repr floats: exact
 
 
+def test_csv_saved_again_by_a_spreadsheet_reads_back(tmp_path):
+    path = EXTENDED.to_csv(tmp_path / "ext.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0].replace(",", ";")] + [";".join(c.replace(".", ",") for c in line.split(","))
+                                                                for line in lines[1:]]) + "\n")
+    assert ";" in path.read_text() and "." not in path.read_text().split("\n", 1)[1]
+    with pytest.warns(UserWarning, match="semicolon-separated with decimal commas"):
+        back = read_extended_csv(path, opening_unit="mm", opening_max=32.0)
+    for name in ("target", "origin", "n11", "opening", "value"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(EXTENDED, name))  # the same digits: exact
+
+
 @pytest.mark.parametrize(
     "line,message",
     [

@@ -15,6 +15,7 @@ CSV = ("blade_angle_deg,guide_vane_deg,efficiency,head_m,power_kw,flow_m3_s,comm
 
 
 def folder(tmp_path, csv_text=CSV, toml_text=TOML):
+    tmp_path.mkdir(parents=True, exist_ok=True)
     (tmp_path / "table.csv").write_text(csv_text, encoding="utf-8")
     (tmp_path / "table.toml").write_text(toml_text, encoding="utf-8")
     return tmp_path
@@ -115,3 +116,38 @@ def test_speed_twice_and_missing_files(tmp_path):
     (tmp_path / "t4" / "table.toml").write_text('name = "x"\ncontrols = ["guide_vane_deg"]\n')
     with pytest.raises(InputError, match="not a UTF-8 text file"):
         load_test_table(tmp_path / "t4")
+
+
+def _spreadsheet_export(csv_text: str, delimiter: str, decimal_comma: bool) -> str:
+    """``csv_text`` as a spreadsheet in a decimal-comma locale saves it: another delimiter, commas for points."""
+    lines = []
+    for line in csv_text.splitlines():
+        if line.startswith("#"):
+            lines.append(line)
+            continue
+        cells = line.split(",")
+        lines.append(delimiter.join(c.replace(".", ",") if decimal_comma else c for c in cells))
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("delimiter, decimal_comma, note", [(";", True, "semicolon-separated with decimal commas"),
+                                                            ("\t", False, "tab-separated; read as such")])
+def test_a_spreadsheets_export_reads_as_the_csv(tmp_path, delimiter, decimal_comma, note):
+    plain = load_test_table(folder(tmp_path / "plain"))
+    exported = _spreadsheet_export(CSV, delimiter, decimal_comma)
+    assert ("0,80" in exported) == decimal_comma
+    with pytest.warns(UserWarning, match=note):
+        table = load_test_table(folder(tmp_path / "export", "\ufeff" + exported))
+    assert table.columns.keys() == plain.columns.keys() and table.text_columns == ("comment",)
+    for name, values in plain.columns.items():
+        assert np.array_equal(table.columns[name], values), name  # the same decimal strings: the same floats
+
+
+def test_a_cell_with_a_comma_and_a_point_is_refused_in_a_semicolon_table(tmp_path):
+    exported = _spreadsheet_export(CSV, ";", True).replace("0,80", "1.000,80")
+    with pytest.raises(InputError, match=r"table.csv: semicolon-separated, but the cell '1.000,80' holds both a "
+                                         r"comma and a point"):
+        load_test_table(folder(tmp_path, exported))
+    # a comma-separated table stays what it was: a semicolon inside a cell is no delimiter
+    with pytest.raises(InputError, match=r"row 2, column 'efficiency': not a number: '0;8'"):
+        load_test_table(folder(tmp_path, CSV.replace("0.80", "0;8")))
