@@ -1038,24 +1038,32 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
         Unknown or missing key, out-of-range value, unreadable file.
     """
     path = Path(path)
+    raw, _ = read_plant_toml(path)
+    if overrides:
+        apply_overrides(raw, overrides)
+    return plant_from_dict(raw, base_dir=path.resolve().parent)
+
+
+def read_plant_toml(path: Path) -> tuple[dict, bytes]:
+    """The TOML document of a plant file and the file's bytes; a UTF-8 byte-order mark (a Windows editor's) is
+    accepted. Every InputError names the file: unreadable, not UTF-8, not TOML, nested beyond reason."""
     try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is accepted
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
+    try:
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         from hillchart.io.tabular import not_utf8_detail
 
         raise InputError(f"plant file {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
-    except OSError as exc:
-        raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
     try:
-        raw = tomllib.loads(text)
+        return tomllib.loads(text), data
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
     except RecursionError:
         raise InputError(f"plant file {str(path)!r} is not a plant file: arrays or tables nested thousands of "
                          "levels deep") from None
-    if overrides:
-        apply_overrides(raw, overrides)
-    return plant_from_dict(raw, base_dir=path.resolve().parent)
 
 
 def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):

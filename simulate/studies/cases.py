@@ -24,14 +24,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 from hillchart.errors import InputError
 from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
-from simulate.config import PlantConfig, apply_overrides, plant_from_dict, to_dict
+from simulate.config import PlantConfig, apply_overrides, plant_from_dict, read_plant_toml, to_dict
 
 STUDY_SECTIONS = ("limits", "load_cases")
 
@@ -176,22 +175,7 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
         load case (the message names the key and the value).
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-        text = data.decode("utf-8")
-    except OSError as exc:
-        raise InputError(f"cannot read plant file {str(path)!r}: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        from hillchart.io.tabular import not_utf8_detail
-
-        raise InputError(f"plant file {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"plant file {str(path)!r} is not valid TOML: {exc}") from None
-    except RecursionError:
-        raise InputError(f"plant file {str(path)!r} is not a plant file: arrays or tables nested thousands of "
-                         "levels deep") from None
+    raw, data = read_plant_toml(path)
     study_raw = {k: raw.pop(k) for k in STUDY_SECTIONS if k in raw}
     if overrides:
         apply_overrides(raw, overrides)

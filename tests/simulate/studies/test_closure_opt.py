@@ -1,5 +1,6 @@
 """Closure-law optimization, [limits]/[[load_cases]] parsing, ensemble nets, hillsim optimize-closure."""
 
+import hashlib
 import json
 import tomllib
 
@@ -193,6 +194,24 @@ def test_bad_study_files(tmp_path):
     bad.write_text("[turbine\n")
     with pytest.raises(InputError, match="is not valid TOML"):
         load_study(bad)
+
+
+def test_a_study_file_saved_with_a_byte_order_mark_reads_as_hillsim_run_reads_it(tmp_path):
+    """A Windows editor's UTF-8 byte-order mark: the study (limits, load cases) reads as without it, as the plant
+    file of hillsim run does (it was 'not valid TOML' here at line 1, column 1)."""
+    plain = load_study(PLANT_HLA339_GUARANTEE)
+    marked = tmp_path / "guarantee.toml"
+    text = PLANT_HLA339_GUARANTEE.read_text(encoding="utf-8").replace(
+        '"francis/nets.json"', json.dumps(str(PLANT_HLA339_GUARANTEE.parent / "francis" / "nets.json")))
+    marked.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    study = load_study(marked)
+    assert study.limits == plain.limits and study.load_cases == plain.load_cases
+    assert study.plant.turbine.rated_power_mw == plain.plant.turbine.rated_power_mw
+    assert study.sha256 == hashlib.sha256(marked.read_bytes()).hexdigest()  # the file as it is, mark included
+    # a mark in the middle of the file is no mark: still an error naming the file
+    marked.write_bytes(text.encode("utf-8") + b"\xef\xbb\xbf")
+    with pytest.raises(InputError, match="guarantee.toml' is not valid TOML"):
+        load_study(marked)
 
 
 def test_limits_verdicts():
