@@ -863,6 +863,11 @@ def _units(raw_units: Any, raw: dict[str, Any]) -> tuple[UnitConfig, ...]:
     return tuple(out)
 
 
+#: Sections of a guarantee study's plant file (:mod:`simulate.studies.cases`), named in the message of a command
+#: that reads plain plant files.
+STUDY_SECTION_NAMES = ("limits", "load_cases")
+
+
 def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> PlantConfig:
     """Build a :class:`PlantConfig` from the parsed TOML dictionary (strict keys).
 
@@ -892,7 +897,10 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         raise InputError(f"plant file must be a table of sections, got {raw!r}")
     unknown = sorted(set(raw) - set(_SECTIONS))
     if unknown:
-        raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}")
+        study = ("; [limits] and [[load_cases]] make a guarantee study, read by hillsim report and hillsim "
+                 "optimize-closure: run one load case with hillsim run on a copy without them, or use "
+                 "hillsim report" if unknown[0] in STUDY_SECTION_NAMES else "")
+        raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}{study}")
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:
             raise InputError(f"missing section [{name}]; a plant file needs turbine, penstock, generator, governor, "

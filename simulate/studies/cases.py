@@ -30,9 +30,10 @@ from typing import Any
 
 from hillchart.errors import InputError
 from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
-from simulate.config import PlantConfig, apply_overrides, plant_from_dict, read_plant_toml, to_dict
+from simulate.config import (STUDY_SECTION_NAMES, PlantConfig, apply_overrides, plant_from_dict,
+                             read_plant_toml, to_dict)
 
-STUDY_SECTIONS = ("limits", "load_cases")
+STUDY_SECTIONS = STUDY_SECTION_NAMES
 
 
 def _limit(key: str, value: Any, low: float, high: float) -> float | None:

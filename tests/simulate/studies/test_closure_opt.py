@@ -214,6 +214,18 @@ def test_a_study_file_saved_with_a_byte_order_mark_reads_as_hillsim_run_reads_it
         load_study(marked)
 
 
+def test_hillsim_run_on_a_study_file_says_which_commands_read_it(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", str(PLANT_HLA339_GUARANTEE), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown section [limits]" in err and "read by hillsim report and hillsim optimize-closure" in err
+    assert not out.exists()
+    # another unknown section: no word of studies
+    with pytest.raises(InputError) as info:
+        load_plant(_study_with(tmp_path, "[nonsense]\nx = 1\n"))
+    assert "unknown section [nonsense]" in str(info.value) and "optimize-closure" not in str(info.value)
+
+
 def test_limits_verdicts():
     limits = Limits(max_speed_rise=0.5, max_head_m=200.0, min_pressure_head_m=5.0)
     case = CaseResult(index=0, values={}, status="ok", max_speed_rise=0.45, max_head_m=210.0)
