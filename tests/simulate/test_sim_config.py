@@ -104,7 +104,10 @@ def test_missing_section_and_unknown_section(raw):
     ("governor", "opening_time_s", -5.0, r"\(0\.0"),
     ("governor", "stroke_max", 2.0, r"\(0\.0, 1\.5\]"),
     ("scenario", "t_end_s", -1.0, r"\(0\.0, 100000\.0\]"),
-    ("scenario", "event_time_s", 100.0, r"\[0\.0, 60\.0\)"),
+    ("scenario", "event_time_s", 100.0, r"is not before scenario\.t_end_s = 60\.0 s: the run would end before its "
+                                        r"event; set scenario\.t_end_s beyond the event \(e\.g\. 200\)"),
+    ("scenario", "event_time_s", 60.0, r"is not before scenario\.t_end_s = 60\.0 s"),
+    ("scenario", "event_time_s", -1.0, r"\[0\.0, inf\)"),
     ("scenario", "initial_power_mw", -5.0, r"\[0\.0, 3000\.0\]"),
     ("solver", "dt_s", 0.0, r"\(0\.0, 10\.0\]"),
     ("solver", "tolerance", 0.5, r"\(0\.0, 0\.01\]"),
