@@ -329,6 +329,12 @@ def point_warnings(characteristics, n11: float, opening: float, *, chart_dir=Non
             if kind == "training_range":
                 text += (f" (N11 {domain.n11_range[0]:.4g}-{domain.n11_range[1]:.4g} r/min, opening "
                          f"{domain.opening_range[0]:.4g}-{domain.opening_range[1]:.4g}): the coefficients are an "
-                         f"extrapolation")
+                         f"extrapolation; choose a point in that range, or extend the chart and retrain")
+            elif kind == "digitized_region":
+                text += (": the nets there follow the extension (runaway, zero opening, zero speed), not a digitized "
+                         "line; digitize the chart up to this point to rest the coefficients on data")
+            elif kind == "full_stroke":
+                text += (f" ({opening_max:g}): no chart line is above full stroke; check --opening against "
+                         f"turbine.opening_max")
             out.append(text)
     return out

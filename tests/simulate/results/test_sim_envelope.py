@@ -187,6 +187,13 @@ def test_point_warnings_for_linearize(nets):
     assert point_warnings(nets, 67.8, 23.46, opening_max=32.0) == []
     warns = point_warnings(nets, 200.0, 50.0, opening_max=32.0)
     assert any("training range" in w for w in warns) and any("full guide-vane stroke" in w for w in warns)
+    # each says what to do about it
+    assert any(w.endswith("choose a point in that range, or extend the chart and retrain") for w in warns), warns
+    assert any(w.endswith("no chart line is above full stroke; check --opening against turbine.opening_max")
+               for w in warns), warns
+    region = point_warnings(nets, 100.0, 2.0, chart_dir=Path(PLANT_HLA339).parent / "francis", opening_max=32.0)
+    assert len(region) == 1 and "outside the digitized region" in region[0]
+    assert region[0].endswith("digitize the chart up to this point to rest the coefficients on data")
     domain = trusted_domain(nets, chart_dir=Path(PLANT_HLA339).parent / "francis")
     assert domain.hull is not None and len(domain.hull) >= 3
     assert domain.masks(67.8, 23.46, 0.7)["digitized_region"] == False  # noqa: E712  (numpy bool)
