@@ -312,7 +312,13 @@ def extrapolation_warnings(record: dict) -> list[str]:
                 f"{entry['stroke_max']:.4g})")
         if kind == "training_range":
             text += (f"; trained on N11 {record['training_n11_range'][0]:.4g}-{record['training_n11_range'][1]:.4g}, "
-                     f"opening {record['training_opening_range'][0]:.4g}-{record['training_opening_range'][1]:.4g}")
+                     f"opening {record['training_opening_range'][0]:.4g}-{record['training_opening_range'][1]:.4g}: "
+                     f"the nets extrapolate there; extend the chart that far (hillsim extend) and retrain")
+        elif kind == "digitized_region":
+            text += ("; there the figures rest on the chart's extension, not on digitized lines: summary.json "
+                     "(extrapolation.figures) gives each figure's share of it, and --uncertainty its band")
+        else:
+            text += ": no chart line is above full stroke; set governor.stroke_max = 1 unless the chart goes beyond"
         lines.append(text)
     return lines
 

@@ -69,3 +69,25 @@ def test_a_nan_makes_the_extremes_nan_as_numpy_does(trajectory):
     # the failing case beside it: without the NaN the extremes are numbers
     clean = extrapolation_record(domain, time_s, np.nan_to_num(n11, nan=70.0), opening, stroke)
     assert np.isfinite(clean["training_range"]["n11_min"])
+
+
+def test_each_warning_says_what_to_do():
+    from simulate.loop.domain import extrapolation_warnings
+
+    hull = np.array([[60.0, 10.0], [90.0, 10.0], [90.0, 30.0], [60.0, 30.0]])
+    domain = TrustedDomain((40.0, 100.0), (0.0, 32.0), hull, "flow.csv")
+    time_s = np.linspace(0.0, 10.0, 11)
+    n11 = np.linspace(70.0, 110.0, 11)  # leaves the hull at 90, the training range at 100
+    opening = np.full(11, 20.0)
+    stroke = np.linspace(0.9, 1.1, 11)  # beyond full stroke from t = 6 s
+    lines = extrapolation_warnings(extrapolation_record(domain, time_s, n11, opening, stroke))
+    assert [line.split(" for ")[0] for line in lines] == ["outside the nets' training range",
+                                                          "outside the digitized region of the chart",
+                                                          "beyond full guide-vane stroke"]
+    assert lines[0].endswith("the nets extrapolate there; extend the chart that far (hillsim extend) and retrain")
+    assert lines[1].endswith("summary.json (extrapolation.figures) gives each figure's share of it, and "
+                             "--uncertainty its band")
+    assert lines[2].endswith("set governor.stroke_max = 1 unless the chart goes beyond")
+    # inside everywhere: nothing to say
+    assert extrapolation_warnings(extrapolation_record(domain, time_s, np.full(11, 70.0), opening,
+                                                       np.full(11, 0.5))) == []
