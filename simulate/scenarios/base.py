@@ -3,6 +3,8 @@ kind), the schedules the time loop follows, and their common start."""
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, fields, replace
 from typing import ClassVar
 
@@ -100,11 +102,13 @@ class ScenarioConfig:
                                  f"got {self.units!r}")
             if len(set(self.units)) != len(self.units):
                 raise InputError(f"scenario.units names a unit twice: {list(self.units)!r}")
-        event = check_number("scenario.event_time_s", self.event_time_s, low=0.0)
-        if event >= self.t_end_s:  # the bound is the other key: say so
-            raise InputError(f"scenario.event_time_s = {event!r} s is not before scenario.t_end_s = "
+        event = self.event_time_s
+        if (isinstance(event, (int, float)) and not isinstance(event, bool) and math.isfinite(event)
+                and event >= self.t_end_s):  # the bound is the other key: say so
+            raise InputError(f"scenario.event_time_s = {float(event)!r} s is not before scenario.t_end_s = "
                              f"{float(self.t_end_s)!r} s: the run would end before its event; set scenario.t_end_s "
                              f"beyond the event (e.g. {event + max(10.0, event):g}) or an earlier event_time_s")
+        check_number("scenario.event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
         if "initial_power_mw" in allowed:
             if (self.initial_power_mw is None) == (self.initial_opening is None):
                 raise InputError(f"scenario kind {self.kind!r} needs exactly one of scenario.initial_power_mw or "

@@ -107,7 +107,7 @@ def test_missing_section_and_unknown_section(raw):
     ("scenario", "event_time_s", 100.0, r"is not before scenario\.t_end_s = 60\.0 s: the run would end before its "
                                         r"event; set scenario\.t_end_s beyond the event \(e\.g\. 200\)"),
     ("scenario", "event_time_s", 60.0, r"is not before scenario\.t_end_s = 60\.0 s"),
-    ("scenario", "event_time_s", -1.0, r"\[0\.0, inf\)"),
+    ("scenario", "event_time_s", -1.0, r"\[0\.0, 60\.0\)"),
     ("scenario", "initial_power_mw", -5.0, r"\[0\.0, 3000\.0\]"),
     ("solver", "dt_s", 0.0, r"\(0\.0, 10\.0\]"),
     ("solver", "tolerance", 0.5, r"\(0\.0, 0\.01\]"),
