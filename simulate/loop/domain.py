@@ -296,6 +296,36 @@ def extrapolation_record(domain: TrustedDomain, time_s, n11, opening, stroke, *,
     return record
 
 
+def units_record(records: dict, figure_units: dict, lead: str) -> dict:
+    """The plant-level extrapolation record of a plant with several units (``records``: each unit's
+    :func:`extrapolation_record` by name), for the plant-level figures, which are the worst over the units: per kind
+    the entry of the unit that spent the longest time outside (the first in ``records``' order on a tie), naming it
+    under ``unit``; per figure the shares of the unit that gives it (``figure_units``: figure -> unit, e.g.
+    ``max_head_rise`` -> ``"U2"``); the kinds checked, the training ranges and the ``intervals_s`` shaded on the
+    plant-level plot (whose series are the ``lead`` unit's) from ``lead``.
+
+    Examples
+    --------
+    >>> a = {"checked": ["full_stroke"], "full_stroke": {"fraction_of_time": 0.0}, "intervals_s": [],
+    ...      "figures": {"max_head_rise": {"time_s": 9.0, "full_stroke": 0.0}}}
+    >>> b = {"checked": ["full_stroke"], "full_stroke": {"fraction_of_time": 0.2, "first_time_s": 3.0},
+    ...      "intervals_s": [[3.0, 5.0]], "figures": {"max_head_rise": {"time_s": 7.0, "full_stroke": 0.5}}}
+    >>> r = units_record({"U1": a, "U2": b}, {"max_head_rise": "U2"}, "U1")
+    >>> r["full_stroke"], r["figures"]["max_head_rise"]["full_stroke"], r["intervals_s"]
+    ({'fraction_of_time': 0.2, 'first_time_s': 3.0, 'unit': 'U2'}, 0.5, [])
+    """
+    out = dict(records[lead])
+    for kind in KINDS:
+        entries = {name: record[kind] for name, record in records.items() if isinstance(record.get(kind), dict)}
+        if entries:
+            worst = max(entries, key=lambda name: entries[name].get("fraction_of_time", 0.0))
+            out[kind] = {**entries[worst], "unit": worst}
+    if isinstance(out.get("figures"), dict):
+        out["figures"] = {figure: dict(records.get(figure_units.get(figure, lead), out)["figures"].get(figure, shares))
+                          for figure, shares in out["figures"].items()}
+    return out
+
+
 def extrapolation_warnings(record: dict) -> list[str]:
     """One line per kind the trajectory entered."""
     from hillchart.io.tidy import tidy_float

@@ -16,7 +16,7 @@ from simulate.components.turbine.boundary import STATUS_TEXT, turbine_parameters
 from simulate.config import PlantConfig, load_characteristics
 from simulate.loop.manifold import MANIFOLD_SERIES, UNIT_SERIES
 from simulate.loop.steady import ManifoldSteadyState, manifold_steady_state
-from simulate.results.result import SimulationResult
+from simulate.results.result import SimulationResult, unit_figures, worst_over_units
 from simulate.scenarios import GOVERNOR, build_schedules, initial_target, steady_schedules
 
 
@@ -81,7 +81,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, compile_characteristics, \
         upstream_section
     from simulate.loop import guards
-    from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain
+    from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain, units_record
     from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice, run_in_chunks, step_count
     from simulate.loop.manifold import assemble_units
     from simulate.loop.timestep import plan_step
@@ -256,7 +256,13 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
         meta.update(parts["control"].hooks.summary)
         meta.update(parts["shaft"].hooks.summary)
     warnings += upstream.hooks.warnings_for(signals)
-    meta["extrapolation"] = units[lead]["extrapolation"]
+    # the plant-level figures are the worst over the units (SimulationResult.summary): so is their record
+    worst = worst_over_units({u.name: unit_figures(time_s, units[u.name], u.turbine.rated_speed_rpm)
+                              for u in plant.units})
+    meta["extrapolation"] = units_record({name: series["extrapolation"] for name, series in units.items()},
+                                         {figure: worst[f"{figure}_unit"] for figure in ("max_speed_rise",
+                                                                                         "max_head_rise")
+                                          if f"{figure}_unit" in worst}, lead)
     meta["warnings"] = warnings
     lead_series = units[lead]
     return SimulationResult(

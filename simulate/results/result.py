@@ -188,6 +188,7 @@ class SimulationResult:
         out.update(self.meta)
         if self.units:
             out["units"] = {name: unit_figures(self.time_s, series, self.rated_speed_rpm)
+                            | ({"extrapolation": series["extrapolation"]} if "extrapolation" in series else {})
                             for name, series in self.units.items()}
             out.update(worst_over_units(out["units"]))
         if self.envelope_max_m is not None:

@@ -263,9 +263,13 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
                      keep_series: bool = False) -> CaseResult:
     """The :class:`CaseResult` of one finished run (``result`` a :class:`simulate.results.result.SimulationResult`)."""
     summary = result.summary()
-    speed, head = result.speed_rpm, result.head_m
-    n11 = speed * plant.turbine.runner_diameter_m / np.sqrt(np.maximum(head, 1e-12))
-    opening_chart = result.opening_chart
+    # N11 and opening over every unit of the plant (its plant-level figures are the worst over the units)
+    turbines = {unit.name: unit.turbine for unit in plant.units}
+    units = [(series["speed_rpm"], series["head_m"], series["opening_chart"], turbines[name].runner_diameter_m)
+             for name, series in result.units.items()] if result.units else \
+        [(result.speed_rpm, result.head_m, result.opening_chart, plant.turbine.runner_diameter_m)]
+    n11 = np.concatenate([speed * d / np.sqrt(np.maximum(head, 1e-12)) for speed, head, _, d in units])
+    opening_chart = np.concatenate([opening for _, _, opening, _ in units])
     beyond = None
     if domain is not None:
         low, high = domain
@@ -282,7 +286,7 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
         max_speed_rise=summary["max_speed_rise"], max_speed_rpm=summary["max_speed_rpm"],
         t_max_speed_s=summary["t_max_speed_s"], max_head_m=summary["max_head_m"],
         max_head_rise=summary["max_head_rise"], t_max_head_s=summary["t_max_head_s"],
-        min_head_m=float(head.min()), min_head_drop=summary["min_head_drop"],
+        min_head_m=summary["min_head_m"], min_head_drop=summary["min_head_drop"],
         initial_opening=summary["initial_opening"], initial_power_mw=summary["initial_power_mw"],
         max_unit_speed_rpm=float(n11.max()), min_unit_speed_rpm=float(n11.min()),
         max_opening_chart=float(opening_chart.max()), beyond_nets_range=beyond,
