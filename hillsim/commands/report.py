@@ -281,7 +281,7 @@ def build_report(args) -> tuple[dict, Path]:
     import hillsim
     from simulate.studies.batch import case_from_result, nets_domain, variant_overrides
     from simulate.config import load_characteristics, parse_override
-    from simulate.loop.engine import run_simulation
+    from simulate.loop.engine import plant_characteristics, run_simulation
     from simulate.studies.cases import load_study
     from simulate.studies.uncertainty import BAND_INFLATION, run_ensemble
 
@@ -366,7 +366,8 @@ def build_report(args) -> tuple[dict, Path]:
         for kind, fraction in (doc["extrapolation"] or {}).items():
             warnings.append(f"{lc.name}: extrapolation ({kind}) during {100 * fraction:.1f} % of the run "
                             f"(simulator record)")
-    plot_hill_chart_with_runs(chars, plant, runs, out / "hillchart.png")
+    # the chart as the plant sees it: a double-regulated unit's on its cam, over (N11, guide-vane opening)
+    plot_hill_chart_with_runs(plant_characteristics(plant, chars), plant, runs, out / "hillchart.png")
     if envelopes:
         plot_envelope(envelopes, out / "envelope.png")
     verdict_list = [v["verdict"] for c in cases for v in c["verdicts"]]

@@ -201,3 +201,21 @@ def test_a_stepped_up_plant_reports_its_step_up(tmp_path):
     assert record == summary["step_up"] and record["method"] == "iec60193"
     assert 1.01 < record["torque_factor"] < 1.05  # a 0.35 m model against the 4.5 m unit: about 2 points
     assert "torque_factor" in (out / "report.html").read_text()
+
+
+def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
+    """The report's hill chart of a bulb unit is its chart on the cam, over (N11, guide-vane opening) (the chart of
+    the three-input nets alone has no such plane: the report stopped with a TypeError)."""
+    from data_synthetic import PLANT_BULB
+    from simulate.config import load_characteristics, load_plant
+    from simulate.loop.engine import plant_characteristics
+
+    out = tmp_path / "rep"
+    assert main(["report", str(PLANT_BULB), "--out", str(out), "--set", "scenario.t_end_s=4"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    assert (out / "hillchart.png").stat().st_size > 10_000 and doc["cases"][0]["status"] == "ok"
+    plant = load_plant(PLANT_BULB)
+    view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
+    assert view.opening_unit == "deg above the closed vane"
+    with pytest.raises(TypeError):  # what the chart was drawn from before: the nets need the blade angle too
+        view.inner.q11(np.array([150.0]), np.array([45.0]))

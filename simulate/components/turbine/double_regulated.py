@@ -276,6 +276,8 @@ class DoubleRegulatedTurbine:
         self.speed_rpm, self.runner_diameter_m = float(speed_rpm), float(runner_diameter_m)
         self._kernel = _inner_kernel(inner)
         self.cam_warning = None  # set by the plant's view when the nets' cam and their fitted model's disagree
+        #: the plant's opening: the guide-vane angle above its closed position (hill charts and reports label it)
+        self.opening_unit = "deg above the closed vane"
         # the nets' fitted box in the plant's units, for the trusted domain (simulate.loop.domain reads
         # flow/torque.x_min, x_max: N11 and the opening); the blade angle's range: blade_range_deg
         # (nets trained down to the closed vane, within 1e-3 deg, count as trained there); the nets were fitted on a
