@@ -28,17 +28,21 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
     ----------
     plant : simulate.config.PlantConfig
     characteristics : Characteristics
-        The nets (or any characteristics) the simulator uses.
+        The nets (or any characteristics) the simulator uses; three-input ones are read on the plant's cam.
     steady : simulate.loop.steady.SteadyState
         Verified initial state of the run.
     penstock_model : str, optional
         ``"rigid"`` gives the inelastic model (eqs. 10-12); anything else the lumped elastic model (eqs. 24-30) with
         Te = sum L/a and the plant's lumped_alpha. Default: the plant's own model.
     """
+    from simulate.loop.engine import plant_characteristics
+
     turbine, pen, gen = plant.turbine, plant.penstock, plant.generator
     model = penstock_model or pen.model
     n11 = steady.speed_rpm * turbine.runner_diameter_m / math.sqrt(steady.head_m)  # N11 = n D1 / sqrt(H)
-    coeffs = six_coefficients(characteristics, n11=n11, opening=steady.opening_chart)
+    # as the plant sees them: a double-regulated unit's on its cam (the blades follow the vanes), over the plant's
+    # opening, so the coefficients are those of the unit its governor moves
+    coeffs = six_coefficients(plant_characteristics(plant, characteristics), n11=n11, opening=steady.opening_chart)
     torque_ratio = turbine.rated_torque_nm / steady.torque_nm  # M_r / M0
     linear = LinearPlant.from_coefficients(
         coeffs,

@@ -301,12 +301,13 @@ class ArmaSkipped:
 @dataclass(frozen=True)
 class AcceptanceCheck:
     """One acceptance check of the identification: ``value`` against ``bound``; ``passed`` None = reported, not
-    judged."""
+    judged, and ``reason`` says why."""
 
     name: str
     value: float
     bound: float
     passed: bool | None
+    reason: str = ""
 
 
 @dataclass(frozen=True)

@@ -104,8 +104,7 @@ def markdown_tables(summary: IdentificationSummary) -> str:
         lines.append("| acceptance check | result |")
         lines.append("|---|---|")
         for check in summary.acceptance.checks():
-            lines.append(f"| {check.name} | "
-                         f"{_fmt(check.passed, none='reported only (penstock model is not the linear one)')} |")
+            lines.append(f"| {check.name} | {_fmt(check.passed, none=f'reported only ({check.reason})')} |")
         if summary.acceptance_note is not None:
             lines.append("")
             lines.append(f"Note: {summary.acceptance_note}.")
