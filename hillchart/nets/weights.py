@@ -224,7 +224,11 @@ class NetWeights:
             if name not in block:
                 raise InputError(f"{key}.{name} is missing (a NET needs keys {', '.join(required)})")
         if block["inputs"] != ["n11", "opening"]:
-            raise InputError(f'{key}.inputs must be ["n11", "opening"], got {block["inputs"]!r}')
+            three = block["inputs"] == ["n11", "opening", "blade_angle"]
+            raise InputError(f'{key}.inputs must be ["n11", "opening"], got {block["inputs"]!r}' + (
+                ": these are a double-regulated unit's three-input nets; a plant file reads them (with [combinator] "
+                "and [blade_servo]), hillsim report draws the unit's chart on its cam and hillsim linearize gives "
+                "their eight coefficients" if three else ""))
         if block["output"] != output:
             raise InputError(f"{key}.output must be {output!r}, got {block['output']!r}")
         obj = cls.__new__(cls)

@@ -90,3 +90,22 @@ def test_train_synthetic_chart_gives_no_efficiency_warning(tmp_path, capsys):
     chart = load_chart(FRANCIS_DIR)
     hull = convex_hull(np.column_stack((chart.flow_n11, chart.flow_opening)))
     np.testing.assert_array_equal(load_nets(tmp_path / "n.json").digitized_region, hull)  # the same points
+
+
+def test_chart_of_three_input_nets_says_where_they_are_read(tmp_path, capsys):
+    from data_synthetic import PLANT_BULB
+
+    out = tmp_path / "c.png"
+    assert main(["chart", str(PLANT_BULB.parent / "bulb" / "nets.json"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "flow.inputs must be" in err and "double-regulated unit's three-input nets" in err
+    assert "hillsim report draws the unit's chart on its cam" in err and not out.exists()
+    # two-input nets with other inputs: the plain message
+    import json
+
+    doc = json.loads((FRANCIS_DIR / "nets.json").read_text())
+    doc["flow"]["inputs"] = ["n11", "stroke"]
+    (tmp_path / "n.json").write_text(json.dumps(doc))
+    assert main(["chart", str(tmp_path / "n.json"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "flow.inputs must be" in err and "double-regulated" not in err
