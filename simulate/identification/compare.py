@@ -229,12 +229,12 @@ def coefficients_unjudged(plant) -> str | None:
 def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, reference: LinearPlant | None = None,
                     reference_coefficients=None, exact_coefficients=None, model_order: int | None = None,
                     arma_series: RelativeSeries | None = None, penstock_matches: bool = True,
-                    coefficients_unjudged: str | None = None) -> tuple[SeriesIdentification, IdentificationTraces]:
+                    unjudged_reason: str | None = None) -> tuple[SeriesIdentification, IdentificationTraces]:
     """Run every estimator on ``series`` and compare with the nets' linear plant when given.
 
     ``penstock_matches``: the data come from the penstock model the linear plant is (rigid, lumped), so the step
-    responses are judged; ``coefficients_unjudged``: why the plant behind the data is not the six coefficients'
-    (:func:`coefficients_unjudged`), so batch LS is reported against them, not judged.
+    responses are judged; ``unjudged_reason``: why the plant behind the data is not the six coefficients'
+    (:func:`coefficients_unjudged`), so batch LS and the step responses are reported against them, not judged.
 
     Returns the numbers (:class:`~simulate.identification.results.SeriesIdentification`) and the traces for the
     figures.
@@ -310,9 +310,9 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
         batch_error = six.max_abs_batch_ls_minus_nets if six.max_abs_batch_ls_minus_nets is not None else np.inf
         judged = {"batch_ls": AcceptanceCheck(name="batch_ls_within_0.02_of_nets", value=batch_error,
                                               bound=BATCH_LS_TOLERANCE,
-                                              passed=None if coefficients_unjudged else
+                                              passed=None if unjudged_reason else
                                               bool(batch_error <= BATCH_LS_TOLERANCE),
-                                              reason=coefficients_unjudged or "")}
+                                              reason=unjudged_reason or "")}
         for name in JUDGED_ESTIMATORS:
             estimate = getattr(arx, name)
             # the 5 % step bound applies when the data come from the penstock model the linear model is (rigid /
@@ -321,9 +321,9 @@ def identify_series(series: RelativeSeries, settings: ExperimentSettings, *, ref
                 name=f"{name}_step_response_within_5pct", value=estimate.step_error_vs_nets,
                 bound=STEP_RESPONSE_TOLERANCE,
                 passed=(bool(estimate.step_error_vs_nets <= STEP_RESPONSE_TOLERANCE)
-                        if penstock_matches and not coefficients_unjudged else None),
+                        if penstock_matches and not unjudged_reason else None),
                 reason=("penstock model is not the linear one" if not penstock_matches else
-                        coefficients_unjudged or ""))
+                        unjudged_reason or ""))
             sim = estimate.simulation_mode_final_theta
             relative = getattr(sim, "relative_error", np.inf)  # a diverged simulation mode fails
             judged[f"{name}_simulation_mode"] = AcceptanceCheck(
@@ -420,7 +420,7 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     found, traces = identify_series(run.series, settings, reference=linear, reference_coefficients=coeffs,
                                     exact_coefficients=exact_coeffs, arma_series=run.arma_series,
                                     penstock_matches=run_plant.penstock.model in ("rigid", "lumped"),
-                                    coefficients_unjudged=coefficients_unjudged(run_plant))
+                                    unjudged_reason=coefficients_unjudged(run_plant))
     simulated_step = sweep = None
     if settings.step_amplitude > 0:
         steps = traces.step_responses
@@ -471,7 +471,7 @@ def identify_measured(series: RelativeSeries, settings: ExperimentSettings, *, p
     found, traces = identify_series(series, settings, reference=reference, reference_coefficients=coeffs,
                                     exact_coefficients=exact_coeffs, arma_series=arma_series,
                                     penstock_matches=plant is not None and plant.penstock.model in ("rigid", "lumped"),
-                                    coefficients_unjudged=coefficients_unjudged(plant) if plant is not None else None)
+                                    unjudged_reason=coefficients_unjudged(plant) if plant is not None else None)
     summary = IdentificationSummary.build(
         found, source="measured", penstock_model=plant.penstock.model if plant is not None else None,
         operating_point=series.operating_point, experiment=settings)
