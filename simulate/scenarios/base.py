@@ -4,7 +4,6 @@ kind), the schedules the time loop follows, and their common start."""
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, fields, replace
 from typing import ClassVar
 
