@@ -10,7 +10,7 @@ Examples
 --------
 >>> check = AcceptanceCheck(name="batch_ls_within_0.02_of_nets", value=0.0039, bound=0.02, passed=True)
 >>> to_json_dict(check)
-{'name': 'batch_ls_within_0.02_of_nets', 'value': 0.0039, 'bound': 0.02, 'passed': True}
+{'name': 'batch_ls_within_0.02_of_nets', 'value': 0.0039, 'bound': 0.02, 'passed': True, 'reason': ''}
 """
 
 from __future__ import annotations
