@@ -308,7 +308,7 @@ def build_report(args) -> tuple[dict, Path]:
     chars = load_characteristics(plant.turbine, plant.base_dir)
     chars_path = None if plant.turbine.characteristics == "ideal" else \
         (plant.base_dir / plant.turbine.characteristics).resolve()
-    domain = nets_domain(chars)
+    domain = nets_domain(chars, plant)
     # the ensemble's band: each limit is judged on its conservative side (the chart leaves that much open)
     with_band = bool(getattr(chars, "members", None) and chars.members()) and study.limits is not None
     out.mkdir(parents=True, exist_ok=True)

@@ -249,9 +249,15 @@ def extrapolation_kinds(record) -> dict[str, float] | None:
     return out
 
 
-def nets_domain(characteristics) -> tuple[np.ndarray, np.ndarray] | None:
+def nets_domain(characteristics, plant: PlantConfig | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The (N11, opening) training box ``(x_min, x_max)`` of nets characteristics (intersection of the flow and
-    torque nets' mapminmax ranges), or None for characteristics without one (ideal turbine, user models)."""
+    torque nets' mapminmax ranges), or None for characteristics without one (ideal turbine, user models).
+    ``plant``: the box of the characteristics as that plant sees them, in the units of its runs' openings (a
+    double-regulated unit's: the guide-vane angle above the closed vane, the blade angle on the cam)."""
+    if plant is not None:
+        from simulate.loop.engine import plant_characteristics
+
+        characteristics = plant_characteristics(plant, characteristics)
     flow, torque = getattr(characteristics, "flow", None), getattr(characteristics, "torque", None)
     if flow is None or torque is None or not hasattr(flow, "x_min") or not hasattr(torque, "x_min"):
         return None
@@ -434,7 +440,7 @@ def _run_chunk_in_worker(chunk):
 
 def run_chunk(plant: PlantConfig, characteristics, chunk: Sequence[tuple[int, dict]], keep_series: bool = False):
     """Run a chunk ``[(index, variant), ...]`` serially (the unit of work of every parallel mechanism, Dask too)."""
-    domain = nets_domain(characteristics)
+    domain = nets_domain(characteristics, plant)
     return [run_case(plant, characteristics, i, v, domain=domain, keep_series=keep_series) for i, v in chunk]
 
 
@@ -520,7 +526,7 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise InputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
     chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    domain = nets_domain(chars)
+    domain = nets_domain(chars, plant)
     if mechanism == "auto":
         mechanism = "serial" if n < SERIAL_BELOW or workers == 1 else "processes"
     wall = time.perf_counter()
@@ -672,7 +678,7 @@ class BatchPool:
     def __init__(self, plant: PlantConfig, members: Sequence | None = None, *, workers: int | None = None):
         self.plant = plant
         self.members = list(members) if members else [load_characteristics(plant.turbine, plant.base_dir)]
-        self.domains = [nets_domain(m) for m in self.members]
+        self.domains = [nets_domain(m, plant) for m in self.members]
         self.workers = checked_workers(workers)
         self._pool = None
         if self.workers > 1:

@@ -309,3 +309,22 @@ def test_a_case_of_a_plant_with_several_units_reads_every_unit(tmp_path):
     assert figures["max_head_rise"] == units["U2"]["figures"]["max_head_rise"]
     assert figures["max_speed_rise"] == units["U1"]["figures"]["max_speed_rise"]
     assert figures["max_head_rise"] != units["U1"]["figures"]["max_head_rise"]
+
+
+def test_a_double_regulated_case_is_judged_in_its_plant_openings():
+    """The training box a bulb case is checked against is the nets' box as the plant sees it (the guide-vane angle
+    above the closed vane, as the case's openings are), not the three-input nets' own (absolute angles 35-78 deg,
+    against which every opening of the plant, 0-43 deg, looked outside)."""
+    from data_synthetic import PLANT_BULB
+
+    plant = load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0})
+    chars = load_characteristics(plant.turbine, plant.base_dir)
+    own, seen = nets_domain(chars), nets_domain(chars, plant)
+    assert own[0].size == 3 and own[0][1] == pytest.approx(35.0, abs=1e-5)  # the nets' vane angle: absolute
+    np.testing.assert_allclose([seen[0][1], seen[1][1]], [0.0, 43.0], atol=1e-5)
+    case = run_batch(plant, [{}], mechanism="serial").cases[0]
+    assert 0.0 <= case.max_opening_chart <= 43.0 and case.beyond_nets_range is False
+    # the simulator's own record agrees: nothing outside, so the case is not extrapolated
+    assert case.extrapolated is False
+    low, high = own
+    assert case.max_opening_chart < low[1]  # what the three-input box alone would have flagged
