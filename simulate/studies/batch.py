@@ -29,6 +29,7 @@ series; N11 and opening extremes from the series, checked against the training r
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import multiprocessing
 import signal
@@ -60,32 +61,36 @@ _EXCLUSIVE = {"scenario.initial_power_mw": "scenario.initial_opening",
               "scenario.initial_opening": "scenario.initial_power_mw"}
 _SECTION_CLASSES = {"turbine": TurbineConfig, "penstock": PenstockConfig, "generator": GeneratorConfig,
                     "governor": GovernorConfig, "scenario": ScenarioConfig, "solver": SolverConfig}
+#: Sections a plant file may have (a surge tank, a draft tube, a double-regulated unit's blades, the generator's
+#: voltage control and grid): their numeric keys vary like any other where the plant has the section.
+OPTIONAL_SECTIONS = ("surge_tank", "draft_tube", "blade_servo", "combinator", "excitation", "grid")
 #: Series kept per case with ``keep_series=True``.
 SERIES_NAMES = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "torque_nm")
 MECHANISMS = ("auto", "serial", "processes", "threads")
 
 
-def _numeric_keys() -> dict[str, tuple[str, ...]]:
-    out = {}
-    for section, cls in _SECTION_CLASSES.items():
-        out[section] = tuple(f"{section}.{f.name}" for f in fields(cls)
-                             if str(f.type).replace(" ", "") in ("float", "int", "float|None", "int|None"))
-    return out
+@functools.cache
+def _section_keys(section: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(numeric keys as ``section.key``, every key name) of a plant section; an optional section's class is
+    imported here, when a key of it is first varied (some cost a quarter of a second of start-up)."""
+    from simulate.config import _section_class
 
-
-_NUMERIC_KEYS = _numeric_keys()
-_ALL_KEYS = {section: tuple(f.name for f in fields(cls)) for section, cls in _SECTION_CLASSES.items()}
+    cls = _SECTION_CLASSES.get(section) or _section_class(section)
+    numeric = tuple(f"{section}.{f.name}" for f in fields(cls)
+                    if str(f.type).replace(" ", "") in ("float", "int", "float|None", "int|None"))
+    return numeric, tuple(f.name for f in fields(cls))
 
 
 def numeric_keys() -> dict[str, tuple[str, ...]]:
-    """Numeric keys of every plant section (what :func:`check_key` accepts before the scenario-kind check).
+    """Numeric keys of every plant section (what :func:`check_key` accepts before the scenario-kind check and, for
+    an optional section, the check that the plant has it).
 
     Examples
     --------
-    >>> "governor.closing_time_s" in numeric_keys()["governor"]
-    True
+    >>> "governor.closing_time_s" in numeric_keys()["governor"], "surge_tank.area_m2" in numeric_keys()["surge_tank"]
+    (True, True)
     """
-    return dict(_NUMERIC_KEYS)
+    return {section: _section_keys(section)[0] for section in (*_SECTION_CLASSES, *OPTIONAL_SECTIONS)}
 
 
 def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
@@ -108,20 +113,23 @@ def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
     if not isinstance(key, str) or key.count(".") != 1 or not all(key.split(".")):
         raise InputError(f"varied key must be section.key (e.g. governor.closing_time_s), got {key!r}")
     section, name = key.split(".")
-    table = _NUMERIC_KEYS
-    if section not in table:
-        raise InputError(f"unknown section in varied key {key!r}; valid sections: {', '.join(table)}")
+    sections = (*_SECTION_CLASSES, *OPTIONAL_SECTIONS)
+    if section not in sections:
+        raise InputError(f"unknown section in varied key {key!r}; valid sections: {', '.join(sections)}")
+    numeric, names = _section_keys(section)
     if key in STRUCTURE_CHOICE_KEYS and choices:
         return key
     if key in STRUCTURE_KEYS or key in STRUCTURE_CHOICE_KEYS:
         why = STRUCTURE_KEYS.get(key, "it selects a model every case shares")
         raise InputError(f"varied key {key!r} changes the plant structure ({why}); this study's cases share one "
                          f"structure: run one study per {key} (a sweep groups its cases by it)")
-    if name not in _ALL_KEYS[section]:
-        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(table[section])}")
-    if key not in table[section]:
-        raise InputError(f"varied key {key!r} is not numeric; numeric keys of [{section}]: "
-                         f"{', '.join(table[section])}")
+    if name not in names:
+        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(numeric)}")
+    if section in OPTIONAL_SECTIONS and getattr(plant, section, None) is None:
+        raise InputError(f"varied key {key!r}: the plant has no [{section}]; add the section to the plant file to "
+                         f"vary its keys")
+    if key not in numeric:
+        raise InputError(f"varied key {key!r} is not numeric; numeric keys of [{section}]: {', '.join(numeric)}")
     if section == "scenario" and name != "t_end_s" and name not in SCENARIO_KEYS[plant.scenario.kind]:
         raise InputError(f"varied key {key!r} is not used by scenario.kind = {plant.scenario.kind!r}; scenario "
                          f"keys of that kind: t_end_s, {', '.join(SCENARIO_KEYS[plant.scenario.kind])}")

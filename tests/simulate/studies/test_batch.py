@@ -328,3 +328,31 @@ def test_a_double_regulated_case_is_judged_in_its_plant_openings():
     assert case.extrapolated is False
     low, high = own
     assert case.max_opening_chart < low[1]  # what the three-input box alone would have flagged
+
+
+def test_keys_of_the_plants_optional_sections_vary_like_any_other():
+    """A surge tank's area (a classic design study) and a bulb's blade servo vary in a batch where the plant has the
+    section: every case equals the single run of its plant to the bit, and the figures follow the key."""
+    from data_synthetic import PLANT_BULB
+
+    surge_plant = PLANT_HLA339.parent / "plant_hla339_surge_tank.toml"
+    tank = load_plant(surge_plant, {"scenario.t_end_s": 20.0})
+    areas = [{"surge_tank.area_m2": a} for a in (60.0, 400.0)]
+    batch = run_batch(tank, areas, mechanism="serial")
+    for case, variant in zip(batch.cases, areas):
+        single = run_simulation(load_plant(surge_plant, {"scenario.t_end_s": 20.0, **variant})).summary()
+        assert case.ok and case.max_head_m == single["max_head_m"] and case.min_head_m == single["min_head_m"]
+    small, large = batch.cases
+    assert small.max_head_m != large.max_head_m  # the tank's area reaches the turbine's head
+    bulb = run_batch(load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0}), [{"blade_servo.servo_time_s": 0.5},
+                                                                        {"blade_servo.servo_time_s": 2.0}],
+                     mechanism="serial")
+    assert all(c.ok for c in bulb.cases) and bulb.cases[0].max_speed_rise != bulb.cases[1].max_speed_rise
+    # a section the plant does not have: refused before anything runs, naming it
+    with pytest.raises(InputError, match=r"varied key 'surge_tank.area_m2': the plant has no \[surge_tank\]; add "
+                                         r"the section to the plant file"):
+        run_batch(load_plant(PLANT_HLA339), [{"surge_tank.area_m2": 100.0}])
+    with pytest.raises(InputError, match=r"unknown key 'blade_servo.servo_tim'; numeric keys of \[blade_servo\]: "
+                                         r"blade_servo.servo_time_s"):
+        check_key(bulb_plant := load_plant(PLANT_BULB), "blade_servo.servo_tim")
+    assert check_key(bulb_plant, "combinator.opening_at_zero_stroke") == "combinator.opening_at_zero_stroke"
