@@ -163,7 +163,9 @@ class CaseResult:
     failure) or ``"error"`` (no run: bad value, steady state impossible, ...). Heads are at the turbine inlet, m;
     ``max_speed_rise``, ``max_head_rise``, ``min_head_drop`` are fractions of the initial value; ``max_unit_speed_rpm``
     / ``min_unit_speed_rpm`` N11 = n D1 / sqrt(H), r/min; ``max_opening_chart`` chart units; ``beyond_nets_range``
-    None when the characteristics have no training range. ``series`` only with ``keep_series``.
+    None when the characteristics have no training range. ``series`` only with ``keep_series``. For a plant with
+    several units the figures are the worst over the units (as the run's summary gives them) and the N11 and opening
+    ranges span every unit.
     """
 
     index: int
