@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from hillchart.errors import InputError
@@ -103,7 +104,11 @@ def sweep_command(args: argparse.Namespace) -> int:
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
-    variants = build_variants(plant, args.vary, args.cases)
+    with warnings.catch_warnings(record=True) as caught:  # how a spreadsheet's --cases file was read
+        warnings.simplefilter("always")
+        variants = build_variants(plant, args.vary, args.cases)
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     where = f"Dask {'LocalCluster' if address is None else address}" if scheduler == "dask" else "local cores"
     steps = len(variants) * max(1, round(plant.scenario.t_end_s / plant.time_step_s))
     estimate = f"{len(variants)} cases of about {steps // len(variants)} time steps ({steps:.3g} steps in all)"

@@ -13,11 +13,13 @@ maximum against each varied key).
 from __future__ import annotations
 
 import csv
+import io
 import itertools
 import json
 import logging
 import math
 import time
+import warnings
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -141,14 +143,20 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
         raise InputError(f"--cases {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     except OSError as exc:
         raise InputError(f"cannot read --cases file {str(path)!r}: {exc.strerror}") from None
+    from hillchart.io.tabular import decimal_commas, detect_delimiter
+
+    # a spreadsheet's semicolon- or tab-separated export, perhaps with decimal commas, reads as every CSV input does
+    # (hillchart.io.tabular); rows are numbered as the file's lines
+    delimiter = detect_delimiter(next((line for line in text.splitlines() if line.strip()), ""))
     try:
-        rows = [r for r in csv.reader(text.splitlines()) if any(cell.strip() for cell in r)]
+        rows = [(no, r) for no, r in enumerate(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter),
+                                               start=1) if any(cell.strip() for cell in r)]
     except csv.Error as exc:
         raise InputError(f"--cases {str(path)!r}: not a readable CSV table ({exc})") from None
     if not rows:
         raise InputError(f"--cases {str(path)!r} is empty; it needs a header of keys (section.key) and one row "
                          f"per case")
-    header = [h.strip() for h in rows[0]]
+    header = [h.strip() for h in rows[0][1]]
     for j, key in enumerate(header):
         if not key:
             raise InputError(f"--cases {str(path)!r}: column {j + 1} of the header is empty")
@@ -160,12 +168,19 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
             raise InputError(f"--cases {str(path)!r} column {j + 1}: {exc}") from None
     if len(rows) < 2:
         raise InputError(f"--cases {str(path)!r} has a header but no case rows")
-    out = []
-    for i, row in enumerate(rows[1:], start=2):
+    for i, row in rows[1:]:
         if len(row) != len(header):
             raise InputError(f"--cases {str(path)!r} row {i}: {len(row)} cells, the header has {len(header)}")
+    decimal_comma, note = decimal_commas(f"--cases {str(path)!r}", delimiter,
+                                         (cell for _, row in rows[1:] for key, cell in zip(header, row)
+                                          if key not in STRUCTURE_CHOICE_KEYS))
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=2)
+    out = []
+    for i, row in rows[1:]:
         out.append({key: cell.strip() if key in STRUCTURE_CHOICE_KEYS else
-                    _number(cell, f"--cases {str(path)!r} row {i} column {key!r}") for key, cell in zip(header, row)})
+                    _number(cell.replace(",", ".") if decimal_comma else cell,
+                            f"--cases {str(path)!r} row {i} column {key!r}") for key, cell in zip(header, row)})
     return out
 
 

@@ -97,6 +97,28 @@ def test_bad_cases_csv(tmp_path, plant, text, message):
     assert message in str(info.value)
 
 
+def test_cases_csv_from_a_spreadsheet_reads_as_the_plain_one(tmp_path, plant):
+    plain = tmp_path / "plain.csv"
+    plain.write_text("governor.closing_time_s,scenario.initial_power_mw\n10.5,200\n12,225\n")
+    semi = tmp_path / "semi.csv"
+    semi.write_bytes("\ufeffgovernor.closing_time_s;scenario.initial_power_mw\r\n10,5;200\r\n\r\n12;225\r\n"
+                     .encode("utf-8"))
+    with pytest.warns(UserWarning, match="semi.csv': semicolon-separated with decimal commas; read as such"):
+        read = build_variants(plant, [], semi)
+    assert read == build_variants(plant, [], plain) == [
+        {"governor.closing_time_s": 10.5, "scenario.initial_power_mw": 200.0},
+        {"governor.closing_time_s": 12.0, "scenario.initial_power_mw": 225.0}]
+    # rows are the file's lines, blank ones counted
+    bad = tmp_path / "bad.csv"
+    bad.write_text("governor.kp\n\n1\nfast\n")
+    with pytest.raises(InputError, match="row 4 column 'governor.kp': 'fast' is not a number"):
+        build_variants(plant, [], bad)
+    mixed = tmp_path / "mixed.csv"
+    mixed.write_text("governor.kp;governor.ki\n1.000,5;0,4\n")
+    with pytest.raises(InputError, match="semicolon-separated, but the cell '1.000,5' holds both a comma and a point"):
+        build_variants(plant, [], mixed)
+
+
 def test_cases_csv_unreadable_and_not_utf8(tmp_path, plant):
     with pytest.raises(InputError, match="cannot read --cases file"):
         build_variants(plant, [], tmp_path / "missing.csv")
