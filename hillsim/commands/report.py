@@ -192,6 +192,22 @@ def _events(plant) -> list[tuple[float, str]]:
     return [(t, "step") for t in sc.step_times_or_default]
 
 
+def trajectories(plant, runs) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``(label, N11, Q11)`` of each run ``(name, SimulationResult)`` on the hill chart: N11 = n D1 / sqrt(H),
+    Q11 = Q / (D1^2 sqrt(H)); every unit of a plant with several, each on its own runner (the plant-level series
+    are one unit's)."""
+    out = []
+    diameters = {unit.name: unit.turbine.runner_diameter_m for unit in plant.units}
+    for name, result in runs:
+        series = [(f"{name}, {unit}", s["speed_rpm"], s["head_m"], s["flow_m3_s"], diameters[unit])
+                  for unit, s in result.units.items()] if result.units else \
+            [(name, result.speed_rpm, result.head_m, result.flow_m3_s, plant.turbine.runner_diameter_m)]
+        for label, speed, head, flow_m3_s, d1 in series:
+            sqrt_h = np.sqrt(np.maximum(head, 1e-9))
+            out.append((label, speed * d1 / sqrt_h, flow_m3_s / (d1 * d1 * sqrt_h)))
+    return out
+
+
 def plot_hill_chart_with_runs(chars, plant, runs, path: Path) -> None:
     import matplotlib
 
@@ -199,11 +215,7 @@ def plot_hill_chart_with_runs(chars, plant, runs, path: Path) -> None:
     import matplotlib.pyplot as plt
     from hillchart.nets.chartplot import plot_hill_chart
 
-    d1 = plant.turbine.runner_diameter_m
-    traj = []
-    for name, result in runs:
-        sqrt_h = np.sqrt(np.maximum(result.head_m, 1e-9))
-        traj.append((name, result.speed_rpm * d1 / sqrt_h, result.flow_m3_s / (d1 * d1 * sqrt_h)))
+    traj = trajectories(plant, runs)
     n_all = np.concatenate([n for _, n, _ in traj])
     flow = getattr(chars, "flow", None)
     if flow is not None:

@@ -219,3 +219,22 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
     assert view.opening_unit == "deg above the closed vane"
     with pytest.raises(TypeError):  # what the chart was drawn from before: the nets need the blade angle too
         view.inner.q11(np.array([150.0]), np.array([45.0]))
+
+
+def test_the_hill_chart_of_a_plant_with_several_units_draws_every_unit():
+    from data_synthetic import PLANT_TWO_UNITS
+    from hillsim.commands.report import trajectories
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    plant = load_plant(PLANT_TWO_UNITS, {"scenario.t_end_s": 4.0})
+    result = run_simulation(plant)
+    lines = trajectories(plant, [("rated", result)])
+    assert [label for label, _, _ in lines] == ["rated, U1", "rated, U2"]
+    # U1 rejects its load (its N11 rises), U2 stays on its load (its own series, not the plant-level one)
+    u2 = result.units["U2"]
+    d1 = plant.units[1].turbine.runner_diameter_m
+    np.testing.assert_array_equal(lines[1][1], u2["speed_rpm"] * d1 / np.sqrt(u2["head_m"]))
+    assert lines[0][1].max() > lines[1][1].max() + 1.0
+    single = load_plant(PLANT_HLA339, {"scenario.t_end_s": 4.0})
+    assert [label for label, _, _ in trajectories(single, [("rated", run_simulation(single))])] == ["rated"]
