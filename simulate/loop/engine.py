@@ -314,10 +314,13 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         meta["step_up"] = step_up
     if stride != 1:
         meta["output_dt_s"] = dt * stride
+    component_figures = {}
     for part in parts.values():
         meta.update(part.hooks.summary)
-        meta.update(part.hooks.figures_after(
-            time_s, {name: out_signals[:n_rows, j] for j, name in enumerate(signal_names)}))
+        figures = part.hooks.figures_after(time_s, {name: out_signals[:n_rows, j]
+                                                    for j, name in enumerate(signal_names)})
+        meta.update(figures)
+        component_figures.update(figures)
     head = out["head"][:n_rows]
     n11 = speed * turbine.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * turbine.rated_head_m))
     figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
@@ -343,4 +346,4 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         speed_reference_rpm=turbine.rated_speed_rpm * (1.0 + ref_end), rated_speed_rpm=turbine.rated_speed_rpm,
         success=status == 0, message=message, meta=meta, wall_time_s=wall, signals=signals,
         envelope_x_m=np.asarray(pen_part.node_x_m, float), envelope_max_m=env_max, envelope_min_m=env_min,
-        steady=steady, plant=plant, characteristics=chars)
+        steady=steady, plant=plant, characteristics=chars, component_figures=component_figures)

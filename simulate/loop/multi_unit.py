@@ -250,7 +250,8 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     if stride != 1:
         meta["output_dt_s"] = dt * stride
     meta.update(upstream.hooks.summary)
-    meta.update(upstream.hooks.figures_after(time_s, signals))
+    component_figures = upstream.hooks.figures_after(time_s, signals)
+    meta.update(component_figures)
     meta.update({f"conduit_{k}": v for k, v in pen_part.hooks.summary.items()})
     for parts in unit_parts:  # e.g. the discrete servo's settings (the branches' grid is in conduit_* and below)
         meta.update(parts["control"].hooks.summary)
@@ -274,4 +275,4 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
         rated_speed_rpm=plant.units[lead_index].turbine.rated_speed_rpm, success=status == 0, message=message,
         meta=meta, wall_time_s=wall, signals=signals, envelope_x_m=np.asarray(pen_part.node_x_m, float),
         envelope_max_m=env_max, envelope_min_m=env_min, steady=steady, plant=plant, characteristics=chars[lead_index],
-        units=units, junction=junction)
+        units=units, junction=junction, component_figures=component_figures)

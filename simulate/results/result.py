@@ -96,6 +96,9 @@ class SimulationResult:
     message : str
     meta : dict
         Run settings (penstock model, pressure loop, dt, steady-state residuals, ...).
+    component_figures : dict
+        The figures the plant's components give after the run (a surge tank's highest and lowest level, a draft
+        tube's lowest outlet pressure, ...), also in ``meta``: what a batch case reports beside the turbine's.
     wall_time_s : float
         Wall-clock time of the time loop (not in the summary, which stays deterministic).
     """
@@ -124,6 +127,7 @@ class SimulationResult:
     characteristics: object = field(default=None, repr=False, compare=False)
     units: dict = field(default_factory=dict)
     junction: dict = field(default_factory=dict, repr=False, compare=False)
+    component_figures: dict = field(default_factory=dict)
 
     def columns(self) -> dict[str, np.ndarray]:
         """The series by CSV column name: :data:`CSV_COLUMNS`, then the components' extra signals (e.g. a surge

@@ -191,6 +191,9 @@ class CaseResult:
     extrapolation: dict | None = None
     steps: int = 0
     series: dict | None = field(default=None, compare=False, repr=False)
+    #: the figures the plant's components give (a surge tank's highest and lowest level, a draft tube's lowest
+    #: outlet pressure, a grid's frequency range, ...): :attr:`SimulationResult.component_figures`, the numbers
+    components: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -296,6 +299,9 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
           and k != "min_pressure_head_m"]
     extrap = summary.get("extrapolation")
     series = {name: np.asarray(getattr(result, name)).copy() for name in SERIES_NAMES} if keep_series else None
+    components = {name: math.nan if value is None else float(value)
+                  for name, value in result.component_figures.items()
+                  if value is None or isinstance(value, (int, float)) and not isinstance(value, bool)}
     return CaseResult(
         index=index, values=dict(values), status="ok" if result.success else "failed",
         error="" if result.success else result.message,
@@ -308,7 +314,7 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
         max_opening_chart=float(opening_chart.max()), beyond_nets_range=beyond,
         min_pressure_head_m=float(min_ph) if isinstance(min_ph, (int, float)) else math.nan,
         min_pressure_head_at=";".join(at), extrapolation=extrap if isinstance(extrap, dict) else None,
-        steps=int(summary["steps"]), series=series)
+        steps=int(summary["steps"]), series=series, components=components)
 
 
 def run_case(plant: PlantConfig, characteristics, index: int, variant: dict, *, domain=None,
@@ -347,18 +353,27 @@ class BatchResult:
     def n_ok(self) -> int:
         return sum(c.ok for c in self.cases)
 
+    @property
+    def component_figures(self) -> tuple[str, ...]:
+        """The names of the components' figures over the cases (:attr:`CaseResult.components`), in order."""
+        return tuple(dict.fromkeys(name for c in self.cases for name in c.components))
+
     def column(self, name: str) -> np.ndarray:
-        """A figure (or a varied key) over the cases, float array (NaN where missing); a varied model's name
-        (:data:`STRUCTURE_CHOICE_KEYS`) as a string array."""
+        """A figure (or a varied key, or a component's figure) over the cases, float array (NaN where missing); a
+        varied model's name (:data:`STRUCTURE_CHOICE_KEYS`) as a string array."""
         if name in STRUCTURE_CHOICE_KEYS and name in self.keys:
             return np.array([str(c.values.get(name, "")) for c in self.cases])
         if name in self.keys:
             return np.array([float(c.values.get(name, math.nan)) for c in self.cases])
+        if name not in FIGURES and name in self.component_figures:
+            return np.array([c.components.get(name, math.nan) for c in self.cases], dtype=float)
         return np.array([float(getattr(c, name)) if getattr(c, name) is not None else math.nan
                          for c in self.cases])
 
     def rows(self) -> list[dict]:
-        """One dictionary per case: ``index``, the varied keys, ``status``, then :data:`FIGURES`."""
+        """One dictionary per case: ``index``, the varied keys, ``status``, :data:`FIGURES`, then the components'
+        figures (:attr:`component_figures`; NaN where a case has none, e.g. an error)."""
+        components = self.component_figures
         out = []
         for c in self.cases:
             row = {"index": c.index}
@@ -370,6 +385,7 @@ class BatchResult:
                     kinds = extrapolation_kinds(value)
                     value = "" if kinds is None else ";".join(f"{k}:{v:.6g}" for k, v in sorted(kinds.items()))
                 row[name] = value
+            row.update({name: c.components.get(name, math.nan) for name in components})
             out.append(row)
         return out
 
@@ -379,7 +395,7 @@ class BatchResult:
         from pathlib import Path
 
         rows = self.rows()
-        header = ["index", *self.keys, "status", *FIGURES]
+        header = ["index", *self.keys, "status", *FIGURES, *self.component_figures]
         with open(Path(path), "w", newline="", encoding="utf-8") as fh:
             writer = csv.writer(fh)
             writer.writerow(header)

@@ -81,6 +81,14 @@ def build_surge_tank(plant, steady, dt_s: float):
                            f"the tank would overflow, which the model does not represent")
         return out
 
+    def summary_after(time_s, signals):
+        """The highest and lowest surge-tank level and when (m above the tailwater, the datum of the heads): what
+        a tank's design is judged on."""
+        level = signals["surge_level_m"]
+        i, j = int(np.argmax(level)), int(np.argmin(level))
+        return {"surge_level_max_m": float(level[i]), "t_surge_level_max_s": float(time_s[i]),
+                "surge_level_min_m": float(level[j]), "t_surge_level_min_s": float(time_s[j])}
+
     def error_after(time_s, signals):
         if tank.level_min_m is None:
             return ""
@@ -98,7 +106,8 @@ def build_surge_tank(plant, steady, dt_s: float):
         functions={"head": surge_tank_head, "step": surge_tank_step, "record": surge_tank_record},
         params=(scal,), state=(state,), signals=SIGNALS,
         hooks=PartHooks(initial_head_m=z0, initial_signals=(z0, q0), warnings_after=warnings_after,
-                        error_after=error_after, summary={"surge_tank_period_s": tank.period_s}))
+                        error_after=error_after, summary_after=summary_after,
+                        summary={"surge_tank_period_s": tank.period_s}))
 
 
 def time_scales(plant, schedules) -> list:
