@@ -41,6 +41,24 @@ def load_characteristics(source: str, plant=None):
     return characteristics, str(source), getattr(characteristics, "opening_unit", "chart units")
 
 
+def _check_inputs_match(nets: str, characteristics, plant) -> None:
+    """NETS in place of the plant's characteristics: two-input ones for a single-regulated unit, three-input ones
+    for a double-regulated one (a ``[combinator]`` or ``[blade_servo]``); the message names NETS, not the plant's
+    own ``turbine.characteristics``."""
+    from simulate.components.turbine.double_regulated import is_three_input
+
+    double = getattr(plant, "combinator", None) is not None or getattr(plant, "blade_servo", None) is not None
+    three = is_three_input(characteristics)
+    if double and not three:
+        raise InputError(f"NETS {nets!r} has two inputs, but the plant is double-regulated ([combinator], "
+                         f"[blade_servo]): give three-input nets (n11, opening, blade_angle), e.g. the plant's own "
+                         f"turbine.characteristics = {plant.turbine.characteristics!r}")
+    if three and not double:
+        raise InputError(f"NETS {nets!r} has three inputs (a blade angle), but the plant has no [combinator]: give "
+                         f"two-input nets, e.g. the plant's own turbine.characteristics = "
+                         f"{plant.turbine.characteristics!r}, or a double-regulated plant file")
+
+
 def _chart_ranges(characteristics):
     """(n11_lo, n11_hi), (a_lo, a_hi) of the nets' input normalization, when the object has one."""
     flow = getattr(characteristics, "flow", None)
@@ -186,6 +204,7 @@ def _run_plant(args) -> int:
     plant = load_plant(args.plant)
     plant.require_one_unit("hillsim linearize --plant")
     characteristics, label, opening_unit = load_characteristics(args.nets, plant)
+    _check_inputs_match(args.nets, characteristics, plant)
     out = {"source": label, "opening_unit": opening_unit, "plant": str(args.plant)}
     out |= to_json_dict(plant_linearization(plant, characteristics, initial_opening=args.stroke,
                                             penstock_model=args.penstock_model, sample_time_s=args.tau))

@@ -56,3 +56,19 @@ def test_linearize_at_plant_operating_point(capsys, model, order):
 def test_linearize_plant_bad_options(argv, message, capsys):
     assert main(["linearize", str(NETS), *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_nets_of_the_other_kind_than_the_plant_are_named_as_nets(capsys):
+    """NETS stands in for the plant's characteristics: a mismatch names NETS (the message named the plant's own
+    turbine.characteristics, which were right)."""
+    from data_synthetic import BULB_DIR, PLANT_BULB
+
+    assert main(["linearize", str(FRANCIS_DIR / "nets.json"), "--plant", str(PLANT_BULB)]) == 2
+    err = capsys.readouterr().err
+    assert "nets.json' has two inputs, but the plant is double-regulated" in err
+    assert "e.g. the plant's own turbine.characteristics = 'bulb/nets.json'" in err
+    assert main(["linearize", str(BULB_DIR / "nets.json"), "--plant", str(PLANT_FILE)]) == 2
+    assert "has three inputs (a blade angle), but the plant has no [combinator]" in capsys.readouterr().err
+    # each kind with its own plant: the coefficients
+    assert main(["linearize", str(BULB_DIR / "nets.json"), "--plant", str(PLANT_BULB)]) == 0
+    assert set(json.loads(capsys.readouterr().out)["coefficients"]) >= {"ex", "ey", "eh", "eqx", "eqy", "eqh"}
