@@ -863,9 +863,9 @@ def _units(raw_units: Any, raw: dict[str, Any]) -> tuple[UnitConfig, ...]:
     return tuple(out)
 
 
-#: Sections of a guarantee study's plant file (:mod:`simulate.studies.cases`), named in the message of a command
-#: that reads plain plant files.
-STUDY_SECTION_NAMES = ("limits", "load_cases")
+#: Sections of a guarantee study's plant file, which :mod:`simulate.studies.cases` reads and a plain plant file's
+#: reader names in its message.
+STUDY_SECTIONS = ("limits", "load_cases")
 
 
 def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> PlantConfig:
@@ -899,7 +899,7 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
     if unknown:
         study = ("; [limits] and [[load_cases]] make a guarantee study, read by hillsim report and hillsim "
                  "optimize-closure: run one load case with hillsim run on a copy without them, or use "
-                 "hillsim report" if unknown[0] in STUDY_SECTION_NAMES else "")
+                 "hillsim report" if unknown[0] in STUDY_SECTIONS else "")
         raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}{study}")
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:

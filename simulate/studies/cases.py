@@ -30,10 +30,8 @@ from typing import Any
 
 from hillchart.errors import InputError
 from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
-from simulate.config import (STUDY_SECTION_NAMES, PlantConfig, apply_overrides, plant_from_dict,
-                             read_plant_toml, to_dict)
-
-STUDY_SECTIONS = STUDY_SECTION_NAMES
+from simulate.config import (STUDY_SECTIONS, PlantConfig, apply_overrides, plant_from_dict, read_plant_toml,
+                             to_dict)
 
 
 def _limit(key: str, value: Any, low: float, high: float) -> float | None:
