@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import tomllib
 import warnings
@@ -14,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.io.tabular import decimal_commas, detect_delimiter, parse_number, read_text
+from hillchart.io.tabular import decimal_commas, numbered_rows, parse_number, read_text
 
 # ----------------------------------------------------------------------------------------------------------------
 # test-table folder
@@ -217,17 +215,7 @@ def load_test_table(folder) -> TestTable:
         raise InputError(f"{path}: missing file (a test-table folder needs {TABLE_FILE} and {INFO_FILE})")
     # a byte-order mark, and a spreadsheet's semicolon- or tab-separated export with decimal commas, are read as
     # every hillsim CSV is (hillchart.io.tabular)
-    text = read_text(path, "test table")
-    lines = [(no, line) for no, line in enumerate(io.StringIO(text, newline=""), start=1)
-             if not line.lstrip().startswith("#")]
-    header_line = next((line for _, line in lines if line.strip()), "")
-    delimiter = detect_delimiter(header_line)
-    try:
-        rows = [(no, row) for (no, _), row in zip(lines, csv.reader((line for _, line in lines),
-                                                                    delimiter=delimiter))]
-    except csv.Error as exc:
-        raise InputError(f"{path}: not a readable CSV table ({exc})") from None
-    rows = [(no, row) for no, row in rows if row and any(cell.strip() for cell in row)]
+    delimiter, rows = numbered_rows(read_text(path, "test table"), path, comments=True)
     if not rows:
         raise InputError(f"{path}: empty file; expected a header line such as "
                          "blade_angle_deg,guide_vane_deg,efficiency,head_m,power_kw,flow_m3_s")

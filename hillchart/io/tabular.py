@@ -94,6 +94,20 @@ def detect_delimiter(header_line: str) -> str:
     return best if counts[best] else ","
 
 
+def numbered_rows(text: str, where, *, comments: bool = False) -> tuple[str, list[tuple[int, list[str]]]]:
+    """The delimiter of ``text`` (:func:`detect_delimiter` on its first line with something in it) and its rows
+    with something in them, each with its line number (first line = 1); ``comments``: lines starting with ``#``
+    are left out first. A malformed file is an InputError beginning with ``where``."""
+    lines = [(no, line) for no, line in enumerate(io.StringIO(text, newline=""), start=1)
+             if not (comments and line.lstrip().startswith("#"))]
+    delimiter = detect_delimiter(next((line for _, line in lines if line.strip()), ""))
+    try:
+        rows = [(no, row) for (no, _), row in zip(lines, csv.reader((line for _, line in lines), delimiter=delimiter))]
+    except csv.Error as exc:
+        raise InputError(f"{where}: not a readable CSV table ({exc})") from None
+    return delimiter, [(no, row) for no, row in rows if row and any(cell.strip() for cell in row)]
+
+
 def decimal_commas(path, delimiter: str, cells) -> tuple[bool, str | None]:
     """Whether the numeric ``cells`` of a ``delimiter``-separated file write their decimals with a comma (only a
     semicolon- or tab-separated file may), and how the file was read, for a warning (None for a plain CSV). A cell

@@ -12,8 +12,6 @@ maximum against each varied key).
 
 from __future__ import annotations
 
-import csv
-import io
 import itertools
 import json
 import logging
@@ -143,16 +141,11 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
         raise InputError(f"--cases {str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
     except OSError as exc:
         raise InputError(f"cannot read --cases file {str(path)!r}: {exc.strerror}") from None
-    from hillchart.io.tabular import decimal_commas, detect_delimiter
+    from hillchart.io.tabular import decimal_commas, numbered_rows
 
     # a spreadsheet's semicolon- or tab-separated export, perhaps with decimal commas, reads as every CSV input does
     # (hillchart.io.tabular); rows are numbered as the file's lines
-    delimiter = detect_delimiter(next((line for line in text.splitlines() if line.strip()), ""))
-    try:
-        rows = [(no, r) for no, r in enumerate(csv.reader(io.StringIO(text, newline=""), delimiter=delimiter),
-                                               start=1) if any(cell.strip() for cell in r)]
-    except csv.Error as exc:
-        raise InputError(f"--cases {str(path)!r}: not a readable CSV table ({exc})") from None
+    delimiter, rows = numbered_rows(text, f"--cases {str(path)!r}")
     if not rows:
         raise InputError(f"--cases {str(path)!r} is empty; it needs a header of keys (section.key) and one row "
                          f"per case")
