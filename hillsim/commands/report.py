@@ -196,15 +196,14 @@ def trajectories(plant, runs) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """``(label, N11, Q11)`` of each run ``(name, SimulationResult)`` on the hill chart: N11 = n D1 / sqrt(H),
     Q11 = Q / (D1^2 sqrt(H)); every unit of a plant with several, each on its own runner (the plant-level series
     are one unit's)."""
+    from simulate.results.result import unit_series
+
     out = []
-    diameters = {unit.name: unit.turbine.runner_diameter_m for unit in plant.units}
     for name, result in runs:
-        series = [(f"{name}, {unit}", s["speed_rpm"], s["head_m"], s["flow_m3_s"], diameters[unit])
-                  for unit, s in result.units.items()] if result.units else \
-            [(name, result.speed_rpm, result.head_m, result.flow_m3_s, plant.turbine.runner_diameter_m)]
-        for label, speed, head, flow_m3_s, d1 in series:
-            sqrt_h = np.sqrt(np.maximum(head, 1e-9))
-            out.append((label, speed * d1 / sqrt_h, flow_m3_s / (d1 * d1 * sqrt_h)))
+        for unit, s, d1 in unit_series(result, plant):
+            sqrt_h = np.sqrt(np.maximum(s["head_m"], 1e-9))
+            out.append((name if unit is None else f"{name}, {unit}", s["speed_rpm"] * d1 / sqrt_h,
+                        s["flow_m3_s"] / (d1 * d1 * sqrt_h)))
     return out
 
 

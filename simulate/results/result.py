@@ -74,6 +74,18 @@ def worst_over_units(units: dict) -> dict:
     return out
 
 
+def unit_series(result, plant) -> list[tuple[str | None, dict, float]]:
+    """``(unit name, series, runner diameter m)`` of every unit of ``plant`` in ``result`` (a
+    :class:`SimulationResult`): each of a plant with several units with its own runner, else one entry ``(None,
+    the plant-level series, the turbine's runner)``. Each ``series`` has ``speed_rpm``, ``head_m``, ``flow_m3_s``
+    and ``opening_chart``."""
+    if result.units:
+        runners = {unit.name: unit.turbine.runner_diameter_m for unit in plant.units}
+        return [(name, series, runners[name]) for name, series in result.units.items()]
+    return [(None, {name: getattr(result, name) for name in ("speed_rpm", "head_m", "flow_m3_s", "opening_chart")},
+             plant.turbine.runner_diameter_m)]
+
+
 #: Columns of timeseries.csv, in order, with units.
 CSV_COLUMNS = ("time_s", "speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw",
                "iterations")

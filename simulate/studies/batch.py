@@ -41,6 +41,7 @@ from typing import Any, Callable, Iterable, Sequence
 import numpy as np
 
 from hillchart.errors import HillsimError, InputError
+from simulate.results.result import unit_series
 from simulate.loop.parallel import available_cores as default_workers, checked_workers
 from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, PlantConfig, SCENARIO_KEYS,
                              ScenarioConfig, SolverConfig, TurbineConfig, load_characteristics)
@@ -283,12 +284,9 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
     """The :class:`CaseResult` of one finished run (``result`` a :class:`simulate.results.result.SimulationResult`)."""
     summary = result.summary()
     # N11 and opening over every unit of the plant (its plant-level figures are the worst over the units)
-    turbines = {unit.name: unit.turbine for unit in plant.units}
-    units = [(series["speed_rpm"], series["head_m"], series["opening_chart"], turbines[name].runner_diameter_m)
-             for name, series in result.units.items()] if result.units else \
-        [(result.speed_rpm, result.head_m, result.opening_chart, plant.turbine.runner_diameter_m)]
-    n11 = np.concatenate([speed * d / np.sqrt(np.maximum(head, 1e-12)) for speed, head, _, d in units])
-    opening_chart = np.concatenate([opening for _, _, opening, _ in units])
+    units = unit_series(result, plant)
+    n11 = np.concatenate([s["speed_rpm"] * d / np.sqrt(np.maximum(s["head_m"], 1e-12)) for _, s, d in units])
+    opening_chart = np.concatenate([s["opening_chart"] for _, s, _ in units])
     beyond = None
     if domain is not None:
         low, high = domain
