@@ -105,7 +105,6 @@ def _francis_terms_at(p, angles, n11, opening):
     return q11, m11, gamma
 
 
-_francis_terms_compiled = numba.njit(cache=True)(_francis_terms)
 _francis_terms_at_compiled = numba.njit(cache=True)(_francis_terms_at)
 
 
