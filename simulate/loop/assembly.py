@@ -375,14 +375,15 @@ def compiled_loop(make_source) -> CompiledLoop:
     key = _fingerprint(source, modules)  # the text and the imported modules' files: an edited component is new
     with _ASSEMBLING:
         if key not in _COMPILED:
-            _COMPILED[key] = CompiledLoop(_load(source, modules).time_loop, lambda: load(True))
+            _COMPILED[key] = CompiledLoop(_load(source, modules, key).time_loop, lambda: load(True))
         return _COMPILED[key]
 
 
-def _load(source: str, modules: list[str]) -> types.ModuleType:
-    """The generated module of ``source``, written under the cache directory (by a hash of its text and of the
-    modules it imports) and imported, so numba's disk cache finds its ``time_loop`` again."""
-    key = _fingerprint(source, modules)
+def _load(source: str, modules: list[str], key: str | None = None) -> types.ModuleType:
+    """The generated module of ``source``, written under the cache directory (by ``key``, its :func:`_fingerprint`
+    when the caller has it: a hash of its text and of the modules it imports) and imported, so numba's disk cache
+    finds its ``time_loop`` again."""
+    key = _fingerprint(source, modules) if key is None else key
     if key in _LOADED:
         return _LOADED[key]
     path = _cache_dir() / f"hillsim_loop_{key}.py"
