@@ -17,9 +17,14 @@ from here (each on first use)::
 
 from __future__ import annotations
 
+from hillchart.cache import configure_numba_cache
 from hillchart.lazy import lazy_exports
 
 __version__ = "0.1.0"
+
+# before any module of hillchart or simulate imports numba: compiled code is cached in the user's cache folder,
+# never beside the installed package (hillchart.cache says why)
+configure_numba_cache(__version__)
 
 #: Public name -> module that defines it.
 PUBLIC = {

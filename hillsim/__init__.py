@@ -22,7 +22,11 @@ and the demo; :mod:`hillchart` and :mod:`simulate` never import it.
 
 from __future__ import annotations
 
-from hillchart.lazy import lazy_exports
+from hillsim._stale import import_shadowed_packages
+
+import_shadowed_packages()  # before hillchart: a folder an earlier installation left may shadow it
+
+from hillchart.lazy import lazy_exports  # noqa: E402
 
 __version__ = "0.1.0"
 

@@ -44,6 +44,10 @@ MAX_MISFIT_PCT = 5.0
 #: Prior on the disc-friction share of the shaft power at the best measured point (median, log-sd).
 DISC_FRICTION_SHARE = 0.01
 DISC_FRICTION_LOG_SD = math.log(5.0)
+#: Largest deviation of a drawn log-parameter from the fitted one (a factor of 10 either way). A parameter the chart
+#: does not constrain has a huge Laplace variance (the pseudo-inverse of a near-singular J^T J); an unbounded draw of
+#: it (a log-parameter of 3353 was seen) overflows exp and is no turbine the chart could have come from.
+MAX_LOG_DEVIATION = math.log(10.0)
 
 
 @dataclass(frozen=True)
@@ -76,13 +80,15 @@ class FittedTurbineModel:
 
     def draw(self, rng: np.random.Generator, opening_max: float | None = None):
         """A plausible model the chart cannot tell from this one: log-parameters drawn from the Laplace
-        approximation (``log_covariance``); a draw outside the model's valid geometry is redrawn (at most 20
-        times, then the fitted model itself). Returns a :class:`hillchart.synthetic.francis.SyntheticFrancis`."""
+        approximation (``log_covariance``), each within a factor of 10 of the fit (:data:`MAX_LOG_DEVIATION`,
+        clipped); a draw outside the model's valid geometry is redrawn (at most 20 times, then the fitted model
+        itself). Returns a :class:`hillchart.synthetic.francis.SyntheticFrancis`."""
         if self.log_parameters is None or self.log_covariance is None:
             return self.turbine
         opening_max = self.turbine.params.opening_max if opening_max is None else opening_max
         for _ in range(20):
             x = rng.multivariate_normal(self.log_parameters, self.log_covariance, method="eigh")
+            x = np.clip(x, self.log_parameters - MAX_LOG_DEVIATION, self.log_parameters + MAX_LOG_DEVIATION)
             try:
                 return _model(x, opening_max)
             except InputError:

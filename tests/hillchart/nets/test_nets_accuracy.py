@@ -85,10 +85,10 @@ def test_shipped_nets_regenerate_on_any_cpu(tmp_path, capsys):
 
     Training is deterministic, but not bit-identical across CPUs: the compiled Levenberg-Marquardt loop and LAPACK's
     Cholesky sum in an order that depends on the CPU's vector unit (AVX2, AVX-512, NEON), and the optimisation
-    amplifies those last-bit differences (3e-5 relative in the weights, measured on an AMD EPYC against the machine
-    that wrote the file). The bound, 1e-3 of each quantity's range over the whole extended domain, is 30x that and
-    50x below what a change of seed moves (5e-2; the failing case below), so a changed selection, seed or extension
-    fails it.
+    amplifies those last-bit differences. Measured on two CPU families against the file (written on an AMD EPYC):
+    3e-5 of the range on another AMD EPYC, 3.7e-3 on an Intel CPU (AVX-512). The bound, 1e-2 of each quantity's
+    range over the whole extended domain, is 2.7x the Intel figure and 5x below what a change of seed moves (5e-2;
+    the failing case below), so a changed selection, seed or extension still fails it.
     """
     from hillsim.cli import main
 
@@ -99,11 +99,11 @@ def test_shipped_nets_regenerate_on_any_cpu(tmp_path, capsys):
     shipped, regenerated = load_nets(CHART / "nets.json"), load_nets(out)
     assert regenerated.flow.hidden == shipped.flow.hidden and regenerated.torque.hidden == shipped.torque.hidden
     assert len(regenerated.members()) == len(shipped.members())
-    assert _largest_difference_over_range(shipped, regenerated) < 1e-3
-    # the failing case: another seed is another set of nets, far outside the bound
+    assert _largest_difference_over_range(shipped, regenerated) < 1e-2
+    # the failing case: another seed is another set of nets, outside the bound (measured 5e-2)
     other = tmp_path / "other.json"
     assert main(["train", str(CHART), "--out", str(other), "--seed", "1", "--quiet"]) == 0
-    assert _largest_difference_over_range(shipped, load_nets(other)) > 1e-2
+    assert _largest_difference_over_range(shipped, load_nets(other)) > 2e-2
 
     # on one machine, training is bit-identical: the same command writes the same bytes
     again = tmp_path / "again.json"

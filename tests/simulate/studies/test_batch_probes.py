@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,13 @@ ROOT = Path(__file__).resolve().parents[3]
 
 
 def _bench(name: str):
+    """The benchmark script as a module registered under its name: numba's disk cache reloads a compiled function
+    by importing its module, which fails (``No module named '<dynamic>'``) for a module absent from sys.modules."""
+    if name in sys.modules:
+        return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
     spec.loader.exec_module(module)
     return module
 
