@@ -27,7 +27,7 @@ LAYERS = {
         ("hillchart.extension",),
         ("hillchart.synthetic", "hillchart.io"),
         ("hillchart.linearize", "hillchart.characteristics", "hillchart.validation"),
-        ("hillchart.errors", "hillchart.constants", "hillchart.lazy"),
+        ("hillchart.errors", "hillchart.constants", "hillchart.lazy", "hillchart.cache"),
     ],
 }
 

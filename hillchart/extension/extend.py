@@ -198,6 +198,9 @@ class ExtendedSamples:
         zero-speed origins.
     boundary_model : FittedTurbineModel or None
         The physical model the boundaries came from (``boundaries="model"``).
+    extrapolation : Extrapolation or None
+        Below the lowest digitized line: the hypotheses and the chart's held-out evidence that weighs them
+        (:mod:`hillchart.extension.hypotheses`), with the silent regions.
     """
 
     target: np.ndarray
@@ -212,6 +215,7 @@ class ExtendedSamples:
     efficiency_surface: EfficiencySurface | None = field(default=None, repr=False)
     derived: np.ndarray | None = field(default=None, repr=False)
     boundary_model: object | None = field(default=None, repr=False)
+    extrapolation: object | None = field(default=None, repr=False)
 
     def select(self, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(X, y, origin)`` of one target: X (S, 2) columns N11 and opening."""
@@ -438,12 +442,22 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
             add("q11", "zero-speed", 0.0, a, q0, True)
             add("m11", "zero-speed", 0.0, a, m0, True)
 
+    extrapolation = None
     if options.silent_regions and model is not None:
+        from hillchart.extension.hypotheses import Extrapolation
+
+        # below the lowest line: the hypotheses weighed by the chart's own held-out lines; in overspeed: the model
+        extrapolation = Extrapolation.of_chart(chart, torque, model)
+        a_low = float(np.min(chart.openings))
         for n, a in silent_region_points(chart, model):
             # weight 1 like the zero-opening samples: the net's selection scores measured samples only, so a soft
             # weight there is chosen low and the net's sigmoids decide the guarantee figures instead of the physics
-            add("q11", "silent-region", n, a, float(model.q11(n, a)), False)
-            add("m11", "silent-region", n, a, float(model.m11(n, a)), False)
+            if a < a_low:
+                q, m = (float(v) for v in extrapolation.values(n, a))
+            else:
+                q, m = float(model.q11(n, a)), float(model.m11(n, a))
+            add("q11", "silent-region", n, a, q, False)
+            add("m11", "silent-region", n, a, m, False)
 
     # (e)-(f), 2.6 (2)-(3): zero opening, Q11 = 0 (eq. 6) and M11 = -K N11^2 (eqs. 8-9)
     k_used = k_fitted = None
@@ -493,6 +507,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         efficiency_surface=surface,
         derived=np.array(derived_rows, bool),
         boundary_model=model,
+        extrapolation=extrapolation,
     )
 
 

@@ -177,7 +177,10 @@ class HillNets:
         if self.ensemble:
             doc["ensemble"] = [{"flow": f.to_dict("q11"), "torque": t.to_dict("m11")} for f, t in self.ensemble]
             for member, silent in zip(doc["ensemble"], self.member_silent_models or []):
-                member["silent_model"] = silent.to_dict()
+                # a member on the top-level table is its place in the band; anything else is written whole
+                same = (self.silent_model is not None and silent.at(0.0).packed().tobytes()
+                        == self.silent_model.at(0.0).packed().tobytes())
+                member["silent_model"] = silent.member_dict() if same else silent.to_dict()
         if self.digitized_region is not None:
             doc["digitized_region"] = self.digitized_region.tolist()
         if self.silent_model is not None:
@@ -222,16 +225,19 @@ class HillNets:
         if not isinstance(training, dict):
             raise InputError(f"nets.json: training must be an object, got {type(training).__name__}")
         ensemble, member_silent = [], []
+        silent = SilentRegionModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
         # optional; a file without it is the version-1 file of before
         for i, member in enumerate(ensemble_blocks(doc, prefix="nets.json: ",
                                                    silent_hint=" beside a top-level silent_model")):
             ensemble.append((NetWeights.from_dict(member["flow"], key=f"ensemble[{i}].flow", output="q11"),
                              NetWeights.from_dict(member["torque"], key=f"ensemble[{i}].torque", output="m11")))
             if "silent_model" in member:
-                member_silent.append(SilentRegionModel.from_dict(member["silent_model"],
-                                                                 key=f"ensemble[{i}].silent_model"))
+                key = f"ensemble[{i}].silent_model"
+                if silent is None:
+                    raise InputError("nets.json: ensemble members carry silent_model blocks, so the file must have "
+                                     "a top-level silent_model")
+                member_silent.append(silent.member_from_dict(member["silent_model"], key))
         region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
-        silent = SilentRegionModel.from_dict(doc["silent_model"]) if "silent_model" in doc else None
         if member_silent and (silent is None or len(member_silent) != len(ensemble)):
             raise InputError("nets.json: ensemble members carry silent_model blocks, so every member must, and the "
                              "file must have a top-level silent_model")

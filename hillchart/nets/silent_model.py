@@ -1,46 +1,56 @@
-"""The physical model where the chart is silent: the nets hand over to it below the lowest digitized opening line.
+"""Below the lowest digitized opening line: the weighed extrapolation hypotheses, blended into the nets.
 
 A load rejection's maximum head is decided in the last seconds of the closure, at openings below the lowest line a
-user digitized. There the nets can only interpolate between the measured lines and the samples the extension adds
-(the fitted physical model's, :func:`hillchart.extension.extend.silent_region_points`), and a 2-H-1 net of logsig
-units follows those samples to 2-3 % of Q11 at best, with whatever slope and curvature its sigmoids give between them.
-The fitted model itself (:mod:`hillchart.extension.turbine_model`: the 1-D Euler model of
-:mod:`hillchart.synthetic.francis`, fitted to the whole chart) has the guide-vane opening/area relation built in:
-Q11 -> 0 as the opening -> 0 with the slope the runner's inlet geometry implies, and M11 -> -K N11^2 (eq. 8 of the BP
-hill-chart paper). So below the lowest line the characteristics are the model's, blended into the nets:
+user digitized. There the nets can only interpolate between the measured lines and the samples the extension adds,
+and a 2-H-1 net of logsig units follows those samples to 2-3 % of Q11 at best, with whatever slope and curvature its
+sigmoids give between them. So below the lowest line the characteristics are the extension's answer there: the
+hypotheses of :mod:`hillchart.extension.hypotheses` (the fitted physical model, the model anchored to the lowest
+line, straight and bent lines to the closed vanes) weighed by how well each predicted the chart's own held-out lines.
+That answer is tabulated over (N11, opening) when the nets are trained and stored in nets.json, so any hypothesis
+(and any ensemble member's perturbation of it, the band) is evaluated the same way in a run:
 
-    y = w y_nets + (1 - w) y_model,      w = 1 - (1 - s(a)) (1 - s_N(N11)),
+    y = w y_nets + (1 - w) y_table,      w = 1 - (1 - s(a)) (1 - s_N(N11)),
 
 with ``s(a)`` a C1 smoothstep from 0 at ``blend_openings[0]`` to 1 at ``blend_openings[1]`` (the lowest digitized
-opening) and ``s_N`` one from 0 at ``n11_blend[0]`` to 1 at ``n11_blend[1]`` (below the model's valid range: beyond
-it the model has no positive flow, the pumping region). Derivatives follow by the product rule, so the pressure loop
-sees a C1 characteristic. Above the lowest line the nets alone answer: the model never overrides measured data.
+opening) and ``s_N`` one from 0 at ``n11_blend[0]`` to 1 at ``n11_blend[1]`` (the table's N11 range ends there).
+The table is interpolated by Catmull-Rom cubic convolution on its uniform grid (C1, exact for linear functions; the
+grid's edges are continued linearly), derivatives analytically, so the pressure loop sees a C1 characteristic.
+Above the lowest line the nets alone answer: the extrapolation never overrides measured data.
 
-Chosen by the guarantee benchmark (``benchmarks/bench_guarantee.py``, docs page "Guarantee figures"): the worst
-max-head-rise error over the family fell from 3.4 to the figure given there.
+Files written before the hypotheses were weighed hold the fitted physical model itself (kind ``francis-1d``): they
+are read by tabulating that model on the same grid (to about 1e-4 of Q11; the exact model is no longer evaluated in
+a run).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.extension.hypotheses import band_square
 from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
-from hillchart.synthetic.francis import _synthetic_kernel_at, _synthetic_values_at, francis_angles
 
-#: Parameter names of the model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
+#: Model identifier in nets.json of the tabulated extrapolation, and of the physical model of older files.
+KIND = "hypotheses-table"
+LEGACY_KIND = "francis-1d"
+#: Parameter names of the legacy physical model, in the order of :func:`hillchart.synthetic.francis._francis_terms`.
 PARAMETER_NAMES = ("d2", "b1", "guide_vane_pitch", "beta1_deg", "beta2_deg", "k_guide_vane", "k_incidence",
                    "k_runner", "k_draft_tube", "k_swirl", "k_disc_friction", "opening_max")
-#: Fraction of the lowest digitized opening below which the model alone answers (above the lowest opening: the nets).
+#: Fraction of the lowest digitized opening below which the table alone answers (above the lowest opening: the nets).
 BLEND_START_FRACTION = 0.5
-#: The N11 hand-back to the nets, as fractions of the model's valid range (its pumping limit).
-N11_BLEND_FRACTIONS = (0.85, 0.95)
-#: Model identifier in nets.json.
-KIND = "francis-1d"
+#: The N11 hand-back to the nets, as fractions of the table's N11 range.
+N11_BLEND_FRACTIONS = (0.9, 1.0)
+#: Grid of the table: N11 from 0 to its top, openings from 0 to the lowest digitized one.
+N11_NODES = 41
+OPENING_NODES = 11
+#: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, N11 blend, torque factor, node counts, the
+#: grid's top N11 and opening, the band offsets of Q11 and M11 and the band's distance cap, then the Q11 and M11
+#: tables (row-major, N11 first).
+_HEADER = 12
 
 
 @numba.njit(cache=True)
@@ -58,61 +68,153 @@ def _smoothstep(x, x0, x1):
 @numba.njit(cache=True)
 def _blend_weight(blend, n11, opening):
     """``(w, dw/dN11, dw/da)``: the nets' weight w = 1 - (1 - s(a)) (1 - s_N(N11)) (module docstring)."""
-    s_a, ds_a = _smoothstep(opening, blend[12], blend[13])
-    s_n, ds_n = _smoothstep(n11, blend[14], blend[15])
+    s_a, ds_a = _smoothstep(opening, blend[0], blend[1])
+    s_n, ds_n = _smoothstep(n11, blend[2], blend[3])
     return 1.0 - (1.0 - s_a) * (1.0 - s_n), (1.0 - s_a) * ds_n, (1.0 - s_n) * ds_a
 
 
 @numba.njit(cache=True)
+def _catmull_rom(u, k):
+    """Weight of the k-th of the four nodes around a cell (k = 0: the node before it) at the cell coordinate
+    ``u`` in [0, 1], and its derivative in u (cubic convolution with a = -1/2, Keys 1981)."""
+    u2 = u * u
+    u3 = u2 * u
+    if k == 0:
+        return 0.5 * (-u3 + 2.0 * u2 - u), 0.5 * (-3.0 * u2 + 4.0 * u - 1.0)
+    if k == 1:
+        return 0.5 * (3.0 * u3 - 5.0 * u2 + 2.0), 0.5 * (9.0 * u2 - 10.0 * u)
+    if k == 2:
+        return 0.5 * (-3.0 * u3 + 4.0 * u2 + u), 0.5 * (-9.0 * u2 + 8.0 * u + 1.0)
+    return 0.5 * (u3 - u2), 0.5 * (3.0 * u2 - 2.0 * u)
+
+
+@numba.njit(cache=True)
+def _node_in_opening(blend, base, i, j):
+    """Table value at N11 node ``i`` (inside the grid) and opening node ``j``, continued linearly beyond the grid."""
+    na = int(blend[6])
+    if j < 0:
+        return 2.0 * blend[base + i * na] - blend[base + i * na + 1]
+    if j >= na:
+        return 2.0 * blend[base + i * na + na - 1] - blend[base + i * na + na - 2]
+    return blend[base + i * na + j]
+
+
+@numba.njit(cache=True)
+def _node(blend, base, i, j):
+    """Table value at nodes (``i``, ``j``), the grid continued linearly in both directions."""
+    nn = int(blend[5])
+    if i < 0:
+        return 2.0 * _node_in_opening(blend, base, 0, j) - _node_in_opening(blend, base, 1, j)
+    if i >= nn:
+        return 2.0 * _node_in_opening(blend, base, nn - 1, j) - _node_in_opening(blend, base, nn - 2, j)
+    return _node_in_opening(blend, base, i, j)
+
+
+@numba.njit(cache=True)
+def _table_value_grad(blend, base, n11, opening):
+    """``(y, dy/dN11, dy/da)`` of the table starting at ``blend[base]``: Catmull-Rom interpolation on the grid,
+    N11 and opening clamped to the grid (derivative 0 beyond it)."""
+    nn, na = int(blend[5]), int(blend[6])
+    h_n = blend[7] / (nn - 1)
+    h_a = blend[8] / (na - 1)
+    x = min(max(n11, 0.0), blend[7]) / h_n
+    y = min(max(opening, 0.0), blend[8]) / h_a
+    i = min(int(x), nn - 2)
+    j = min(int(y), na - 2)
+    u = x - i
+    s = y - j
+    value = 0.0
+    d_u = 0.0
+    d_s = 0.0
+    for p in range(4):
+        w_u, dw_u = _catmull_rom(u, p)
+        for q in range(4):
+            w_s, dw_s = _catmull_rom(s, q)
+            f = _node(blend, base, i - 1 + p, j - 1 + q)
+            value += w_u * w_s * f
+            d_u += dw_u * w_s * f
+            d_s += w_u * dw_s * f
+    inside_n = 1.0 if 0.0 < n11 < blend[7] else 0.0
+    inside_a = 1.0 if 0.0 < opening < blend[8] else 0.0
+    return value, inside_n * d_u / h_n, inside_a * d_s / h_a
+
+
+@numba.njit(cache=True)
+def _table_kernel(blend, n11, opening):
+    """``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` of the tables (the torque times its factor)."""
+    size = int(blend[5]) * int(blend[6])
+    q, q_n, q_a = _table_value_grad(blend, _HEADER, n11, opening)
+    m, m_n, m_a = _table_value_grad(blend, _HEADER + size, n11, opening)
+    f = blend[4]
+    return q, q_n, q_a, f * m, f * m_n, f * m_a
+
+
+_band_square = numba.njit(cache=True)(band_square)
+
+
+@numba.njit(cache=True)
 def _silent_nets_kernel(params, n11, opening):
-    """Simulator kernel ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``: the nets (``params[0]``,
-    ``params[1]``) blended into the physical model (``params[2]``: 12 model parameters, then a0, a1, n0, n1, the
-    model's torque factor and its three blade-angle terms) below
+    """:func:`_blended_kernel` moved along the band (an ensemble member's place in it, :func:`_band_factor`)."""
+    q, q_n, q_a, m, m_n, m_a = _blended_kernel(params, n11, opening)
+    blend = params[2]
+    if blend[9] == 0.0 and blend[10] == 0.0:
+        return q, q_n, q_a, m, m_n, m_a
+    factor, d_factor, shift, d_shift = _band_factor(blend, opening)
+    return (q * factor, q_n * factor, q_a * factor + q * d_factor,
+            m + shift, m_n, m_a + d_shift)
+
+
+@numba.njit(cache=True)
+def _band_factor(blend, opening):
+    """``(exp(u_q h), d/da, u_m h, d/da)``: the band below the lowest line at an ensemble member's place, ``h`` of
+    :func:`_band_square` at the distance ``1 - a / a_low``: Q11 times the first, M11 plus the third."""
+    a_low = blend[1]
+    h, dh = _band_square(1.0 - opening / a_low, blend[11])
+    factor = math.exp(blend[9] * h)
+    shift = blend[4] * blend[10] * h
+    return factor, factor * blend[9] * dh * (-1.0 / a_low), shift, blend[4] * blend[10] * dh * (-1.0 / a_low)
+
+
+@numba.njit(cache=True)
+def _blended_kernel(params, n11, opening):
+    """``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``: the nets (``params[0]``,
+    ``params[1]``) blended into the tabulated extrapolation (``params[2]``, :meth:`SilentRegionModel.packed`) below
     the lowest digitized opening (module docstring)."""
     blend = params[2]
-    angles = (blend[17], blend[18], blend[19])
     w, w_n, w_a = _blend_weight(blend, n11, opening)
-    if w <= 0.0:  # the model alone (the blend's derivatives are 0 there too): the nets need not be evaluated
-        mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel_at(blend[:12], angles, n11, max(opening, 0.0))
-        if math.isfinite(mq) and math.isfinite(mm):
-            factor = blend[16]
-            return mq, mq_n, mq_a, factor * mm, factor * mm_n, factor * mm_a
+    if w <= 0.0:  # the table alone (the blend's derivatives are 0 there too): the nets need not be evaluated
+        return _table_kernel(blend, n11, opening)
     q, q_n, q_a = _net_value_grad(params[0], n11, opening)
     m, m_n, m_a = _net_value_grad(params[1], n11, opening)
     if w >= 1.0:
         return q, q_n, q_a, m, m_n, m_a
-    mq, mq_n, mq_a, mm, mm_n, mm_a = _synthetic_kernel_at(blend[:12], angles, n11, max(opening, 0.0))
-    if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
-        return q, q_n, q_a, m, m_n, m_a
-    factor = blend[16]  # the model's torque factor (the prototype step-up; 1 for the model test)
-    mm, mm_n, mm_a = factor * mm, factor * mm_n, factor * mm_a
+    tq, tq_n, tq_a, tm, tm_n, tm_a = _table_kernel(blend, n11, opening)
     v = 1.0 - w
-    return (w * q + v * mq, w * q_n + v * mq_n + w_n * (q - mq), w * q_a + v * mq_a + w_a * (q - mq),
-            w * m + v * mm, w * m_n + v * mm_n + w_n * (m - mm), w * m_a + v * mm_a + w_a * (m - mm))
+    return (w * q + v * tq, w * q_n + v * tq_n + w_n * (q - tq), w * q_a + v * tq_a + w_a * (q - tq),
+            w * m + v * tm, w * m_n + v * tm_n + w_n * (m - tm), w * m_a + v * tm_a + w_a * (m - tm))
 
 
 @numba.njit(cache=True)
 def _silent_nets_value(params, n11, opening, which):
-    """The value alone of Q11 (``which`` 0) or M11 (1) of :func:`_silent_nets_kernel`, by the same formulas
-    without the derivatives (the physical model's complex steps cost about four times its value): what the
-    pressure loop's iterations and the torque at the converged head need."""
+    """The value alone of Q11 (``which`` 0) or M11 (1) of :func:`_silent_nets_kernel`, by the same formulas: what
+    the pressure loop's iterations and the torque at the converged head need."""
     blend = params[2]
     w = _blend_weight(blend, n11, opening)[0]
-    if w < 1.0:
-        mq, mm = _synthetic_values_at(blend[:12], (blend[17], blend[18], blend[19]), n11, max(opening, 0.0))
-        if w <= 0.0 and math.isfinite(mq) and math.isfinite(mm):  # the model alone
-            return mq if which == 0 else blend[16] * mm
+    if w <= 0.0:
+        y = _table_kernel(blend, n11, opening)[3 * which]
+        if blend[9] == 0.0 and blend[10] == 0.0:
+            return y
+        factor, _, shift, _ = _band_factor(blend, opening)
+        return y * factor if which == 0 else y + shift
     # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
     # without reference counting refuses (simulate.loop.assembly)
     y = _net_value_grad(params[0], n11, opening)[0] if which == 0 else _net_value_grad(params[1], n11, opening)[0]
-    if w >= 1.0:
+    if w < 1.0:
+        y = w * y + (1.0 - w) * _table_kernel(blend, n11, opening)[3 * which]
+    if blend[9] == 0.0 and blend[10] == 0.0:
         return y
-    if not (math.isfinite(mq) and math.isfinite(mm)):  # outside the model's range: the nets alone
-        return y
-    v = 1.0 - w
-    if which == 0:
-        return w * y + v * mq
-    return w * y + v * (blend[16] * mm)
+    factor, _, shift, _ = _band_factor(blend, opening)
+    return y * factor if which == 0 else y + shift
 
 
 @numba.njit(cache=True)
@@ -136,66 +238,121 @@ def _silent_eval_many(flow, torque, blend, n11, opening, out):
             out[j, k] = r[j]
 
 
+def _finite_pair(lo, hi, low_open: bool) -> bool:
+    return math.isfinite(lo) and math.isfinite(hi) and (0 < lo if low_open else 0 <= lo) and lo < hi
+
+
 @dataclass(frozen=True, eq=False)
 class SilentRegionModel:
-    """The fitted physical model and where it answers instead of the nets (module docstring).
+    """The tabulated extrapolation below the lowest digitized line and where it answers instead of the nets.
 
     Attributes
     ----------
-    parameters : tuple of 12 float
-        :data:`PARAMETER_NAMES` (lengths relative to D1, angles in degrees, openings in the chart's unit).
+    q11, m11 : ndarray (N11_NODES, OPENING_NODES)
+        Q11 (m^3/s) and M11 (N*m) on the grid N11 = 0 .. ``n11_top`` (r/min) x opening = 0 .. ``blend_openings[1]``
+        (chart units), both uniform.
+    n11_top : float
+        r/min, the table's last N11.
     blend_openings : (float, float)
-        Openings (chart units): the model alone at or below the first, the nets alone at or above the second (the
+        Openings (chart units): the table alone at or below the first, the nets alone at or above the second (the
         lowest digitized opening).
     n11_blend : (float, float)
-        N11 (r/min): the nets take over again between these, below the model's pumping limit.
+        N11 (r/min): the nets take over again between these (at most ``n11_top``).
     torque_factor : float
-        The model's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
-        nets and model alike, :func:`simulate.components.turbine.step_up.scale_torque`).
+        The table's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
+        nets and table alike, :func:`simulate.components.turbine.step_up.scale_torque`).
+    band_q11, band_m11 : float
+        The band below the lowest line (:mod:`hillchart.extension.hypotheses`): its half-width is ``band_q11 h``
+        in log Q11 and ``band_m11 h`` N*m of M11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to
+        ``distance_cap`` (:func:`_band_square`).
+    distance_cap : float
+    position : float
+        An ensemble member's place in the band (+-1: the 5-95 % edges); 0 for the point answer. The member's
+        characteristics below the lowest line are ``Q11 exp(position band_q11 h)`` and ``M11 + position band_m11
+        h``.
     """
 
-    parameters: tuple
+    q11: np.ndarray
+    m11: np.ndarray
+    n11_top: float
     blend_openings: tuple
     n11_blend: tuple
     torque_factor: float = 1.0
+    band_q11: float = 0.0
+    band_m11: float = 0.0
+    distance_cap: float = 1.0
+    position: float = 0.0
 
     def __post_init__(self):
-        values = np.asarray(self.parameters, dtype=float)
-        if values.shape != (len(PARAMETER_NAMES),) or not np.all(np.isfinite(values)) or np.any(values <= 0):
-            raise InputError(f"silent_model.parameters must be {len(PARAMETER_NAMES)} finite positive numbers "
-                             f"({', '.join(PARAMETER_NAMES)}), got {list(self.parameters)!r}")
-        for key, (lo, hi) in (("blend_openings", self.blend_openings), ("n11_blend", self.n11_blend)):
-            if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
-                raise InputError(f"silent_model.{key} must be two finite numbers 0 <= low < high, got "
-                                 f"{[lo, hi]!r}")
+        q, m = np.asarray(self.q11, float), np.asarray(self.m11, float)
+        if q.ndim != 2 or q.shape != m.shape or q.shape[0] < 4 or q.shape[1] < 4:
+            raise InputError(f"silent_model.q11 and silent_model.m11 must be tables of the same shape, at least 4 x 4 "
+                             f"(N11 x opening), got {q.shape} and {m.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(m))):
+            raise InputError("silent_model.q11 and silent_model.m11 must hold finite numbers only")
+        if np.any(q < 0):
+            raise InputError(f"silent_model.q11 must be >= 0 everywhere (no flow backwards through the vanes), got "
+                             f"{float(q.min())!r}")
+        if not (math.isfinite(self.n11_top) and self.n11_top > 0):
+            raise InputError(f"silent_model.n11_top must be finite and > 0, got {self.n11_top!r}")
+        if not _finite_pair(*self.blend_openings, low_open=False):
+            raise InputError(f"silent_model.blend_openings must be two finite numbers 0 <= low < high, got "
+                             f"{list(self.blend_openings)!r}")
+        if not (_finite_pair(*self.n11_blend, low_open=False) and self.n11_blend[1] <= self.n11_top * (1 + 1e-12)):
+            raise InputError(f"silent_model.n11_blend must be two finite numbers 0 <= low < high <= n11_top = "
+                             f"{self.n11_top!r}, got {list(self.n11_blend)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
             raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
+        for key, value, high in (("band_q11", self.band_q11, 10.0), ("band_m11", self.band_m11, math.inf),
+                                 ("distance_cap", self.distance_cap, 1.0)):
+            if not (math.isfinite(value) and 0 <= value <= high) or (key == "distance_cap" and value <= 0):
+                raise InputError(f"silent_model.{key} must be a finite number in "
+                                 f"{'(0' if key == 'distance_cap' else '[0'}, {high}], got {value!r}")
+        if not (math.isfinite(self.position) and abs(self.position) <= 5.0):
+            raise InputError(f"silent_model.position must be a finite number in [-5, 5], got {self.position!r}")
+        object.__setattr__(self, "q11", q)
+        object.__setattr__(self, "m11", m)
+
+    # ------------------------------------------------------------------------------------------------------------
+    @classmethod
+    def tabulate(cls, values, lowest_opening: float, n11_top: float, *, torque_factor: float = 1.0,
+                 n11_nodes: int = N11_NODES, opening_nodes: int = OPENING_NODES, **band) -> "SilentRegionModel":
+        """The table of ``values(n11, opening) -> (Q11, M11)`` (arrays of the grid's shape) below the lowest
+        digitized opening ``lowest_opening``, N11 from 0 to ``n11_top`` (r/min)."""
+        n11 = np.linspace(0.0, float(n11_top), n11_nodes)
+        opening = np.linspace(0.0, float(lowest_opening), opening_nodes)
+        nn, aa = np.meshgrid(n11, opening, indexing="ij")
+        q, m = values(nn, aa)
+        q, m = np.broadcast_to(np.asarray(q, float), nn.shape), np.broadcast_to(np.asarray(m, float), nn.shape)
+        lo, hi = N11_BLEND_FRACTIONS
+        return cls(q11=np.maximum(q, 0.0), m11=np.array(m), n11_top=float(n11_top),
+                   blend_openings=(BLEND_START_FRACTION * float(lowest_opening), float(lowest_opening)),
+                   n11_blend=(lo * float(n11_top), hi * float(n11_top)), torque_factor=torque_factor, **band)
 
     def scaled(self, factor: float) -> "SilentRegionModel":
-        """The same model with its torque multiplied by ``factor`` (on top of the present factor)."""
-        return SilentRegionModel(self.parameters, self.blend_openings, self.n11_blend, self.torque_factor * factor)
+        """The same table with its torque multiplied by ``factor`` (on top of the present factor)."""
+        return replace(self, torque_factor=self.torque_factor * factor)
 
-    @classmethod
-    def from_fitted(cls, fitted, lowest_opening: float, n11_top: float, turbine=None) -> "SilentRegionModel":
-        """From a :class:`hillchart.extension.turbine_model.FittedTurbineModel` (or ``turbine``, one of its
-        :meth:`~hillchart.extension.turbine_model.FittedTurbineModel.draw`) and the chart's lowest digitized
-        opening; ``n11_top`` bounds the N11 blend when the model has no pumping limit (inf)."""
-        from hillchart.extension.turbine_model import _n11_limit
-
-        model = fitted.turbine if turbine is None else turbine
-        values = model._terms_params()  # the model equations' parameter vector, PARAMETER_NAMES order
-        limit = _n11_limit(model.params)
-        limit = limit if math.isfinite(limit) else max(float(n11_top), 1.0) / 0.95
-        lo, hi = N11_BLEND_FRACTIONS
-        return cls(parameters=tuple(float(v) for v in values),
-                   blend_openings=(BLEND_START_FRACTION * float(lowest_opening), float(lowest_opening)),
-                   n11_blend=(lo * limit, hi * limit))
+    def at(self, position: float) -> "SilentRegionModel":
+        """The same table at ``position`` in the band (an ensemble member's)."""
+        return replace(self, position=float(position))
 
     def packed(self) -> np.ndarray:
-        """The 20 numbers the kernel reads: parameters, blend openings, N11 blend, torque factor and the model's
-        blade-angle terms (:func:`hillchart.synthetic.francis.francis_angles`)."""
-        return np.array([*self.parameters, *self.blend_openings, *self.n11_blend, self.torque_factor,
-                         *francis_angles(self.parameters)], dtype=float)
+        """The numbers the kernel reads (:data:`_HEADER` header values, then the Q11 and M11 tables)."""
+        nn, na = self.q11.shape
+        header = [*self.blend_openings, *self.n11_blend, self.torque_factor, nn, na, self.n11_top,
+                  self.blend_openings[1], self.position * self.band_q11, self.position * self.band_m11,
+                  self.distance_cap]
+        return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
+
+    def table(self, n11, opening):
+        """``(Q11, M11)`` of the table alone (the torque times its factor), broadcast arrays."""
+        n11_b, a_b = np.broadcast_arrays(np.asarray(n11, dtype=float), np.asarray(opening, dtype=float))
+        packed = self.packed()
+        kernel = _table_kernel.py_func if n11_b.size <= _PYTHON_POINTS else _table_kernel
+        out = np.array([kernel(packed, float(n), float(a)) for n, a in zip(n11_b.ravel(), a_b.ravel())])
+        out = out.reshape(-1, 6)
+        return out[:, 0].reshape(n11_b.shape), out[:, 3].reshape(n11_b.shape)
 
     def evaluate(self, flow, torque, n11, opening):
         """``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)`` of the blended characteristics, broadcast arrays;
@@ -204,52 +361,125 @@ class SilentRegionModel:
         flat_n = np.ascontiguousarray(n11_b, dtype=float).ravel()
         flat_a = np.ascontiguousarray(a_b, dtype=float).ravel()
         out = np.empty((6, flat_n.size))
+        params = (flow.packed(), torque.packed(), self.packed())
         if flat_n.size <= _PYTHON_POINTS:
-            # few points (e.g. linearizing at one operating point): where the nets alone answer, their kernel's
-            # Python source (loading the compiled kernels costs about half a second); below the lowest line the
-            # compiled blend
-            params = (flow.packed(), torque.packed(), self.packed())
-            packed = params[2]
+            # few points (e.g. linearizing at one operating point): the kernels' Python source (loading the compiled
+            # kernels costs about half a second)
             for k in range(flat_n.size):
-                n, a = float(flat_n[k]), float(flat_a[k])
-                s_a = _smoothstep.py_func(a, packed[12], packed[13])[0]
-                s_n = _smoothstep.py_func(n, packed[14], packed[15])[0]
-                if (1.0 - s_a) * (1.0 - s_n) <= 0.0:
-                    out[:3, k] = _net_value_grad.py_func(params[0], n, a)
-                    out[3:, k] = _net_value_grad.py_func(params[1], n, a)
-                else:
-                    out[:, k] = _silent_nets_kernel(params, n, a)
+                out[:, k] = _python_kernel(params, float(flat_n[k]), float(flat_a[k]))
         else:
-            _silent_eval_many(flow.packed(), torque.packed(), self.packed(), flat_n, flat_a, out)
+            _silent_eval_many(params[0], params[1], params[2], flat_n, flat_a, out)
         return tuple(row.reshape(n11_b.shape) for row in out)
 
+    # ------------------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        doc = {"kind": KIND, "parameters": dict(zip(PARAMETER_NAMES, self.parameters)),
-               "blend_openings": list(self.blend_openings), "n11_blend": list(self.n11_blend)}
+        doc = {"kind": KIND, "n11_top": self.n11_top, "blend_openings": list(self.blend_openings),
+               "n11_blend": list(self.n11_blend), "band": {"q11": self.band_q11, "m11": self.band_m11,
+                                                           "distance_cap": self.distance_cap},
+               "q11": self.q11.tolist(), "m11": self.m11.tolist()}
         if self.torque_factor != 1.0:
             doc["torque_factor"] = self.torque_factor
         return doc
 
+    def member_dict(self) -> dict:
+        """An ensemble member's block in nets.json: its place in the band of the top-level table."""
+        return {"position": self.position}
+
+    def member_from_dict(self, doc, key: str) -> "SilentRegionModel":
+        """An ensemble member's block: ``{"position": p}`` on this (the top-level) table, or a whole block."""
+        if isinstance(doc, dict) and set(doc) == {"position"}:
+            position = doc["position"]
+            if isinstance(position, bool) or not isinstance(position, (int, float)):
+                raise InputError(f"nets.json: {key}.position must be a number in [-5, 5], got {position!r}")
+            try:
+                return self.at(float(position))
+            except InputError as exc:
+                raise InputError(f"nets.json: {str(exc).replace('silent_model', key)}") from None
+        return SilentRegionModel.from_dict(doc, key=key)
+
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model") -> "SilentRegionModel":
-        """Validate a parsed ``silent_model`` block of nets.json."""
-        required = {"kind", "parameters", "blend_openings", "n11_blend"}
-        if not isinstance(doc, dict) or not required <= set(doc) <= required | {"torque_factor"}:
-            raise InputError(f"nets.json: {key} must be an object with the keys kind, parameters, blend_openings, "
-                             f"n11_blend (and optionally torque_factor), got "
+        """Validate a parsed ``silent_model`` block of nets.json (kind :data:`KIND`, or :data:`LEGACY_KIND`,
+        tabulated on reading)."""
+        if not isinstance(doc, dict) or "kind" not in doc:
+            raise InputError(f"nets.json: {key} must be an object with a kind ({KIND!r}), got "
                              f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
+        if doc["kind"] == LEGACY_KIND:
+            return _from_legacy(doc, key)
         if doc["kind"] != KIND:
-            raise InputError(f"nets.json: {key}.kind must be {KIND!r}, got {doc['kind']!r}")
-        params = doc["parameters"]
-        if not isinstance(params, dict) or set(params) != set(PARAMETER_NAMES):
-            raise InputError(f"nets.json: {key}.parameters must have exactly the keys {', '.join(PARAMETER_NAMES)}")
+            raise InputError(f"nets.json: {key}.kind must be {KIND!r} (or {LEGACY_KIND!r}, files of earlier "
+                             f"versions), got {doc['kind']!r}")
+        required = {"kind", "n11_top", "blend_openings", "n11_blend", "band", "q11", "m11"}
+        if not required <= set(doc) <= required | {"torque_factor"}:
+            raise InputError(f"nets.json: {key} must have the keys {', '.join(sorted(required))} (and optionally "
+                             f"torque_factor), got {sorted(doc)}")
         try:
-            values = tuple(float(params[name]) for name in PARAMETER_NAMES)
+            q = np.array(doc["q11"], dtype=float)
+            m = np.array(doc["m11"], dtype=float)
+            top = float(doc["n11_top"])
             openings = tuple(float(v) for v in doc["blend_openings"])
             speeds = tuple(float(v) for v in doc["n11_blend"])
             factor = float(doc.get("torque_factor", 1.0))
+            band = doc["band"]
+            if not isinstance(band, dict) or set(band) != {"q11", "m11", "distance_cap"}:
+                raise ValueError
+            widths = {"band_q11": float(band["q11"]), "band_m11": float(band["m11"]),
+                      "distance_cap": float(band["distance_cap"])}
         except (TypeError, ValueError):
-            raise InputError(f"nets.json: {key} must hold numbers (parameters, blend_openings, n11_blend)") from None
+            raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, n11_blend, band with "
+                             f"q11, m11 and distance_cap, and the q11 and m11 tables)") from None
         if len(openings) != 2 or len(speeds) != 2:
             raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs")
-        return cls(parameters=values, blend_openings=openings, n11_blend=speeds, torque_factor=factor)
+        try:
+            return cls(q11=q, m11=m, n11_top=top, blend_openings=openings, n11_blend=speeds, torque_factor=factor,
+                       **widths)
+        except InputError as exc:
+            raise InputError(f"nets.json: {str(exc).replace('silent_model', key)}") from None
+
+
+def _python_kernel(params, n11, opening):
+    """:func:`_silent_nets_kernel` in Python, where the nets alone answer; the compiled kernel elsewhere."""
+    blend = params[2]
+    s_a = _smoothstep.py_func(opening, blend[0], blend[1])[0]
+    s_n = _smoothstep.py_func(n11, blend[2], blend[3])[0]
+    banded = opening < blend[1] and (blend[9] != 0.0 or blend[10] != 0.0)
+    if (1.0 - s_a) * (1.0 - s_n) <= 0.0 and not banded:
+        return (*_net_value_grad.py_func(params[0], n11, opening), *_net_value_grad.py_func(params[1], n11, opening))
+    return _silent_nets_kernel(params, n11, opening)
+
+
+def _from_legacy(doc, key: str) -> SilentRegionModel:
+    """A ``francis-1d`` block (the fitted physical model itself) tabulated on the grid of :data:`KIND`."""
+    from hillchart.synthetic.francis import FrancisParameters, SyntheticFrancis
+
+    required = {"kind", "parameters", "blend_openings", "n11_blend"}
+    if not required <= set(doc) <= required | {"torque_factor"}:
+        raise InputError(f"nets.json: {key} must be an object with the keys kind, parameters, blend_openings, "
+                         f"n11_blend (and optionally torque_factor), got {sorted(doc)}")
+    params = doc["parameters"]
+    if not isinstance(params, dict) or set(params) != set(PARAMETER_NAMES):
+        raise InputError(f"nets.json: {key}.parameters must have exactly the keys {', '.join(PARAMETER_NAMES)}")
+    try:
+        values = tuple(float(params[name]) for name in PARAMETER_NAMES)
+        openings = tuple(float(v) for v in doc["blend_openings"])
+        speeds = tuple(float(v) for v in doc["n11_blend"])
+        factor = float(doc.get("torque_factor", 1.0))
+    except (TypeError, ValueError):
+        raise InputError(f"nets.json: {key} must hold numbers (parameters, blend_openings, n11_blend)") from None
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        raise InputError(f"nets.json: {key}.parameters must be {len(PARAMETER_NAMES)} finite positive numbers "
+                         f"({', '.join(PARAMETER_NAMES)}), got {list(values)!r}")
+    if len(openings) != 2 or len(speeds) != 2 or not _finite_pair(*openings, low_open=False) \
+            or not _finite_pair(*speeds, low_open=False):
+        raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs of finite "
+                         f"numbers 0 <= low < high")
+    p = dict(zip(PARAMETER_NAMES, values))
+    pitch, opening_max = p.pop("guide_vane_pitch"), p.pop("opening_max")
+    turbine = SyntheticFrancis(FrancisParameters(guide_vane_pitch_mm=pitch, opening_max=opening_max, **p))
+    top = speeds[1]
+
+    def model(n11, opening):
+        return turbine.q11(np.minimum(n11, 0.999 * top), opening), turbine.m11(np.minimum(n11, 0.999 * top), opening)
+
+    table = SilentRegionModel.tabulate(model, openings[1], top, torque_factor=factor)
+    return SilentRegionModel(table.q11, table.m11, table.n11_top, openings, speeds, factor)

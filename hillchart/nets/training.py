@@ -39,8 +39,6 @@ REGULARIZATIONS = (0.0, 1e-5, 1e-4)
 #: 1.3), which decides the max speed rise of a load rejection. 1.5 went further (worst speed error 0.82 against 1.08
 #: points) but cost a dense chart its six coefficients (0.056 > 0.05); docs/guarantee-benchmark.md.
 SELECTION_TOLERANCE = 1.3
-#: Random stream (with the training seed) of the ensemble members' draws of the silent-region model.
-MEMBER_MODEL_STREAM = 7
 #: Restarts per candidate during the selection, and per ensemble member.
 SELECTION_RESTARTS = 3
 SELECTION_FOLDS = 5
@@ -260,6 +258,9 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
         record[key] = rec
     ensemble_pairs = list(zip(members["flow"], members["torque"])) if ensemble else None
     silent, member_silent = silent_region_models(extended, ensemble, seed)
+    extrapolation = getattr(extended, "extrapolation", None)
+    if extrapolation is not None:
+        record["extrapolation"] = extrapolation.to_dict()
     nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
                     ensemble=ensemble_pairs, silent_model=silent, member_silent_models=member_silent or None)
     nets.estimators = estimators
@@ -267,24 +268,24 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
 
 
 def silent_region_models(extended, members: int = 0, seed: int = 0):
-    """The physical model the nets hand over to below the lowest digitized opening
-    (:class:`hillchart.nets.silent_model.SilentRegionModel`), when the extension fitted one and sampled the silent
-    regions with it, and one drawn model per ensemble member (what the chart leaves open: the Laplace draws of
-    :meth:`hillchart.extension.turbine_model.FittedTurbineModel.draw`, seeded by ``seed``). ``(None, [])`` when
-    there is none (the nets alone everywhere)."""
+    """The extrapolation the nets hand over to below the lowest digitized opening
+    (:class:`hillchart.nets.silent_model.SilentRegionModel`: the extension's weighed hypotheses, tabulated), when
+    the extension weighed them (:attr:`hillchart.extension.extend.ExtendedSamples.extrapolation`), and one table per
+    ensemble member at its place in the band (:func:`hillchart.extension.hypotheses.member_positions`, seeded by
+    ``seed``): the band's width comes from the chart's held-out lines. ``(None, [])`` when there is none (the nets
+    alone everywhere)."""
+    from hillchart.extension.hypotheses import member_positions
     from hillchart.nets.silent_model import SilentRegionModel
 
-    model = getattr(extended, "boundary_model", None)
-    if model is None:  # e.g. a table of samples (dict) or the paper's polynomial boundaries
+    extrapolation = getattr(extended, "extrapolation", None)
+    if extrapolation is None:  # e.g. a table of samples (dict) or the paper's polynomial boundaries
         return None, []
-    origin = np.asarray(extended.origin)
-    if not np.any(origin == "silent-region"):
-        return None, []
-    lowest = float(np.min(np.asarray(extended.opening)[origin == "measured"]))
-    top = float(np.max(np.asarray(extended.n11)))
-    rng = np.random.default_rng([seed, MEMBER_MODEL_STREAM])
-    drawn = [SilentRegionModel.from_fitted(model, lowest, top, turbine=model.draw(rng)) for _ in range(members)]
-    return SilentRegionModel.from_fitted(model, lowest, top), drawn
+    evidence = extrapolation.evidence
+    table = SilentRegionModel.tabulate(extrapolation.values, extrapolation.lowest_opening, extrapolation.n11_top,
+                                       band_q11=evidence.band["q11"],
+                                       band_m11=evidence.band["m11"] * evidence.m11_scale,
+                                       distance_cap=evidence.distance_cap)
+    return table, [table.at(float(u)) for u in member_positions(members, seed)]
 
 
 def _training_record(est: HillNet, X, y, groups, record_time: bool, point_of_ensemble: bool = False) -> dict:

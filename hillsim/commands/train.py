@@ -151,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
           f"2-H-1 logsig nets (H {hidden}), Levenberg-Marquardt, ensemble of {options['ensemble']} (seed "
           f"{options['seed']})")
     print(format_training_table(nets))
+    if extended.extrapolation is not None:
+        print(f"extrapolation: {extended.extrapolation.summary()}")
     print(f"training time (both nets): {elapsed:.2f} s")
     print(f"wrote {args.out}")
     return 0

@@ -42,9 +42,11 @@ def synthetic():
 
 def test_synthetic_hill_chart_has_closed_islands_around_the_best_point(synthetic):
     nets, chart = synthetic
-    # levels from 0.88 up close around the best point; 0.86 and below run into the chart's low-flow border, as on
-    # a manufacturer's chart
-    islands = chartplot.efficiency_islands(nets, [0.88, 0.90, 0.92, 0.93], samples=chart)
+    # levels from 0.89 up close around the best point; 0.86 and below run into the chart's low-flow border, as on
+    # a manufacturer's chart. 0.88 is left out: the exact turbine's 0.88 contour passes within 0.002 m^3/s of the
+    # plotted region's top (Q11 0.598 against 0.600), less than the nets' Q11 accuracy there (0.3 %), so whether the
+    # nets close it is chance
+    islands = chartplot.efficiency_islands(nets, [0.89, 0.90, 0.92, 0.93], samples=chart)
     for level, lines in islands.items():
         # one closed loop per level: a single hill, no spurious second peak
         assert [closed for closed, _ in lines] == [True], level

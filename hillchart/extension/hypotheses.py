@@ -1,0 +1,540 @@
+"""What the chart says below its lowest digitized opening line: competing hypotheses, judged by the chart's own lines.
+
+A load rejection's maximum head is decided at the end of the closure, below the lowest opening line a user
+digitized. Nothing measured is there; any answer is an extrapolation, and the fitted physical model
+(:mod:`hillchart.extension.turbine_model`) is one hypothesis among several. On a real chart (Sayano-Shushenskaya, its
+lowest lines held out) the model alone overpredicted Q11 by 10-21 %, worse than a straight line. So the extension
+asks the chart: it holds out its own lowest line (then its two lowest), refits every hypothesis on the lines above,
+and scores each at the held-out points. The hypotheses, all of them functions of the opening ratio ``t = a / a_low``
+(``a_low`` the lowest digitized opening; ``t`` in [0, 1]) at the same N11:
+
+``model``
+    the fitted 1-D Euler model itself, ``y = y_m(a)``;
+``anchored-model``
+    the model's shape corrected to pass through the lowest line: ``y = y_m(a) + (y_low - y_m(a_low)) t`` (the
+    model's error at the lowest line, fading linearly to none at a = 0, where Q11 = 0 and M11 = -K N11^2 hold);
+``line``
+    a straight line in opening from the lowest line to the closed vanes: ``Q11 = Q_low t``,
+    ``M11 = M_0 + (M_low - M_0) t`` with ``M_0 = -K N11^2`` (eq. 8 of the BP hill-chart paper);
+``quadratic``
+    the paper's polynomial extrapolation in opening (section 2.6 (3), degree 2), in the same anchored form:
+    ``Q11 = Q_low (t + c t (t - 1))``, ``M11 = M_0 + (M_low - M_0) (t + c t (t - 1))``, the curvature ``c`` fitted
+    by least squares to the lowest :data:`CURVATURE_LINES` lines (a parabola through the closed vanes and the
+    lowest line, bent as the chart's lines bend).
+
+``y_low(N11)`` is the lowest line's value at N11: the model there plus the line's own residuals against it,
+interpolated in N11 (held constant beyond the line's ends). In the simulator it is the nets' value at ``a_low``,
+which fits that line.
+
+The hypotheses are weighed by their held-out mean squared error (inverse-MSE weights of Bates and Granger 1969: with
+a few held-out points, a least-squares stacking regression over the simplex follows their noise; the inverse-MSE
+combination is the standard robust choice), never by their fit to the lines they were fitted on. The residuals of the
+weighed blend at the held-out points, divided by their distance below the lowest kept line (``1 - t``), give the
+band's half-width per unit of distance (:func:`band_scale`, split-conformal): a band that widens with the distance
+from the data and is as wide as this chart's own evidence says.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from hillchart.errors import InputError
+
+#: The hypotheses, in the order of every weight vector.
+HYPOTHESES = ("model", "anchored-model", "line", "offset-line", "speed-scaled-line", "quadratic")
+#: Lines (the lowest, and those just above it) whose bending gives the quadratic hypothesis its curvature.
+CURVATURE_LINES = 4
+#: Held-out folds: the lowest line, then the two lowest (each needs this many lines left to refit on).
+HOLD_OUT = (1, 2)
+MIN_LINES_LEFT = 4
+#: The band's distance is capped at this multiple of the largest distance the hold-outs tested.
+DISTANCE_CAP_FACTOR = 1.5
+#: Coverage the band aims at (two-sided: the 5-95 % band).
+BAND_COVERAGE = 0.90
+#: ``kappa`` of the band when the chart gives no held-out evidence (fewer than MIN_LINES_LEFT + 1 lines): 1.2, so
+#: +-30 % at half the lowest opening (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter
+#: to a half of the lowest opening below it).
+NO_EVIDENCE_SCALE = 1.2
+
+
+@dataclass(frozen=True)
+class LowestLine:
+    """The lowest digitized line as a function of N11: the model there plus the line's residuals against it.
+
+    Attributes
+    ----------
+    opening : float
+        ``a_low``, chart units.
+    n11 : ndarray (P,)
+        N11 of the line's points, ascending (r/min).
+    q11_residual, m11_residual : ndarray (P,)
+        The line's Q11 (m^3/s) and M11 (N*m) minus the model's at those points.
+    """
+
+    opening: float
+    n11: np.ndarray
+    q11_residual: np.ndarray
+    m11_residual: np.ndarray
+
+    def values(self, model, n11):
+        """``(Q11, M11)`` of the lowest line at ``n11`` (array, r/min)."""
+        n11 = np.asarray(n11, float)
+        # the model's valid range ends at its pumping limit; beyond it the value there is held
+        n11 = np.minimum(n11, 0.95 * model.n11_limit) if math.isfinite(model.n11_limit) else n11
+        q = model.q11(n11, self.opening) + np.interp(n11, self.n11, self.q11_residual)
+        m = model.m11(n11, self.opening) + np.interp(n11, self.n11, self.m11_residual)
+        return q, m
+
+
+@dataclass(frozen=True)
+class Hypotheses:
+    """The hypotheses fitted to one chart (or to the lines left after a hold-out).
+
+    Attributes
+    ----------
+    model : FittedTurbineModel or None
+        The physical model (None when it cannot represent the chart: the model hypotheses are then unavailable).
+    lowest : LowestLine
+    curvature_q11, curvature_m11 : float
+        ``c`` of the quadratic hypothesis for Q11 and M11.
+    k_zero_opening : float
+        K of eq. (8), N*m/(r/min)^2.
+    """
+
+    model: object
+    lowest: LowestLine
+    curvature_q11: float
+    curvature_m11: float
+    k_zero_opening: float
+    offset_q11: float = 0.0
+    offset_m11: float = 0.0
+
+    def speed_ratio(self, opening):
+        """``n_run(a_low) / n_run(a)``: how much closer to its runaway speed a smaller opening runs at the same N11
+        (the model's runaway curve; 1 where it has none)."""
+        a_low = self.lowest.opening
+        grid = a_low * np.linspace(0.05, 1.0, 12)
+        runaway = np.array([self.model.runaway_n11(float(a)) for a in grid])
+        finite = np.isfinite(runaway) & (runaway > 0)
+        if finite.sum() < 3:
+            return np.ones_like(np.asarray(opening, float))
+        top = runaway[-1]
+        if not finite[-1]:  # the model's runaway at a_low lies beyond its valid range: the trend of the last three
+            index = np.flatnonzero(finite)[-3:]
+            top = float(np.polyval(np.polyfit(grid[index], runaway[index], 1), a_low))
+        ratio = np.maximum(top / runaway[finite], 1.0)
+        # below the smallest opening with a runaway speed: held at its ratio (np.interp holds the end value)
+        return np.interp(np.asarray(opening, float), grid[finite], ratio)
+
+    def predict(self, name: str, n11, opening):
+        """``(Q11, M11)`` of hypothesis ``name`` at (``n11``, ``opening``) below the lowest line (arrays)."""
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        a_low = self.lowest.opening
+        t = np.clip(opening / a_low, 0.0, 1.0)
+        q_low, m_low = self.lowest.values(self.model, n11)
+        m_0 = -self.k_zero_opening * n11 ** 2
+        if name == "model":
+            return self.model.q11(n11, opening), self.model.m11(n11, opening)
+        if name == "anchored-model":
+            q_m, m_m = self.model.q11(n11, opening), self.model.m11(n11, opening)
+            q_ml, m_ml = self.model.q11(n11, a_low), self.model.m11(n11, a_low)
+            return q_m + (q_low - q_ml) * t, m_m + (m_low - m_ml) * t
+        if name == "line":
+            return q_low * t, m_0 + (m_low - m_0) * t
+        if name == "offset-line":
+            return q_low * offset_line(t, self.offset_q11), m_0 + (m_low - m_0) * offset_line(t, self.offset_m11)
+        if name == "speed-scaled-line":
+            rho = self.speed_ratio(opening)
+            q_s, m_s = self.lowest.values(self.model, n11 * rho)
+            m_0s = -self.k_zero_opening * (n11 * rho) ** 2
+            return q_s * t, m_0 + (m_s - m_0s) * t
+        if name == "quadratic":
+            bend = t * (t - 1.0)
+            return q_low * (t + self.curvature_q11 * bend), m_0 + (m_low - m_0) * (t + self.curvature_m11 * bend)
+        raise InputError(f"hypothesis must be one of {HYPOTHESES}, got {name!r}")
+
+
+#: Largest opening ratio at which the offset line may reach zero flow (the rest is its parabolic foot).
+MAX_OFFSET = 0.4
+
+
+def offset_line(t, t0: float):
+    """``S(t)`` of the offset-line hypothesis: the straight line ``(t - t0) / (1 - t0)`` through the lowest line
+    (``S(1) = 1``) that would reach zero at ``t0``, joined C1 at ``2 t0`` to the parabola ``A t^2`` that reaches
+    zero at the closed vanes (``A = 1 / (4 t0 (1 - t0))``); ``t0 <= 0`` is the plain line ``S = t``.
+
+    Examples
+    --------
+    >>> [round(float(v), 6) for v in offset_line(np.array([0.0, 0.1, 0.2, 1.0]), 0.1)]
+    [0.0, 0.027778, 0.111111, 1.0]
+    """
+    t = np.asarray(t, float)
+    if t0 <= 0.0:
+        return t
+    line = (t - t0) / (1.0 - t0)
+    foot = t * t / (4.0 * t0 * (1.0 - t0))
+    return np.where(t >= 2.0 * t0, line, foot)
+
+
+def _offset(ratios, ts) -> float:
+    """Least-squares ``t0`` of ``ratio = (t - t0) / (1 - t0)`` over the points (``ratio - t = t0 (ratio - 1)``),
+    clipped to [0, :data:`MAX_OFFSET`]."""
+    r, t = np.concatenate(ratios), np.concatenate(ts)
+    den = float(np.sum((r - 1.0) ** 2))
+    if den <= 0:
+        return 0.0
+    return float(np.clip(np.sum((r - t) * (r - 1.0)) / den, 0.0, MAX_OFFSET))
+
+
+def _lines(flow_opening, flow_n11, values):
+    for a in np.unique(flow_opening):
+        on = flow_opening == a
+        order = np.argsort(flow_n11[on])
+        yield float(a), flow_n11[on][order], tuple(v[on][order] for v in values)
+
+
+def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
+    """The hypotheses of a chart: its lowest line against ``model`` and the curvature of its lowest lines.
+
+    Parameters
+    ----------
+    chart : ChartSamples
+    torque : ndarray (F,)
+        M11 (N*m) at the flow points (from the efficiency surface, eq. 5).
+    model : FittedTurbineModel
+    k_zero_opening : float
+        K of eq. (8), N*m/(r/min)^2.
+    """
+    torque = np.asarray(torque, float)
+    lines = list(_lines(chart.flow_opening, chart.flow_n11, (chart.flow_q11, torque)))
+    a_low, n_low, (q_low, m_low) = lines[0]
+    lowest = LowestLine(opening=a_low, n11=n_low, q11_residual=q_low - model.q11(n_low, a_low),
+                        m11_residual=m_low - model.m11(n_low, a_low))
+    # curvature of the quadratic hypothesis: least squares over the lowest lines (t >= 1 there)
+    num_q = den_q = num_m = den_m = 0.0
+    ratios_q, ratios_m, ts = [], [], []
+    for a, n, (q, m) in lines[:CURVATURE_LINES]:
+        t = a / a_low
+        base_q, base_m = lowest.values(model, n)
+        m_0 = -k_zero_opening * n ** 2
+        ratios_q.append(q / base_q)
+        ratios_m.append((m - m_0) / (base_m - m_0))
+        ts.append(np.full(n.size, t))
+        bend_q = base_q * t * (t - 1.0)
+        bend_m = (base_m - m_0) * t * (t - 1.0)
+        num_q += float(np.sum((q - base_q * t) * bend_q))
+        den_q += float(np.sum(bend_q ** 2))
+        num_m += float(np.sum((m - m_0 - (base_m - m_0) * t) * bend_m))
+        den_m += float(np.sum(bend_m ** 2))
+    c_q = num_q / den_q if den_q > 0 else 0.0
+    c_m = num_m / den_m if den_m > 0 else 0.0
+    return Hypotheses(model=model, lowest=lowest, curvature_q11=float(np.clip(c_q, -1.0, 1.0)),
+                      curvature_m11=float(np.clip(c_m, -1.0, 1.0)), k_zero_opening=float(k_zero_opening),
+                      offset_q11=_offset(ratios_q, ts), offset_m11=_offset(ratios_m, ts))
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """The points of one hold-out and every hypothesis' answer there.
+
+    Attributes
+    ----------
+    lines : int
+        How many of the lowest lines were held out.
+    n11, opening, q11, m11 : ndarray (P,)
+        The held-out points (r/min, chart units) and the chart's Q11 (m^3/s) and M11 (N*m) there.
+    m11_zero : ndarray (P,)
+        ``-K N11^2`` (N*m) of the refitted model: M11 with the vanes closed (eq. 8).
+    distance : ndarray (P,)
+        ``1 - a / a_low`` of each point, ``a_low`` the lowest line kept.
+    predictions : dict
+        hypothesis -> ``(Q11, M11)`` arrays.
+    """
+
+    lines: int
+    n11: np.ndarray
+    opening: np.ndarray
+    q11: np.ndarray
+    m11: np.ndarray
+    m11_zero: np.ndarray
+    distance: np.ndarray
+    predictions: dict
+
+
+def sub_chart(chart, keep):
+    """``chart`` with only the flow points where ``keep`` (bool, per flow point); contours and runaway kept."""
+    return replace(chart, flow_opening=chart.flow_opening[keep], flow_n11=chart.flow_n11[keep],
+                   flow_q11=chart.flow_q11[keep])
+
+
+def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
+    """Hold out the ``lines`` lowest opening lines, refit on the rest, predict the held-out points.
+
+    ``fit_model(chart, torque) -> FittedTurbineModel`` refits the physical model. None when fewer than
+    :data:`MIN_LINES_LEFT` lines would be left or the model cannot represent the rest (``InputError``)."""
+    openings = np.unique(chart.flow_opening)
+    if openings.size - lines < MIN_LINES_LEFT:
+        return None
+    held = np.isin(chart.flow_opening, openings[:lines])
+    rest = sub_chart(chart, ~held)
+    torque = np.asarray(torque, float)
+    try:
+        model = fit_model(rest, torque[~held])
+    except InputError:
+        return None
+    hyp = fit_hypotheses(rest, torque[~held], model, model.k_zero_opening)
+    n, a = chart.flow_n11[held], chart.flow_opening[held]
+    predictions = {name: hyp.predict(name, n, a) for name in HYPOTHESES}
+    return HeldOut(lines=lines, n11=n, opening=a, q11=chart.flow_q11[held], m11=torque[held],
+                   m11_zero=-model.k_zero_opening * n ** 2, distance=1.0 - a / openings[lines],
+                   predictions=predictions)
+
+
+def band_square(distance, cap):
+    """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^2`` up to
+    ``cap``, continued C1 to its plateau ``2 cap^2`` at ``2 cap`` (the slope falls linearly from ``2 cap`` to 0);
+    0 above the lowest line. Scalars; the simulator's kernel compiles this function
+    (:mod:`hillchart.nets.silent_model`).
+
+    Examples
+    --------
+    >>> band_square(0.2, 0.5), band_square(0.75, 0.5), band_square(1.0, 0.5)
+    ((0.04000000000000001, 0.4), (0.4375, 0.5), (0.5, 0.0))
+    """
+    if distance <= 0.0:
+        return 0.0, 0.0
+    if distance <= cap:
+        return distance * distance, 2.0 * distance
+    if distance >= 2.0 * cap:
+        return 2.0 * cap * cap, 0.0
+    e = distance - cap
+    return cap * cap + 2.0 * cap * e - e * e, 2.0 * (cap - e)
+
+
+def log_ratio(predicted, actual, floor):
+    """``log(predicted / actual)`` of two positive quantities, each floored at ``floor`` (a sign change counts as
+    a large error, not as an undefined one)."""
+    return np.log(np.maximum(predicted, floor) / np.maximum(actual, floor))
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What the chart's own held-out lines say about the region below its lowest line.
+
+    Errors of Q11 are log-ratios (about relative errors; Q11 vanishes with the opening and stays positive); errors
+    of M11 are fractions of the chart's measured M11 range (``m11_scale``): M11 passes through zero near runaway,
+    where a relative error means nothing.
+
+    Attributes
+    ----------
+    folds : list of HeldOut
+    weights : dict
+        ``{"q11": {hypothesis: weight}, "m11": {...}}``, each summing to 1.
+    errors : dict
+        ``{"q11": {hypothesis: RMS error}, "m11": {...}}`` at the held-out points, with ``"blend"`` (the weighed
+        hypotheses) and ``"blend_worst"``.
+    band : dict
+        ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h`` (Q11: log-ratio; M11: fraction of
+        ``m11_scale``), ``h`` of :func:`band_square` at the distance ``d = 1 - a / a_low`` below the lowest line
+        (:func:`band_scale`).
+    m11_scale : float
+        N*m.
+    distance_cap : float
+        The band grows as ``d^2`` up to :data:`DISTANCE_CAP_FACTOR` times the largest distance the hold-outs
+        tested, and levels off beyond (the error model is not extrapolated further; :func:`band_square`).
+    points : int
+        Held-out points behind the weights and the band (0: no evidence; the band is :data:`NO_EVIDENCE_SCALE`).
+    notes : list of str
+    """
+
+    folds: list
+    weights: dict
+    errors: dict
+    band: dict
+    points: int
+    m11_scale: float = 1.0
+    distance_cap: float = 1.0
+    notes: list = field(default_factory=list)
+
+    def half_width(self, target: str, distance):
+        """The band's half-width at ``distance`` below the lowest line (log-ratio for Q11, N*m for M11): ``kappa
+        h``, ``h`` of :func:`band_square`."""
+        h = np.vectorize(lambda d: band_square(d, self.distance_cap)[0], otypes=[float])(distance)
+        width = self.band[target] * h
+        return width if target == "q11" else width * self.m11_scale
+
+    def blend(self, hypotheses: Hypotheses, n11, opening):
+        """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``)."""
+        answers = {h: hypotheses.predict(h, n11, opening) for h in HYPOTHESES
+                   if self.weights["q11"][h] > 0 or self.weights["m11"][h] > 0}
+        q = sum(self.weights["q11"][h] * v[0] for h, v in answers.items())
+        m = sum(self.weights["m11"][h] * v[1] for h, v in answers.items())
+        return q, m
+
+    def summary(self) -> str:
+        """What ``hillsim train`` prints: how well this chart predicts its own held-out lines, and the weights."""
+        if not self.points:
+            return ("below the lowest line: no held-out evidence (fewer than "
+                    f"{MIN_LINES_LEFT + 1} opening lines): hypotheses weighed equally, the band is wide "
+                    f"(+-{100 * NO_EVIDENCE_SCALE:.0f} % at half the lowest opening); digitize more opening lines")
+        q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
+        ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
+        weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)
+        return (f"below the lowest line this chart predicts its own held-out lines within {100 * q:.1f} % (Q11) and "
+                f"{100 * m:.1f} % of the M11 range (RMS, {self.points} points); hypothesis weights Q11/M11: "
+                f"{weights}")
+
+    def to_dict(self) -> dict:
+        return {"hypotheses": list(HYPOTHESES), "held_out_points": self.points,
+                "held_out_lines": [f.lines for f in self.folds], "weights": self.weights,
+                "rms_error": self.errors, "band_per_distance_squared": self.band, "m11_scale": self.m11_scale,
+                "distance_cap": self.distance_cap, "notes": list(self.notes)}
+
+
+def _errors(folds, m11_scale):
+    """Per target and hypothesis: the held-out errors pooled over the folds (:class:`Evidence`)."""
+    out = {"q11": {}, "m11": {}}
+    for name in HYPOTHESES:
+        q, m = [], []
+        for f in folds:
+            pq, pm = f.predictions[name]
+            q.append(log_ratio(pq, f.q11, 1e-3 * float(np.max(np.abs(f.q11)))))
+            m.append((pm - f.m11) / m11_scale)
+        out["q11"][name], out["m11"][name] = np.concatenate(q), np.concatenate(m)
+    return out
+
+
+def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
+    """Half-width per squared distance that covers ``coverage`` of the held-out residuals: split-conformal on the
+    scores ``|r| / d^2`` (the ``ceil((n + 1) coverage)``-th smallest; with too few points for that, the largest
+    times ``(n + 1) / n``, so a thin record gives a wider band, never a narrower one).
+
+    The square: every anchored hypothesis passes through the lowest line, so its error there is zero; an error in
+    the slope grows as ``d``, one in the curvature as ``d^2``. The inner hold-outs reach only one or two line
+    spacings below the lowest kept line, where the curvature error is still small; scaling their scores by ``d^2``
+    rather than ``d`` widens the band faster with the distance, which is what the real chart shows (its lowest lines
+    bend away from every hypothesis fitted above them).
+
+    Examples
+    --------
+    >>> round(band_scale([0.01, -0.02, 0.03], [0.5, 0.5, 0.5]), 4)
+    0.16
+    """
+    score = np.abs(np.asarray(residuals, float)) / np.maximum(np.asarray(distance, float), 1e-9) ** 2
+    n = score.size
+    if n == 0:
+        return NO_EVIDENCE_SCALE
+    rank = math.ceil((n + 1) * coverage)
+    ordered = np.sort(score)
+    if rank <= n:
+        return float(ordered[rank - 1])
+    return float(ordered[-1] * (n + 1) / n)
+
+
+def weigh(folds, m11_scale: float) -> Evidence:
+    """Pseudo-BMA weights of the hypotheses from the held-out folds, the blend's errors and the band.
+
+    Each hypothesis' weight is ``exp(-n/2 log MSE)``, its held-out Gaussian log-likelihood (Yao et al. 2018), with
+    ``n`` the number of held-out *lines* (the points of one line share one cause of error, so they are one piece of
+    evidence) and the errors divided by ``d^2`` (the error model of :func:`band_scale`)."""
+    folds = [f for f in folds if f is not None]
+    points = int(sum(f.n11.size for f in folds))
+    if not points:
+        equal = {h: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+        return Evidence(folds=[], weights={"q11": dict(equal), "m11": dict(equal)}, errors={"q11": {}, "m11": {}},
+                        band={"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, points=0,
+                        m11_scale=m11_scale, notes=["no held-out evidence: too few opening lines"])
+    errors = _errors(folds, m11_scale)
+    distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
+    lines = sum(f.lines for f in folds)
+    weights, rms, band = {}, {}, {}
+    for target in ("q11", "m11"):
+        mse = {h: float(np.mean((e / distance ** 2) ** 2)) for h, e in errors[target].items()}
+        best = max(min(mse.values()), 1e-300)
+        log_w = {h: -0.5 * lines * math.log(max(v, 1e-300) / best) for h, v in mse.items()}
+        total = sum(math.exp(v) for v in log_w.values())
+        weights[target] = {h: math.exp(log_w[h]) / total for h in HYPOTHESES}
+        blended = sum(weights[target][h] * errors[target][h] for h in HYPOTHESES)
+        rms[target] = {h: float(np.sqrt(np.mean(e ** 2))) for h, e in errors[target].items()}
+        rms[target]["blend"] = float(np.sqrt(np.mean(blended ** 2)))
+        rms[target]["blend_worst"] = float(np.max(np.abs(blended)))
+        band[target] = band_scale(blended, distance)
+    return Evidence(folds=folds, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
+                    distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())))
+
+
+def chart_evidence(chart, torque, fit_model, *, hold_out_lines=HOLD_OUT) -> Evidence:
+    """Hold out the chart's lowest line, then its two lowest (:data:`HOLD_OUT`), and weigh the hypotheses."""
+    torque = np.asarray(torque, float)
+    return weigh([hold_out(chart, torque, k, fit_model) for k in hold_out_lines], float(np.ptp(torque)) or 1.0)
+
+
+@dataclass(frozen=True)
+class Extrapolation:
+    """A chart's answer below its lowest line: its hypotheses, the evidence that weighs them, and the band.
+
+    Attributes
+    ----------
+    hypotheses : Hypotheses
+        Fitted to the whole chart.
+    evidence : Evidence
+        From the chart's held-out lowest lines.
+    n11_top : float
+        r/min: the N11 range the answer is tabulated over (0 .. n11_top).
+    """
+
+    hypotheses: Hypotheses
+    evidence: Evidence
+    n11_top: float
+
+    @classmethod
+    def of_chart(cls, chart, torque, model) -> "Extrapolation":
+        """Weigh the hypotheses of ``chart`` (``torque``: M11 at its flow points, N*m; ``model``: the physical
+        model fitted to the whole chart)."""
+        from hillchart.extension.turbine_model import fit_turbine_model
+
+        evidence = chart_evidence(chart, torque, fit_turbine_model)
+        hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
+        top = max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
+        if math.isfinite(model.n11_limit):
+            top = min(top, 0.95 * model.n11_limit)
+        return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top)
+
+    @property
+    def lowest_opening(self) -> float:
+        return self.hypotheses.lowest.opening
+
+    def values(self, n11, opening, member: float = 0.0):
+        """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``) below the lowest line; ``member``
+        (in standard units: +-1 is the band's 5-95 % edge) moves along the band: ``Q11 exp(member w_q)`` and
+        ``M11 + member w_m``, ``w`` the half-widths of :meth:`Evidence.half_width` at the distance below the line."""
+        q, m = self.evidence.blend(self.hypotheses, n11, opening)
+        if member:
+            d = 1.0 - np.asarray(opening, float) / self.lowest_opening
+            q = q * np.exp(member * self.evidence.half_width("q11", d))
+            m = m + member * self.evidence.half_width("m11", d)
+        return q, m
+
+    def summary(self) -> str:
+        return self.evidence.summary()
+
+    def to_dict(self) -> dict:
+        return {**self.evidence.to_dict(), "lowest_opening": self.lowest_opening, "summary": self.summary()}
+
+
+def member_positions(members: int, seed: int) -> np.ndarray:
+    """Where each of ``members`` ensemble members stands in the band (standard units, +-1 the 5-95 % edges):
+    evenly spaced normal quantiles ``Phi^-1((i + 1/2) / members)``, scaled so that their own 95th percentile is 1
+    (the band a report reads from the members is then the band of the evidence), shuffled with ``seed`` so that a
+    member's place does not follow its index (the nets of member i are trained on their own split)."""
+    from scipy.stats import norm
+
+    if members <= 0:
+        return np.zeros(0)
+    positions = norm.ppf((np.arange(members) + 0.5) / members)
+    if members > 1:  # the members' own 5-95 % percentiles (as the report reads a band) fall on +-1
+        positions = positions / np.percentile(positions, 95.0)
+    return np.random.default_rng([seed, 7]).permutation(positions)
