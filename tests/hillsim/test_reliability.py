@@ -433,6 +433,25 @@ def test_an_oversized_csv_cell_is_a_one_line_error(tmp_path, capsys):
     assert "flow.csv" in line and "field limit" in line
 
 
+@pytest.mark.parametrize("command", ["chart", "run", "linearize", "run-bulb"])
+def test_a_nets_json_nested_200000_deep_is_a_one_line_error_in_every_command(tmp_path, capsys, command):
+    """chart refused it already; run and linearize first asked the file whether it holds three-input nets with
+    their own json.loads, which raised RecursionError. Now every nets.json is read by one function."""
+    nets = tmp_path / "nets.json"
+    nets.write_text("[" * 200_000 + "]" * 200_000)
+    before = _digest(tmp_path)
+    chars = ["--set", f"turbine.characteristics={json.dumps(str(nets))}"]
+    argv = {"chart": ["chart", str(nets), "--out", str(tmp_path / "c.png")],
+            "run": ["run", str(PLANT), "--out", str(tmp_path / "r"), *chars],
+            "linearize": ["linearize", str(nets), "--plant", str(PLANT), "--stroke", "0.6"],
+            "run-bulb": ["run", str(REPO / "data_synthetic" / "plant_bulb.toml"), "--out", str(tmp_path / "r"),
+                         *chars]}[command]
+    assert main(argv + ["--quiet"]) == 2
+    line = _one_line_error(capsys.readouterr().err, argv[0])
+    assert line.endswith(f"{nets}: nested too deeply to be a nets file (a NET block is 2 levels deep)")
+    assert _digest(tmp_path) == before and _leftovers(tmp_path) == []
+
+
 @pytest.mark.parametrize("seed", ["-1", "4294967296"])
 def test_a_seed_outside_numpys_range_is_a_one_line_error(tmp_path, capsys, seed):
     code = main(["optimize-closure", str(PLANT), "--out", str(tmp_path / "o"), "--seed", seed])
