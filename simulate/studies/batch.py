@@ -137,12 +137,34 @@ def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
     return key
 
 
+@functools.cache
+def integer_keys(section: str) -> tuple[str, ...]:
+    """The keys of a plant section that take an integer (``penstock.reaches``, ``solver.max_iterations``, ...)."""
+    from simulate.config import _section_class
+
+    cls = _SECTION_CLASSES.get(section) or _section_class(section)
+    return tuple(f"{section}.{f.name}" for f in fields(cls) if str(f.type).replace(" ", "") in ("int", "int|None"))
+
+
 def check_value(key: str, value: Any) -> float:
-    """A varied value must be a finite real number (bool refused); ints stay ints (e.g. ``solver.max_iterations``)."""
+    """A varied value must be a finite real number (bool refused); ints stay ints, and a key that takes an integer
+    (:func:`integer_keys`, e.g. ``penstock.reaches``) gets one: a whole float (``8.0`` from a ``--vary`` list or
+    range, or a ``cases.csv`` cell) becomes ``8``, a fraction is refused.
+
+    Examples
+    --------
+    >>> check_value("penstock.reaches", 8.0), check_value("governor.kp", 2)
+    (8, 2)
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"value of varied key {key!r} must be a number, got {value!r}")
     if not math.isfinite(float(value)):
         raise InputError(f"value of varied key {key!r} must be finite, got {value!r}")
+    section = key.split(".")[0] if isinstance(key, str) and key.count(".") == 1 else None
+    if section in (*_SECTION_CLASSES, *OPTIONAL_SECTIONS) and key in integer_keys(section):
+        if float(value) != int(value):
+            raise InputError(f"value of varied key {key!r} must be an integer (the key counts), got {value!r}")
+        return int(value)
     return int(value) if isinstance(value, (int, np.integer)) else float(value)
 
 

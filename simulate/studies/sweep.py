@@ -197,7 +197,7 @@ def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: st
         variants = [{**row, **combo} for row in rows for combo in (product or [{}])]
         if len(variants) > MAX_CASES:
             raise InputError(f"the sweep has {len(variants)} cases, more than {MAX_CASES}")
-    keys, _ = validate_variants(plant, variants, choices=True)
+    keys, variants = validate_variants(plant, variants, choices=True)  # integer keys (penstock.reaches) as ints
     for key in (k for k in keys if k in STRUCTURE_CHOICE_KEYS):  # every model name checked before anything runs
         for name in dict.fromkeys(v[key] for v in variants if key in v):
             structure_variant(plant, {key: name})
