@@ -125,12 +125,17 @@ def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
         raise InputError(f"varied key {key!r} changes the plant structure ({why}); this study's cases share one "
                          f"structure: run one study per {key} (a sweep groups its cases by it)")
     if name not in names:
-        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(numeric)}")
+        named = [k for k in STRUCTURE_CHOICE_KEYS if k.startswith(f"{section}.")] if choices else []
+        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(numeric)}"
+                         + (f"; keys of [{section}] that take a name: {', '.join(named)}" if named else ""))
     if section in OPTIONAL_SECTIONS and getattr(plant, section, None) is None:
         raise InputError(f"varied key {key!r}: the plant has no [{section}]; add the section to the plant file to "
                          f"vary its keys")
     if key not in numeric:
-        raise InputError(f"varied key {key!r} is not numeric; numeric keys of [{section}]: {', '.join(numeric)}")
+        names_note = (f"; of the keys that take a name only {', '.join(STRUCTURE_CHOICE_KEYS)} can be varied (a "
+                      f"sweep groups its cases by them)") if choices else ""
+        raise InputError(f"varied key {key!r} is not numeric (it takes a name or a table, not a number){names_note}; "
+                         f"numeric keys of [{section}]: {', '.join(numeric)}")
     if section == "scenario" and name != "t_end_s" and name not in SCENARIO_KEYS[plant.scenario.kind]:
         raise InputError(f"varied key {key!r} is not used by scenario.kind = {plant.scenario.kind!r}; scenario "
                          f"keys of that kind: t_end_s, {', '.join(SCENARIO_KEYS[plant.scenario.kind])}")

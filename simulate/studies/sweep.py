@@ -178,10 +178,15 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
 
 
 def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: str | Path | None = None) -> list[dict]:
-    """Variants of a sweep from ``--vary`` texts and an optional ``cases.csv`` (rows x product); keys validated."""
+    """Variants of a sweep from ``--vary`` texts and an optional ``cases.csv`` (rows x product); keys validated
+    (each key before its values are read, so a misspelt key or one that takes a name is named as such, not reported
+    as a value that is not a number)."""
+    for text in varies:
+        key = text.split("=", 1)[0].strip() if isinstance(text, str) and "=" in text else ""
+        if key:
+            check_key(plant, key, choices=True)
     parsed = [parse_vary(t) for t in varies]
     for key, values in parsed:
-        check_key(plant, key, choices=True)
         for v in values:
             check_choice_value(key, v) if key in STRUCTURE_CHOICE_KEYS else check_value(key, v)
     product = cartesian(parsed)

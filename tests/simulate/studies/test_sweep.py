@@ -225,6 +225,14 @@ def test_sweep_cli_over_a_model_choice_groups_the_cases(tmp_path, capsys):
     (["--vary", "penstock.model=moc,lumpy"], "varied penstock.model = 'lumpy': penstock.model must be one of"),
     (["--vary", "governor.kp=1:2:0"], "COUNT must be an integer >= 1"),
     (["--vary", "governor.nonsense=1,2"], "unknown key 'governor.nonsense'"),
+    # a misspelt key or one that takes a name, given names: the key is named, not "'moc' is not a number"
+    (["--vary", "penstock.modle=moc,rigid"], "unknown key 'penstock.modle'; numeric keys of [penstock]: "
+     "penstock.static_head_m, penstock.reaches, penstock.lumped_alpha, penstock.zdomain_feedback; keys of [penstock] "
+     "that take a name: penstock.model"),
+    (["--vary", "generator.model=swing,subtransient"], "varied key 'generator.model' is not numeric (it takes a name "
+     "or a table, not a number); of the keys that take a name only penstock.model, scenario.kind, "
+     "solver.pressure_loop, turbine.characteristics can be varied"),
+    (["--vary", "penstock.model=moc,rigid", "--vary", "governor.kpp=1,x"], "unknown key 'governor.kpp'"),
     (["--vary", "governor.kp=1,b"], "'b' is not a number"),
     (["--vary", "governor.kp=1,2", "--vary", "governor.kp=3"], "given more than once"),
     (["--vary", "governor.kp=1,2", "--scheduler", "slurm"], "--scheduler must be local or dask"),
