@@ -372,6 +372,32 @@ def test_an_opening_steps_series_with_sensor_noise_passes_the_series_checks():
         check_measured_table("spiked.csv", spiked, rows, sample_time_s=0.05)
 
 
+def test_the_default_opening_steps_series_with_sensor_noise_passes_and_a_dropout_is_still_caught():
+    """The plant's own opening-steps series (60 s) with 0.1 % noise was refused as holding isolated outliers: the speed
+    barely moves, so the floor (a quarter of the window medians' range, 0.35 r/min) was below the noise (0.2 r/min)
+    and a 7-sample window's MAD often far below it. The column's noise (from successive differences) now bounds the
+    floor; the physical torque jump persists, so the window median follows it and it is never flagged."""
+    from simulate.config import load_plant
+    from simulate.identification.series_checks import check_measured_table, hampel_outliers
+    from simulate.loop.engine import run_simulation
+
+    r = run_simulation(load_plant(PLANT, {"scenario.kind": "opening-steps"}))
+    columns = {k: np.asarray(getattr(r, k), dtype=float)
+               for k in ("time_s", "speed_rpm", "head_m", "opening", "torque_nm", "flow_m3_s")}
+    rows = np.arange(2, r.time_s.size + 2)
+    rng = np.random.default_rng(0)
+    noisy = {k: (v if k == "time_s" else v * (1 + 1e-3 * rng.standard_normal(v.size))) for k, v in columns.items()}
+    check_measured_table("noisy.csv", noisy, rows, sample_time_s=0.2)
+    jump = int(np.flatnonzero(np.abs(np.diff(columns["opening"])) > 1e-3)[0]) + 1  # the torque jumps with the vanes
+    assert abs(columns["torque_nm"][jump] - columns["torque_nm"][jump - 1]) > 1e5
+    assert hampel_outliers(noisy["torque_nm"]).size == 0 and hampel_outliers(noisy["speed_rpm"]).size == 0
+    for column, value in (("speed_rpm", 150.0), ("torque_nm", 1e308), ("torque_nm", 0.0)):
+        spiked = dict(noisy, **{column: noisy[column].copy()})
+        spiked[column][jump + 1] = value  # beside the physical jump, a dropout or spike is still an outlier
+        with pytest.raises(InputError, match=rf"column '{column}': isolated outlier\(s\) at row {jump + 3} "):
+            check_measured_table("spiked.csv", spiked, rows, sample_time_s=0.2)
+
+
 def test_a_byte_order_mark_is_accepted_in_sweep_cases(tmp_path):
     from simulate.config import load_plant
     from simulate.studies.sweep import build_variants
