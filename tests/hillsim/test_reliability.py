@@ -89,6 +89,29 @@ def test_extend_onto_its_own_flow_csv_is_refused_and_the_chart_kept(tmp_path, ca
     assert (chart / "extended.csv").is_file() and _digest(chart) == {**before, "extended.csv": ANY}
 
 
+def test_train_onto_its_own_flow_csv_is_refused_before_training(tmp_path, capsys, monkeypatch):
+    """train trained, printed "wrote" and only then refused; now it stops once the chart is read, naming the input,
+    and the chart is intact. Beside it, nets.json in the chart folder (not an input of train) is written."""
+    import hillchart.nets.training as training
+
+    chart = tmp_path / "c"
+    shutil.copytree(CHART, chart)
+    (chart / "nets.json").unlink()
+    before = _digest(chart)
+    trained = []
+    real_train = training.train_nets
+    monkeypatch.setattr(training, "train_nets", lambda *a, **k: trained.append(1) or real_train(*a, **k))
+    code = main(["train", str(chart), "--out", str(chart / "flow.csv"), "--quiet"])
+    captured = capsys.readouterr()
+    line = _one_line_error(captured.err, "train")
+    assert code == 2 and trained == [] and "wrote" not in captured.out + captured.err
+    assert line == (f"hillsim train: error: --out '{chart / 'flow.csv'}' is the input '{chart / 'flow.csv'}' this "
+                    f"command read; choose another output (nothing was written)")
+    assert _digest(chart) == before and _leftovers(tmp_path) == []
+    assert main(["train", str(chart), "--out", str(chart / "nets.json"), "--quiet"]) == 0 and trained == [1]
+    assert _digest(chart) == {**before, "nets.json": ANY}
+
+
 class _Any:
     def __eq__(self, other):
         return True
