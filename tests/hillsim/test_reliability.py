@@ -695,6 +695,25 @@ def _guarantee(tmp_path: Path, load_case_extra: str) -> Path:
     return path
 
 
+def test_a_draft_tube_that_does_not_fit_the_step_names_the_draft_tube_not_one_reach(tmp_path, capsys):
+    """A Francis plant with [draft_tube] of 30 m (L/a 0.03 s against dt 0.019 s) was told "penstock.reaches = 1" (the
+    placeholder of the draft tube's mirrored section) though the plant has 8; the message names the draft tube's
+    segment and the plant's real penstock.reaches. Beside it, a 38 m draft tube (2 reaches within 0.4 %) runs."""
+    draft = ('\n[draft_tube]\nmodel = "moc"\nrunner_elevation_m = -4.0\n\n[[draft_tube.segments]]\n'
+             'length_m = {length}\ndiameter_m = 5.5\nwave_speed_m_s = 1000.0\ndarcy_friction = 0.014\n')
+    base = PLANT.read_text().replace('"francis/nets.json"', json.dumps(str(CHART / "nets.json")))
+    plant = tmp_path / "plant.toml"
+    plant.write_text(base + draft.format(length=30.0))
+    argv = ["run", str(plant), "--set", "scenario.t_end_s=2.5", "--no-plot", "--quiet", "--out"]
+    assert main(argv + [str(tmp_path / "r")]) == 2
+    assert _one_line_error(capsys.readouterr().err, "run") == (
+        "hillsim run: error: [draft_tube]: draft_tube.segments: segment 0 (L/a = 0.03 s) would need its wave speed "
+        "changed by 21.3 % to fit 2 reaches of dt = 0.0190678 s; at most 5 % is allowed: the step is the plant's "
+        "(penstock.reaches = 8); change penstock.reaches or the draft tube's length_m or wave_speed_m_s")
+    plant.write_text(base + draft.format(length=38.0))
+    assert main(argv + [str(tmp_path / "ok")]) == 0, capsys.readouterr().err
+
+
 def test_a_load_case_out_of_range_names_the_load_case_and_key(tmp_path, capsys):
     plant = _guarantee(tmp_path, "scenario.initial_power_mw = 225.0\ngovernor.closing_time_s = -1")
     assert main(["report", str(plant), "--out", str(tmp_path / "rep"), "--quiet"]) == 2
