@@ -407,6 +407,12 @@ class OutputSet:
             self._close(remove_temporaries=True)
         return done
 
+    def check_reads(self) -> None:
+        """Refuse now an output that is a file this command has read so far (a command calls it once it has read
+        its inputs, before its long work: ``train CHART --out CHART/flow.csv`` stops before training); the commit
+        checks again at the end."""
+        self._check_reads()
+
     def _check_reads(self) -> None:
         """Refuse to put in place an output that would replace or remove a file this command read (found at the
         end: which files a command reads inside a chart folder is known only once it has read them)."""

@@ -3,7 +3,6 @@ on-cam relation."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import math
@@ -436,11 +435,10 @@ class DoubleRegulatedNets:
 
 def load_double_regulated_nets(path) -> DoubleRegulatedNets:
     """Read a three-input ``nets.json`` (see :class:`DoubleRegulatedNets`); errors name the file and the key."""
+    from hillchart.nets.hill_nets import read_nets_json
+
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
+    doc = read_nets_json(path)
     try:
         return DoubleRegulatedNets.from_dict(doc)
     except InputError as exc:

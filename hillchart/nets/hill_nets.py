@@ -248,15 +248,39 @@ class HillNets:
     def from_json(cls, text: str) -> "HillNets":
         """Parse ``nets.json`` text; rejects invalid JSON and malformed blocks (NaN/Infinity literals and numbers
         that overflow to inf are rejected by the block validation, which names the key)."""
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"nets.json: not valid JSON ({exc})") from None
-        except RecursionError:
-            raise InputError("nets.json: nested too deeply to be a nets file (a NET block is 2 levels deep)") from None
-        except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
-            raise InputError(f"nets.json: not a valid nets file ({exc})") from None
-        return cls.from_dict(doc)
+        return cls.from_dict(parse_nets_json(text))
+
+
+def parse_nets_json(text: str):
+    """The JSON document of ``nets.json`` text (two- or three-input nets), every failure an InputError starting
+    ``"nets.json: "``: invalid JSON, nesting deeper than Python's parser recurses (a NET block is 2 levels deep),
+    an integer beyond Python's digit limit."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"nets.json: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise InputError("nets.json: nested too deeply to be a nets file (a NET block is 2 levels deep)") from None
+    except ValueError as exc:  # e.g. an integer beyond Python's 4300-digit conversion limit
+        raise InputError(f"nets.json: not a valid nets file ({exc})") from None
+
+
+def read_nets_json(path):
+    """The JSON document of the nets file ``path`` (the one reader of every nets.json: two-input nets, three-input
+    nets and the check which of the two a file holds); an InputError names the file: a folder, not UTF-8 text (a
+    UTF-8 byte-order mark is accepted), or what :func:`parse_nets_json` refuses."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a nets.json file")
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); nets.json is JSON "
+                         "text") from None
+    try:
+        return parse_nets_json(text)
+    except InputError as exc:
+        raise InputError(f"{path}: {str(exc).removeprefix('nets.json: ')}") from None
 
 
 def nets_json_text(doc: dict) -> str:
@@ -323,15 +347,9 @@ def load_nets(path) -> HillNets:
     True
     """
     path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder, not a nets.json file")
+    doc = read_nets_json(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start}); nets.json is JSON "
-                         "text") from None
-    try:
-        return HillNets.from_json(text)
+        return HillNets.from_dict(doc)
     except InputError as exc:
         message = str(exc).removeprefix("nets.json: ")
         raise InputError(f"{path}: {message}") from None

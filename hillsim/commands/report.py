@@ -82,10 +82,12 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
               "path": t.characteristics}
     if chars_path is not None:
         source["sha256"] = _hash(chars_path)
+        from hillchart.nets.hill_nets import read_nets_json
+
         try:
-            nets_doc = json.loads(chars_path.read_text(encoding="utf-8"))
+            nets_doc = read_nets_json(chars_path)
             source["format"] = f"{nets_doc.get('format')} version {nets_doc.get('version')}"
-        except (OSError, ValueError):
+        except (OSError, InputError):
             pass  # load_characteristics has read and validated the same file just before
         training = getattr(chars, "training", None) or {}
         source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}

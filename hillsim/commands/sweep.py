@@ -19,7 +19,7 @@ def register(subparsers) -> None:
         "sweep", help="run a plant's scenario over a grid of values (batched, local cores or Dask)",
         description="Run the plant's scenario for every combination of the --vary values (and/or every row of "
                     "--cases) and write results.csv, sweep.json and sweep.png into --out. A failing case is a row "
-                    "with its error.")
+                    "with its error; when every case failed the files are written and the exit code is 2.")
     parser.add_argument("plant", type=Path, help="plant TOML file")
     parser.add_argument("--vary", action="append", default=[], metavar="KEY=START:STOP:COUNT|KEY=v1,v2,...",
                         help="a numeric plant key and its values: COUNT evenly spaced values with both ends "
@@ -127,4 +127,12 @@ def sweep_command(args: argparse.Namespace) -> int:
                         extra={"vary": list(args.vary), "cases_file": None if args.cases is None else str(args.cases),
                                "overrides": list(args.overrides)})
     print(f"sweep: wrote {', '.join(p.name for p in paths.values())} to {args.out}")
+    if "ok" not in statuses:  # nothing to compare: a failure (exit 2), with the record of why each case failed
+        from hillchart.errors import NumericalError
+
+        args.outputs.commit()  # results.csv holds each case's error (as hillsim run keeps the series of a failure)
+        first = batch.cases[0]
+        raise (NumericalError if "failed" in statuses else InputError)(
+            f"every one of the {len(statuses)} cases failed, none ran to the end (case 0, {first.status}: "
+            f"{(first.error.splitlines() or [''])[0]}); the error of each case is in {args.out}/results.csv")
     return 0

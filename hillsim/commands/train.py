@@ -107,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
     extension = extension_options(args)
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
     chart = load_chart_reporting_warnings(args.chart, extension.boundaries)
+    args.outputs.check_reads()  # --out one of the chart's files: refused before training, not after
     extended = extend_samples(chart, extension)
 
     def progress(message: str) -> None:

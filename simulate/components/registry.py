@@ -227,12 +227,14 @@ def synthetic_bulb(turbine=None, base_dir=None):
 
 
 def _is_three_input_nets(path: Path) -> bool:
-    """True when the nets.json at ``path`` has three-input blocks (inputs n11, opening, blade_angle)."""
-    import json
+    """True when the nets.json at ``path`` has three-input blocks (inputs n11, opening, blade_angle); a file that is
+    not JSON (or nested beyond reason) is an InputError naming it (:func:`hillchart.nets.hill_nets.read_nets_json`,
+    the reader of both loaders)."""
+    from hillchart.nets.hill_nets import read_nets_json
 
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = read_nets_json(path)
+    except OSError:
         return False  # the two-input loader reports what is wrong with the file
     flow = doc.get("flow") if isinstance(doc, dict) else None
     return isinstance(flow, dict) and flow.get("inputs") == ["n11", "opening", "blade_angle"]

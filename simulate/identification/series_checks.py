@@ -113,8 +113,9 @@ def hampel_outliers(values: np.ndarray, *, half_width: int = HAMPEL_HALF_WIDTH, 
                     range_fraction: float = HAMPEL_RANGE_FRACTION) -> np.ndarray:
     """Indices of isolated outliers: samples farther from the median of their window (2 half_width + 1) than both
     ``sigmas`` robust standard deviations (1.4826 MAD) of the window and ``range_fraction`` of the range of the
-    window medians (at least 0.1 % of the column's median). A step or a ramp is followed by the window median and never
-    flagged.
+    window medians (at least 0.1 % of the column's median) and ``sigmas`` times the column's noise (from its successive
+    differences). A step or a ramp is followed by the window median (a jump that persists for more than
+    ``half_width`` samples moves it): never flagged; a dropout of up to ``half_width`` samples is.
 
     Examples
     --------
@@ -133,8 +134,14 @@ def hampel_outliers(values: np.ndarray, *, half_width: int = HAMPEL_HALF_WIDTH, 
     med = np.median(windows, axis=1)
     mad = 1.4826 * np.median(np.abs(windows - med[:, None]), axis=1)
     span = float(np.max(med) - np.min(med))  # range of the window medians: isolated spikes do not widen it
-    floor = range_fraction * max(span, 1e-3 * abs(float(np.median(x))), np.finfo(float).tiny)
     with np.errstate(over="ignore", invalid="ignore"):
+        steps = np.abs(np.diff(x))
+        # the column's noise (robust standard deviation of a sample, from its successive differences: a few steps or
+        # spikes do not move it): a 7-sample window's MAD is often far below it by chance, and on a column that barely
+        # moves (the speed of an opening-step test) the range floor is too, so 0.1 % noise was flagged
+        noise = 1.4826 * float(np.median(steps)) / math.sqrt(2.0)
+        floor = max(range_fraction * max(span, 1e-3 * abs(float(np.median(x))), np.finfo(float).tiny),
+                    sigmas * noise)
         deviation = np.abs(x - med)
     return np.flatnonzero((deviation > sigmas * mad) & (deviation > floor))
 

@@ -23,14 +23,24 @@ from simulate.scenarios import GOVERNOR, build_schedules, initial_target, steady
 def unit_characteristics(plant: PlantConfig, characteristics=None) -> list:
     """The characteristics of every unit (``characteristics`` for all when given, else each unit's
     ``turbine.characteristics``; units with the same turbine section share one object)."""
+    from simulate.components.turbine.double_regulated import is_three_input
+
     if characteristics is not None:
-        return [characteristics] * len(plant.units)
-    loaded: dict = {}
-    out = []
-    for unit in plant.units:
-        if unit.turbine not in loaded:
-            loaded[unit.turbine] = load_characteristics(unit.turbine, plant.base_dir)
-        out.append(loaded[unit.turbine])
+        out = [characteristics] * len(plant.units)
+    else:
+        loaded: dict = {}
+        out = []
+        for unit in plant.units:
+            if unit.turbine not in loaded:
+                loaded[unit.turbine] = load_characteristics(unit.turbine, plant.base_dir)
+            out.append(loaded[unit.turbine])
+    for unit, chars in zip(plant.units, out):
+        if is_three_input(chars):
+            raise InputError(f"unit {unit.name!r}: turbine.characteristics = {unit.turbine.characteristics!r} has a "
+                             f"blade angle (three inputs, a double-regulated turbine); a plant with [[units]] runs "
+                             f"single-regulated units with two-input characteristics (\"ideal\", \"synthetic\" or "
+                             f"nets with inputs n11, opening): simulate a double-regulated unit as a plant of one "
+                             f"unit (leave [[units]] out)")
     return out
 
 

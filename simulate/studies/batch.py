@@ -125,24 +125,51 @@ def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
         raise InputError(f"varied key {key!r} changes the plant structure ({why}); this study's cases share one "
                          f"structure: run one study per {key} (a sweep groups its cases by it)")
     if name not in names:
-        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(numeric)}")
+        named = [k for k in STRUCTURE_CHOICE_KEYS if k.startswith(f"{section}.")] if choices else []
+        raise InputError(f"unknown key {key!r}; numeric keys of [{section}]: {', '.join(numeric)}"
+                         + (f"; keys of [{section}] that take a name: {', '.join(named)}" if named else ""))
     if section in OPTIONAL_SECTIONS and getattr(plant, section, None) is None:
         raise InputError(f"varied key {key!r}: the plant has no [{section}]; add the section to the plant file to "
                          f"vary its keys")
     if key not in numeric:
-        raise InputError(f"varied key {key!r} is not numeric; numeric keys of [{section}]: {', '.join(numeric)}")
+        names_note = (f"; of the keys that take a name only {', '.join(STRUCTURE_CHOICE_KEYS)} can be varied (a "
+                      f"sweep groups its cases by them)") if choices else ""
+        raise InputError(f"varied key {key!r} is not numeric (it takes a name or a table, not a number){names_note}; "
+                         f"numeric keys of [{section}]: {', '.join(numeric)}")
     if section == "scenario" and name != "t_end_s" and name not in SCENARIO_KEYS[plant.scenario.kind]:
         raise InputError(f"varied key {key!r} is not used by scenario.kind = {plant.scenario.kind!r}; scenario "
                          f"keys of that kind: t_end_s, {', '.join(SCENARIO_KEYS[plant.scenario.kind])}")
     return key
 
 
+@functools.cache
+def integer_keys(section: str) -> tuple[str, ...]:
+    """The keys of a plant section that take an integer (``penstock.reaches``, ``solver.max_iterations``, ...)."""
+    from simulate.config import _section_class
+
+    cls = _SECTION_CLASSES.get(section) or _section_class(section)
+    return tuple(f"{section}.{f.name}" for f in fields(cls) if str(f.type).replace(" ", "") in ("int", "int|None"))
+
+
 def check_value(key: str, value: Any) -> float:
-    """A varied value must be a finite real number (bool refused); ints stay ints (e.g. ``solver.max_iterations``)."""
+    """A varied value must be a finite real number (bool refused); ints stay ints, and a key that takes an integer
+    (:func:`integer_keys`, e.g. ``penstock.reaches``) gets one: a whole float (``8.0`` from a ``--vary`` list or
+    range, or a ``cases.csv`` cell) becomes ``8``, a fraction is refused.
+
+    Examples
+    --------
+    >>> check_value("penstock.reaches", 8.0), check_value("governor.kp", 2)
+    (8, 2)
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise InputError(f"value of varied key {key!r} must be a number, got {value!r}")
     if not math.isfinite(float(value)):
         raise InputError(f"value of varied key {key!r} must be finite, got {value!r}")
+    section = key.split(".")[0] if isinstance(key, str) and key.count(".") == 1 else None
+    if section in (*_SECTION_CLASSES, *OPTIONAL_SECTIONS) and key in integer_keys(section):
+        if float(value) != int(value):
+            raise InputError(f"value of varied key {key!r} must be an integer (the key counts), got {value!r}")
+        return int(value)
     return int(value) if isinstance(value, (int, np.integer)) else float(value)
 
 

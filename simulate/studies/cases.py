@@ -222,40 +222,39 @@ def plant_toml(plant: PlantConfig) -> str:
     True
     """
     raw = to_dict(plant)
-    chars = raw["turbine"]["characteristics"]
-    if chars != "ideal" and not Path(chars).is_absolute():
-        raw["turbine"]["characteristics"] = str((plant.base_dir / chars).resolve())
+    for turbine in [raw["turbine"]] + [unit.get("turbine", {}) for unit in raw.get("units", [])]:
+        chars = turbine.get("characteristics")
+        if chars is not None and chars != "ideal" and not Path(chars).is_absolute():
+            turbine["characteristics"] = str((plant.base_dir / chars).resolve())
     lines = []
     for section, body in raw.items():
-        if section == "units":  # an array of tables: each unit, its branch pipe, its own keys of three sections
-            for unit in body:
-                lines.append("[[units]]")
-                lines.extend(f"{k} = {_toml_value(v)}" for k, v in unit.items() if not isinstance(v, (list, dict)))
-                lines.append("")
-                for seg in unit["branch"]:
-                    lines.append("[[units.branch]]")
-                    lines.extend(f"{k} = {_toml_value(v)}" for k, v in seg.items())
-                    lines.append("")
-                for name in ("turbine", "generator", "governor"):
-                    own = dict(unit.get(name, {}))
-                    if "characteristics" in own and own["characteristics"] != "ideal" \
-                            and not Path(own["characteristics"]).is_absolute():
-                        own["characteristics"] = str((plant.base_dir / own["characteristics"]).resolve())
-                    if own:
-                        lines.append(f"[units.{name}]")
-                        lines.extend(f"{k} = {_toml_value(v)}" for k, v in own.items())
-                        lines.append("")
-            continue
-        lines.append(f"[{section}]")
-        for key, value in body.items():
-            if key != "segments":
-                lines.append(f"{key} = {_toml_value(value)}")
-        lines.append("")
-        for seg in body.get("segments", []):
-            lines.append(f"[[{section}.segments]]")
-            lines.extend(f"{k} = {_toml_value(v)}" for k, v in seg.items())
-            lines.append("")
+        if isinstance(body, list):  # an array of tables ([[units]])
+            for item in body:
+                lines.extend(_toml_table(section, item, array=True))
+        else:
+            lines.extend(_toml_table(section, body))
     return "\n".join(lines)
+
+
+def _is_table_array(value) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _toml_table(name: str, body: dict, *, array: bool = False) -> list[str]:
+    """The lines of the table ``[name]`` (``[[name]]`` with ``array``): its plain keys (None left out: TOML has no
+    null, an absent key takes its default), then its sub-tables (``[name.key]``, such as ``[turbine.step_up]``) and
+    arrays of tables (``[[name.key]]``, such as ``[[penstock.segments]]``), at any depth."""
+    lines = [f"[[{name}]]" if array else f"[{name}]"]
+    lines.extend(f"{key} = {_toml_value(value)}" for key, value in body.items()
+                 if value is not None and not isinstance(value, dict) and not _is_table_array(value))
+    lines.append("")
+    for key, value in body.items():
+        if isinstance(value, dict):
+            lines.extend(_toml_table(f"{name}.{key}", value))
+        elif _is_table_array(value):
+            for item in value:
+                lines.extend(_toml_table(f"{name}.{key}", item, array=True))
+    return lines
 
 
 # ---------------------------------------------------------------------------------------------------------------

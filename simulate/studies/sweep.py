@@ -178,10 +178,15 @@ def load_cases_csv(path: str | Path, plant: PlantConfig) -> list[dict]:
 
 
 def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: str | Path | None = None) -> list[dict]:
-    """Variants of a sweep from ``--vary`` texts and an optional ``cases.csv`` (rows x product); keys validated."""
+    """Variants of a sweep from ``--vary`` texts and an optional ``cases.csv`` (rows x product); keys validated
+    (each key before its values are read, so a misspelt key or one that takes a name is named as such, not reported
+    as a value that is not a number)."""
+    for text in varies:
+        key = text.split("=", 1)[0].strip() if isinstance(text, str) and "=" in text else ""
+        if key:
+            check_key(plant, key, choices=True)
     parsed = [parse_vary(t) for t in varies]
     for key, values in parsed:
-        check_key(plant, key, choices=True)
         for v in values:
             check_choice_value(key, v) if key in STRUCTURE_CHOICE_KEYS else check_value(key, v)
     product = cartesian(parsed)
@@ -197,7 +202,7 @@ def build_variants(plant: PlantConfig, varies: Sequence[str] = (), cases_csv: st
         variants = [{**row, **combo} for row in rows for combo in (product or [{}])]
         if len(variants) > MAX_CASES:
             raise InputError(f"the sweep has {len(variants)} cases, more than {MAX_CASES}")
-    keys, _ = validate_variants(plant, variants, choices=True)
+    keys, variants = validate_variants(plant, variants, choices=True)  # integer keys (penstock.reaches) as ints
     for key in (k for k in keys if k in STRUCTURE_CHOICE_KEYS):  # every model name checked before anything runs
         for name in dict.fromkeys(v[key] for v in variants if key in v):
             structure_variant(plant, {key: name})

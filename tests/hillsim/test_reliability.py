@@ -89,6 +89,29 @@ def test_extend_onto_its_own_flow_csv_is_refused_and_the_chart_kept(tmp_path, ca
     assert (chart / "extended.csv").is_file() and _digest(chart) == {**before, "extended.csv": ANY}
 
 
+def test_train_onto_its_own_flow_csv_is_refused_before_training(tmp_path, capsys, monkeypatch):
+    """train trained, printed "wrote" and only then refused; now it stops once the chart is read, naming the input,
+    and the chart is intact. Beside it, nets.json in the chart folder (not an input of train) is written."""
+    import hillchart.nets.training as training
+
+    chart = tmp_path / "c"
+    shutil.copytree(CHART, chart)
+    (chart / "nets.json").unlink()
+    before = _digest(chart)
+    trained = []
+    real_train = training.train_nets
+    monkeypatch.setattr(training, "train_nets", lambda *a, **k: trained.append(1) or real_train(*a, **k))
+    code = main(["train", str(chart), "--out", str(chart / "flow.csv"), "--quiet"])
+    captured = capsys.readouterr()
+    line = _one_line_error(captured.err, "train")
+    assert code == 2 and trained == [] and "wrote" not in captured.out + captured.err
+    assert line == (f"hillsim train: error: --out '{chart / 'flow.csv'}' is the input '{chart / 'flow.csv'}' this "
+                    f"command read; choose another output (nothing was written)")
+    assert _digest(chart) == before and _leftovers(tmp_path) == []
+    assert main(["train", str(chart), "--out", str(chart / "nets.json"), "--quiet"]) == 0 and trained == [1]
+    assert _digest(chart) == {**before, "nets.json": ANY}
+
+
 class _Any:
     def __eq__(self, other):
         return True
@@ -372,6 +395,32 @@ def test_an_opening_steps_series_with_sensor_noise_passes_the_series_checks():
         check_measured_table("spiked.csv", spiked, rows, sample_time_s=0.05)
 
 
+def test_the_default_opening_steps_series_with_sensor_noise_passes_and_a_dropout_is_still_caught():
+    """The plant's own opening-steps series (60 s) with 0.1 % noise was refused as holding isolated outliers: the speed
+    barely moves, so the floor (a quarter of the window medians' range, 0.35 r/min) was below the noise (0.2 r/min)
+    and a 7-sample window's MAD often far below it. The column's noise (from successive differences) now bounds the
+    floor; the physical torque jump persists, so the window median follows it and it is never flagged."""
+    from simulate.config import load_plant
+    from simulate.identification.series_checks import check_measured_table, hampel_outliers
+    from simulate.loop.engine import run_simulation
+
+    r = run_simulation(load_plant(PLANT, {"scenario.kind": "opening-steps"}))
+    columns = {k: np.asarray(getattr(r, k), dtype=float)
+               for k in ("time_s", "speed_rpm", "head_m", "opening", "torque_nm", "flow_m3_s")}
+    rows = np.arange(2, r.time_s.size + 2)
+    rng = np.random.default_rng(0)
+    noisy = {k: (v if k == "time_s" else v * (1 + 1e-3 * rng.standard_normal(v.size))) for k, v in columns.items()}
+    check_measured_table("noisy.csv", noisy, rows, sample_time_s=0.2)
+    jump = int(np.flatnonzero(np.abs(np.diff(columns["opening"])) > 1e-3)[0]) + 1  # the torque jumps with the vanes
+    assert abs(columns["torque_nm"][jump] - columns["torque_nm"][jump - 1]) > 1e5
+    assert hampel_outliers(noisy["torque_nm"]).size == 0 and hampel_outliers(noisy["speed_rpm"]).size == 0
+    for column, value in (("speed_rpm", 150.0), ("torque_nm", 1e308), ("torque_nm", 0.0)):
+        spiked = dict(noisy, **{column: noisy[column].copy()})
+        spiked[column][jump + 1] = value  # beside the physical jump, a dropout or spike is still an outlier
+        with pytest.raises(InputError, match=rf"column '{column}': isolated outlier\(s\) at row {jump + 3} "):
+            check_measured_table("spiked.csv", spiked, rows, sample_time_s=0.2)
+
+
 def test_a_byte_order_mark_is_accepted_in_sweep_cases(tmp_path):
     from simulate.config import load_plant
     from simulate.studies.sweep import build_variants
@@ -431,6 +480,25 @@ def test_an_oversized_csv_cell_is_a_one_line_error(tmp_path, capsys):
     assert main(["extend", str(chart), "--out", str(tmp_path / "e.csv")]) == 2
     line = _one_line_error(capsys.readouterr().err, "extend")
     assert "flow.csv" in line and "field limit" in line
+
+
+@pytest.mark.parametrize("command", ["chart", "run", "linearize", "run-bulb"])
+def test_a_nets_json_nested_200000_deep_is_a_one_line_error_in_every_command(tmp_path, capsys, command):
+    """chart refused it already; run and linearize first asked the file whether it holds three-input nets with
+    their own json.loads, which raised RecursionError. Now every nets.json is read by one function."""
+    nets = tmp_path / "nets.json"
+    nets.write_text("[" * 200_000 + "]" * 200_000)
+    before = _digest(tmp_path)
+    chars = ["--set", f"turbine.characteristics={json.dumps(str(nets))}"]
+    argv = {"chart": ["chart", str(nets), "--out", str(tmp_path / "c.png")],
+            "run": ["run", str(PLANT), "--out", str(tmp_path / "r"), *chars],
+            "linearize": ["linearize", str(nets), "--plant", str(PLANT), "--stroke", "0.6"],
+            "run-bulb": ["run", str(REPO / "data_synthetic" / "plant_bulb.toml"), "--out", str(tmp_path / "r"),
+                         *chars]}[command]
+    assert main(argv + ["--quiet"]) == 2
+    line = _one_line_error(capsys.readouterr().err, argv[0])
+    assert line.endswith(f"{nets}: nested too deeply to be a nets file (a NET block is 2 levels deep)")
+    assert _digest(tmp_path) == before and _leftovers(tmp_path) == []
 
 
 @pytest.mark.parametrize("seed", ["-1", "4294967296"])
@@ -625,6 +693,25 @@ def _guarantee(tmp_path: Path, load_case_extra: str) -> Path:
     path = tmp_path / "g.toml"
     path.write_text(text)
     return path
+
+
+def test_a_draft_tube_that_does_not_fit_the_step_names_the_draft_tube_not_one_reach(tmp_path, capsys):
+    """A Francis plant with [draft_tube] of 30 m (L/a 0.03 s against dt 0.019 s) was told "penstock.reaches = 1" (the
+    placeholder of the draft tube's mirrored section) though the plant has 8; the message names the draft tube's
+    segment and the plant's real penstock.reaches. Beside it, a 38 m draft tube (2 reaches within 0.4 %) runs."""
+    draft = ('\n[draft_tube]\nmodel = "moc"\nrunner_elevation_m = -4.0\n\n[[draft_tube.segments]]\n'
+             'length_m = {length}\ndiameter_m = 5.5\nwave_speed_m_s = 1000.0\ndarcy_friction = 0.014\n')
+    base = PLANT.read_text().replace('"francis/nets.json"', json.dumps(str(CHART / "nets.json")))
+    plant = tmp_path / "plant.toml"
+    plant.write_text(base + draft.format(length=30.0))
+    argv = ["run", str(plant), "--set", "scenario.t_end_s=2.5", "--no-plot", "--quiet", "--out"]
+    assert main(argv + [str(tmp_path / "r")]) == 2
+    assert _one_line_error(capsys.readouterr().err, "run") == (
+        "hillsim run: error: [draft_tube]: draft_tube.segments: segment 0 (L/a = 0.03 s) would need its wave speed "
+        "changed by 21.3 % to fit 2 reaches of dt = 0.0190678 s; at most 5 % is allowed: the step is the plant's "
+        "(penstock.reaches = 8); change penstock.reaches or the draft tube's length_m or wave_speed_m_s")
+    plant.write_text(base + draft.format(length=38.0))
+    assert main(argv + [str(tmp_path / "ok")]) == 0, capsys.readouterr().err
 
 
 def test_a_load_case_out_of_range_names_the_load_case_and_key(tmp_path, capsys):

@@ -200,6 +200,29 @@ def test_courant_condition_for_moc(raw):
     assert plant_from_dict(raw).time_step_s == 0.05
 
 
+def test_the_step_hillsim_prints_is_accepted_as_solver_dt_s(raw, capsys, tmp_path):
+    """The step as hillsim run prints it (6 significant digits: 0.0190678, 1.8e-7 relative off the Courant step) was
+    refused (the tolerance was 1e-9 relative); within 1e-5 it is the grid's own step. Beside it, 3e-5 off is refused."""
+    from hillsim.cli import main
+
+    exact = (180.0 / 1180.0) / 8
+    printed = float(f"{exact:.6g}")
+    assert printed == 0.0190678 and abs(printed - exact) / exact == pytest.approx(1.78e-7, rel=0.01)
+    raw["solver"]["dt_s"] = printed
+    assert plant_from_dict(raw).time_step_s == exact  # the run takes the exact grid step: the same run as without
+    raw["solver"]["dt_s"] = exact * (1 + 3e-5)
+    with pytest.raises(InputError, match=r"solver\.dt_s = 0\.01906836.* s does not meet the MOC Courant condition: "
+                                         r"with penstock\.reaches = 8 the step must be .* = 0\.019067796610169\d* s "
+                                         r"\(within a relative 1e-05\)"):
+        _ = plant_from_dict(raw).time_step_s
+    # the command line: the printed step passes to the same figures as the default step
+    argv = ["run", str(PLANT_FILE), "--set", "scenario.t_end_s=2.5", "--no-plot", "--quiet", "--out"]
+    assert main(argv + [str(tmp_path / "a")]) == 0
+    assert main(argv + [str(tmp_path / "b"), "--set", "solver.dt_s=0.0190678"]) == 0, capsys.readouterr().err
+    outputs = capsys.readouterr().out.splitlines()
+    assert "131 steps of 0.0190678 s" in outputs[0] and outputs[0].split(";")[0] == outputs[1].split(";")[0]
+
+
 def test_wave_speed_adjustment_limit(raw):
     from simulate.config import PenstockConfig, PenstockSegment
     from simulate.components.hydraulic.penstock import build_moc_grid

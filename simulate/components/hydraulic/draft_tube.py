@@ -22,6 +22,8 @@ pressure head plus the user's margin (the water column would separate in the dra
 
 from __future__ import annotations
 
+import re
+
 import numba
 import numpy as np
 
@@ -99,9 +101,13 @@ def build_draft_tube(plant, steady, dt_s: float):
     try:
         inner = (build_moc if config.model == "moc" else build_rigid)(fake_plant, fake_steady, dt_s, 0.0)
     except InputError as exc:
-        raise InputError(f"[draft_tube]: {exc}".replace("increase penstock.reaches",
-                                                        "increase penstock.reaches or change the draft tube's "
-                                                        "length_m or wave_speed_m_s")) from None
+        # the grid's message names the mirrored section (its own placeholder reaches); the draft tube has no reaches:
+        # its step is the plant's, set by the penstock
+        text = re.sub(r"^penstock\.reaches = \d+: segment", "draft_tube.segments: segment", str(exc))
+        text = text.replace("increase penstock.reaches",
+                            f"the step is the plant's (penstock.reaches = {plant.penstock.reaches}); change "
+                            f"penstock.reaches or the draft tube's length_m or wave_speed_m_s")
+        raise InputError(f"[draft_tube]: {text}") from None
     head0 = config.friction_coefficient_s2_m5 * steady.flow_m3_s * abs(steady.flow_m3_s)
     if config.model == "moc":
         head0 = float(inner.state[0][0, -1])  # the grid's own steady head at the outlet

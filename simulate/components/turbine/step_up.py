@@ -329,6 +329,13 @@ def apply_step_up(characteristics, turbine):
     config = getattr(turbine, "step_up", None)
     if config is None:
         return characteristics
+    from simulate.components.turbine.double_regulated import is_three_input
+
+    if is_three_input(characteristics):
+        raise InputError(f"turbine.step_up = {{method = {config.method!r}}} converts a two-input (single-regulated) "
+                         f"model chart; turbine.characteristics = {getattr(turbine, 'characteristics', None)!r} has a "
+                         f"blade angle (three inputs, double-regulated), for which no step-up is implemented: remove "
+                         f"[turbine.step_up]")
     step_up = compute_step_up(config, characteristics, prototype_diameter_m=turbine.runner_diameter_m,
                               prototype_head_m=turbine.rated_head_m)
     return scale_torque(characteristics, step_up.torque_factor, step_up)

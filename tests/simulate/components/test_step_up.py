@@ -62,6 +62,23 @@ def test_config_validation_names_field_value_and_range():
         load_characteristics(load_plant(PLANT_HLA339, {**STEP_UP, "turbine.characteristics": "ideal"}).turbine)
 
 
+def test_step_up_of_three_input_characteristics_is_refused_naming_them():
+    """The step-up searched a bulb's (three-input) chart for its best point with two arguments (a TypeError)."""
+    from data_synthetic import PLANT_BULB
+
+    for spec in ("bulb/nets.json", "synthetic-bulb"):
+        plant = load_plant(PLANT_BULB, {"turbine.step_up": "iec60193", "turbine.characteristics": spec})
+        with pytest.raises(InputError, match=rf"turbine\.step_up = {{method = 'iec60193'}} converts a two-input "
+                                             rf"\(single-regulated\) model chart; turbine\.characteristics = "
+                                             rf"'{spec}' has a blade angle \(three inputs"):
+            load_characteristics(plant.turbine, plant.base_dir)
+    # beside it, the same bulb plant without the step-up loads its three-input nets
+    plant = load_plant(PLANT_BULB)
+    from simulate.components.turbine.double_regulated import is_three_input
+
+    assert is_three_input(load_characteristics(plant.turbine, plant.base_dir))
+
+
 def test_stepped_up_nets_raise_torque_by_one_factor_and_keep_flow(model_nets):
     plant = load_plant(PLANT_HLA339, STEP_UP)
     stepped = load_characteristics(plant.turbine, plant.base_dir)

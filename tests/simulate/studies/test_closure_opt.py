@@ -283,6 +283,44 @@ def test_optimize_closure_cli_writes_law_front_and_a_verification_that_agrees(tm
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_optimize_closure_writes_a_plant_with_a_step_up_table(tmp_path, capsys):
+    """The plant writer refused the nested table [turbine.step_up] ("cannot write {...} as TOML") after the whole
+    optimization, so nothing was written; the verification runs read the written plant, so their agreement with the
+    batch (1e-9) shows the step-up reached them."""
+    out = tmp_path / "opt"
+    code = main(["optimize-closure", str(PLANT_HLA339_GUARANTEE), "--out", str(out), "--maxiter", "1", "--popsize",
+                 "1", "--workers", "1", "--no-plot", "--quiet", "--set",
+                 "turbine.step_up={method = \"iec60193\", model_head_m = 25.0}"])
+    assert code == 0, capsys.readouterr().err
+    doc = json.loads((out / "closure.json").read_text())
+    assert doc["verification_max_abs_difference"] <= 1e-9
+    plant = tomllib.loads((out / "optimum_plant.toml").read_text())
+    assert plant["turbine"]["step_up"] == {"method": "iec60193", "model_diameter_m": 0.35, "model_head_m": 25.0,
+                                           "kinematic_viscosity_m2_s": 1e-6, "scalable_loss_share": 0.7,
+                                           "reynolds_reference": 7e6}
+    assert tomllib.loads((out / "verification" / "0" / "plant.toml").read_text())["turbine"]["step_up"] \
+        == plant["turbine"]["step_up"]
+
+
+def test_plant_writer_writes_nested_tables_at_any_depth():
+    """[turbine.step_up] of the plant and [units.turbine.step_up] of one unit read back equal (None keys left out)."""
+    from data_synthetic import PLANT_TWO_UNITS
+    from simulate.config import plant_from_dict
+    from simulate.studies.cases import plant_toml
+
+    raw = tomllib.loads(PLANT_TWO_UNITS.read_text(encoding="utf-8"))
+    raw["turbine"]["step_up"] = {"method": "iec60193"}
+    raw["units"][1]["turbine"] = {"step_up": {"method": "iec60193", "model_diameter_m": 0.5}}
+    plant = plant_from_dict(raw, base_dir=PLANT_TWO_UNITS.parent)
+    text = plant_toml(plant)
+    assert "\n[turbine.step_up]\nmethod = \"iec60193\"\n" in text
+    assert "\n[units.turbine.step_up]\nmethod = \"iec60193\"\nmodel_diameter_m = 0.5\n" in text
+    again = plant_from_dict(tomllib.loads(text), base_dir=plant.base_dir)
+    assert again.turbine.step_up == plant.turbine.step_up and again.turbine.step_up.model_diameter_m == 0.35
+    assert [u.turbine.step_up for u in again.units] == [u.turbine.step_up for u in plant.units]
+    assert again.units[1].turbine.step_up.model_diameter_m == 0.5
+
+
 @pytest.mark.parametrize("args,message", [
     (["--max-speed-rise", "-0.5"], "--max-speed-rise must be a fraction in (0, 5]"),
     (["--max-head-rise", "nan"], "--max-head-rise must be a fraction in (0, 5]"),

@@ -166,6 +166,45 @@ def test_sweep_cli_writes_one_row_per_case_with_failures_as_rows(tmp_path, capsy
     assert (out / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_sweep_cli_varies_integer_keys_as_integers(tmp_path, capsys):
+    """--vary values are read as floats; a key that takes an integer refused 8.0 in every case ("must be an
+    integer"), and the sweep exited 0. Whole values are now ints, a fraction is refused before anything runs."""
+    out = tmp_path / "sweep"
+    code = main(["sweep", PLANT, "--vary", "penstock.reaches=6,8", "--vary", "solver.max_iterations=20:50:2",
+                 "--vary", "solver.substeps=1,2", "--out", str(out), "--no-plot", *SHORT])
+    assert code == 0, capsys.readouterr().err
+    rows = read_csv(out / "results.csv")
+    assert [(r["penstock.reaches"], r["solver.max_iterations"], r["solver.substeps"]) for r in rows][:3] == \
+        [("6", "20", "1"), ("6", "20", "2"), ("6", "50", "1")]
+    assert [r["status"] for r in rows] == ["ok"] * 8
+    assert rows[0]["max_head_m"] != rows[4]["max_head_m"]  # 6 and 8 reaches: two grids, two results
+    # a fraction of an integer key: refused naming the key and the value, nothing written
+    code = main(["sweep", PLANT, "--vary", "penstock.reaches=4:5:3", "--out", str(tmp_path / "never"), *SHORT])
+    assert code == 2 and not (tmp_path / "never").exists()
+    assert capsys.readouterr().err.strip() == ("hillsim sweep: error: value of varied key 'penstock.reaches' must "
+                                               "be an integer (the key counts), got 4.5")
+    assert build_variants(load_plant(PLANT_HLA339), ["penstock.reaches=8"]) == [{"penstock.reaches": 8}]
+
+
+def test_sweep_cli_where_every_case_failed_exits_2_with_the_results(tmp_path, capsys):
+    """Every case failing used to exit 0 with one summary line; now exit 2 and a one-line error, and the rows with
+    each case's error are written (as hillsim run keeps the series of a failed run). Beside it, one case that ran
+    is a sweep that succeeded (exit 0) with the failed case a row."""
+    out = tmp_path / "sweep"
+    code = main(["sweep", PLANT, "--vary", "penstock.reaches=3,4", "--out", str(out), "--no-plot", *SHORT])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.strip().splitlines()[-1].startswith(
+        "hillsim sweep: error: every one of the 2 cases failed, none ran to the end (case 0, error: InputError: "
+        "penstock.reaches = 3: segment 0 (L/a = 0.285714 s) would need its wave speed changed by 6.3 %")
+    assert err.strip().endswith(f"the error of each case is in {out}/results.csv")
+    assert [r["status"] for r in read_csv(out / "results.csv")] == ["error", "error"]
+    assert json.loads((out / "sweep.json").read_text())["error"] == 2
+    code = main(["sweep", PLANT, "--vary", "penstock.reaches=4,8", "--out", str(tmp_path / "ok"), "--no-plot",
+                 *SHORT])
+    assert code == 0 and [r["status"] for r in read_csv(tmp_path / "ok" / "results.csv")] == ["error", "ok"]
+
+
 def test_sweep_cli_over_a_model_choice_groups_the_cases(tmp_path, capsys):
     out = tmp_path / "sweep"
     code = main(["sweep", PLANT, "--vary", "penstock.model=moc,rigid", "--vary", "governor.closing_time_s=8,16",
@@ -186,6 +225,14 @@ def test_sweep_cli_over_a_model_choice_groups_the_cases(tmp_path, capsys):
     (["--vary", "penstock.model=moc,lumpy"], "varied penstock.model = 'lumpy': penstock.model must be one of"),
     (["--vary", "governor.kp=1:2:0"], "COUNT must be an integer >= 1"),
     (["--vary", "governor.nonsense=1,2"], "unknown key 'governor.nonsense'"),
+    # a misspelt key or one that takes a name, given names: the key is named, not "'moc' is not a number"
+    (["--vary", "penstock.modle=moc,rigid"], "unknown key 'penstock.modle'; numeric keys of [penstock]: "
+     "penstock.static_head_m, penstock.reaches, penstock.lumped_alpha, penstock.zdomain_feedback; keys of [penstock] "
+     "that take a name: penstock.model"),
+    (["--vary", "generator.model=swing,subtransient"], "varied key 'generator.model' is not numeric (it takes a name "
+     "or a table, not a number); of the keys that take a name only penstock.model, scenario.kind, "
+     "solver.pressure_loop, turbine.characteristics can be varied"),
+    (["--vary", "penstock.model=moc,rigid", "--vary", "governor.kpp=1,x"], "unknown key 'governor.kpp'"),
     (["--vary", "governor.kp=1,b"], "'b' is not a number"),
     (["--vary", "governor.kp=1,2", "--vary", "governor.kp=3"], "given more than once"),
     (["--vary", "governor.kp=1,2", "--scheduler", "slurm"], "--scheduler must be local or dask"),
