@@ -15,6 +15,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillsim import progress
+from hillsim.commands import load_command_plant
 
 
 
@@ -190,7 +191,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_plant(args) -> int:
-    from simulate.config import load_plant
     from simulate.identification.results import to_json_dict
     from simulate.identification.linear_reference import plant_linearization
 
@@ -201,7 +201,7 @@ def _run_plant(args) -> int:
         raise InputError("--map draws the chart maps: use it without --plant")
     if not (np.isfinite(args.tau) and args.tau > 0):
         raise InputError(f"--tau must be > 0, got {args.tau}")
-    plant = load_plant(args.plant)
+    plant = load_command_plant("linearize", args.plant)
     plant.require_one_unit("hillsim linearize --plant")
     characteristics, label, opening_unit = load_characteristics(args.nets, plant)
     _check_inputs_match(args.nets, characteristics, plant)

@@ -1,8 +1,9 @@
 """Design-study sections of a plant file: ``[limits]`` (guarantees) and ``[[load_cases]]``; ensemble nets.
 
-The plant reader (:func:`simulate.config.plant_from_dict`) is strict and does not know these sections yet, so
-:func:`load_study` reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant from the rest with
-the public :func:`simulate.config.plant_from_dict`. Format (units in the names)::
+The plant reader (:func:`simulate.config.plant_from_dict`) takes the plant sections only, so :func:`load_study`
+reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant from the rest with the public
+:func:`simulate.config.plant_from_dict` (:func:`simulate.config.load_plant` skips them unread). Format (units in the
+names)::
 
     [limits]                        # every key optional
     max_speed_rise = 0.50           # max(n)/n0 - 1, fraction
@@ -31,7 +32,7 @@ from typing import Any
 from hillchart.errors import InputError
 from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
 from simulate.config import (STUDY_SECTIONS, PlantConfig, apply_overrides, plant_from_dict, read_plant_toml,
-                             to_dict)
+                             split_study_sections, to_dict)
 
 
 def _limit(key: str, value: Any, low: float, high: float) -> float | None:
@@ -175,7 +176,7 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
     """
     path = Path(path)
     raw, data = read_plant_toml(path)
-    study_raw = {k: raw.pop(k) for k in STUDY_SECTIONS if k in raw}
+    study_raw = split_study_sections(raw)
     if overrides:
         apply_overrides(raw, overrides)
     plant = plant_from_dict(raw, base_dir=path.resolve().parent)

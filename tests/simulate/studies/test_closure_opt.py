@@ -214,16 +214,47 @@ def test_a_study_file_saved_with_a_byte_order_mark_reads_as_hillsim_run_reads_it
         load_study(marked)
 
 
-def test_hillsim_run_on_a_study_file_says_which_commands_read_it(tmp_path, capsys):
-    out = tmp_path / "run"
-    assert main(["run", str(PLANT_HLA339_GUARANTEE), "--out", str(out)]) == 2
+STUDY_NOTE = (f"note: {PLANT_HLA339_GUARANTEE}: [limits] and [[load_cases]] are read by hillsim report and "
+              f"optimize-closure; ignored here")
+
+
+def test_hillsim_run_reads_a_study_file_as_its_plant_with_one_note(tmp_path, capsys):
+    """hillsim run reads the guarantee study's file (it refused it: "unknown section [limits]") as the plain plant:
+    the same run as plant_hla339.toml, no load case applied, and one note naming the sections it ignores."""
+    short = ["--no-plot", "--set", "scenario.t_end_s=3"]
+    assert main(["run", str(PLANT_HLA339_GUARANTEE), "--out", str(tmp_path / "study"), *short]) == 0
     err = capsys.readouterr().err
-    assert "unknown section [limits]" in err and "read by hillsim report and hillsim optimize-closure" in err
-    assert not out.exists()
-    # another unknown section: no word of studies
+    assert err.splitlines()[0] == f"hillsim run: {STUDY_NOTE}" and err.count("note:") == 1
+    assert main(["run", str(PLANT_HLA339), "--out", str(tmp_path / "plain"), *short]) == 0
+    assert "note:" not in capsys.readouterr().err
+    study, plain = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("study", "plain"))
+    assert study == plain and study["max_speed_rise"] > 0.05  # the plant's own 225 MW, not a load case's
+    # the study sections are still validated where they are read
+    bad = _study_with(tmp_path, "[limits]\nmax_speed_rize = 0.5\n")
+    assert main(["report", str(bad), "--out", str(tmp_path / "rep")]) == 2
+    assert "unknown key limits.max_speed_rize" in capsys.readouterr().err and not (tmp_path / "rep").exists()
+    # another unknown section is refused, with no word of studies
     with pytest.raises(InputError) as info:
         load_plant(_study_with(tmp_path, "[nonsense]\nx = 1\n"))
-    assert "unknown section [nonsense]" in str(info.value) and "optimize-closure" not in str(info.value)
+    assert "unknown section [nonsense]" in str(info.value) and "load_study" not in str(info.value)
+
+
+def test_sweep_identify_and_linearize_read_a_study_file_with_one_note(tmp_path, capsys):
+    assert main(["sweep", str(PLANT_HLA339_GUARANTEE), "--vary", "governor.kp=2,3", "--out", str(tmp_path / "sw"),
+                 "--no-plot", "--set", "scenario.t_end_s=3"]) == 0
+    assert capsys.readouterr().err.count(f"hillsim sweep: {STUDY_NOTE}") == 1
+    assert main(["identify", str(PLANT_HLA339_GUARANTEE), "--out", str(tmp_path / "id"), "--no-plot",
+                 "--penstock-model", "rigid"]) == 0
+    assert capsys.readouterr().err.count(f"hillsim identify: {STUDY_NOTE}") == 1
+    nets = str(FRANCIS_DIR / "nets.json")
+    assert main(["linearize", nets, "--plant", str(PLANT_HLA339_GUARANTEE)]) == 0
+    study = capsys.readouterr()
+    assert study.err.count(f"hillsim linearize: {STUDY_NOTE}") == 1
+    assert main(["linearize", nets, "--plant", str(PLANT_HLA339)]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert json.loads(study.out)["operating_point"] == plain["operating_point"]
+    # the plant's scenario, not the last load case's 200 MW
+    assert plain["operating_point"]["power_mw"] == pytest.approx(225.0, rel=1e-12)
 
 
 def test_limits_verdicts():
