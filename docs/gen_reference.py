@@ -343,7 +343,8 @@ def plant_file_page() -> str:
     guarantee = _example("plant_hla339_guarantee.toml")
     section("[limits]", Limits, guarantee, ("limits",),
             note="Read by `hillsim optimize-closure` and `hillsim report` "
-                 "(see [Design studies](../design-studies.md)).")
+                 "(see [Design studies](../design-studies.md)); the other commands read the same file and ignore "
+                 "`[limits]` and `[[load_cases]]`, with one note on stderr.")
     from simulate.studies.cases import LoadCase, parse_load_cases
 
     lines.extend(["## `[[load_cases]]`", "", _paragraphs(LoadCase.__doc__), _paragraphs(parse_load_cases.__doc__),

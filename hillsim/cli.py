@@ -11,8 +11,9 @@ What every command gets from here:
 - ``--quiet`` (added when the command does not define it) and progress lines on stderr (:mod:`hillsim.progress`);
 - the same conventions in ``--help``: defaults shown, the same metavar for the same thing (:data:`METAVARS`);
 - exit codes: 0 success; 2 bad input, unusable output or numerical failure (one line ``hillsim CMD: error: ...``,
-  no traceback); 130 interrupted (Ctrl-C, also when the interrupt hit code that swallows exceptions, such as a
-  finalizer during numba compilation); 143 terminated (SIGTERM).
+  no traceback); 3 ``hillsim report`` found a limit FAILed (the report is written); 130 interrupted (Ctrl-C, also
+  when the interrupt hit code that swallows exceptions, such as a finalizer during numba compilation); 143 terminated
+  (SIGTERM).
 """
 
 from __future__ import annotations
@@ -52,6 +53,8 @@ OUT_METAVARS = {"run": "DIR", "identify": "DIR", "demo": "DIR", "extend": "CSV",
                 "chart": "PNG"}
 
 EXIT_INPUT = 2
+#: ``hillsim report``: a guarantee limit FAILs in some load case; the report is written all the same.
+EXIT_LIMIT_FAIL = 3
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 

@@ -872,9 +872,22 @@ def _units(raw_units: Any, raw: dict[str, Any]) -> tuple[UnitConfig, ...]:
     return tuple(out)
 
 
-#: Sections of a guarantee study's plant file, which :mod:`simulate.studies.cases` reads and a plain plant file's
-#: reader names in its message.
+#: Sections of a guarantee study's plant file, which :mod:`simulate.studies.cases` reads; :func:`load_plant` skips
+#: them (they are not part of the plant) and :func:`plant_from_dict` names them in its message.
 STUDY_SECTIONS = ("limits", "load_cases")
+
+
+def split_study_sections(raw: dict[str, Any]) -> dict[str, Any]:
+    """Take the study sections (:data:`STUDY_SECTIONS`) out of a plant file's TOML document ``raw`` and return
+    them, ``{name: value}`` for those present (``raw`` keeps the plant sections).
+
+    Examples
+    --------
+    >>> raw = {"turbine": {}, "limits": {"max_speed_rise": 0.5}}
+    >>> split_study_sections(raw), raw
+    ({'limits': {'max_speed_rise': 0.5}}, {'turbine': {}})
+    """
+    return {name: raw.pop(name) for name in STUDY_SECTIONS if name in raw} if isinstance(raw, dict) else {}
 
 
 def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> PlantConfig:
@@ -906,9 +919,9 @@ def plant_from_dict(raw: dict[str, Any], *, base_dir: Path | str = ".") -> Plant
         raise InputError(f"plant file must be a table of sections, got {raw!r}")
     unknown = sorted(set(raw) - set(_SECTIONS))
     if unknown:
-        study = ("; [limits] and [[load_cases]] make a guarantee study, read by hillsim report and hillsim "
-                 "optimize-closure: run one load case with hillsim run on a copy without them, or use "
-                 "hillsim report" if unknown[0] in STUDY_SECTIONS else "")
+        study = ("; [limits] and [[load_cases]] make a guarantee study: read the file with "
+                 "simulate.config.load_plant (which skips them) or simulate.studies.cases.load_study (which reads "
+                 "them)" if unknown[0] in STUDY_SECTIONS else "")
         raise InputError(f"unknown section [{unknown[0]}]; valid sections: {', '.join(_SECTIONS)}{study}")
     for name in ("turbine", "penstock", "generator", "governor", "scenario"):
         if name not in raw:
@@ -1046,8 +1059,13 @@ def apply_overrides(raw: dict[str, Any], overrides: dict[str, Any]) -> None:
             sec[key] = value
 
 
-def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> PlantConfig:
+def load_plant(path: str | Path, overrides: dict[str, Any] | None = None, *,
+               skipped: list[str] | None = None) -> PlantConfig:
     """Read a plant TOML file (strict keys), apply ``{"section.key": value}`` overrides, validate.
+
+    A guarantee study's sections (``[limits]``, ``[[load_cases]]``: :data:`STUDY_SECTIONS`) are not part of the plant:
+    they are skipped unread (:func:`simulate.studies.cases.load_study` reads and validates them), and their names
+    appended to ``skipped`` when given, so a command can say so.
 
     Raises
     ------
@@ -1056,6 +1074,9 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None) -> Pla
     """
     path = Path(path)
     raw, _ = read_plant_toml(path)
+    study = split_study_sections(raw)
+    if skipped is not None:
+        skipped.extend(study)
     if overrides:
         apply_overrides(raw, overrides)
     return plant_from_dict(raw, base_dir=path.resolve().parent)

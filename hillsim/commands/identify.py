@@ -111,7 +111,7 @@ def _exact(choice: str, plant):
 
 
 def run(args: argparse.Namespace) -> int:
-    from simulate.config import load_plant, parse_override
+    from hillsim.commands import load_command_plant
     from simulate.identification.experiment import ExperimentSettings
     from simulate.identification.compare import compare_identification, identify_measured
     from simulate.identification.tables import markdown_tables
@@ -121,8 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_closed_loop_options(args.closed_loop_kp, args.closed_loop_ti)  # before anything is written
     out = args.outputs.folder("--out", args.out)  # checked now, put in place when everything succeeded
-    overrides = dict(parse_override(text) for text in args.set)
-    plant = load_plant(args.plant, overrides)
+    plant = load_command_plant("identify", args.plant, args.set)
     plant.require_one_unit("hillsim identify")
     settings = ExperimentSettings(
         sample_time_s=args.tau, step_amplitude=args.amplitude, step_hold_s=args.step_hold_s,

@@ -15,6 +15,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillsim import progress
+from hillsim.commands import add_set_option, load_command_plant
 
 
 
@@ -95,6 +96,8 @@ def register(subparsers) -> None:
     point.add_argument("--penstock-model", choices=_penstock_models(), default=None,
                        help="with --plant: rigid gives the inelastic model, otherwise the lumped elastic one")
     point.add_argument("--tau", type=float, default=0.2, help="with --plant: sampling time of the ARX, s")
+    add_set_option(point, help="with --plant: override a plant-file key, as in hillsim run; the value is parsed "
+                               "as TOML (repeatable), e.g. --set penstock.static_head_m=170")
     point.add_argument("--speed-rpm", type=float, default=None, help="shaft speed n, r/min (with --head-m, --d1-m)")
     point.add_argument("--head-m", type=float, default=None, help="net head H, m")
     point.add_argument("--d1-m", type=float, default=None, help="runner diameter D1, m")
@@ -120,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
     characteristics, label, opening_unit = load_characteristics(args.nets)
     if args.stroke is not None or args.penstock_model is not None:
         raise InputError("--stroke and --penstock-model need --plant")
+    if args.overrides:
+        raise InputError(f"--set {args.overrides[0]!r} needs --plant: it overrides a key of the plant file")
     from simulate.components.turbine.double_regulated import is_three_input
 
     if is_three_input(characteristics):
@@ -190,7 +195,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_plant(args) -> int:
-    from simulate.config import load_plant
     from simulate.identification.results import to_json_dict
     from simulate.identification.linear_reference import plant_linearization
 
@@ -201,7 +205,7 @@ def _run_plant(args) -> int:
         raise InputError("--map draws the chart maps: use it without --plant")
     if not (np.isfinite(args.tau) and args.tau > 0):
         raise InputError(f"--tau must be > 0, got {args.tau}")
-    plant = load_plant(args.plant)
+    plant = load_command_plant("linearize", args.plant, args.overrides)
     plant.require_one_unit("hillsim linearize --plant")
     characteristics, label, opening_unit = load_characteristics(args.nets, plant)
     _check_inputs_match(args.nets, characteristics, plant)

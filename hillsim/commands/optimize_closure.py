@@ -2,8 +2,9 @@
 guide-vane closure law that minimizes the worst max head rise (speed rise) over the plant's load cases under the
 other limit, its Pareto front against the linear-closure family, and a verification of the optimum by ``hillsim run``.
 
-Writes ``DIR/closure.json``, ``DIR/pareto.png``, ``DIR/law.png``, ``DIR/optimum_plant.toml`` and
-``DIR/verification/<n>/`` (the ``hillsim run`` output of each load case).
+Writes ``DIR/closure.json``, ``DIR/pareto.png``, ``DIR/law.png``, ``DIR/optimum_plant.toml`` (a study file: the law,
+the worst load case, the limits and load cases; see :func:`optimum_plant_toml`) and ``DIR/verification/<n>/`` (the
+``hillsim run`` output of each load case).
 """
 
 from __future__ import annotations
@@ -121,7 +122,7 @@ def verify(opt, plant, load_cases, out: Path) -> list[dict]:
         folder.mkdir(parents=True, exist_ok=True)
         case_plant = plant.with_overrides(variant_overrides({**lc.overrides, **opt.law.law.overrides()}))
         plant_file = folder / "plant.toml"
-        plant_file.write_text(plant_toml(case_plant), encoding="utf-8")
+        plant_file.write_text(plant_toml(case_plant, relative_to=folder), encoding="utf-8")
         code = main(["run", str(plant_file), "--out", str(folder), "--no-plot"])
         if code != 0:
             raise NumericalError(f"verification run of load case {lc.name!r} failed (exit {code}); see {folder}")
@@ -135,10 +136,31 @@ def verify(opt, plant, load_cases, out: Path) -> list[dict]:
     return rows
 
 
+def optimum_plant_toml(source: Path, study, plant, law, worst: int, folder: Path) -> str:
+    """``optimum_plant.toml``: a complete study file. The plant with the optimum ``law`` and the keys of the worst
+    load case (what ``hillsim run`` runs), the study's ``[limits]`` and its ``[[load_cases]]`` each with every key
+    another case sets (:func:`simulate.studies.cases.explicit_load_cases`: what ``hillsim report`` runs is each
+    case of the study under the law); the characteristics path relative to ``folder``, where the file is written."""
+    from simulate.studies.batch import variant_overrides
+    from simulate.studies.cases import LoadCase, explicit_load_cases, plant_toml, study_toml
+
+    with_law = plant.with_overrides(variant_overrides(law.overrides()))
+    # the law wins over a case's own key of it, as in the optimization; a case left with no key keeps the end time
+    cases = tuple(LoadCase(lc.name, {k: v for k, v in lc.overrides.items() if k not in law.overrides()}
+                           or ({"scenario.t_end_s": plant.scenario.t_end_s} if lc.overrides else {}))
+                  for lc in explicit_load_cases(study.load_cases, with_law))
+    base = with_law.with_overrides(variant_overrides(cases[worst].overrides)) if cases[worst].overrides else with_law
+    header = (f"# The plant of {Path(source).name} with the optimum two-stage closure law of hillsim optimize-closure "
+              f"and the keys of its\n# worst load case ({study.load_cases[worst].name}), which hillsim run runs; "
+              f"[limits] and [[load_cases]] of the study follow,\n# each load case with every key another one "
+              f"sets, for hillsim report.\n\n")
+    return header + plant_toml(base, relative_to=folder) + "\n" + study_toml(study.limits, cases)
+
+
 def optimize_command(args: argparse.Namespace) -> int:
     from simulate.studies.closure_opt import closure_plant, optimize_closure
     from simulate.config import load_characteristics, parse_override
-    from simulate.studies.cases import load_study, plant_toml
+    from simulate.studies.cases import load_study
 
     for name in ("maxiter", "popsize", "workers"):
         value = getattr(args, name)
@@ -227,11 +249,9 @@ def optimize_command(args: argparse.Namespace) -> int:
 
     # 12 significant digits like every summary.json, so the verification runs' files match these numbers exactly
     (out / "closure.json").write_text(json.dumps(tidy_floats(doc), indent=2) + "\n", encoding="utf-8")
-    from simulate.studies.batch import variant_overrides
     worst = max(range(len(study.load_cases)), key=lambda i: getattr(law.cases[i], doc["objective"]))
-    (out / "optimum_plant.toml").write_text(
-        plant_toml(plant.with_overrides(variant_overrides({**study.load_cases[worst].overrides,
-                                                           **law.law.overrides()}))), encoding="utf-8")
+    (out / "optimum_plant.toml").write_text(optimum_plant_toml(args.plant, study, plant, law.law, worst, out),
+                                            encoding="utf-8")
     if not args.no_plot:
         plot_outputs(opt, plant, study.load_cases, out)
     lw = law.law

@@ -13,6 +13,7 @@ import argparse
 import datetime as _dt
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,9 @@ def register(subparsers) -> None:
         description="Run the plant's scenario for each [[load_cases]] entry (or the plant's scenario) and write a "
                     "self-contained report.html with the plant data sheet, the [limits] with PASS/FAIL per case, "
                     "transients, the head envelope (when the simulator provides it), the hill chart with the "
-                    "operating range, extrapolation warnings, version, date and input hashes.")
+                    "operating range, extrapolation warnings, version, date and input hashes. Exit status: 0 "
+                    "when no limit FAILs (every limit PASS or not judged, or no [limits]); 3 when a limit FAILs in "
+                    "some load case (the report is written all the same); 2 on bad input.")
     parser.add_argument("plant", type=Path, help="plant TOML file (optional [limits] and [[load_cases]])")
     parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
     parser.add_argument("--closure", type=Path, default=None, metavar="DIR",
@@ -568,4 +571,15 @@ def report_command(args: argparse.Namespace) -> int:
     path = write_html(report, out, args.closure, args.sweep)
     print(f"report: {len(report['cases'])} load case(s), overall {report['overall_verdict']}, "
           f"{len(report['warnings'])} warning(s); wrote {Path(args.out) / Path(path).relative_to(out)}")
+    failed = [f"{c['name']}: {v['limit']} {v['value']:.6g}"
+              + (f" (band {v['band'][0]:.6g}-{v['band'][1]:.6g})" if v.get("judged") == "band" else "")
+              + f" against the limit {v['allowed']:g}"
+              for c in report["cases"] for v in c["verdicts"] if v["verdict"] == "FAIL"]
+    if failed:
+        from hillsim.cli import EXIT_LIMIT_FAIL
+
+        args.outputs.commit()  # the report of a failed guarantee is the result: in place before the exit code
+        print(f"hillsim report: FAIL: {'; '.join(failed)} (exit {EXIT_LIMIT_FAIL}; report written to {args.out})",
+              file=sys.stderr)
+        return EXIT_LIMIT_FAIL
     return 0

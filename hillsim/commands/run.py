@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from hillsim import progress
+from hillsim.commands import add_set_option, load_command_plant
 
 
 def register(subparsers) -> None:
@@ -23,9 +24,7 @@ def register(subparsers) -> None:
                     "envelope.csv, transient.png and envelope.png into --out.")
     parser.add_argument("plant", type=Path, help="plant TOML file")
     parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
-    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                        help="override a plant-file key; the value is parsed as TOML (repeatable), "
-                             "e.g. --set penstock.model=\"rigid\" --set scenario.t_end_s=30")
+    add_set_option(parser)
     parser.add_argument("--no-plot", action="store_true", help="do not write transient.png and envelope.png")
     parser.add_argument("--check-step", action="store_true",
                         help="rerun at half the time step (twice penstock.reaches for moc) and report the change of "
@@ -175,13 +174,11 @@ def write_run_outputs(result, out: Path, *, plot: bool = True, figures: FigurePr
 
 
 def run_command(args: argparse.Namespace) -> int:
-    from simulate.config import load_plant, parse_override
     from simulate.loop.engine import run_simulation
 
     out = args.outputs.folder("--out", args.out,
                               stale=("transient.png", "envelope.png"))  # checked now, in place at the end
-    overrides = dict(parse_override(text) for text in args.overrides)
-    plant = load_plant(args.plant, overrides)
+    plant = load_command_plant("run", args.plant, args.overrides)
     reached = [0.0]
 
     def on_progress(step, n_steps):

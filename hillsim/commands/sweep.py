@@ -91,7 +91,7 @@ def cap_workers(workers: int | None, option: str = "--workers") -> int | None:
 
 
 def sweep_command(args: argparse.Namespace) -> int:
-    from simulate.config import load_plant, parse_override
+    from hillsim.commands import load_command_plant
     from simulate.studies.sweep import build_variants, run_sweep, write_sweep
 
     scheduler, address = parse_scheduler(args.scheduler)
@@ -102,8 +102,7 @@ def sweep_command(args: argparse.Namespace) -> int:
     if scheduler == "local":
         args.workers = cap_workers(args.workers)
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
-    overrides = dict(parse_override(text) for text in args.overrides)
-    plant = load_plant(args.plant, overrides)
+    plant = load_command_plant("sweep", args.plant, args.overrides)
     with warnings.catch_warnings(record=True) as caught:  # how a spreadsheet's --cases file was read
         warnings.simplefilter("always")
         variants = build_variants(plant, args.vary, args.cases)

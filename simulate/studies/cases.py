@@ -1,8 +1,9 @@
 """Design-study sections of a plant file: ``[limits]`` (guarantees) and ``[[load_cases]]``; ensemble nets.
 
-The plant reader (:func:`simulate.config.plant_from_dict`) is strict and does not know these sections yet, so
-:func:`load_study` reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant from the rest with
-the public :func:`simulate.config.plant_from_dict`. Format (units in the names)::
+The plant reader (:func:`simulate.config.plant_from_dict`) takes the plant sections only, so :func:`load_study`
+reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant from the rest with the public
+:func:`simulate.config.plant_from_dict` (:func:`simulate.config.load_plant` skips them unread). Format (units in the
+names)::
 
     [limits]                        # every key optional
     max_speed_rise = 0.50           # max(n)/n0 - 1, fraction
@@ -24,14 +25,15 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
 from hillchart.errors import InputError
-from simulate.studies.batch import CaseResult, check_key, check_value, variant_overrides
+from simulate.studies.batch import _EXCLUSIVE, CaseResult, check_key, check_value, variant_overrides
 from simulate.config import (STUDY_SECTIONS, PlantConfig, apply_overrides, plant_from_dict, read_plant_toml,
-                             to_dict)
+                             split_study_sections, to_dict)
 
 
 def _limit(key: str, value: Any, low: float, high: float) -> float | None:
@@ -175,7 +177,7 @@ def load_study(path: str | Path, overrides: dict[str, Any] | None = None) -> Stu
     """
     path = Path(path)
     raw, data = read_plant_toml(path)
-    study_raw = {k: raw.pop(k) for k in STUDY_SECTIONS if k in raw}
+    study_raw = split_study_sections(raw)
     if overrides:
         apply_overrides(raw, overrides)
     plant = plant_from_dict(raw, base_dir=path.resolve().parent)
@@ -204,9 +206,29 @@ def _toml_value(value) -> str:
     raise TypeError(f"cannot write {value!r} as TOML")
 
 
-def plant_toml(plant: PlantConfig) -> str:
-    """The plant as a TOML file :func:`simulate.config.load_plant` reads back to an equal plant (the
-    characteristics path made absolute, so the file works from any folder).
+#: ``turbine.characteristics`` values that name built-in characteristics, not a file.
+_BUILT_IN_CHARACTERISTICS = ("ideal", "synthetic", "synthetic-bulb")
+
+
+def _characteristics_path(spec: str, base_dir: Path, relative_to: Path | None) -> str:
+    """A nets.json path of the plant (relative to ``base_dir``) for a file written into the folder ``relative_to``:
+    relative to that folder (absolute where there is no relative path, e.g. another drive), or absolute without it.
+    A built-in name stays as it is."""
+    if spec in _BUILT_IN_CHARACTERISTICS:
+        return spec
+    target = (Path(base_dir) / spec).resolve()
+    if relative_to is None:
+        return str(target)
+    try:
+        return Path(os.path.relpath(target, Path(relative_to).resolve())).as_posix()
+    except ValueError:  # no relative path between two drives
+        return str(target)
+
+
+def plant_toml(plant: PlantConfig, *, relative_to: Path | str | None = None) -> str:
+    """The plant as a TOML file :func:`simulate.config.load_plant` reads back to an equal plant: the characteristics
+    path relative to the folder ``relative_to`` the file is written into (so the file travels with its folder and
+    the chart), or without it absolute (so the file works from any folder).
 
     Examples
     --------
@@ -223,9 +245,9 @@ def plant_toml(plant: PlantConfig) -> str:
     """
     raw = to_dict(plant)
     for turbine in [raw["turbine"]] + [unit.get("turbine", {}) for unit in raw.get("units", [])]:
-        chars = turbine.get("characteristics")
-        if chars is not None and chars != "ideal" and not Path(chars).is_absolute():
-            turbine["characteristics"] = str((plant.base_dir / chars).resolve())
+        if turbine.get("characteristics") is not None:
+            turbine["characteristics"] = _characteristics_path(turbine["characteristics"], plant.base_dir,
+                                                               relative_to)
     lines = []
     for section, body in raw.items():
         if isinstance(body, list):  # an array of tables ([[units]])
@@ -255,6 +277,72 @@ def _toml_table(name: str, body: dict, *, array: bool = False) -> list[str]:
             for item in value:
                 lines.extend(_toml_table(f"{name}.{key}", item, array=True))
     return lines
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string (JSON's escapes are TOML's; characters outside the BMP written as they are, since JSON's
+    surrogate-pair escapes are not TOML)."""
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def study_toml(limits: Limits | None, load_cases: tuple[LoadCase, ...]) -> str:
+    """``[limits]`` and ``[[load_cases]]`` as TOML, to follow :func:`plant_toml` in one study file that
+    :func:`load_study` reads back to the same limits and load cases (empty for no limits and only the default case).
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> text = study_toml(Limits(max_speed_rise=0.5), (LoadCase("70 % load", {"scenario.initial_power_mw": 160.0}),))
+    >>> print(text)
+    [limits]
+    max_speed_rise = 0.5
+    <BLANKLINE>
+    [[load_cases]]
+    name = "70 % load"
+    scenario.initial_power_mw = 160.0
+    <BLANKLINE>
+    >>> tomllib.loads(text)["load_cases"]
+    [{'name': '70 % load', 'scenario': {'initial_power_mw': 160.0}}]
+    """
+    lines = []
+    if limits is not None:
+        lines.append("[limits]")
+        lines.extend(f"{k} = {_toml_value(v)}" for k, v in limits.as_dict().items() if v is not None)
+        lines.append("")
+    for lc in load_cases:
+        if not lc.overrides:  # the default case (the plant's own scenario) is no [[load_cases]] entry
+            continue
+        lines.append("[[load_cases]]")
+        lines.append(f"name = {_toml_string(lc.name)}")
+        lines.extend(f"{key} = {_toml_value(value)}" for key, value in lc.overrides.items())
+        lines.append("")
+    return "\n".join(lines)
+
+
+def explicit_load_cases(load_cases: tuple[LoadCase, ...], plant: PlantConfig) -> tuple[LoadCase, ...]:
+    """``load_cases`` with every key that any of them sets (and the exclusive partner of an initial-point key) given
+    explicitly in each, from the plant the case gives on ``plant`` where the case does not set it.
+
+    On a plant that carries one case's keys already (the worst case in the plant file ``hillsim optimize-closure``
+    writes), each explicit case then gives the same plant as the case on ``plant``: a key one case sets does not leak
+    into another that leaves it at the plant's value.
+    """
+    keys = set().union(*(lc.overrides for lc in load_cases))
+    keys |= {_EXCLUSIVE[k] for k in keys if k in _EXCLUSIVE}
+    out = []
+    for lc in load_cases:
+        if not lc.overrides:
+            out.append(lc)
+            continue
+        case_plant = plant.with_overrides(variant_overrides(lc.overrides))
+        given = dict(lc.overrides)
+        for key in sorted(keys - set(given)):
+            section, name = key.split(".")
+            value = getattr(getattr(case_plant, section), name)
+            if value is not None:  # None: the exclusive partner of a key the case sets, removed by the case
+                given[key] = value
+        out.append(LoadCase(name=lc.name, overrides=given))
+    return tuple(out)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -287,4 +375,4 @@ def load_ensemble(path: str | Path) -> list:
 
 
 __all__ = ["STUDY_SECTIONS", "Limits", "LoadCase", "Study", "parse_load_cases", "load_study", "plant_toml",
-           "file_sha256", "load_ensemble"]
+           "study_toml", "explicit_load_cases", "file_sha256", "load_ensemble"]

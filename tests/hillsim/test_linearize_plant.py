@@ -45,9 +45,34 @@ def test_linearize_at_plant_operating_point(capsys, model, order):
     assert {k: v for k, v in out.items() if k not in ("source", "opening_unit", "plant")} == to_json_dict(record)
 
 
+def test_linearize_set_overrides_the_plant_as_run_does(capsys):
+    """--set of hillsim run: the plant's key changed before its operating point is found (200 MW at 170 m static
+    head here), the same linear model as the plant file with those keys."""
+    from simulate.config import load_plant
+    from simulate.identification.results import to_json_dict
+    from simulate.identification.linear_reference import plant_linearization
+
+    sets = ["--set", "penstock.static_head_m=170", "--set", "scenario.initial_power_mw=200"]
+    assert main(["linearize", str(NETS), "--plant", str(PLANT_FILE), *sets]) == 0
+    out = json.loads(capsys.readouterr().out)
+    plant = load_plant(PLANT_FILE, {"penstock.static_head_m": 170, "scenario.initial_power_mw": 200})
+    record = to_json_dict(plant_linearization(plant, load_nets(NETS)))
+    assert {k: v for k, v in out.items() if k not in ("source", "opening_unit", "plant")} == record
+    assert out["operating_point"]["power_mw"] == pytest.approx(200.0, rel=1e-12)
+    assert out["operating_point"]["head_m"] < 170.0  # the lower reservoir, less the losses (225 MW: above 170 m)
+    assert main(["linearize", str(NETS), "--plant", str(PLANT_FILE)]) == 0
+    assert json.loads(capsys.readouterr().out)["operating_point"]["head_m"] > 170.0
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
+        (["--set", "governor.kp=3"], "--set 'governor.kp=3' needs --plant: it overrides a key of the plant file"),
+        (["--plant", str(PLANT_FILE), "--set", "penstock.static_head_m=-5"],
+         "penstock.static_head_m must be"),
+        (["--plant", str(PLANT_FILE), "--set", "penstock.static_hed_m=170"],
+         "unknown key penstock.static_hed_m; valid keys of [penstock]"),
+        (["--plant", str(PLANT_FILE), "--set", "static_head_m"], "--set expects section.key=value"),
         (["--stroke", "0.5"], "--stroke and --penstock-model need --plant"),
         (["--plant", str(PLANT_FILE), "--n11", "67"], "with --plant the operating point comes from the plant"),
         (["--plant", str(PLANT_FILE), "--stroke", "0.68", "--tau", "-1"], "--tau must be > 0"),

@@ -143,7 +143,8 @@ def test_fail_verdict_and_extrapolation_warning(tmp_path, capsys):
                              "[[load_cases]]\nname = \"low\"\nscenario.initial_power_mw = 100.0\n"
                              )
     out = tmp_path / "rep"
-    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=10"]) == 0
+    # a FAIL is exit 3 (not 0: a script or CI job must see it), with the report written all the same
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=10"]) == 3
     doc = json.loads((out / "report.json").read_text())
     verdicts = [c["verdicts"][0]["verdict"] for c in doc["cases"]]
     assert verdicts[:2] == ["FAIL", "PASS"]  # 44 % > 30 % at rated load; about 8 % from 100 MW
@@ -151,7 +152,22 @@ def test_fail_verdict_and_extrapolation_warning(tmp_path, capsys):
     # the shut vanes take every case below the lowest digitized opening: the simulator's record says so
     assert any(w.startswith("rated: extrapolation (digitized_region)") for w in doc["warnings"])
     assert "extrapolation (digitized_region)" in (out / "report.html").read_text()
-    assert "overall FAIL" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == sorted(  # committed: the manifest, no temporaries beside it
+        [".hillsim-outputs.json", "report.html", "report.json", "cases", "hillchart.png", "envelope.png",
+         "transient_0.png", "transient_1.png"])
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+    captured = capsys.readouterr()
+    assert "overall FAIL" in captured.out
+    row = doc["cases"][0]["verdicts"][0]  # judged on the shipped nets' ensemble band
+    assert row["judged"] == "band" and 0.3 < row["value"] < row["band"][1]
+    assert captured.err.splitlines()[-1] == (
+        f"hillsim report: FAIL: rated: max_speed_rise {row['value']:.6g} (band {row['band'][0]:.6g}-"
+        f"{row['band'][1]:.6g}) against the limit 0.3 (exit 3; report written to {out})")
+    # the same plant with a limit both cases meet: PASS, exit 0
+    plant.write_text(plant.read_text().replace("max_speed_rise = 0.30", "max_speed_rise = 0.50"))
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=10"]) == 0
+    assert json.loads((out / "report.json").read_text())["overall_verdict"] == "PASS"
+    assert "FAIL" not in capsys.readouterr().err
 
 
 def test_envelope_along_the_penstock_matches_the_turbine_head(tmp_path):

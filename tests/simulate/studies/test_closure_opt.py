@@ -3,6 +3,7 @@
 import hashlib
 import json
 import tomllib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -214,16 +215,47 @@ def test_a_study_file_saved_with_a_byte_order_mark_reads_as_hillsim_run_reads_it
         load_study(marked)
 
 
-def test_hillsim_run_on_a_study_file_says_which_commands_read_it(tmp_path, capsys):
-    out = tmp_path / "run"
-    assert main(["run", str(PLANT_HLA339_GUARANTEE), "--out", str(out)]) == 2
+STUDY_NOTE = (f"note: {PLANT_HLA339_GUARANTEE}: [limits] and [[load_cases]] are read by hillsim report and "
+              f"optimize-closure; ignored here")
+
+
+def test_hillsim_run_reads_a_study_file_as_its_plant_with_one_note(tmp_path, capsys):
+    """hillsim run reads the guarantee study's file (it refused it: "unknown section [limits]") as the plain plant:
+    the same run as plant_hla339.toml, no load case applied, and one note naming the sections it ignores."""
+    short = ["--no-plot", "--set", "scenario.t_end_s=3"]
+    assert main(["run", str(PLANT_HLA339_GUARANTEE), "--out", str(tmp_path / "study"), *short]) == 0
     err = capsys.readouterr().err
-    assert "unknown section [limits]" in err and "read by hillsim report and hillsim optimize-closure" in err
-    assert not out.exists()
-    # another unknown section: no word of studies
+    assert err.splitlines()[0] == f"hillsim run: {STUDY_NOTE}" and err.count("note:") == 1
+    assert main(["run", str(PLANT_HLA339), "--out", str(tmp_path / "plain"), *short]) == 0
+    assert "note:" not in capsys.readouterr().err
+    study, plain = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("study", "plain"))
+    assert study == plain and study["max_speed_rise"] > 0.05  # the plant's own 225 MW, not a load case's
+    # the study sections are still validated where they are read
+    bad = _study_with(tmp_path, "[limits]\nmax_speed_rize = 0.5\n")
+    assert main(["report", str(bad), "--out", str(tmp_path / "rep")]) == 2
+    assert "unknown key limits.max_speed_rize" in capsys.readouterr().err and not (tmp_path / "rep").exists()
+    # another unknown section is refused, with no word of studies
     with pytest.raises(InputError) as info:
         load_plant(_study_with(tmp_path, "[nonsense]\nx = 1\n"))
-    assert "unknown section [nonsense]" in str(info.value) and "optimize-closure" not in str(info.value)
+    assert "unknown section [nonsense]" in str(info.value) and "load_study" not in str(info.value)
+
+
+def test_sweep_identify_and_linearize_read_a_study_file_with_one_note(tmp_path, capsys):
+    assert main(["sweep", str(PLANT_HLA339_GUARANTEE), "--vary", "governor.kp=2,3", "--out", str(tmp_path / "sw"),
+                 "--no-plot", "--set", "scenario.t_end_s=3"]) == 0
+    assert capsys.readouterr().err.count(f"hillsim sweep: {STUDY_NOTE}") == 1
+    assert main(["identify", str(PLANT_HLA339_GUARANTEE), "--out", str(tmp_path / "id"), "--no-plot",
+                 "--penstock-model", "rigid"]) == 0
+    assert capsys.readouterr().err.count(f"hillsim identify: {STUDY_NOTE}") == 1
+    nets = str(FRANCIS_DIR / "nets.json")
+    assert main(["linearize", nets, "--plant", str(PLANT_HLA339_GUARANTEE)]) == 0
+    study = capsys.readouterr()
+    assert study.err.count(f"hillsim linearize: {STUDY_NOTE}") == 1
+    assert main(["linearize", nets, "--plant", str(PLANT_HLA339)]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert json.loads(study.out)["operating_point"] == plain["operating_point"]
+    # the plant's scenario, not the last load case's 200 MW
+    assert plain["operating_point"]["power_mw"] == pytest.approx(225.0, rel=1e-12)
 
 
 def test_limits_verdicts():
@@ -319,6 +351,86 @@ def test_plant_writer_writes_nested_tables_at_any_depth():
     assert again.turbine.step_up == plant.turbine.step_up and again.turbine.step_up.model_diameter_m == 0.35
     assert [u.turbine.step_up for u in again.units] == [u.turbine.step_up for u in plant.units]
     assert again.units[1].turbine.step_up.model_diameter_m == 0.5
+
+
+def test_optimum_plant_is_a_study_file_that_report_and_run_read_back(tmp_path, capsys):
+    """optimum_plant.toml keeps [limits] and [[load_cases]] and names the nets relative to itself (it lost the limits
+    and held an absolute path): hillsim report runs every load case under the law, with the figures of closure.json,
+    and hillsim run the worst case, with the figures of its verification run."""
+    import os
+
+    out = tmp_path / "opt"
+    assert main(["optimize-closure", str(PLANT_HLA339_GUARANTEE), "--out", str(out), "--maxiter", "2",
+                 "--popsize", "2", "--no-plot", "--quiet"]) == 0
+    doc = json.loads((out / "closure.json").read_text())
+    raw = tomllib.loads((out / "optimum_plant.toml").read_text())
+    nets = raw["turbine"]["characteristics"]
+    assert not os.path.isabs(nets) and nets == os.path.relpath(FRANCIS_DIR / "nets.json", out).replace(os.sep, "/")
+    assert raw["limits"] == {"max_speed_rise": 0.5, "max_head_m": 240.0, "min_pressure_head_m": 5.0}
+    written = load_study(out / "optimum_plant.toml")
+    original = load_study(PLANT_HLA339_GUARANTEE)
+    assert written.limits == original.limits
+    assert [lc.name for lc in written.load_cases] == [lc.name for lc in original.load_cases]
+    for lc, was in zip(written.load_cases, original.load_cases):  # each case's own keys, as in the study
+        assert {k: lc.overrides[k] for k in was.overrides} == was.overrides
+    # report: every load case under the optimum law, the figures closure.json has for them
+    code = main(["report", str(out / "optimum_plant.toml"), "--out", str(tmp_path / "rep"), "--quiet"])
+    report = json.loads((tmp_path / "rep" / "report.json").read_text())
+    assert code == (3 if report["overall_verdict"] == "FAIL" else 0)
+    assert [c["name"] for c in report["cases"]] == [c["load_case"] for c in doc["cases"]]
+    for case, expected in zip(report["cases"], doc["cases"]):
+        for key in ("max_speed_rise", "max_head_rise", "max_head_m"):
+            assert case[key] == pytest.approx(expected[key], rel=1e-10), (case["name"], key)
+    assert len({c["max_head_m"] for c in report["cases"]}) == 3  # three different cases, not one three times
+    # run: the worst load case, as its verification run gave it; the study sections ignored with one note
+    capsys.readouterr()
+    assert main(["run", str(out / "optimum_plant.toml"), "--out", str(tmp_path / "run"), "--no-plot"]) == 0
+    assert "[limits] and [[load_cases]] are read by hillsim report" in capsys.readouterr().err
+    worst = max(range(3), key=lambda i: doc["cases"][i]["max_head_rise"])
+    run = json.loads((tmp_path / "run" / "summary.json").read_text())
+    verified = json.loads((out / "verification" / str(worst) / "summary.json").read_text())
+    assert {k: run[k] for k in ("max_speed_rise", "max_head_rise", "max_head_m", "initial_power_mw")} == \
+        {k: verified[k] for k in ("max_speed_rise", "max_head_rise", "max_head_m", "initial_power_mw")}
+    # the verification plant files name the nets relative to themselves too
+    case_file = tomllib.loads((out / "verification" / "0" / "plant.toml").read_text())
+    assert not os.path.isabs(case_file["turbine"]["characteristics"])
+
+
+def test_explicit_load_cases_give_each_case_on_a_plant_carrying_another(study, tmp_path):
+    """The plant of optimum_plant.toml carries the worst case's keys: written as in the study, the low-reservoir case's
+    170 m would leak into the rated-load case, which does not set the static head. Explicit, each case gives its own
+    plant whichever case the plant carries, also when one case gives an initial opening instead of a power."""
+    from simulate.studies.batch import variant_overrides
+    from simulate.studies.cases import explicit_load_cases, study_toml
+
+    cases = (*study.load_cases, LoadCase("opening", {"scenario.initial_opening": 0.5}))
+    plant = study.plant
+
+    def of(base, lc):
+        return base.with_overrides(variant_overrides(lc.overrides))
+
+    explicit = explicit_load_cases(cases, plant)
+    assert explicit[0].overrides == {"scenario.initial_power_mw": 225.0, "penstock.static_head_m": 180.0}
+    assert explicit[3].overrides == {"scenario.initial_opening": 0.5, "penstock.static_head_m": 180.0}
+    for carried in range(len(cases)):
+        base = of(plant, explicit[carried])
+        for lc, exp in zip(cases, explicit):
+            assert of(base, exp) == of(plant, lc), (carried, lc.name)
+    # without: the rated-load case on the low-reservoir plant keeps 170 m
+    assert of(of(plant, cases[2]), cases[0]).penstock.static_head_m == 170.0
+    # written after the plant and read back: the same plant, limits and cases (a name TOML must escape too)
+    from simulate.studies.cases import plant_toml
+
+    named = (*explicit[:3], LoadCase('opening "half" \u00e9\U0001f600', explicit[3].overrides))
+    path = tmp_path / "study.toml"
+    path.write_text(plant_toml(plant, relative_to=tmp_path) + "\n" + study_toml(study.limits, named),
+                    encoding="utf-8")
+    again = load_study(path)
+    chars = again.plant.turbine.characteristics
+    assert not chars.startswith("/") and (tmp_path / chars).resolve() == (FRANCIS_DIR / "nets.json").resolve()
+    assert again.plant == replace(plant, base_dir=tmp_path.resolve(),
+                                  turbine=replace(plant.turbine, characteristics=chars))
+    assert again.limits == study.limits and again.load_cases == named
 
 
 @pytest.mark.parametrize("args,message", [
