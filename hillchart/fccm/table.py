@@ -253,6 +253,9 @@ def load_test_table(folder) -> TestTable:
                                  f"range; allowed {allowed}")
             columns[name] = values
         else:  # extra column: numeric if every cell is a finite number, else kept out as text
+            if any("_" in c for c in cells[name]):  # float() reads '4_4' as 44: a typo, kept out as text
+                text_columns.append(name)
+                continue
             try:
                 values = np.array([float(c.replace(",", ".") if decimal_comma else c) for c in cells[name]])
             except ValueError:
