@@ -144,6 +144,10 @@ class PenstockSegment:
         return self.length_m / self.wave_speed_m_s
 
 
+#: The largest ``penstock.reaches``.
+MAX_REACHES = 10000
+
+
 @dataclass(frozen=True)
 class PenstockConfig:
     """Penstock from the upper reservoir to the turbine inlet.
@@ -166,7 +170,7 @@ class PenstockConfig:
     def __post_init__(self):
         check_choice("penstock.model", self.model, PENSTOCKS.names())
         check_number("penstock.static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
-        check_int("penstock.reaches", self.reaches, 1, 10000)
+        check_int("penstock.reaches", self.reaches, 1, MAX_REACHES)
         check_number("penstock.lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
         check_number("penstock.zdomain_feedback", self.zdomain_feedback, low=0.0, high=100.0)
         if not isinstance(self.segments, tuple) or not self.segments or not all(

@@ -182,6 +182,10 @@ def run_command(args: argparse.Namespace) -> int:
                               stale=("transient.png", "envelope.png"))  # checked now, in place at the end
     overrides = dict(parse_override(text) for text in args.overrides)
     plant = load_plant(args.plant, overrides)
+    if getattr(args, "check_step", False):  # its half-step rerun must be allowed before the first run starts
+        from simulate.studies.step_check import check_halving_allowed
+
+        check_halving_allowed(plant)
     reached = [0.0]
 
     def on_progress(step, n_steps):

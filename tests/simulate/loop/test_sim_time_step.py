@@ -153,6 +153,23 @@ def test_family_rejections_at_60_to_100_percent_load_need_no_setting(family):
         assert run.meta["pressure_loop_fallback_steps"] == 0
 
 
+def test_check_step_refuses_up_front_a_half_step_rerun_beyond_the_reaches_bound(tmp_path, capsys):
+    """penstock.reaches = 10000 with --check-step once ran, then refused its own rerun at 20000 reaches: now refused
+    before the run with what to set; 5000 (rerun at 10000) passes the check."""
+    from hillsim.cli import main
+    from simulate.studies.step_check import check_halving_allowed
+
+    check_halving_allowed(load_plant(PLANT_HLA339, {"penstock.reaches": 5000}))  # the rerun's 10000 is allowed
+    out = tmp_path / "out"
+    code = main(["run", str(PLANT_HLA339), "--set", "penstock.reaches=10000", "--check-step", "--out", str(out),
+                 "--quiet", "--no-plot"])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert ("--check-step reruns at half the step, with penstock.reaches = 20000 (twice 10000), which is refused "
+            "(penstock.reaches must be an integer in [1, 10000], got 20000); set penstock.reaches <= 5000") in err
+    assert "simulating" not in err  # nothing ran
+
+
 def test_check_step_reports_the_change_of_each_figure():
     plant = load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 10.0})
     run = run_simulation(plant)
