@@ -567,6 +567,11 @@ def test_a_series_in_minutes_or_from_another_plant_is_refused():
     with pytest.raises(InputError, match=r"starts at 500 r/min, 2.5 x the plant's rated 200 r/min; a unit under "
                                          r"test runs at 0.7 to 1.4 x rated"):
         check_against_plant("s.csv", SimpleNamespace(**{**vars(point), "speed_rpm": 500.0}), plant)
+    # another plant's series: head 2 x the rated 176 m (inside the 0.2-5 x rated), 352 / 180 = 1.95556 x the static
+    with pytest.raises(InputError, match=r"column 'head_m' starts at 352 m, 1\.95556 x the plant's "
+                                         r"penstock\.static_head_m = 180 m; a unit's net head lies at 0\.5 to 1\.2 x "
+                                         r"the static head: is this the plant the data come from"):
+        check_against_plant("s.csv", SimpleNamespace(**{**vars(point), "head_m": 352.0}), plant)
 
 
 @pytest.mark.parametrize("column, factor, word", [("flow_m3_s", 1000.0, "flow in l/s"),
