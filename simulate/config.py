@@ -103,6 +103,11 @@ class TurbineConfig:
         return self.rated_power_mw * 1e6 / (self.rated_speed_rpm * RPM_TO_RAD_S)
 
 
+#: The slowest pressure wave in water: a bubbly air-water mixture at atmospheric pressure has its minimum sound
+#: speed (Wood's equation, half air by volume) at about 24 m/s; water conduits lie at about 100-1500 m/s.
+WAVE_SPEED_MIN_M_S = 20.0
+
+
 @dataclass(frozen=True)
 class PenstockSegment:
     """One pipe of uniform section; segments are in series, upstream first. ``elevation_start_m`` /
@@ -126,8 +131,13 @@ class PenstockSegment:
                 check_number(f"penstock.segments.{key}", getattr(self, key), low=-3000.0, high=3000.0)
         check_number("penstock.segments.length_m", self.length_m, low=0.0, high=1e5, low_open=True)
         check_number("penstock.segments.diameter_m", self.diameter_m, low=0.0, high=30.0, low_open=True)
-        check_number("penstock.segments.wave_speed_m_s", self.wave_speed_m_s, low=0.0, high=1600.0,
-                      low_open=True)
+        try:
+            check_number("penstock.segments.wave_speed_m_s", self.wave_speed_m_s, low=WAVE_SPEED_MIN_M_S,
+                         high=1600.0)
+        except InputError as exc:
+            raise InputError(f"{exc} (m/s): pressure waves in water conduits travel at about 100 (air-laden water, "
+                             f"soft pipes) to 1500 m/s (steel penstocks, rock tunnels about 1000-1400); give the "
+                             f"wave speed in m/s") from None
         check_number("penstock.segments.darcy_friction", self.darcy_friction, low=0.0, high=0.2)
 
     @property
@@ -137,6 +147,10 @@ class PenstockSegment:
     @property
     def travel_time_s(self) -> float:
         return self.length_m / self.wave_speed_m_s
+
+
+#: The largest ``penstock.reaches``.
+MAX_REACHES = 10000
 
 
 @dataclass(frozen=True)
@@ -161,7 +175,7 @@ class PenstockConfig:
     def __post_init__(self):
         check_choice("penstock.model", self.model, PENSTOCKS.names())
         check_number("penstock.static_head_m", self.static_head_m, low=0.0, high=3000.0, low_open=True)
-        check_int("penstock.reaches", self.reaches, 1, 10000)
+        check_int("penstock.reaches", self.reaches, 1, MAX_REACHES)
         check_number("penstock.lumped_alpha", self.lumped_alpha, low=0.0, high=10.0, low_open=True)
         check_number("penstock.zdomain_feedback", self.zdomain_feedback, low=0.0, high=100.0)
         if not isinstance(self.segments, tuple) or not self.segments or not all(
@@ -336,6 +350,11 @@ class GovernorConfig:
                              + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
 
 
+#: The smallest ``solver.tolerance``: the turbine boundary accepts a head within max(tolerance x rated head,
+#: :data:`simulate.components.turbine.boundary.ROUNDOFF_TOLERANCE` x (|C_L| + |k Q|)), and |C_L| is about the head.
+TOLERANCE_FLOOR = 64 * 2.220446049250313e-16
+
+
 @dataclass(frozen=True)
 class SolverConfig:
     """Time step and the turbine-boundary (pressure-loop) solver.
@@ -372,6 +391,11 @@ class SolverConfig:
         check_number("solver.max_output_mb", self.max_output_mb, low=0.0, high=1e7, low_open=True)
         check_choice("solver.pressure_loop", self.pressure_loop, PRESSURE_LOOPS)
         check_number("solver.tolerance", self.tolerance, low=0.0, high=1e-2, low_open=True)
+        if self.tolerance < TOLERANCE_FLOOR:
+            raise InputError(f"solver.tolerance = {self.tolerance!r} is below {TOLERANCE_FLOOR:.4g} (64 machine "
+                             f"epsilons), the round-off floor of the head residual as a fraction of the rated head: "
+                             f"no step can be solved closer, so the loop would use the floor; set solver.tolerance in "
+                             f"[{TOLERANCE_FLOOR:.4g}, 0.01] (default 1e-10)")
         check_int("solver.max_iterations", self.max_iterations, 1, 100000)
         check_number("solver.relaxation", self.relaxation, low=0.0, high=1.0, low_open=True)
         if self.substeps is not None:
@@ -546,6 +570,10 @@ class DraftTubeConfig:
         return self.mirrored().friction_coefficient_s2_m5
 
 
+#: ``combinator.head_m`` may lie from this[0] x ``turbine.rated_head_m`` to this[1] x ``penstock.static_head_m``.
+COMBINATOR_HEAD_RANGE = (0.25, 1.5)
+
+
 @dataclass(frozen=True)
 class PlantConfig:
     """The whole plant file. ``base_dir`` resolves a relative ``turbine.characteristics`` path."""
@@ -578,12 +606,29 @@ class PlantConfig:
             raise InputError(f"section [{electrical[0]}] is used only by generator.model = \"subtransient\" (got "
                              f"generator.model = {self.generator.model!r})")
         sc.check_plant(self)
+        self._check_combinator_head()
         if sc.initial_opening is not None and not (gov.stroke_min <= sc.initial_opening <= gov.stroke_max):
             raise InputError(f"scenario.initial_opening must be in [governor.stroke_min, governor.stroke_max] = "
                              f"[{gov.stroke_min!r}, {gov.stroke_max!r}], got {sc.initial_opening!r}")
         if sc.initial_power_mw is not None and sc.initial_power_mw > 1.5 * self.turbine.rated_power_mw:
             raise InputError(f"scenario.initial_power_mw must be in [0, 1.5 * turbine.rated_power_mw] = "
                              f"[0, {1.5 * self.turbine.rated_power_mw!r}], got {sc.initial_power_mw!r}")
+
+    def _check_combinator_head(self) -> None:
+        """``combinator.head_m`` within the plant's heads: from a quarter of the rated head (a low-head unit at
+        flood) to 1.5 x the static head (the gross head, which the net head stays below)."""
+        head = getattr(self.combinator, "head_m", None)
+        if head is None:
+            return
+        low, high = COMBINATOR_HEAD_RANGE[0] * self.turbine.rated_head_m, \
+            COMBINATOR_HEAD_RANGE[1] * self.penstock.static_head_m
+        if not low <= head <= high:
+            raise InputError(f"combinator.head_m = {head!r} m is outside this plant's heads (turbine.rated_head_m = "
+                             f"{self.turbine.rated_head_m!r} m, penstock.static_head_m = "
+                             f"{self.penstock.static_head_m!r} m); allowed [{low:.4g}, {high:.4g}] m "
+                             f"({COMBINATOR_HEAD_RANGE[0]:g} x the rated head "
+                             f"to {COMBINATOR_HEAD_RANGE[1]:g} x the static head): give the net head in m of this "
+                             f"plant, or leave head_m out (the net head of the initial steady state)")
 
     def _check_units(self) -> None:
         """The ``[[units]]`` against the rest of the plant (names unique, ``scenario.units`` known, MOC conduit)."""

@@ -149,12 +149,29 @@ class TestTable:
 #: paper 003), efficiency P / (rho g Q H) from the power column, angles (deg).
 Q11_PLAUSIBLE_M3_S = 10.0
 ANGLE_SPAN_MIN_DEG = 3.2
+#: Net heads of double-regulated turbines (Kaplan up to about 80 m, bulb below about 30 m) and of their model rigs
+#: (IEC 60193 tests, a few to some tens of metres) lie below this; a median above it is a head in kPa (x 9.81) or Pa.
+HEAD_PLAUSIBLE_M = 100.0
+G_KPA_PER_M = 9.81  # 1 m of water = 9.81 kPa
 
 
 def unit_warnings(columns: dict, path) -> list[str]:
     """Warnings for columns whose values look like another unit than their name says: flow in l/s (Q11 1000 x too
-    large), power in W or MW (efficiency 1000 x off), angles in radians (a control spanning less than pi)."""
+    large), power in W or MW (efficiency 1000 x off), head in kPa or Pa (a median above
+    :data:`HEAD_PLAUSIBLE_M`, or P / (rho g Q H) 9.81 x below the efficiency column), angles in radians (a control
+    spanning less than pi)."""
     out = []
+    head = columns.get("head_m")
+    head_scale, head_note = 1.0, ""
+    if head is not None and np.median(head) > HEAD_PLAUSIBLE_M:
+        median = float(np.median(head))
+        unit, factor = (("kPa", G_KPA_PER_M) if median / G_KPA_PER_M <= HEAD_PLAUSIBLE_M else
+                        ("Pa", 1e3 * G_KPA_PER_M))
+        out.append(f"{path}: head_m has a median of {median:.4g} m; double-regulated turbines (Kaplan, bulb) and "
+                   f"their model rigs run at heads below about {HEAD_PLAUSIBLE_M:g} m: is the head in {unit} (divide "
+                   f"by {factor:g} to give metres of water)?")
+        # the power and the flow are judged against the head in metres: a head in kPa must not blame them too
+        head_scale, head_note = 1.0 / factor, f" with the head divided by {factor:g}"
     q11 = columns.get("q11_m3_s")
     flow_scale, flow_note = 1.0, ""
     if q11 is not None and np.median(np.abs(q11)) > Q11_PLAUSIBLE_M3_S:
@@ -164,17 +181,69 @@ def unit_warnings(columns: dict, path) -> list[str]:
         flow_scale, flow_note = 1e-3, " with the flow divided by 1000"
     if all(k in columns for k in ("power_kw", "flow_m3_s", "head_m")):
         with np.errstate(divide="ignore", invalid="ignore"):
-            eta = columns["power_kw"] * 1e3 / (1000.0 * 9.81 * flow_scale * columns["flow_m3_s"] * columns["head_m"])
+            eta = columns["power_kw"] * 1e3 / (1000.0 * 9.81 * flow_scale * columns["flow_m3_s"] * head_scale
+                                                * columns["head_m"])
         median = float(np.nanmedian(eta)) if np.any(np.isfinite(eta)) else float("nan")
+        stated = float(np.median(columns["efficiency"])) if "efficiency" in columns else float("nan")
         if median > 2.0 or median < 0.02:
             guess = "W (divide by 1000)" if median > 2.0 else "MW (multiply by 1000)"
-            out.append(f"{path}: power_kw gives a median efficiency P / (rho g Q H) = {median:.4g}{flow_note}, not "
-                       f"0.3-0.95: is the power in {guess}?")
+            out.append(f"{path}: power_kw gives a median efficiency P / (rho g Q H) = {median:.4g}{flow_note}"
+                       f"{head_note}, not 0.3-0.95: is the power in {guess}?")
+        elif not head_note and 0.7 * G_KPA_PER_M < stated / median < 1.4 * G_KPA_PER_M:
+            # a low-head rig's head in kPa stays below HEAD_PLAUSIBLE_M; the efficiency column tells it (x 9.81)
+            out.append(f"{path}: power_kw, flow_m3_s and head_m give a median efficiency P / (rho g Q H) = "
+                       f"{median:.4g}{flow_note}, {stated / median:.3g} x below the efficiency column's {stated:.4g}: "
+                       f"is the head in kPa (divide by {G_KPA_PER_M:g} to give metres of water)?")
     for name, values in columns.items():
         if name.endswith("_deg") and values.size > 1 and 0 < np.ptp(values) and np.max(np.abs(values)) < \
                 ANGLE_SPAN_MIN_DEG:
             out.append(f"{path}: column {name!r} spans {float(np.min(values)):.4g} to {float(np.max(values)):.4g}, "
                        "less than pi: are the angles in radians (multiply by 180/pi)?")
+    return out
+
+
+#: A point's efficiency is named as an outlier when it departs from the local linear fit through its nearest points
+#: (controls and n11, each scaled to its span) by more than this and by more than EFFICIENCY_OUTLIER_SIGMAS robust
+#: standard deviations of all departures. A rig's scatter is below 0.01 (IEC 60193: about 0.2-0.3 %); on the
+#: synthetic bulb table (150 points, 0.3 % noise) the chart's curvature gives departures up to 0.033.
+EFFICIENCY_OUTLIER = 0.1
+EFFICIENCY_OUTLIER_SIGMAS = 8.0
+EFFICIENCY_OUTLIERS_NAMED = 5
+
+
+def efficiency_outliers(columns: dict, controls, lines, path) -> list[str]:
+    """Warnings naming the rows whose efficiency lies far from their neighbours' (a typo such as 0.45 for 0.85),
+    worst first, each found with the ones before it left out; none when the table has no efficiency column or
+    fewer than three neighbourhoods of points."""
+    eff = columns.get("efficiency")
+    names = [n for n in dict.fromkeys([*controls, "n11_rpm"]) if n in columns and np.ptp(columns[n]) > 0]
+    if eff is None or not names:
+        return []
+    k = 2 * (len(names) + 1) + 2  # twice the parameters of the local plane, and two more
+    if eff.size < 3 * k:
+        return []
+    from scipy.spatial import cKDTree
+
+    x = np.column_stack([(columns[n] - columns[n].min()) / np.ptp(columns[n]) for n in names])
+    keep = np.arange(eff.size)
+    out = []
+    for _ in range(EFFICIENCY_OUTLIERS_NAMED):
+        xs, es = x[keep], eff[keep]
+        _, nb = cKDTree(xs).query(xs, k=k + 1)
+        own = nb == np.arange(keep.size)[:, None]
+        nb = np.take_along_axis(nb, np.argsort(~own, axis=1, kind="stable"), axis=1)[:, 1:]  # the point itself out
+        a = np.concatenate([np.ones((keep.size, k, 1)), xs[nb] - xs[:, None, :]], axis=2)
+        fit = (np.linalg.pinv(a) @ es[nb][:, :, None])[:, 0, 0]  # the local plane at the point
+        departure = es - fit
+        limit = max(EFFICIENCY_OUTLIER, EFFICIENCY_OUTLIER_SIGMAS * 1.4826 * float(np.median(np.abs(departure))))
+        worst = int(np.argmax(np.abs(departure)))
+        if abs(departure[worst]) <= limit:
+            break
+        out.append(f"{path}: row {int(lines[keep[worst]])}: efficiency {float(es[worst]):.4g} is "
+                   f"{float(departure[worst]):+.3g} from the {float(fit[worst]):.4g} of its {k} nearest points in "
+                   f"({', '.join(names)}); neighbouring points of a test differ by less than {limit:.2g}: correct "
+                   "the row (a typo?) or remove it")
+        keep = np.delete(keep, worst)
     return out
 
 
@@ -253,6 +322,9 @@ def load_test_table(folder) -> TestTable:
                                  f"range; allowed {allowed}")
             columns[name] = values
         else:  # extra column: numeric if every cell is a finite number, else kept out as text
+            if any("_" in c for c in cells[name]):  # float() reads '4_4' as 44: a typo, kept out as text
+                text_columns.append(name)
+                continue
             try:
                 values = np.array([float(c.replace(",", ".") if decimal_comma else c) for c in cells[name]])
             except ValueError:
@@ -278,7 +350,7 @@ def load_test_table(folder) -> TestTable:
             derived.append("q11_m3_s")
     table = TestTable(info=info, columns=columns, derived=tuple(derived), text_columns=tuple(text_columns),
                       folder=folder)
-    for text in unit_warnings(columns, path):
+    for text in unit_warnings(columns, path) + efficiency_outliers(columns, info.controls, line_numbers, path):
         warnings.warn(text, UserWarning, stacklevel=2)
     for control in info.controls:
         if control not in columns:

@@ -125,10 +125,16 @@ def decimal_commas(path, delimiter: str, cells) -> tuple[bool, str | None]:
 
 
 def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: bool = False) -> float:
-    """One finite number from a cell; the error names file, line and column and shows the cell as written."""
+    """One finite number from a cell; the error names file, line and column and shows the cell as written.
+
+    An underscore is refused: Python's ``float`` reads ``4_4.02`` as 44.02 (digit grouping), which in a chart or a
+    table is a typo, not a number."""
     text = cell.strip()
     if decimal_comma:
         text = text.replace(",", ".")
+    if "_" in text:
+        raise InputError(f"{path}: row {line_no}, column {column!r}: not a number: {cell!r} (an underscore is no "
+                         "digit separator in a CSV file); write the number without it")
     try:
         value = float(text)
     except ValueError:

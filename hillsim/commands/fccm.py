@@ -6,6 +6,13 @@ import argparse
 from pathlib import Path
 
 
+#: --simulator-nets: ensemble members (each trains both nets with every restart: 5 take about a minute on a bulb
+#: table, so 20 about four) and table rows (a model test has some hundreds to a few thousand points; the
+#: Levenberg-Marquardt training's Jacobian grows with the rows, and 200,000 rows ran for minutes).
+MAX_MEMBERS = 20
+MAX_SIMULATOR_NET_ROWS = 20_000
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "fccm",
@@ -39,7 +46,8 @@ def register(subparsers) -> None:
                              "fitted to the table, which answers where the table is silent: runaway, the closed vane "
                              "(M11 = -K N11^2), zero speed and the overspeed between them")
     parser.add_argument("--members", type=int, default=5,
-                        help="with --simulator-nets: ensemble members, the point nets included (default 5)")
+                        help=f"with --simulator-nets: ensemble members, the point nets included, 1-{MAX_MEMBERS} "
+                             "(default 5)")
     parser.add_argument("--out", required=True, help="output folder (fccm_nets.json, metrics.json, PNGs)")
     parser.add_argument("--hidden", type=int, default=None,
                         help="hidden neurons (default: eq. (3) of Wu et al. with C in 1..10 chosen by validation; "
@@ -153,10 +161,12 @@ def _run_simulator_nets(args) -> int:
                          "--inputs and --outputs")
     if args.hidden is not None and not 1 <= args.hidden <= 100:
         raise InputError(f"--hidden must be an integer within 1-100, got {args.hidden}")
-    for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1),
-                               ("--members", args.members, 1)):
+    for option, value, low in (("--seed", args.seed, 0), ("--restarts", args.restarts, 1)):
         if value < low:
             raise InputError(f"{option} must be an integer >= {low}, got {value}")
+    if not 1 <= args.members <= MAX_MEMBERS:
+        raise InputError(f"--members must be an integer within 1-{MAX_MEMBERS}, got {args.members} (each member "
+                         f"trains both nets; the default 5 gives the ensemble spread)")
     split = _split(args.split) if args.split != "0.30,0.35,0.35" else (0.70, 0.15, 0.15)
     out = args.outputs.folder("--out", args.out)
     with warnings.catch_warnings(record=True) as caught:
@@ -164,6 +174,10 @@ def _run_simulator_nets(args) -> int:
         table = load_test_table(args.table)
     for w in caught:
         print(f"warning: {w.message}", flush=True)
+    if table.n_rows > MAX_SIMULATOR_NET_ROWS:
+        raise InputError(f"{Path(args.table) / 'table.csv'}: {table.n_rows} rows; --simulator-nets trains on at "
+                         f"most {MAX_SIMULATOR_NET_ROWS} (a model test has some hundreds to a few thousand points): "
+                         "thin the table (e.g. every n-th row, or the points of one test campaign)")
     if is_on_cam_table(table):
         return _run_on_cam_nets(args, table, split, out)
     hidden = (15 if args.no_extension else 30) if args.hidden is None else args.hidden

@@ -179,6 +179,10 @@ def run_command(args: argparse.Namespace) -> int:
     out = args.outputs.folder("--out", args.out,
                               stale=("transient.png", "envelope.png"))  # checked now, in place at the end
     plant = load_command_plant("run", args.plant, args.overrides)
+    if getattr(args, "check_step", False):  # its half-step rerun must be allowed before the first run starts
+        from simulate.studies.step_check import check_halving_allowed
+
+        check_halving_allowed(plant)
     reached = [0.0]
 
     def on_progress(step, n_steps):

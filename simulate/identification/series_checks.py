@@ -186,6 +186,10 @@ UNIT_SLIPS = {
 #: Speed at the first sample, as a fraction of the plant's rated speed: a unit under test runs near rated speed (a
 #: start-up or a runaway test is not an identification series); outside, the data are likely another unit's.
 SPEED_RANGE = (0.7, 1.4)
+#: Net head at the first sample, as a fraction of the plant's static (gross) head: the steady net head is the gross
+#: head less the losses (above half of it on any plant) and exceeds it only by a headwater above the plant file's
+#: level or a gauge error (20 %); outside, the data are likely another plant's.
+HEAD_RANGE_OF_STATIC = (0.5, 1.2)
 
 
 def check_duration_against_plant(path, time_s, plant) -> None:
@@ -229,6 +233,13 @@ def check_against_plant(path, operating_point, plant, *, low: float = 0.2, high:
         raise InputError(f"{path}: column 'speed_rpm' starts at {_num(speed)} r/min, {_num(ratio)} x the plant's "
                          f"rated {_num(tur.rated_speed_rpm)} r/min; a unit under test runs at {SPEED_RANGE[0]:g} to "
                          f"{SPEED_RANGE[1]:g} x rated: is this the plant the data come from?")
+    head = float(operating_point.head_m)
+    static = plant.penstock.static_head_m
+    if not HEAD_RANGE_OF_STATIC[0] <= head / static <= HEAD_RANGE_OF_STATIC[1]:
+        raise InputError(f"{path}: column 'head_m' starts at {_num(head)} m, {_num(head / static)} x the plant's "
+                         f"penstock.static_head_m = {_num(static)} m; a unit's net head lies at "
+                         f"{HEAD_RANGE_OF_STATIC[0]:g} to {HEAD_RANGE_OF_STATIC[1]:g} x the static head: is this the "
+                         "plant the data come from (or is the head gauge's datum or unit another)?")
 
 
 def small_signal_warning(series, *, limit: float = 0.1) -> str | None:

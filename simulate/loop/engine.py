@@ -306,6 +306,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
             "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "substeps": n_sub,
             "dt_chosen": plan.chosen, "dt_limited_by": plan.limited_by,
             "aligned_event_times_s": list(plan.aligned_events_s),
+            "moved_event_times_s": [{"requested_s": t, "acts_from_s": a} for t, a in plan.moved_events_s],
             "pressure_loop_fallback_steps": int(diag[7]), "water_time_s": tw,
             "travel_time_s": pen.travel_time_s, "compiled": compiled,
             "steady_state_max_residual": max(abs(v) for v in steady.residuals.values())}

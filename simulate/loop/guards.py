@@ -94,6 +94,9 @@ def check_initial_state(plant, steady, domain=None, *, remember=None) -> None:
 #: Bounds beyond which a valid plant value is implausible for a hydro unit (warned, not refused): the fastest
 #: guide-vane servos close in about 2 s, the best turbines reach about 0.96 efficiency at rated power.
 SHORTEST_PLAUSIBLE_STROKE_TIME_S = 1.0
+#: The runner-blade servo turns every blade through the hub's crosshead against the blades' hydraulic torque: its
+#: time constant is longer than the guide-vane servo's (0.1-0.3 s), about 0.5 s to a minute (bulb example: 1 s).
+SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S = 0.5
 HIGHEST_PLAUSIBLE_RATED_EFFICIENCY = 0.98
 
 
@@ -107,6 +110,12 @@ def plausibility_warnings(plant) -> list[str]:
             out.append(f"governor.{key} = {value:.3g} s is implausibly short: guide-vane servos take about 2-30 s "
                        "for the full stroke (the water hammer grows as the closing time shrinks); check the value "
                        "and its unit (s)")
+    blades = getattr(plant, "blade_servo", None)
+    if blades is not None and blades.servo_time_s < SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S:
+        out.append(f"blade_servo.servo_time_s = {blades.servo_time_s:.3g} s is implausibly short: runner-blade "
+                   f"servos, which turn the blades through the hub, have time constants of about "
+                   f"{SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S:g}-60 s (slower than the guide-vane servo); check the "
+                   "value and its unit (s, not ms)")
     eta = plant.turbine.rated_efficiency
     if eta > HIGHEST_PLAUSIBLE_RATED_EFFICIENCY:
         out.append(f"the rated efficiency P_r/(rho g Q_r H_r) = {eta:.4g} from turbine.rated_power_mw, "

@@ -54,6 +54,7 @@ class StepPlan:
     limited_by: str
     scales: tuple[TimeScale, ...] = ()
     aligned_events_s: tuple[float, ...] = ()
+    moved_events_s: tuple[tuple[float, float], ...] = ()
     warnings: tuple[str, ...] = field(default=())
 
     @property
@@ -139,6 +140,20 @@ def plan_step(plant, schedules, *, grid_step_s: float | None = None) -> StepPlan
         if dt != dt_max:
             aligned = tuple(events)
     warnings = []
+    moved = []
+    if user:  # the user's step: an event between steps acts from the next one (the rotor, the loads, the faults)
+        for t in events:
+            acts = math.ceil(t / dt - 1e-9) * dt
+            if abs(acts - t) > 1e-9 * max(1.0, t):
+                moved.append((t, acts))
+        if moved:
+            better = aligned_step(dt, events)
+            how = (f"set solver.dt_s = {better:.6g} s (every event time a whole number of steps)" if better != dt
+                   else f"move the event(s) to whole multiples of {dt:.6g} s")
+            warnings.append(f"scenario event(s) at {', '.join(f'{t:.6g} s' for t, _ in moved)} fall between steps of "
+                            f"solver.dt_s = {dt:.6g} s and act from {', '.join(f'{a:.6g} s' for _, a in moved)} (the "
+                            f"next step); to have them act when requested, {how}, or leave solver.dt_s out (the "
+                            f"solver then aligns the step)")
     for s in scales:
         sub_stepped = moc and not s.coupled
         if sub_stepped or (plant.solver.substeps is not None and not s.coupled):
@@ -164,4 +179,4 @@ def plan_step(plant, schedules, *, grid_step_s: float | None = None) -> StepPlan
                                 f"{s.resolve_fraction:g} x {s.label} = {s.value_s:.6g} s; results may be inaccurate: "
                                 f"raise solver.substeps to {math.ceil(dt / s.resolving_step_s - 1e-9)} or omit it")
     return StepPlan(dt_s=dt, substeps=substeps, chosen=chosen, limited_by=limited_by, scales=tuple(scales),
-                    aligned_events_s=aligned, warnings=tuple(warnings))
+                    aligned_events_s=aligned, moved_events_s=tuple(moved), warnings=tuple(warnings))

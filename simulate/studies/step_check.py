@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from simulate.config import MAX_REACHES
 from simulate.loop.engine import run_simulation
 
 
@@ -22,6 +23,22 @@ def halved_step_plant(plant, dt_s: float):
     return replace(plant, solver=replace(plant.solver, dt_s=0.5 * dt_s))
 
 
+def check_halving_allowed(plant) -> None:
+    """An :class:`InputError`, before any run, when the half-step rerun of ``plant`` would be refused: for MOC,
+    twice ``penstock.reaches`` above its largest allowed value (the message says what to set)."""
+    from hillchart.errors import InputError
+
+    if plant.penstock.model != "moc":
+        return  # solver.dt_s / 2 is always allowed (any dt_s > 0)
+    try:
+        halved_step_plant(plant, plant.time_step_s)
+    except InputError as exc:
+        half_max = MAX_REACHES // 2
+        raise InputError(f"--check-step reruns at half the step, with penstock.reaches = "
+                         f"{2 * plant.penstock.reaches} (twice {plant.penstock.reaches}), which is refused ({exc}); "
+                         f"set penstock.reaches <= {half_max} to check the step, or drop --check-step") from None
+
+
 def check_step(plant, result, characteristics=None) -> dict:
     """Rerun ``plant`` at half the step of ``result`` and compare the summary figures.
 
@@ -31,7 +48,8 @@ def check_step(plant, result, characteristics=None) -> dict:
     Examples
     --------
     >>> from simulate.config import load_plant
-    >>> from simulate.loop.engine import run_simulation
+    >>> from simulate.config import MAX_REACHES
+from simulate.loop.engine import run_simulation
     >>> import importlib.resources as ir
     >>> plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml",
     ...                    {"turbine.characteristics": "ideal", "scenario.t_end_s": 10.0})

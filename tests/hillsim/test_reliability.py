@@ -635,11 +635,18 @@ def test_a_series_in_minutes_or_from_another_plant_is_refused():
     with pytest.raises(InputError, match=r"starts at 500 r/min, 2.5 x the plant's rated 200 r/min; a unit under "
                                          r"test runs at 0.7 to 1.4 x rated"):
         check_against_plant("s.csv", SimpleNamespace(**{**vars(point), "speed_rpm": 500.0}), plant)
+    # another plant's series: head 2 x the rated 176 m (inside the 0.2-5 x rated), 352 / 180 = 1.95556 x the static
+    with pytest.raises(InputError, match=r"column 'head_m' starts at 352 m, 1\.95556 x the plant's "
+                                         r"penstock\.static_head_m = 180 m; a unit's net head lies at 0\.5 to 1\.2 x "
+                                         r"the static head: is this the plant the data come from"):
+        check_against_plant("s.csv", SimpleNamespace(**{**vars(point), "head_m": 352.0}), plant)
 
 
 @pytest.mark.parametrize("column, factor, word", [("flow_m3_s", 1000.0, "flow in l/s"),
                                                   ("power_kw", 1000.0, "power in W"),
-                                                  ("blade_angle_deg", np.pi / 180, "radians")])
+                                                  ("blade_angle_deg", np.pi / 180, "radians"),
+                                                  ("head_m", 9.81, "head in kPa (divide by 9.81"),
+                                                  ("head_m", 9810.0, "head in Pa (divide by 9810")])
 def test_model_test_tables_in_other_units_warn(tmp_path, column, factor, word):
     from hillchart.fccm.table import load_test_table
 
@@ -680,6 +687,53 @@ def test_a_table_with_flow_and_power_both_in_other_units_warns_of_both(tmp_path)
                           "head_m": head}, "t")
     assert len(both) == 2 and "flow in l/s" in both[0] and "power in W" in both[1], both
     assert "efficiency P / (rho g Q H) = 850 with the flow divided by 1000" in both[1], both
+
+
+def test_a_low_head_rigs_head_in_kpa_warns_from_the_efficiency_column():
+    """A 4 m rig's head in kPa (39) is below the 100 m any double-regulated turbine stays under: the efficiency
+    column, 9.81 x above P / (rho g Q H), tells it."""
+    from hillchart.fccm.table import unit_warnings
+
+    flow, head, eff = np.array([0.3, 0.35, 0.4]), np.array([3.8, 4.0, 4.2]), np.array([0.84, 0.86, 0.85])
+    power_kw = eff * 9.81 * flow * head
+    columns = {"flow_m3_s": flow, "head_m": head, "efficiency": eff, "power_kw": power_kw}
+    assert unit_warnings(columns, "t") == []  # in metres: no warning
+    (line,) = unit_warnings({**columns, "head_m": 9.81 * head}, "t")
+    # median P / (rho g Q H) = 0.85 / 9.81 = 0.086646: exact to the 4 digits shown
+    assert "median efficiency P / (rho g Q H) = 0.08665, 9.81 x below the efficiency column's 0.85" in line, line
+    assert "is the head in kPa (divide by 9.81" in line
+
+
+def test_an_efficiency_outlier_in_a_model_test_table_warns_naming_the_row(tmp_path):
+    """One efficiency far from its neighbours' (0.4 below, a typo such as 0.45 for 0.85) is named with its row;
+    the table as written and a point 0.03 off (the spread the chart's curvature gives, see EFFICIENCY_OUTLIER)
+    are not."""
+    import warnings
+
+    from hillchart.fccm.table import load_test_table
+
+    table = tmp_path / "t"
+    assert main(["synth", str(table), "--turbine", "bulb", "--quiet"]) == 0
+    lines = (table / "table.csv").read_text().splitlines()
+    j = lines[0].split(",").index("efficiency")
+
+    def with_efficiency_of_row_41(delta):
+        cells = lines[40].split(",")
+        cells[j] = f"{float(cells[j]) + delta:.5f}"
+        (table / "table.csv").write_text("\n".join(lines[:40] + [",".join(cells)] + lines[41:]) + "\n")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            load_test_table(table)
+        return [str(w.message) for w in caught], float(cells[j])
+
+    assert with_efficiency_of_row_41(0.0)[0] == [] and with_efficiency_of_row_41(-0.03)[0] == []
+    caught, value = with_efficiency_of_row_41(-0.4)
+    assert len(caught) == 1, caught  # the outlier only: its neighbours, fitted with it left out, are not named
+    assert f"table.csv: row 41: efficiency {value:.4g} is -0." in caught[0], caught
+    departure = float(caught[0].split(" is ")[1].split()[0])
+    # -0.4 as written, shifted by the row's own departure from its neighbours' plane (at most 0.033 on this table)
+    assert abs(departure + 0.4) < 0.035, caught
+    assert "correct the row (a typo?) or remove it" in caught[0]
 
 
 # ------------------------------------------------------------------------------ messages that help

@@ -126,11 +126,41 @@ def test_out_of_range_value_names_key_value_and_range(raw, section, key, value, 
 
 @pytest.mark.parametrize("key,value,allowed", [
     ("length_m", 0.0, r"\(0\.0, 100000\.0\]"), ("diameter_m", -6.0, r"\(0\.0, 30\.0\]"),
-    ("wave_speed_m_s", 5000.0, r"\(0\.0, 1600\.0\]"), ("darcy_friction", -0.01, r"\[0\.0, 0\.2\]")])
+    ("wave_speed_m_s", 5000.0, r"\[20\.0, 1600\.0\]"), ("wave_speed_m_s", 1.0, r"\[20\.0, 1600\.0\]"),
+    ("darcy_friction", -0.01, r"\[0\.0, 0\.2\]")])
 def test_segment_garbage(raw, key, value, allowed):
     raw["penstock"]["segments"][0][key] = value
     with pytest.raises(InputError, match=rf"penstock\.segments\.{key} must be in {allowed}, got {value!r}"):
         plant_from_dict(raw)
+
+
+def test_a_branch_wave_speed_of_1_m_s_is_refused_naming_the_unit_and_the_plausible_range():
+    """A branch at 1 m/s once ran (20 s travel time on a 20 m pipe); 1180 m/s as shipped loads. The floor, 20 m/s,
+    is below the slowest pressure wave in water (air-laden water at atmospheric pressure, about 24 m/s)."""
+    import tomllib
+
+    path = resources.files("data_synthetic") / "plant_two_units.toml"
+    raw = tomllib.loads(path.read_text())
+    assert plant_from_dict(raw).units[0].branch[0].wave_speed_m_s == 1180.0
+    raw["units"][0]["branch"][0]["wave_speed_m_s"] = 1.0
+    with pytest.raises(InputError, match=r"units\.branch\.wave_speed_m_s must be in \[20\.0, 1600\.0\], got 1\.0 "
+                                         r"\(m/s\): pressure waves in water conduits travel at about 100 .* to 1500 "
+                                         r"m/s.*give the wave speed in m/s \(segment 0.*\(unit 'U1'\)"):
+        plant_from_dict(raw)
+
+
+def test_a_solver_tolerance_below_the_round_off_floor_is_refused_naming_it(raw):
+    """1e-300 was silently raised to the boundary's round-off floor; the floor itself and the default load."""
+    from simulate.components.turbine.boundary import ROUNDOFF_TOLERANCE
+    from simulate.config import TOLERANCE_FLOOR
+
+    assert TOLERANCE_FLOOR == ROUNDOFF_TOLERANCE  # the config's floor is the one the boundary applies
+    for value in (1e-10, TOLERANCE_FLOOR):
+        raw["solver"]["tolerance"] = value
+        assert plant_from_dict(raw).solver.tolerance == value
+    raw["solver"]["tolerance"] = 1e-300
+    _error(raw, r"solver\.tolerance = 1e-300 is below 1\.421e-14 \(64 machine epsilons\), the round-off floor .* "
+                r"set solver\.tolerance in \[1\.421e-14, 0\.01\]")
 
 
 def test_zero_friction_is_allowed(raw):

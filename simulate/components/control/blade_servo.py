@@ -64,6 +64,14 @@ class BladeServoConfig:
         if self.law_target_deg is not None:
             check_number("blade_servo.law_target_deg", self.law_target_deg, low=self.angle_min_deg,
                          high=self.angle_max_deg)
+        law_keys = (("law_start_s", 0.0), ("law_target_deg", None))  # with their defaults
+        given = [f"blade_servo.{key} = {getattr(self, key)!r}" for key, default in law_keys
+                 if getattr(self, key) != default]
+        if self.mode != "law" and given:
+            raise InputError(f"{', '.join(given)}: the blade law's keys go with mode = \"law\"; with "
+                             f"mode = {self.mode!r} the blades follow "
+                             f"{'the combinator' if self.mode == 'combinator' else 'their initial angle'} and the law "
+                             f"would be ignored: set mode = \"law\" or remove the key(s)")
 
 
 @dataclass(frozen=True)

@@ -89,6 +89,7 @@ def test_bad_toml(tmp_path, toml_text, message):
     ("guide_vane_deg,head_m\n40,4\n40,5\n", "column 'guide_vane_deg' \\(a control\\) is constant"),
     ("guide_vane_deg,head_m\n400,4\n40,5\n", "row 2, column 'guide_vane_deg': 400.0 is out of range"),
     ("guide_vane_deg,head_m\n40,\n50,5\n", "row 2, column 'head_m': not a number: ''"),
+    ("guide_vane_deg,head_m\n40,4\n50,4_4.02\n", "row 3, column 'head_m': not a number: '4_4.02' \\(an underscore"),
 ])
 def test_bad_csv(tmp_path, csv_text, message):
     toml_text = 'name = "x"\ncontrols = ["guide_vane_deg"]\nrunner_diameter_m = 1.0\n'

@@ -329,3 +329,27 @@ def test_the_ensemble_is_kept_and_gives_the_band_of_a_rejection(bulb_table, tmp_
     assert band["members"] == 2 and not band["failed"]
     values = band["max_speed_rise"]["values"]
     assert len(values) == 2 and values[0] != values[1] and 0.3 < min(values) <= max(values) < 0.8
+
+
+def test_members_and_table_rows_are_bounded_before_any_training(bulb_table, tmp_path, capsys):
+    """--members 1000 (it once ran for minutes) and a 20,001-row table (200,000 ran for minutes) are refused with
+    the allowed range and nothing written; --members 20 passes the check (the missing table is the error then)."""
+    from hillsim.cli import main
+    from hillsim.commands.fccm import MAX_MEMBERS, MAX_SIMULATOR_NET_ROWS
+
+    assert (MAX_MEMBERS, MAX_SIMULATOR_NET_ROWS) == (20, 20_000)
+    out = tmp_path / "out"
+    for members in ("1000", "21", "0"):
+        assert main(["fccm", str(bulb_table), "--simulator-nets", "--members", members, "--out", str(out)]) == 2
+        assert f"--members must be an integer within 1-20, got {members}" in capsys.readouterr().err
+    assert main(["fccm", str(tmp_path / "none"), "--simulator-nets", "--members", "20", "--out", str(out)]) == 2
+    assert "not a test-table folder" in capsys.readouterr().err
+    big = tmp_path / "big"
+    big.mkdir()
+    (big / "table.toml").write_text((bulb_table / "table.toml").read_text())
+    lines = (bulb_table / "table.csv").read_text().splitlines()
+    rows = [line for line in lines[1:] if line and not line.startswith("#")]
+    (big / "table.csv").write_text("\n".join([lines[0]] + [rows[i % len(rows)] for i in range(20_001)]) + "\n")
+    assert main(["fccm", str(big), "--simulator-nets", "--out", str(out)]) == 2
+    assert ("table.csv: 20001 rows; --simulator-nets trains on at most 20000" in capsys.readouterr().err)
+    assert not out.exists()

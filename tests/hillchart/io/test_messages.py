@@ -124,6 +124,19 @@ def test_chart_row_numbers_are_file_lines(chart_copy):
         load_chart(chart_copy)
 
 
+def test_a_cell_with_an_underscore_is_refused_not_read_as_digit_grouping(chart_copy):
+    """float('4_4.02') is 44.02 in Python: a chart cell written so is a typo and is refused naming file, line and
+    cell; the same line without the underscore reads as 44.02."""
+    path = chart_copy / "flow.csv"
+    lines = path.read_text().splitlines()
+    assert lines[1].split(",")[1] == "44.02"
+    assert load_chart(chart_copy).flow_n11[0] == 44.02  # the plausible case: the cell as shipped
+    lines[1] = lines[1].replace(",44.02,", ",4_4.02,")
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match=r"flow.csv: row 2, column 'n11': not a number: '4_4.02' \(an underscore"):
+        load_chart(chart_copy)
+
+
 def test_no_numpy_reprs_in_messages():
     """Messages show plain numbers, never numpy reprs such as 'got np.float64(0.0)'."""
     t = np.arange(20) * 0.1

@@ -326,3 +326,25 @@ def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch)
     # the same arithmetic in another compiled function: equal to rounding (1e-12 of the head)
     assert np.max(np.abs(with_half.head_m - without.head_m)) < 1e-12 * plant.turbine.rated_head_m
     assert np.max(np.abs(with_half.speed_rpm - without.speed_rpm)) < 1e-12 * plant.turbine.rated_speed_rpm
+
+
+def test_a_combinator_head_outside_the_plants_heads_is_refused():
+    """300 m on the 12 m bulb plant (static head 12.9 m) is refused naming the range; 10 m loads."""
+    assert load_plant(PLANT_BULB, {"combinator.head_m": 10.0}).combinator.head_m == 10.0
+    # allowed [0.25 x 12, 1.5 x 12.9] = [3, 19.35] m
+    with pytest.raises(InputError, match=r"combinator\.head_m = 300\.0 m is outside this plant's heads \(turbine\."
+                                         r"rated_head_m = 12\.0 m, penstock\.static_head_m = 12\.9 m\); allowed "
+                                         r"\[3, 19\.35\] m .*or leave head_m out"):
+        load_plant(PLANT_BULB, {"combinator.head_m": 300.0})
+
+
+@pytest.mark.parametrize("mode", ["combinator", "held"])
+def test_blade_law_keys_outside_law_mode_are_refused_not_ignored(mode):
+    """law_start_s / law_target_deg with the blades on the cam (or held) did nothing; with mode = "law" they load."""
+    law = {"blade_servo.law_start_s": 1.0, "blade_servo.law_target_deg": -10.0}
+    servo = load_plant(PLANT_BULB, {**law, "blade_servo.mode": "law"}).blade_servo
+    assert (servo.law_start_s, servo.law_target_deg) == (1.0, -10.0)
+    with pytest.raises(InputError, match=rf"blade_servo\.law_start_s = 1\.0, blade_servo\.law_target_deg = -10\.0: "
+                                         rf"the blade law's keys go with mode = \"law\"; with mode = '{mode}' .* "
+                                         rf"ignored: set mode = \"law\" or remove the key"):
+        load_plant(PLANT_BULB, {**law, "blade_servo.mode": mode})

@@ -20,13 +20,25 @@ ROOT = Path(__file__).resolve().parents[3]
 IDEAL = {"turbine.characteristics": "ideal"}
 
 
-def test_tiny_wave_speed_is_refused_naming_the_inertia_time():
-    """Wave speed 1 m/s is refused (it once gave '3 steps of 22.5 s, max speed rise 250 %')."""
+def test_a_step_long_against_the_inertia_time_is_refused_naming_it():
+    """A 22.5 s MOC step is refused (wave speed 1 m/s once gave '3 steps of 22.5 s, max speed rise 250 %'; such a
+    wave speed is now refused by the plant file, an 18 km pipe gives the same step)."""
     plant = load_plant(PLANT_HLA339, {**IDEAL, "penstock.segments": [
-        {"length_m": 180.0, "diameter_m": 5.6, "wave_speed_m_s": 1.0, "darcy_friction": 0.012}]})
+        {"length_m": 18000.0, "diameter_m": 5.6, "wave_speed_m_s": 100.0, "darcy_friction": 0.0}]})
     with pytest.raises(InputError, match=r"time step dt = 22\.5 s is not small against generator\.inertia_time_s "
                                          r"\(Ta\) = 9 s \(allowed dt <= 0\.5 x 9 = 4\.5 s\)"):
         run_simulation(plant)
+
+
+def test_a_blade_servo_of_a_millisecond_warns_naming_the_plausible_range():
+    """blade_servo.servo_time_s = 1 ms (a value in ms?) warns; the bulb example's 1 s does not."""
+    from data_synthetic import PLANT_BULB
+    from simulate.loop.guards import plausibility_warnings
+
+    assert plausibility_warnings(load_plant(PLANT_BULB)) == []
+    (line,) = plausibility_warnings(load_plant(PLANT_BULB, {"blade_servo.servo_time_s": 0.001}))
+    assert line.startswith("blade_servo.servo_time_s = 0.001 s is implausibly short") and "0.5-60 s" in line
+    assert "check the value and its unit (s, not ms)" in line
 
 
 def test_coarse_rigid_step_is_refused_and_a_moderate_one_warned():

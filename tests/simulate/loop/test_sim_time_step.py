@@ -101,6 +101,24 @@ def test_events_fall_on_the_step_when_the_solver_chooses_it():
     assert moved == pytest.approx(1.234 + dt, abs=1e-9)
 
 
+def test_an_event_between_the_steps_of_a_fixed_dt_is_reported_and_recorded():
+    """With solver.dt_s = 0.05 an event at 1.234 s acts from 1.25 s (the next step): a warning names both times and
+    how to align, meta records the move; an event at 1.25 s (a whole step) is neither."""
+    base = {**IDEAL, "penstock.model": "rigid", "scenario.t_end_s": 2.0, "solver.dt_s": 0.05}
+    on = run_simulation(load_plant(PLANT_HLA339, {**base, "scenario.event_time_s": 1.25}))
+    assert on.meta["moved_event_times_s"] == [] and not any("scenario event" in w for w in on.summary()["warnings"])
+    run = run_simulation(load_plant(PLANT_HLA339, {**base, "scenario.event_time_s": 1.234}))
+    (move,) = run.meta["moved_event_times_s"]
+    assert move["requested_s"] == 1.234 and move["acts_from_s"] == pytest.approx(1.25, abs=1e-12)
+    (line,) = [w for w in run.summary()["warnings"] if "scenario event" in w]
+    assert ("scenario event(s) at 1.234 s fall between steps of solver.dt_s = 0.05 s and act from 1.25 s (the next "
+            "step)") in line and "set solver.dt_s = 0.0493" in line, line  # 1.234 / 25 = 0.04936
+    # what the record says is what ran: the speed leaves rated one step after 1.25 s, as with the event at 1.25 s
+    first = run.time_s[np.nonzero(run.speed_rpm != run.speed_rpm[0])[0][0]]
+    assert first == pytest.approx(1.25 + 0.05, abs=1e-9)
+    np.testing.assert_array_equal(run.speed_rpm, on.speed_rpm)
+
+
 @pytest.mark.parametrize("loop", ["improved", "newton", "traditional"])
 def test_rigid_penstock_at_a_tenth_of_a_millisecond_runs_with_every_pressure_loop(loop):
     # |k Q| ~ 2.6e6 m on the rigid column at dt = 1e-4 s: the head is known to ~1e-9 m only. A fixed tolerance of
@@ -133,6 +151,23 @@ def test_family_rejections_at_60_to_100_percent_load_need_no_setting(family):
             characteristics=turbine, raise_on_failure=False)
         assert run.success, (family, load, run.message)
         assert run.meta["pressure_loop_fallback_steps"] == 0
+
+
+def test_check_step_refuses_up_front_a_half_step_rerun_beyond_the_reaches_bound(tmp_path, capsys):
+    """penstock.reaches = 10000 with --check-step once ran, then refused its own rerun at 20000 reaches: now refused
+    before the run with what to set; 5000 (rerun at 10000) passes the check."""
+    from hillsim.cli import main
+    from simulate.studies.step_check import check_halving_allowed
+
+    check_halving_allowed(load_plant(PLANT_HLA339, {"penstock.reaches": 5000}))  # the rerun's 10000 is allowed
+    out = tmp_path / "out"
+    code = main(["run", str(PLANT_HLA339), "--set", "penstock.reaches=10000", "--check-step", "--out", str(out),
+                 "--quiet", "--no-plot"])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert ("--check-step reruns at half the step, with penstock.reaches = 20000 (twice 10000), which is refused "
+            "(penstock.reaches must be an integer in [1, 10000], got 20000); set penstock.reaches <= 5000") in err
+    assert "simulating" not in err  # nothing ran
 
 
 def test_check_step_reports_the_change_of_each_figure():
