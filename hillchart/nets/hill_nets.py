@@ -238,6 +238,7 @@ class HillNets:
                                      "a top-level silent_model")
                 member_silent.append(silent.member_from_dict(member["silent_model"], key))
         region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
+        _check_members(flow, torque, ensemble)
         if member_silent and (silent is None or len(member_silent) != len(ensemble)):
             raise InputError("nets.json: ensemble members carry silent_model blocks, so every member must, and the "
                              "file must have a top-level silent_model")
@@ -353,3 +354,28 @@ def load_nets(path) -> HillNets:
     except InputError as exc:
         message = str(exc).removeprefix("nets.json: ")
         raise InputError(f"{path}: {message}") from None
+
+
+#: Largest departure of an ensemble member from the point net over the training box, as a fraction of the output
+#: range: members trained on other splits of the same samples depart by 0.2-1.8 % on the shipped chart; a member
+#: 25 % off is not a member of this ensemble (a corrupted or foreign block).
+MEMBER_DEPARTURE = 0.25
+
+
+def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
+    """Refuse an ensemble member that departs from the point nets by more than :data:`MEMBER_DEPARTURE` of their
+    output range on a 9 x 9 grid over the training box, naming the member."""
+    if not ensemble:
+        return
+    n11, opening = np.meshgrid(np.linspace(flow.x_min[0], flow.x_max[0], 9),
+                               np.linspace(flow.x_min[1], flow.x_max[1], 9))
+    for i, pair in enumerate(ensemble):
+        for name, point, member in (("flow", flow, pair[0]), ("torque", torque, pair[1])):
+            reference = point.evaluate(n11, opening)[0]
+            departure = float(np.max(np.abs(member.evaluate(n11, opening)[0] - reference))
+                              / (point.y_max - point.y_min))
+            if not departure <= MEMBER_DEPARTURE:
+                raise InputError(f"nets.json: ensemble[{i}].{name} departs from the point net by {departure:.0%} of "
+                                 f"its output range over the training box (members of one ensemble depart by a few "
+                                 f"%, allowed {MEMBER_DEPARTURE:.0%}): a corrupted or foreign member; train the nets "
+                                 f"again (hillsim train) or remove the member")
