@@ -49,9 +49,13 @@ HYPOTHESES = ("model", "anchored-model", "line", "offset-line", "speed-scaled-li
 CURVATURE_LINES = 4
 #: Held-out folds: the lowest line, then the two lowest (each needs this many lines left to refit on).
 HOLD_OUT = (1, 2)
-MIN_LINES_LEFT = 4
+MIN_LINES_LEFT = 3
+#: The band grows as the distance below the lowest line to this power (:func:`band_square`).
+GROWTH = 2.0
+#: The band is calibrated on the held-out points at least this fraction of the furthest distance tested.
+FAR_FRACTION = 0.5
 #: The band's distance is capped at this multiple of the largest distance the hold-outs tested.
-DISTANCE_CAP_FACTOR = 1.5
+DISTANCE_CAP_FACTOR = 1.0
 #: Coverage the band aims at (two-sided: the 5-95 % band).
 BAND_COVERAGE = 0.90
 #: ``kappa`` of the band when the chart gives no held-out evidence (fewer than MIN_LINES_LEFT + 1 lines): 1.2, so
@@ -294,24 +298,23 @@ def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
 
 
 def band_square(distance, cap):
-    """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^2`` up to
-    ``cap``, continued C1 to its plateau ``2 cap^2`` at ``2 cap`` (the slope falls linearly from ``2 cap`` to 0);
-    0 above the lowest line. Scalars; the simulator's kernel compiles this function
+    """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^p``
+    (``p`` = :data:`GROWTH`) up to ``cap``, continued C1 to a plateau at ``2 cap`` (the slope falls linearly to 0
+    there); 0 above the lowest line. Scalars; the simulator's kernel compiles this function
     (:mod:`hillchart.nets.silent_model`).
 
     Examples
     --------
-    >>> band_square(0.2, 0.5), band_square(0.75, 0.5), band_square(1.0, 0.5)
-    ((0.04000000000000001, 0.4), (0.4375, 0.5), (0.5, 0.0))
+    >>> band_square(0.2, 0.5)[0] == 0.2 ** GROWTH, band_square(1.0, 0.5)[1]
+    (True, 0.0)
     """
     if distance <= 0.0:
         return 0.0, 0.0
     if distance <= cap:
-        return distance * distance, 2.0 * distance
-    if distance >= 2.0 * cap:
-        return 2.0 * cap * cap, 0.0
-    e = distance - cap
-    return cap * cap + 2.0 * cap * e - e * e, 2.0 * (cap - e)
+        return distance ** GROWTH, GROWTH * distance ** (GROWTH - 1.0)
+    slope = GROWTH * cap ** (GROWTH - 1.0)
+    e = min(distance, 2.0 * cap) - cap
+    return cap ** GROWTH + slope * (e - e * e / (2.0 * cap)), slope * (1.0 - e / cap)
 
 
 def log_ratio(predicted, actual, floor):
@@ -423,7 +426,12 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
     >>> round(band_scale([0.01, -0.02, 0.03], [0.5, 0.5, 0.5]), 4)
     0.16
     """
-    score = np.abs(np.asarray(residuals, float)) / np.maximum(np.asarray(distance, float), 1e-9) ** 2
+    residuals = np.abs(np.asarray(residuals, float))
+    distance = np.maximum(np.asarray(distance, float), 1e-9)
+    # calibrated where the hold-outs reach furthest (the far half of their distances): near the lowest line the
+    # residuals are reading noise, which divided by a small d^p would pass for a steep growth
+    far = distance >= FAR_FRACTION * distance.max()
+    score = residuals[far] / distance[far] ** GROWTH
     n = score.size
     if n == 0:
         return NO_EVIDENCE_SCALE
@@ -452,7 +460,7 @@ def weigh(folds, m11_scale: float) -> Evidence:
     lines = sum(f.lines for f in folds)
     weights, rms, band = {}, {}, {}
     for target in ("q11", "m11"):
-        mse = {h: float(np.mean((e / distance ** 2) ** 2)) for h, e in errors[target].items()}
+        mse = {h: float(np.mean((e / distance ** GROWTH) ** 2)) for h, e in errors[target].items()}
         best = max(min(mse.values()), 1e-300)
         log_w = {h: -0.5 * lines * math.log(max(v, 1e-300) / best) for h, v in mse.items()}
         total = sum(math.exp(v) for v in log_w.values())
@@ -507,16 +515,9 @@ class Extrapolation:
     def lowest_opening(self) -> float:
         return self.hypotheses.lowest.opening
 
-    def values(self, n11, opening, member: float = 0.0):
-        """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``) below the lowest line; ``member``
-        (in standard units: +-1 is the band's 5-95 % edge) moves along the band: ``Q11 exp(member w_q)`` and
-        ``M11 + member w_m``, ``w`` the half-widths of :meth:`Evidence.half_width` at the distance below the line."""
-        q, m = self.evidence.blend(self.hypotheses, n11, opening)
-        if member:
-            d = 1.0 - np.asarray(opening, float) / self.lowest_opening
-            q = q * np.exp(member * self.evidence.half_width("q11", d))
-            m = m + member * self.evidence.half_width("m11", d)
-        return q, m
+    def values(self, n11, opening):
+        """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``) below the lowest line."""
+        return self.evidence.blend(self.hypotheses, n11, opening)
 
     def summary(self) -> str:
         return self.evidence.summary()

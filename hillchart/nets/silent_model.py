@@ -48,9 +48,9 @@ N11_BLEND_FRACTIONS = (0.9, 1.0)
 N11_NODES = 41
 OPENING_NODES = 11
 #: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, N11 blend, torque factor, node counts, the
-#: grid's top N11 and opening, the band offsets of Q11 and M11 and the band's distance cap, then the Q11 and M11
-#: tables (row-major, N11 first).
-_HEADER = 12
+#: grid's top N11 and opening, the member's band offset and the band's distance cap, then the Q11 and M11 tables
+#: (row-major, N11 first).
+_HEADER = 11
 
 
 @numba.njit(cache=True)
@@ -157,22 +157,31 @@ def _silent_nets_kernel(params, n11, opening):
     """:func:`_blended_kernel` moved along the band (an ensemble member's place in it, :func:`_band_factor`)."""
     q, q_n, q_a, m, m_n, m_a = _blended_kernel(params, n11, opening)
     blend = params[2]
-    if blend[9] == 0.0 and blend[10] == 0.0:
+    if blend[9] == 0.0 or opening >= blend[1]:
         return q, q_n, q_a, m, m_n, m_a
-    factor, d_factor, shift, d_shift = _band_factor(blend, opening)
-    return (q * factor, q_n * factor, q_a * factor + q * d_factor,
-            m + shift, m_n, m_a + d_shift)
+    f, f_a = _band_factor(blend, opening)
+    m0, m0_n = _closed_torque(blend, n11)
+    return (q * f, q_n * f, q_a * f + q * f_a,
+            m0 + (m - m0) * f, m0_n + (m_n - m0_n) * f, m_a * f + (m - m0) * f_a)
 
 
 @numba.njit(cache=True)
 def _band_factor(blend, opening):
-    """``(exp(u_q h), d/da, u_m h, d/da)``: the band below the lowest line at an ensemble member's place, ``h`` of
-    :func:`_band_square` at the distance ``1 - a / a_low``: Q11 times the first, M11 plus the third."""
+    """``(exp(u h), d/da)``: an ensemble member's factor below the lowest line, ``u`` its place in the band times
+    the band's width, ``h`` of :func:`_band_square` at the distance ``1 - a / a_low``. Q11 and the hydraulic torque
+    ``M11 - M11(a = 0)`` are multiplied by it (the torque a runner takes from the flow moves with the flow)."""
     a_low = blend[1]
-    h, dh = _band_square(1.0 - opening / a_low, blend[11])
+    h, dh = _band_square(1.0 - opening / a_low, blend[10])
     factor = math.exp(blend[9] * h)
-    shift = blend[4] * blend[10] * h
-    return factor, factor * blend[9] * dh * (-1.0 / a_low), shift, blend[4] * blend[10] * dh * (-1.0 / a_low)
+    return factor, factor * blend[9] * dh * (-1.0 / a_low)
+
+
+@numba.njit(cache=True)
+def _closed_torque(blend, n11):
+    """``(M11, dM11/dN11)`` of the table at the closed vanes (a = 0): the disc friction's -K N11^2 (eq. 8)."""
+    size = int(blend[5]) * int(blend[6])
+    m, m_n, _ = _table_value_grad(blend, _HEADER + size, n11, 0.0)
+    return blend[4] * m, blend[4] * m_n
 
 
 @numba.njit(cache=True)
@@ -202,19 +211,25 @@ def _silent_nets_value(params, n11, opening, which):
     w = _blend_weight(blend, n11, opening)[0]
     if w <= 0.0:
         y = _table_kernel(blend, n11, opening)[3 * which]
-        if blend[9] == 0.0 and blend[10] == 0.0:
+        if blend[9] == 0.0 or opening >= blend[1]:
             return y
-        factor, _, shift, _ = _band_factor(blend, opening)
-        return y * factor if which == 0 else y + shift
+        f = _band_factor(blend, opening)[0]
+        if which == 0:
+            return y * f
+        m0 = _closed_torque(blend, n11)[0]
+        return m0 + (y - m0) * f
     # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
     # without reference counting refuses (simulate.loop.assembly)
     y = _net_value_grad(params[0], n11, opening)[0] if which == 0 else _net_value_grad(params[1], n11, opening)[0]
     if w < 1.0:
         y = w * y + (1.0 - w) * _table_kernel(blend, n11, opening)[3 * which]
-    if blend[9] == 0.0 and blend[10] == 0.0:
+    if blend[9] == 0.0 or opening >= blend[1]:
         return y
-    factor, _, shift, _ = _band_factor(blend, opening)
-    return y * factor if which == 0 else y + shift
+    f = _band_factor(blend, opening)[0]
+    if which == 0:
+        return y * f
+    m0 = _closed_torque(blend, n11)[0]
+    return m0 + (y - m0) * f
 
 
 @numba.njit(cache=True)
@@ -261,15 +276,15 @@ class SilentRegionModel:
     torque_factor : float
         The table's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
         nets and table alike, :func:`simulate.components.turbine.step_up.scale_torque`).
-    band_q11, band_m11 : float
+    band_q11 : float
         The band below the lowest line (:mod:`hillchart.extension.hypotheses`): its half-width is ``band_q11 h``
-        in log Q11 and ``band_m11 h`` N*m of M11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to
-        ``distance_cap`` (:func:`_band_square`).
+        in log Q11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to ``distance_cap``
+        (:func:`_band_square`).
     distance_cap : float
     position : float
         An ensemble member's place in the band (+-1: the 5-95 % edges); 0 for the point answer. The member's
-        characteristics below the lowest line are ``Q11 exp(position band_q11 h)`` and ``M11 + position band_m11
-        h``.
+        characteristics below the lowest line are ``Q11 f`` and ``M11(a=0) + (M11 - M11(a=0)) f`` with ``f =
+        exp(position band_q11 h)``: the hydraulic torque moves with the flow.
     """
 
     q11: np.ndarray
@@ -279,7 +294,6 @@ class SilentRegionModel:
     n11_blend: tuple
     torque_factor: float = 1.0
     band_q11: float = 0.0
-    band_m11: float = 0.0
     distance_cap: float = 1.0
     position: float = 0.0
 
@@ -303,8 +317,7 @@ class SilentRegionModel:
                              f"{self.n11_top!r}, got {list(self.n11_blend)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
             raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
-        for key, value, high in (("band_q11", self.band_q11, 10.0), ("band_m11", self.band_m11, math.inf),
-                                 ("distance_cap", self.distance_cap, 1.0)):
+        for key, value, high in (("band_q11", self.band_q11, 10.0), ("distance_cap", self.distance_cap, 1.0)):
             if not (math.isfinite(value) and 0 <= value <= high) or (key == "distance_cap" and value <= 0):
                 raise InputError(f"silent_model.{key} must be a finite number in "
                                  f"{'(0' if key == 'distance_cap' else '[0'}, {high}], got {value!r}")
@@ -341,8 +354,7 @@ class SilentRegionModel:
         """The numbers the kernel reads (:data:`_HEADER` header values, then the Q11 and M11 tables)."""
         nn, na = self.q11.shape
         header = [*self.blend_openings, *self.n11_blend, self.torque_factor, nn, na, self.n11_top,
-                  self.blend_openings[1], self.position * self.band_q11, self.position * self.band_m11,
-                  self.distance_cap]
+                  self.blend_openings[1], self.position * self.band_q11, self.distance_cap]
         return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
 
     def table(self, n11, opening):
@@ -374,7 +386,7 @@ class SilentRegionModel:
     # ------------------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         doc = {"kind": KIND, "n11_top": self.n11_top, "blend_openings": list(self.blend_openings),
-               "n11_blend": list(self.n11_blend), "band": {"q11": self.band_q11, "m11": self.band_m11,
+               "n11_blend": list(self.n11_blend), "band": {"q11": self.band_q11,
                                                            "distance_cap": self.distance_cap},
                "q11": self.q11.tolist(), "m11": self.m11.tolist()}
         if self.torque_factor != 1.0:
@@ -421,13 +433,12 @@ class SilentRegionModel:
             speeds = tuple(float(v) for v in doc["n11_blend"])
             factor = float(doc.get("torque_factor", 1.0))
             band = doc["band"]
-            if not isinstance(band, dict) or set(band) != {"q11", "m11", "distance_cap"}:
+            if not isinstance(band, dict) or set(band) != {"q11", "distance_cap"}:
                 raise ValueError
-            widths = {"band_q11": float(band["q11"]), "band_m11": float(band["m11"]),
-                      "distance_cap": float(band["distance_cap"])}
+            widths = {"band_q11": float(band["q11"]), "distance_cap": float(band["distance_cap"])}
         except (TypeError, ValueError):
             raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, n11_blend, band with "
-                             f"q11, m11 and distance_cap, and the q11 and m11 tables)") from None
+                             f"q11 and distance_cap, and the q11 and m11 tables)") from None
         if len(openings) != 2 or len(speeds) != 2:
             raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs")
         try:
@@ -442,7 +453,7 @@ def _python_kernel(params, n11, opening):
     blend = params[2]
     s_a = _smoothstep.py_func(opening, blend[0], blend[1])[0]
     s_n = _smoothstep.py_func(n11, blend[2], blend[3])[0]
-    banded = opening < blend[1] and (blend[9] != 0.0 or blend[10] != 0.0)
+    banded = opening < blend[1] and blend[9] != 0.0
     if (1.0 - s_a) * (1.0 - s_n) <= 0.0 and not banded:
         return (*_net_value_grad.py_func(params[0], n11, opening), *_net_value_grad.py_func(params[1], n11, opening))
     return _silent_nets_kernel(params, n11, opening)

@@ -283,7 +283,6 @@ def silent_region_models(extended, members: int = 0, seed: int = 0):
     evidence = extrapolation.evidence
     table = SilentRegionModel.tabulate(extrapolation.values, extrapolation.lowest_opening, extrapolation.n11_top,
                                        band_q11=evidence.band["q11"],
-                                       band_m11=evidence.band["m11"] * evidence.m11_scale,
                                        distance_cap=evidence.distance_cap)
     return table, [table.at(float(u)) for u in member_positions(members, seed)]
 

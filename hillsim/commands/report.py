@@ -398,7 +398,9 @@ def build_report(args) -> tuple[dict, Path]:
         "limits": None if study.limits is None else study.limits.as_dict(),
         "overall_verdict": overall, "cases": cases, "warnings": warnings,
         "judged_on": (f"the conservative side of the ensemble's 5-95 % band (widened x{BAND_INFLATION:g} about its "
-                      f"median)" if with_band else "the point nets (no ensemble in the characteristics)"),
+                      f"median)" if with_band else "the point nets (no ensemble in the characteristics)")
+        + _evidence_phrase(chars),
+        "extrapolation_evidence": _extrapolation_evidence(chars),
         "envelope_available": bool(envelopes),
         "closure": None if closure_doc is None else {
             k: closure_doc.get(k) for k in ("mode", "constraint", "law", "best_linear",
@@ -408,6 +410,27 @@ def build_report(args) -> tuple[dict, Path]:
                                                                                 "error", "extrapolated_cases")},
     }
     return report, out
+
+
+def _extrapolation_evidence(chars) -> dict | None:
+    """What the nets' training record says about the region below the lowest digitized line: the hypotheses'
+    weights, their held-out errors and the band (:mod:`hillchart.extension.hypotheses`), or None."""
+    record = (getattr(chars, "training", None) or {}).get("extrapolation")
+    if not isinstance(record, dict):
+        return None
+    weights = record.get("weights", {}).get("q11", {})
+    leading = max(weights, key=weights.get) if weights else None
+    return {"summary": record.get("summary"), "leading_hypothesis_q11": leading,
+            "weights": record.get("weights"), "rms_error": record.get("rms_error"),
+            "held_out_points": record.get("held_out_points")}
+
+
+def _evidence_phrase(chars) -> str:
+    evidence = _extrapolation_evidence(chars)
+    if evidence is None or not evidence.get("summary"):
+        return ""
+    return (f"; below the lowest digitized line the figures rest on hypotheses weighed by the chart's held-out "
+            f"lines (leading: {evidence['leading_hypothesis_q11']}): {evidence['summary']}")
 
 
 def _v(value, key, fmt="{:.4g}"):

@@ -48,8 +48,7 @@ def check_step(plant, result, characteristics=None) -> dict:
     Examples
     --------
     >>> from simulate.config import load_plant
-    >>> from simulate.config import MAX_REACHES
-from simulate.loop.engine import run_simulation
+    >>> from simulate.loop.engine import run_simulation
     >>> import importlib.resources as ir
     >>> plant = load_plant(ir.files("data_synthetic") / "plant_hla339.toml",
     ...                    {"turbine.characteristics": "ideal", "scenario.t_end_s": 10.0})

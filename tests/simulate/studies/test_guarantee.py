@@ -30,9 +30,15 @@ def test_silent_region_samples_lie_where_the_chart_is_silent(shipped_chart):
         line_end = shipped_chart.flow_n11[shipped_chart.flow_opening == a].max()
         n = ext.n11[over & (ext.opening == a)]
         assert n.min() > line_end and n.max() < model.runaway_n11(float(a))  # strictly inside the gap
-    # values are the fitted model's, and they weigh like measured samples (not soft boundary samples)
-    q = rows & (ext.target == "q11")
-    np.testing.assert_allclose(ext.value[q], model.q11(ext.n11[q], ext.opening[q]), rtol=1e-12)
+    # values: below the lowest line the weighed hypotheses' (the chart's held-out lines weigh them), in overspeed
+    # the fitted model's; they weigh like measured samples (not soft boundary samples)
+    q_small, q_over = small & (ext.target == "q11"), over & (ext.target == "q11")
+    np.testing.assert_allclose(ext.value[q_small],
+                               ext.extrapolation.values(ext.n11[q_small], ext.opening[q_small])[0], rtol=1e-12)
+    np.testing.assert_allclose(ext.value[q_over], model.q11(ext.n11[q_over], ext.opening[q_over]), rtol=1e-12)
+    # the failing case beside it: the model alone differs from the weighed answer below the line (by up to 1 %
+    # on this in-class chart, whose evidence gives the model family 0.9 of the weight)
+    assert np.max(np.abs(ext.value[q_small] / model.q11(ext.n11[q_small], ext.opening[q_small]) - 1)) > 1e-4
     assert not ext.derived[rows].any()
     assert len(silent_region_points(shipped_chart, model)) == small.sum() // 2 + over.sum() // 2
 
