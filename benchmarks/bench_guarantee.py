@@ -159,6 +159,9 @@ def main(argv=None) -> int:
     loads = tuple(float(v) for v in args.loads.split(","))
     turbines = (args.turbines.split(",") if args.turbines else
                 [t for name, members in FAMILIES.items() if args.family in (name, "both") for t in members])
+    unknown = [t for t in turbines if t not in (*FAMILY, *OUT_OF_CLASS_FAMILY)]
+    if unknown:
+        parser.error(f"unknown turbines {', '.join(unknown)}; allowed: {', '.join([*FAMILY, *OUT_OF_CLASS_FAMILY])}")
     warnings.simplefilter("ignore")
     charts, failures = [], []
     elapsed = {name: 0.0 for name in FAMILIES}
