@@ -256,8 +256,8 @@ def _member(name: str, physics: VariantPhysics, efficiencies: tuple, description
 #: a_0 of about 0.18 x the lowest drawn opening (Q11 at the lowest line 11 % below the vane law without it, 22 % at
 #: half that opening), incidence loss 0.6 for positive and 0.9-1.0 for negative incidence (the in-class 0.9 for
 #: both), and a leakage of 0.5 % of the best point's Q11. Best efficiency and runaway/best N11 are held by
-#: ``tests/hillchart/synthetic/test_francis_variants.py``: slow-x 0.934 / 1.6-1.8, medium-x 0.927 / 1.6-1.9,
-#: fast-x 0.913 / 1.5-2.0.
+#: ``tests/hillchart/synthetic/test_francis_variants.py`` (0.90-0.945, 1.5-2.0): slow-x 0.934 / 1.59-1.79, medium-x
+#: 0.927 / 1.57-1.88, fast-x 0.913 / 1.53-1.99.
 OUT_OF_CLASS_FAMILY = {
     "slow-x": _member(
         "slow", VariantPhysics(throat_foot_mm=1.3, k_incidence_negative=0.9, leakage_q11=0.0012),
