@@ -587,7 +587,7 @@ runner_diameter_m = 0.35
 """
 
 
-def synthetic_chart_texts(*, seed: int = 0, turbine: str | SyntheticFrancis | None = None,
+def synthetic_chart_texts(*, seed: int = 0, turbine: str | FamilyTurbine | SyntheticFrancis | None = None,
                           options: DigitizationOptions | None = None) -> dict[str, str]:
     """The chart files of a synthetic turbine as text (see :func:`write_synthetic_chart`)."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -596,10 +596,13 @@ def synthetic_chart_texts(*, seed: int = 0, turbine: str | SyntheticFrancis | No
     if turbine is None or isinstance(turbine, str):
         member = family_turbine("medium" if turbine is None else turbine)
         exact, layout = member.turbine(), member.layout
+    elif isinstance(turbine, FamilyTurbine):
+        exact, layout = turbine.turbine(), turbine.layout
     elif isinstance(turbine, SyntheticFrancis):
         exact, layout = turbine, FAMILY["medium"].layout
     else:
-        raise InputError(f"turbine must be a family name ({', '.join(FAMILY)}) or a SyntheticFrancis, got {turbine!r}")
+        raise InputError(f"turbine must be a family name ({', '.join(FAMILY)}), a family member or a "
+                         f"SyntheticFrancis, got {turbine!r}")
     rng = np.random.default_rng(seed)
     spacing_rng = np.random.default_rng([seed, 1])  # uneven spacing never disturbs the noise stream
     digitizer = _Digitizer(options, exact.opening_max, rng, layout.axis_full_scale)
@@ -619,7 +622,7 @@ def synthetic_chart_texts(*, seed: int = 0, turbine: str | SyntheticFrancis | No
     return texts
 
 
-def write_synthetic_chart(out_dir, *, seed: int = 0, turbine: str | SyntheticFrancis | None = None,
+def write_synthetic_chart(out_dir, *, seed: int = 0, turbine: str | FamilyTurbine | SyntheticFrancis | None = None,
                           options: DigitizationOptions | None = None) -> dict[str, Path]:
     """Write the digitized chart of a synthetic turbine (and its exact truth grid) into ``out_dir``.
 
@@ -635,9 +638,10 @@ def write_synthetic_chart(out_dir, *, seed: int = 0, turbine: str | SyntheticFra
     ----------
     out_dir : path
     seed : int >= 0
-    turbine : str or SyntheticFrancis, optional
-        A family name (``"slow"``, ``"medium"``, ``"fast"``; default medium) or a turbine drawn with the medium
-        chart's layout.
+    turbine : str, FamilyTurbine or SyntheticFrancis, optional
+        A family name (``"slow"``, ``"medium"``, ``"fast"``; default medium), a family member drawn with its own
+        layout (e.g. one of :data:`hillchart.synthetic.francis_variants.OUT_OF_CLASS_FAMILY`) or a turbine drawn
+        with the medium chart's layout.
     options : DigitizationOptions, optional
 
     Returns
