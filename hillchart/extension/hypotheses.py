@@ -506,9 +506,10 @@ class Extrapolation:
 
         evidence = chart_evidence(chart, torque, fit_turbine_model)
         hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
+        # over the model's whole valid range in N11 (to 0.95 of its pumping limit), where a load rejection's
+        # overspeed at small openings runs; 1.5 x the chart's largest N11 when the model has no limit
         top = max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
-        if math.isfinite(model.n11_limit):
-            top = min(top, 0.95 * model.n11_limit)
+        top = 0.95 * model.n11_limit if math.isfinite(model.n11_limit) else 1.5 * top
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top)
 
     @property
