@@ -43,6 +43,7 @@ def test_bulb_trains_and_is_plausible(bulb):
         assert (base / "out" / name).is_file()
 
 
+@pytest.mark.slow
 def test_kaplan_chart_trains(tmp_path):
     write_kaplan_table(tmp_path / "table")
     assert main(["fccm", str(tmp_path / "table"), "--inputs", "blade_angle_deg,n11_rpm", "--outputs",

@@ -68,6 +68,7 @@ def test_joukowsky_head_rise_and_period(split):
     assert np.all(np.isfinite(result.head_m))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("turbine", ["ideal", "synthetic", "nets"])
 def test_three_pressure_loops_give_the_same_trajectory(turbine):
     # The example load rejection (MOC): all three loops converge to 1e-10 of the rated head each step, so the
@@ -148,6 +149,7 @@ def _plant_partials(kernel, params, turbine, speed, opening, head):
     return np.array(grads).T  # rows Q, M; columns d/dn, d/da, d/dH
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("characteristics", ["ideal", "synthetic"])
 def test_small_opening_step_matches_linearized_response(characteristics):
     # Open-loop +0.005 stroke step at 1 s, rigid penstock with friction, constant load with self-regulation.
