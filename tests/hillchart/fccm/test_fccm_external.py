@@ -9,7 +9,7 @@ from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
 from tests.fccm_external import write_bulb_137kw_table, write_kaplan_table
 
-pytestmark = pytest.mark.external  # reads ../shared/external; skips when it is absent
+pytestmark = [pytest.mark.external, pytest.mark.slow]  # external: reads ../shared/external; skips when it is absent
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +43,6 @@ def test_bulb_trains_and_is_plausible(bulb):
         assert (base / "out" / name).is_file()
 
 
-@pytest.mark.slow
 def test_kaplan_chart_trains(tmp_path):
     write_kaplan_table(tmp_path / "table")
     assert main(["fccm", str(tmp_path / "table"), "--inputs", "blade_angle_deg,n11_rpm", "--outputs",
