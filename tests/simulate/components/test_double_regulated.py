@@ -181,7 +181,6 @@ def test_draft_tube_columns_and_minimum_outlet_pressure():
     assert any("runner outlet" in w and "vapour" in w for w in warned.summary()["warnings"])
 
 
-@pytest.mark.slow
 def test_rigid_draft_tube_agrees_with_moc_on_a_slow_closure():
     base = {**EXACT, "scenario.t_end_s": 8.0}
     moc = run_simulation(load_plant(PLANT_BULB, base))

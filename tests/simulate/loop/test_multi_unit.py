@@ -87,7 +87,6 @@ def _junction_errors(result):
     return mass, np.max(heads, axis=0), j
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("fixture", ["both_reject", "one_rejects"])
 def test_junction_mass_balance_and_common_head_at_every_step(fixture, request):
     result = request.getfixturevalue(fixture)

@@ -109,7 +109,6 @@ def test_infeasible_initial_point_is_an_input_error_before_the_run():
 # ---------------------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("kind,extra", [
     ("load-rejection", {"scenario.event_time_s": 1.0}),
     ("closure-law", {"scenario.event_time_s": 1.0, "scenario.closing_time_s": 10.0}),

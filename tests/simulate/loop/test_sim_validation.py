@@ -68,7 +68,6 @@ def test_joukowsky_head_rise_and_period(split):
     assert np.all(np.isfinite(result.head_m))
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("turbine", ["ideal", "synthetic", "nets"])
 def test_three_pressure_loops_give_the_same_trajectory(turbine):
     # The example load rejection (MOC): all three loops converge to 1e-10 of the rated head each step, so the

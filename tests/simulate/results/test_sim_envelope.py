@@ -27,7 +27,6 @@ def rejection(nets):
     return run_simulation(load_plant(PLANT_HLA339), characteristics=nets)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("model", ["moc", "rigid"])
 def test_envelope_at_the_turbine_node_is_the_turbine_heads_max_and_min(nets, model):
     plant = load_plant(PLANT_HLA339, {"penstock.model": model, "scenario.t_end_s": 20.0})

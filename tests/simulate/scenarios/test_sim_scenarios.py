@@ -45,7 +45,6 @@ def test_load_rejection_speed_rise_follows_the_swing_equation(rejection):
     assert closing.min() == pytest.approx(-1.0 / 12.0, rel=1e-9)
 
 
-@pytest.mark.slow
 def test_closure_law_two_stage_is_followed_exactly():
     p = plant(**{"scenario.kind": "closure-law", "scenario.closing_time_s": 8.0, "scenario.break_opening": 0.3,
                  "scenario.break_time_s": 60.0, "scenario.t_end_s": 20.0})
@@ -83,7 +82,6 @@ def test_load_step_dips_and_recovers():
     assert r.power_mw[-1] == pytest.approx(198.0, rel=5e-3)
 
 
-@pytest.mark.slow
 def test_opening_steps_and_the_water_hammer_sign():
     r = run_simulation(plant(**{"scenario.kind": "opening-steps", "scenario.initial_power_mw": 180.0,
                                 "scenario.opening_steps": [0.03, -0.03], "scenario.step_times_s": [2.0, 6.0],

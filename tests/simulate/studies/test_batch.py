@@ -227,7 +227,6 @@ MIXED = [{"penstock.model": "rigid", "governor.closing_time_s": 8.0},
          {"penstock.model": "lumped", "governor.closing_time_s": -1.0}]  # a failing case inside a group
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("mechanism", ["serial", "processes"])
 def test_cases_of_other_structures_are_grouped_and_equal_their_single_runs(plant, nets, mechanism):
     batch = run_batch(plant, MIXED, characteristics=nets, mechanism=mechanism, workers=2, chunk_size=1)
