@@ -1,4 +1,4 @@
-"""Wall times a user sees: ``hillsim demo --fast`` and the whole test suite, median and range of N runs.
+"""Wall times a user sees: ``hillsim demo --fast`` and the test suite's two tiers, median and range of N runs.
 
     PYTHONPATH=. python benchmarks/bench_wall_times.py [--runs 3] [--skip-suite] [--skip-demo]
 
@@ -50,8 +50,9 @@ def main(argv=None) -> int:
         cases.append(("hillsim demo --fast", lambda tmp: [sys.executable, "-m", "hillsim.cli", "demo", "--fast",
                                                           "--quiet", "--out", str(Path(tmp) / "demo")]))
     if not args.skip_suite:
-        cases.append(("pytest -q (whole suite)", lambda tmp: [sys.executable, "-m", "pytest", "-q", "-p",
-                                                              "no:cacheprovider"]))
+        suite = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"]
+        cases.append(("pytest -q (fast tier)", lambda tmp: suite))
+        cases.append(("pytest -q -m slow", lambda tmp: suite + ["-m", "slow"]))
     print(f"{datetime.date.today().isoformat()}, {os.cpu_count()} cores, {args.runs} runs each")
     print(f"{'what':<26} {'median s':>9} {'min s':>7} {'max s':>7} {'CPU s (median)':>15} {'load avg before':>16}")
     failed = False

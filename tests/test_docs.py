@@ -114,6 +114,7 @@ def _assert_current(regenerate, ctx, names):
     return expected
 
 
+@pytest.mark.slow
 def test_cheap_generated_blocks_are_current(regenerate, demo_fast_dir, tmp_path):
     """The demo summary, the linearize examples, the nets' accuracy, the extension errors, the papers' numbers, the
     generator's load step (a few seconds in all, the demo run shared with the other tests)."""

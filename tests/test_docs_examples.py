@@ -16,6 +16,7 @@ def regenerate():
     return _script("regenerate_docs")
 
 
+@pytest.mark.slow
 def test_documented_examples_are_current(regenerate, tmp_path):
     """The uncertainty band, the sweep, the optimized closure law and the guarantee report, each re-run with the
     command the page shows (the closure-law search is the slowest, about 11 s on a quiet 2-core machine)."""
@@ -28,6 +29,7 @@ def test_documented_examples_are_current(regenerate, tmp_path):
                                    expected) == ["closure-example"]
 
 
+@pytest.mark.slow
 def test_identification_comparison_is_current(regenerate, tmp_path):
     """``hillsim identify`` at stroke 0.68 on the rigid, lumped and MOC penstocks, with noise, and in closed loop
     (nine runs)."""
@@ -41,6 +43,7 @@ def test_identification_comparison_is_current(regenerate, tmp_path):
     assert edited != page and regenerate.stale_blocks(edited, expected) == ["identify-comparison"]
 
 
+@pytest.mark.slow
 def test_pressure_loop_study_is_current(regenerate, tmp_path):
     """``benchmarks/bench_pressure_loop.py``: 40 runs; iteration counts and failure times do not depend on the
     machine beyond the last digit."""

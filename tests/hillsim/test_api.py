@@ -57,6 +57,7 @@ def test_tidy_floats_rounds_noise_and_keeps_meaningful_digits():
         {"a": [1.0, 3], "b": [True, None]}
 
 
+@pytest.mark.slow
 def test_demo_result_files_have_tidy_floats(demo_fast_dir):
     """Result files hold tidy floats, never "inertia_time_s": 8.999999999999988 or
     "final_opening": 3.719570726996532e-111."""

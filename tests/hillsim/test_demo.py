@@ -6,6 +6,8 @@ import re
 
 import pytest
 
+pytestmark = pytest.mark.slow
+
 
 PROMISED = [
     "extended.csv", "extended.png", "nets.json", "fit_errors.json", "hillchart.png", "coefficient_maps.png",

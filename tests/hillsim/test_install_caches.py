@@ -9,6 +9,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 #: A stand-in for an editable install's finder: the project's packages from the checkout, found after the path
@@ -62,6 +64,7 @@ def test_numba_caches_in_the_user_cache_folder(tmp_path):
     assert run.stdout.split() == ["/mine"]
 
 
+@pytest.mark.slow
 def test_a_compiled_function_writes_its_cache_outside_the_package(tmp_path):
     # a real compile through the engine's own path: a short simulation of the shipped plant
     sim = _run("""

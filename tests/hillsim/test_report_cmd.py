@@ -242,6 +242,7 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
         view.inner.q11(np.array([150.0]), np.array([45.0]))
 
 
+@pytest.mark.slow
 def test_the_hill_chart_of_a_plant_with_several_units_draws_every_unit():
     from data_synthetic import PLANT_TWO_UNITS
     from hillsim.commands.report import trajectories

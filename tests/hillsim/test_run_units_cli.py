@@ -11,6 +11,7 @@ from hillsim.cli import main
 from simulate.results.result import CSV_COLUMNS, UNIT_COLUMNS
 
 
+@pytest.mark.slow
 def test_run_on_a_two_unit_plant_writes_every_unit(tmp_path, capsys):
     out = tmp_path / "two"
     code = main(["run", str(PLANT_TWO_UNITS), "--out", str(out), "--no-plot", "--set",

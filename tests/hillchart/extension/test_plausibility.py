@@ -28,7 +28,8 @@ def _edit(folder, name, edit):
     (folder / name).write_text("\n".join(lines) + "\n")
 
 
-@pytest.mark.parametrize("name", list(FAMILY))
+# the slow-speed turbine's charts in the fast tier, the other two turbines' in the slow tier (marker slow)
+@pytest.mark.parametrize("name", [n if n == "slow" else pytest.param(n, marks=pytest.mark.slow) for n in FAMILY])
 def test_clean_family_charts_pass(tmp_path, name):
     for i, options in enumerate((DigitizationOptions(), DigitizationOptions(
             points_per_line=12, spacing="uneven", noise_pct=0.3, q11_unit="l/s", efficiency_unit="percent"))):

@@ -47,6 +47,7 @@ def direct_grey_relational(table_path, outputs, controls, rho=0.5):
     return out
 
 
+@pytest.mark.slow
 def test_grey_relational_degrees_equal_a_direct_computation(run):
     base, metrics = run
     direct = direct_grey_relational(base / "table" / "table.csv", OUTPUTS.split(","), INPUTS.split(","))
@@ -55,6 +56,7 @@ def test_grey_relational_degrees_equal_a_direct_computation(run):
             assert metrics["grey_relational"][o][c] == pytest.approx(value, abs=1e-12)  # same sums, other order
 
 
+@pytest.mark.slow
 def test_grey_relational_order_follows_the_physics(run):
     """Flow and power follow the blade angle: turning the blades sets the runner's exit angle and with it the
     flow the runner swallows (7.2 x over the blade range at beta = 59 deg, against 2.1 x over the guide-vane range
@@ -122,6 +124,7 @@ def test_grey_images_share_mapping_and_mask():
         grey_images(np.full((2, 2), np.nan), b[:, :2])
 
 
+@pytest.mark.slow
 def test_fccm_command_writes_everything(run):
     base, metrics = run
     out = base / "out"
@@ -137,6 +140,7 @@ def test_fccm_command_writes_everything(run):
     assert 3 <= metrics["hidden"] <= 12 and 1 <= metrics["c"] <= 10
 
 
+@pytest.mark.slow
 def test_acceptance_on_the_synthetic_bulb(run):
     """Accuracy bounds: each output's RMS on the dense truth grid <= 1.5 % of its range, the net below linear
     interpolation for >= 3 of 4 outputs (seed 0; measured 1.43 / 0.57 / 1.03 / 0.37 % against 5.5 / 2.1 / 5.5 /
@@ -146,6 +150,7 @@ def test_acceptance_on_the_synthetic_bulb(run):
     assert metrics["truth"]["points_outside_hull"] == 0  # the corners are test points: interpolation covers all
 
 
+@pytest.mark.slow
 def test_the_acceptance_check_can_fail(run):
     """The same check on a net with one hidden neuron fails (it cannot bend the efficiency hump)."""
     base, _ = run
@@ -158,6 +163,7 @@ def test_the_acceptance_check_can_fail(run):
     assert not result["passed"] and not result["within_bound"]["efficiency"]
 
 
+@pytest.mark.slow
 def test_best_efficiency_table_gives_a_two_dimensional_fccm_map(tmp_path):
     """With the best-efficiency closure the settings cover a 2-D region of (Q11, n11): the maps overlap on
     thousands of pixels (on the water system they lie on one curve)."""
@@ -173,6 +179,7 @@ def test_best_efficiency_table_gives_a_two_dimensional_fccm_map(tmp_path):
     assert np.median(diff) < 0.01
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv, message", [
     (["--inputs", "blade_angle_deg,gv"], "no numeric column 'gv'"),
     (["--inputs", "blade_angle_deg,"], "--inputs must be comma-separated column names"),
@@ -195,6 +202,7 @@ def test_bad_cli_options_leave_nothing(run, tmp_path, capsys, argv, message):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow
 def test_a_failing_figure_leaves_no_output_folder(run, tmp_path):
     base, _ = run
     table = load_test_table(base / "table")

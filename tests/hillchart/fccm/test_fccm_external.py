@@ -9,7 +9,7 @@ from hillchart.fccm.table import load_test_table
 from hillsim.cli import main
 from tests.fccm_external import write_bulb_137kw_table, write_kaplan_table
 
-pytestmark = pytest.mark.external  # reads ../shared/external; skips when it is absent
+pytestmark = [pytest.mark.external, pytest.mark.slow]  # external: reads ../shared/external; skips when it is absent
 
 
 @pytest.fixture(scope="module")

@@ -90,6 +90,7 @@ def test_nets_follow_the_chart_and_close(tmp_path):
     assert (p["share_efficiency_above_1"] > 0) == any("exceeds 1" in w for w in report["warnings"])
 
 
+@pytest.mark.slow
 @pytest.mark.external
 def test_real_kaplan_chart_runs_a_load_rejection(tmp_path, capsys):
     """The Liszka et al. Kaplan chart (on-cam: no guide-vane angle) -> nets -> a load rejection of a plausible unit."""

@@ -148,6 +148,7 @@ def brentq_root(f, lo, hi):
     return brentq(f, lo, hi)
 
 
+@pytest.mark.slow
 def test_a_rejection_on_table_nets_matches_the_exact_bulb(water_system_nets):
     from data_synthetic import PLANT_BULB
     from simulate.config import load_plant
@@ -276,6 +277,7 @@ pressure_loop = "newton"
 """
 
 
+@pytest.mark.slow
 @pytest.mark.external
 def test_real_fixed_blade_bulb_is_extended_and_rejects_load_plausibly(tmp_path):
     from tests.fccm_external import write_bulb_137kw_table

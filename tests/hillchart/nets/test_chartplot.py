@@ -115,6 +115,7 @@ def sayano(tmp_path_factory):
         return load_chart(folder)
 
 
+@pytest.mark.slow
 @pytest.mark.external
 def test_sayano_trains_with_default_extension(sayano):
     nets = train_nets(extend_samples(sayano), seed=0)
@@ -126,6 +127,7 @@ def test_sayano_trains_with_default_extension(sayano):
     assert np.max(np.abs(nets.q11(np.linspace(0, 100, 11), 0.0))) < 0.05 * 0.625
 
 
+@pytest.mark.slow
 @pytest.mark.external
 @pytest.mark.parametrize("seed", [0, 2])
 def test_sayano_hill_chart_is_plausible(sayano, seed, tmp_path):

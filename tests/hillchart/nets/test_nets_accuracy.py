@@ -80,6 +80,7 @@ def _largest_difference_over_range(a, b) -> float:
     return worst
 
 
+@pytest.mark.slow
 def test_shipped_nets_regenerate_on_any_cpu(tmp_path, capsys):
     """``hillsim train data_synthetic/francis --out nets.json`` reproduces the shipped file to a stated tolerance.
 

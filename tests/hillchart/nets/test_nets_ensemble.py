@@ -107,6 +107,7 @@ def test_folder_and_byte_order_mark(tmp_path):
     assert nets.flow == SHIPPED.flow
 
 
+@pytest.mark.slow
 def test_trust_map_is_wider_outside_the_digitized_region(tmp_path):
     from hillchart.nets import chartplot
     from hillchart.io.samples import measured_region_mask

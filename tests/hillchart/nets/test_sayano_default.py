@@ -15,7 +15,7 @@ from hillchart.io.samples import load_chart
 from hillsim.cli import main
 from tests.external_charts import write_sayano_chart
 
-pytestmark = pytest.mark.external  # reads ../shared/external; skips when it is absent
+pytestmark = [pytest.mark.external, pytest.mark.slow]  # external: reads ../shared/external; skips when it is absent
 
 
 def test_sayano_trains_with_defaults_without_error_or_warning(tmp_path, capsys):

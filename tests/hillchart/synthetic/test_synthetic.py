@@ -156,6 +156,7 @@ def test_compiled_kernel_is_the_same_model():
         assert np.all(np.isnan(kernel(params, *outside)))
 
 
+@pytest.mark.slow
 def test_simulation_with_the_exact_turbine_is_compiled_and_equals_the_python_loop():
     from data_synthetic import PLANT_HLA339
     from simulate.config import load_plant

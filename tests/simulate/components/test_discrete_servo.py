@@ -80,6 +80,7 @@ def _plant(**overrides):
     return load_plant(PLANT_HLA339, {**LOOP, **overrides})
 
 
+@pytest.mark.slow
 def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_order_servo_does():
     from simulate.loop.engine import run_simulation
 

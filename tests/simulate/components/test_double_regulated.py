@@ -92,6 +92,7 @@ def test_steady_state_on_the_nets_cam_gives_the_nets_efficiency():
 
 
 # --- degenerate cases that must match today's two-input path --------------------------------------------------------
+@pytest.mark.slow
 def test_blades_fixed_equals_the_two_input_bulb_at_that_angle():
     over = {**EXACT, "combinator.relation": "off", "combinator.fixed_angle_deg": -6.0, "scenario.t_end_s": 12.0}
     plant = dataclasses.replace(load_plant(PLANT_BULB, over), draft_tube=None)
@@ -116,6 +117,7 @@ def _frozen_blade_nets(hill_nets) -> DoubleRegulatedNets:
     return DoubleRegulatedNets(block(hill_nets.flow, "q11"), block(hill_nets.torque, "m11"), opening_unit="mm")
 
 
+@pytest.mark.slow
 def test_blade_angle_frozen_in_the_nets_equals_todays_two_input_result():
     plant = load_plant(PLANT_HLA339, {"scenario.t_end_s": 8.0})
     shipped = load_characteristics(plant.turbine, plant.base_dir)
@@ -294,6 +296,7 @@ def test_the_cam_is_computed_once_for_the_same_nets_read_again():
     assert len(dr._CAMS) == 1  # one plant at a time
 
 
+@pytest.mark.slow
 def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch):
     from simulate.components.registry import compile_characteristics
     from simulate.components.turbine.double_regulated import (DoubleRegulatedTurbine, nets_control_flow,

@@ -164,6 +164,7 @@ def test_engine_failure_raises_with_time_state_residual_and_what_to_change_or_re
     assert np.isfinite(result.head_m).all()
 
 
+@pytest.mark.slow
 def test_traditional_loop_at_its_default_relaxation_runs_through_its_fallback():
     # relaxation 1.0 diverges on the shipped plant (|k dQ/dH| ~ 1.9 on the MOC line); the damped retry and Newton
     # solve those steps, the run says so, and it agrees with Newton's run to the loops' tolerance (1e-10 of the

@@ -109,6 +109,7 @@ def test_components_chosen_by_their_section_are_picked_without_naming_them():
     assert section_component(reg, SimpleNamespace(synchronous_generator=cfg), "rotor") == ("synchronous_generator", cfg)
 
 
+@pytest.mark.slow
 def test_a_kernel_without_a_source_file_runs_uncached():
     """A kernel from an interactive session (its module has no __file__) cannot be disk-cached: compiled in memory."""
     import sys

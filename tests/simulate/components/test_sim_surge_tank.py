@@ -91,6 +91,7 @@ def test_tunnel_friction_makes_the_oscillation_decay():
     assert zr[peaks[0]] < frictionless.signals["surge_level_m"].max() - frictionless.plant.penstock.static_head_m
 
 
+@pytest.mark.slow
 def test_example_plant_with_a_surge_tank_through_the_cli(tmp_path, capsys):
     from hillsim.cli import main
 

@@ -158,6 +158,7 @@ def test_load_step_on_the_island_settles_where_the_load_balances_the_turbine():
         r.time_s, sig["frequency_hz"], event_time_s=1.0, band_hz=0.05))
 
 
+@pytest.mark.slow
 def test_opening_step_on_an_infinite_bus_returns_to_synchronous_speed_with_power_balance():
     bus = {"grid.kind": "infinite-bus", "grid.load_model": None, "grid.load_power_factor": None,
            "grid.frequency_p": None, "grid.frequency_q": None, "grid.x_line_pu": 0.3, "grid.bus_voltage_pu": 1.0}

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 
 ROOT = Path(__file__).resolve().parents[3]
 HEAVY = ("torch", "scipy.signal", "matplotlib")
@@ -49,6 +51,7 @@ def test_simulating_and_linearizing_with_the_shipped_nets_import_no_torch(tmp_pa
     assert not loaded["torch"] and not loaded["scipy.signal"], loaded
 
 
+@pytest.mark.slow
 def test_second_run_loads_the_loop_from_the_disk_cache(tmp_path):
     """Everything compiled is cached: in a second process numba compiles nothing (no cache miss anywhere)."""
     code = (

@@ -119,6 +119,7 @@ def test_an_event_between_the_steps_of_a_fixed_dt_is_reported_and_recorded():
     np.testing.assert_array_equal(run.speed_rpm, on.speed_rpm)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("loop", ["improved", "newton", "traditional"])
 def test_rigid_penstock_at_a_tenth_of_a_millisecond_runs_with_every_pressure_loop(loop):
     # |k Q| ~ 2.6e6 m on the rigid column at dt = 1e-4 s: the head is known to ~1e-9 m only. A fixed tolerance of
@@ -183,6 +184,7 @@ def test_check_step_reports_the_change_of_each_figure():
     assert check_step(coarse, run_simulation(coarse))["max_change_points"] > 0.1
 
 
+@pytest.mark.slow
 def test_the_time_step_page_is_what_the_benchmark_prints():
     spec = importlib.util.spec_from_file_location("bench_time_step", ROOT / "benchmarks" / "bench_time_step.py")
     bench = importlib.util.module_from_spec(spec)

@@ -148,6 +148,7 @@ def _plant_partials(kernel, params, turbine, speed, opening, head):
     return np.array(grads).T  # rows Q, M; columns d/dn, d/da, d/dH
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("characteristics", ["ideal", "synthetic"])
 def test_small_opening_step_matches_linearized_response(characteristics):
     # Open-loop +0.005 stroke step at 1 s, rigid penstock with friction, constant load with self-regulation.

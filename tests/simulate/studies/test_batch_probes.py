@@ -30,6 +30,7 @@ def _bench(name: str):
     return module
 
 
+@pytest.mark.slow
 def test_the_floor_benchmark_times_the_runs_own_loop():
     bench = _bench("bench_batch_floor")
     plant = load_plant(PLANT_HLA339, {"scenario.t_end_s": 6.0})

@@ -73,6 +73,7 @@ def family_results():
         return {key: evaluate_chart(key[0], density=key[1], **CASES) for key in FAMILY_CHARTS}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", FAMILY_CHARTS, ids=["-".join(k) for k in FAMILY_CHARTS])
 def test_guarantee_figures_match_the_exact_turbine(family_results, key):
     result = family_results[key]
@@ -84,6 +85,7 @@ def test_guarantee_figures_match_the_exact_turbine(family_results, key):
     assert result.worst_error_pt("max_head_rise") <= ACCEPTANCE["head_pt"]
 
 
+@pytest.mark.slow
 def test_the_band_covers_the_exact_turbine_and_stays_narrow(family_results):
     from simulate.studies.uncertainty import figure_band
 
@@ -103,6 +105,7 @@ def test_the_band_covers_the_exact_turbine_and_stays_narrow(family_results):
     assert plain < coverage
 
 
+@pytest.mark.slow
 def test_without_the_silent_regions_the_head_rise_misses():
     """The failing case beside the passing one: the nets' sigmoids below the lowest line decide the head rise. The
     medium runner's dense chart without a runaway curve (noise 0.3 %, seed 0): 2.58 points off without the model's

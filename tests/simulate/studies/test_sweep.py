@@ -277,6 +277,7 @@ def test_dask_two_worker_local_cluster_gives_identical_results(plant, tmp_path):
     assert all(c.ok for c in dask.cases)
 
 
+@pytest.mark.slow
 def test_sweep_cli_on_dask_equals_the_local_sweep(tmp_path, monkeypatch, capsys):
     pytest.importorskip("dask.distributed")
     import functools
