@@ -263,3 +263,21 @@ def test_ci_runs_the_readme_test_command_and_the_strict_docs_build():
     pyproject = (REPO / "pyproject.toml").read_text(encoding="utf-8")
     docs_extra = re.search(r"^docs = \[(.*?)\]", pyproject, re.M)
     assert docs_extra and all(p in docs_extra.group(1) for p in ("mkdocs", "mkdocs-material", "mkdocstrings"))
+
+
+@pytest.mark.external
+@pytest.mark.slow
+def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
+    """docs/guarantee-benchmark.md's tables of the real chart with its lowest lines held out are the output of
+    benchmarks/bench_extrapolation.py now (deterministic: seeded training; about 10 s)."""
+    from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
+
+    require_external(SAYANO_LINES, SAYANO_CONTOURS)
+    spec = importlib.util.spec_from_file_location("bench_extrapolation", REPO / "benchmarks" / "bench_extrapolation.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    assert bench.main([]) == 0
+    printed = capsys.readouterr().out
+    page = (DOCS / "guarantee-benchmark.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_extrapolation -->\n(.*?)\n<!-- end bench_extrapolation -->", page, re.S).group(1)
+    assert block.strip() and block in printed, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py"
