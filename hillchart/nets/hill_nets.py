@@ -356,15 +356,17 @@ def load_nets(path) -> HillNets:
         raise InputError(f"{path}: {message}") from None
 
 
-#: Largest departure of an ensemble member from the point net over the training box, as a fraction of the output
-#: range: members trained on other splits of the same samples depart by 0.2-1.8 % on the shipped chart; a member
-#: 25 % off is not a member of this ensemble (a corrupted or foreign block).
+#: Largest median departure of an ensemble member from the point net over the training box, as a fraction of the
+#: output range: members trained on other splits of the same samples depart by 0.1-0.5 % in the median on the shipped
+#: chart (their largest departures, in the box's corners far from any sample, reach 32 % on a sparse real Kaplan
+#: table, so the median, not the largest, is judged); a member 25 % off in the median is not a member of this
+#: ensemble (a corrupted or foreign block).
 MEMBER_DEPARTURE = 0.25
 
 
 def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
-    """Refuse an ensemble member that departs from the point nets by more than :data:`MEMBER_DEPARTURE` of their
-    output range on a 7 x 7 grid over the training box, naming the member (49 points: evaluated in Python, so
+    """Refuse an ensemble member whose median departure from the point nets on a 7 x 7 grid over the training box
+    exceeds :data:`MEMBER_DEPARTURE` of their output range, naming the member (49 points: evaluated in Python, so
     loading nets loads no compiled kernel)."""
     if not ensemble:
         return
@@ -373,10 +375,10 @@ def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
     for i, pair in enumerate(ensemble):
         for name, point, member in (("flow", flow, pair[0]), ("torque", torque, pair[1])):
             reference = point.evaluate(n11, opening)[0]
-            departure = float(np.max(np.abs(member.evaluate(n11, opening)[0] - reference))
+            departure = float(np.median(np.abs(member.evaluate(n11, opening)[0] - reference))
                               / (point.y_max - point.y_min))
             if not departure <= MEMBER_DEPARTURE:
                 raise InputError(f"nets.json: ensemble[{i}].{name} departs from the point net by {departure:.0%} of "
-                                 f"its output range over the training box (members of one ensemble depart by a few "
-                                 f"%, allowed {MEMBER_DEPARTURE:.0%}): a corrupted or foreign member; train the nets "
-                                 f"again (hillsim train) or remove the member")
+                                 f"its output range in the median over the training box (members of one ensemble "
+                                 f"depart by well under 1 %, allowed {MEMBER_DEPARTURE:.0%}): a corrupted or foreign "
+                                 f"member; train the nets again (hillsim train) or remove the member")
