@@ -140,11 +140,14 @@ class Hypotheses:
         t = np.clip(opening / a_low, 0.0, 1.0)
         q_low, m_low = self.lowest.values(self.model, n11)
         m_0 = -self.k_zero_opening * n11 ** 2
+        # the model answers up to 0.95 of its pumping limit (beyond it, no positive flow): held there beyond
+        limit = self.model.n11_limit
+        n_m = np.minimum(n11, 0.95 * limit) if math.isfinite(limit) else n11
         if name == "model":
-            return self.model.q11(n11, opening), self.model.m11(n11, opening)
+            return self.model.q11(n_m, opening), self.model.m11(n_m, opening)
         if name == "anchored-model":
-            q_m, m_m = self.model.q11(n11, opening), self.model.m11(n11, opening)
-            q_ml, m_ml = self.model.q11(n11, a_low), self.model.m11(n11, a_low)
+            q_m, m_m = self.model.q11(n_m, opening), self.model.m11(n_m, opening)
+            q_ml, m_ml = self.model.q11(n_m, a_low), self.model.m11(n_m, a_low)
             return q_m + (q_low - q_ml) * t, m_m + (m_low - m_ml) * t
         if name == "line":
             return q_low * t, m_0 + (m_low - m_0) * t
@@ -506,10 +509,9 @@ class Extrapolation:
 
         evidence = chart_evidence(chart, torque, fit_turbine_model)
         hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
-        # over the model's whole valid range in N11 (to 0.95 of its pumping limit), where a load rejection's
-        # overspeed at small openings runs; 1.5 x the chart's largest N11 when the model has no limit
-        top = max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
-        top = 0.95 * model.n11_limit if math.isfinite(model.n11_limit) else 1.5 * top
+        # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's
+        # answers held at its pumping limit beyond it, :meth:`Hypotheses.predict`)
+        top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top)
 
     @property

@@ -9,13 +9,15 @@ line, straight and bent lines to the closed vanes) weighed by how well each pred
 That answer is tabulated over (N11, opening) when the nets are trained and stored in nets.json, so any hypothesis
 (and any ensemble member's perturbation of it, the band) is evaluated the same way in a run:
 
-    y = w y_nets + (1 - w) y_table,      w = 1 - (1 - s(a)) (1 - s_N(N11)),
+    y = w y_nets + (1 - w) y_table,      w = s(a),
 
 with ``s(a)`` a C1 smoothstep from 0 at ``blend_openings[0]`` to 1 at ``blend_openings[1]`` (the lowest digitized
-opening) and ``s_N`` one from 0 at ``n11_blend[0]`` to 1 at ``n11_blend[1]`` (the table's N11 range ends there).
-The table is interpolated by Catmull-Rom cubic convolution on its uniform grid (C1, exact for linear functions; the
-grid's edges are continued linearly), derivatives analytically, so the pressure loop sees a C1 characteristic.
-Above the lowest line the nets alone answer: the extrapolation never overrides measured data.
+opening). The table is interpolated by Catmull-Rom cubic convolution on its uniform grid (C1, exact for linear
+functions; the grid's opening edges are continued linearly), derivatives analytically, so the pressure loop sees a C1
+characteristic. Beyond the table's N11 range (1.5 times the chart's largest N11) its values at the last N11 are
+held: below the lowest line the table answers at every speed, so the flow through shut vanes is zero at any N11
+(the nets alone, which a 2-H-1 net of sigmoids makes of zero opening, pumped flow backwards beyond runaway). Above
+the lowest line the nets alone answer: the extrapolation never overrides measured data.
 
 Files written before the hypotheses were weighed hold the fitted physical model itself (kind ``francis-1d``): they
 are read by tabulating that model on the same grid (to about 1e-4 of Q11; the exact model is no longer evaluated in
@@ -42,12 +44,10 @@ PARAMETER_NAMES = ("d2", "b1", "guide_vane_pitch", "beta1_deg", "beta2_deg", "k_
                    "k_runner", "k_draft_tube", "k_swirl", "k_disc_friction", "opening_max")
 #: Fraction of the lowest digitized opening below which the table alone answers (above the lowest opening: the nets).
 BLEND_START_FRACTION = 0.5
-#: The N11 hand-back to the nets, as fractions of the table's N11 range.
-N11_BLEND_FRACTIONS = (0.9, 1.0)
 #: Grid of the table: N11 from 0 to its top, openings from 0 to the lowest digitized one.
 N11_NODES = 41
 OPENING_NODES = 11
-#: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, N11 blend, torque factor, node counts, the
+#: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, two unused slots, torque factor, node counts, the
 #: grid's top N11 and opening, the member's band offset and the band's distance cap, then the Q11 and M11 tables
 #: (row-major, N11 first).
 _HEADER = 11
@@ -67,10 +67,9 @@ def _smoothstep(x, x0, x1):
 
 @numba.njit(cache=True)
 def _blend_weight(blend, n11, opening):
-    """``(w, dw/dN11, dw/da)``: the nets' weight w = 1 - (1 - s(a)) (1 - s_N(N11)) (module docstring)."""
+    """``(w, dw/dN11, dw/da)``: the nets' weight w = s(a) (module docstring)."""
     s_a, ds_a = _smoothstep(opening, blend[0], blend[1])
-    s_n, ds_n = _smoothstep(n11, blend[2], blend[3])
-    return 1.0 - (1.0 - s_a) * (1.0 - s_n), (1.0 - s_a) * ds_n, (1.0 - s_n) * ds_a
+    return s_a, 0.0, ds_a
 
 
 @numba.njit(cache=True)
@@ -271,8 +270,6 @@ class SilentRegionModel:
     blend_openings : (float, float)
         Openings (chart units): the table alone at or below the first, the nets alone at or above the second (the
         lowest digitized opening).
-    n11_blend : (float, float)
-        N11 (r/min): the nets take over again between these (at most ``n11_top``).
     torque_factor : float
         The table's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
         nets and table alike, :func:`simulate.components.turbine.step_up.scale_torque`).
@@ -291,7 +288,6 @@ class SilentRegionModel:
     m11: np.ndarray
     n11_top: float
     blend_openings: tuple
-    n11_blend: tuple
     torque_factor: float = 1.0
     band_q11: float = 0.0
     distance_cap: float = 1.0
@@ -312,9 +308,6 @@ class SilentRegionModel:
         if not _finite_pair(*self.blend_openings, low_open=False):
             raise InputError(f"silent_model.blend_openings must be two finite numbers 0 <= low < high, got "
                              f"{list(self.blend_openings)!r}")
-        if not (_finite_pair(*self.n11_blend, low_open=False) and self.n11_blend[1] <= self.n11_top * (1 + 1e-12)):
-            raise InputError(f"silent_model.n11_blend must be two finite numbers 0 <= low < high <= n11_top = "
-                             f"{self.n11_top!r}, got {list(self.n11_blend)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
             raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
         for key, value, high in (("band_q11", self.band_q11, 10.0), ("distance_cap", self.distance_cap, 1.0)):
@@ -337,10 +330,9 @@ class SilentRegionModel:
         nn, aa = np.meshgrid(n11, opening, indexing="ij")
         q, m = values(nn, aa)
         q, m = np.broadcast_to(np.asarray(q, float), nn.shape), np.broadcast_to(np.asarray(m, float), nn.shape)
-        lo, hi = N11_BLEND_FRACTIONS
         return cls(q11=np.maximum(q, 0.0), m11=np.array(m), n11_top=float(n11_top),
                    blend_openings=(BLEND_START_FRACTION * float(lowest_opening), float(lowest_opening)),
-                   n11_blend=(lo * float(n11_top), hi * float(n11_top)), torque_factor=torque_factor, **band)
+                   torque_factor=torque_factor, **band)
 
     def scaled(self, factor: float) -> "SilentRegionModel":
         """The same table with its torque multiplied by ``factor`` (on top of the present factor)."""
@@ -353,7 +345,7 @@ class SilentRegionModel:
     def packed(self) -> np.ndarray:
         """The numbers the kernel reads (:data:`_HEADER` header values, then the Q11 and M11 tables)."""
         nn, na = self.q11.shape
-        header = [*self.blend_openings, *self.n11_blend, self.torque_factor, nn, na, self.n11_top,
+        header = [*self.blend_openings, 0.0, 0.0, self.torque_factor, nn, na, self.n11_top,
                   self.blend_openings[1], self.position * self.band_q11, self.distance_cap]
         return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
 
@@ -386,7 +378,7 @@ class SilentRegionModel:
     # ------------------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         doc = {"kind": KIND, "n11_top": self.n11_top, "blend_openings": list(self.blend_openings),
-               "n11_blend": list(self.n11_blend), "band": {"q11": self.band_q11,
+               "band": {"q11": self.band_q11,
                                                            "distance_cap": self.distance_cap},
                "q11": self.q11.tolist(), "m11": self.m11.tolist()}
         if self.torque_factor != 1.0:
@@ -421,7 +413,7 @@ class SilentRegionModel:
         if doc["kind"] != KIND:
             raise InputError(f"nets.json: {key}.kind must be {KIND!r} (or {LEGACY_KIND!r}, files of earlier "
                              f"versions), got {doc['kind']!r}")
-        required = {"kind", "n11_top", "blend_openings", "n11_blend", "band", "q11", "m11"}
+        required = {"kind", "n11_top", "blend_openings", "band", "q11", "m11"}
         if not required <= set(doc) <= required | {"torque_factor"}:
             raise InputError(f"nets.json: {key} must have the keys {', '.join(sorted(required))} (and optionally "
                              f"torque_factor), got {sorted(doc)}")
@@ -430,19 +422,18 @@ class SilentRegionModel:
             m = np.array(doc["m11"], dtype=float)
             top = float(doc["n11_top"])
             openings = tuple(float(v) for v in doc["blend_openings"])
-            speeds = tuple(float(v) for v in doc["n11_blend"])
             factor = float(doc.get("torque_factor", 1.0))
             band = doc["band"]
             if not isinstance(band, dict) or set(band) != {"q11", "distance_cap"}:
                 raise ValueError
             widths = {"band_q11": float(band["q11"]), "distance_cap": float(band["distance_cap"])}
         except (TypeError, ValueError):
-            raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, n11_blend, band with "
+            raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, band with "
                              f"q11 and distance_cap, and the q11 and m11 tables)") from None
-        if len(openings) != 2 or len(speeds) != 2:
-            raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs")
+        if len(openings) != 2:
+            raise InputError(f"nets.json: {key}.blend_openings must be a [low, high] pair")
         try:
-            return cls(q11=q, m11=m, n11_top=top, blend_openings=openings, n11_blend=speeds, torque_factor=factor,
+            return cls(q11=q, m11=m, n11_top=top, blend_openings=openings, torque_factor=factor,
                        **widths)
         except InputError as exc:
             raise InputError(f"nets.json: {str(exc).replace('silent_model', key)}") from None
@@ -452,9 +443,8 @@ def _python_kernel(params, n11, opening):
     """:func:`_silent_nets_kernel` in Python, where the nets alone answer; the compiled kernel elsewhere."""
     blend = params[2]
     s_a = _smoothstep.py_func(opening, blend[0], blend[1])[0]
-    s_n = _smoothstep.py_func(n11, blend[2], blend[3])[0]
     banded = opening < blend[1] and blend[9] != 0.0
-    if (1.0 - s_a) * (1.0 - s_n) <= 0.0 and not banded:
+    if s_a >= 1.0 and not banded:
         return (*_net_value_grad.py_func(params[0], n11, opening), *_net_value_grad.py_func(params[1], n11, opening))
     return _silent_nets_kernel(params, n11, opening)
 
@@ -493,4 +483,4 @@ def _from_legacy(doc, key: str) -> SilentRegionModel:
         return turbine.q11(np.minimum(n11, 0.999 * top), opening), turbine.m11(np.minimum(n11, 0.999 * top), opening)
 
     table = SilentRegionModel.tabulate(model, openings[1], top, torque_factor=factor)
-    return SilentRegionModel(table.q11, table.m11, table.n11_top, openings, speeds, factor)
+    return SilentRegionModel(table.q11, table.m11, table.n11_top, openings, factor)

@@ -173,14 +173,12 @@ def test_a_file_of_an_earlier_version_reads_its_physical_model_as_a_table(nets):
 def test_a_table_with_bad_numbers_is_refused():
     good = np.ones((5, 5))
     with pytest.raises(InputError, match=r"silent_model.q11 and silent_model.m11 must be tables of the same shape"):
-        SilentRegionModel(q11=good, m11=np.ones((5, 4)), n11_top=100.0, blend_openings=(1.0, 2.0),
-                          n11_blend=(90.0, 100.0))
-    with pytest.raises(InputError, match=r"silent_model.n11_blend must be .* <= n11_top = 100.0"):
-        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), n11_blend=(90.0, 110.0))
+        SilentRegionModel(q11=good, m11=np.ones((5, 4)), n11_top=100.0, blend_openings=(1.0, 2.0))
+    with pytest.raises(InputError, match=r"silent_model.n11_top must be finite and > 0, got -100.0"):
+        SilentRegionModel(q11=good, m11=good, n11_top=-100.0, blend_openings=(1.0, 2.0))
     with pytest.raises(InputError, match=r"silent_model.band_q11 must be a finite number in \[0, 10.0\]"):
-        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), n11_blend=(90.0, 100.0),
-                          band_q11=-1.0)
-    SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), n11_blend=(90.0, 100.0))
+        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=-1.0)
+    SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0))
 
 
 def test_the_step_up_scales_the_table_torque_too(nets):
@@ -204,7 +202,7 @@ def test_the_value_kernels_are_the_kernels_values(nets):
     values by the same formulas: equal to 1e-15 relative (the same operations in the same order; only a compiler's
     choice could move the last bit) over the table, blend, nets and beyond-the-table regions, with and without the
     table, and for a member at the band's edge."""
-    n11 = np.linspace(0.0, 260.0, 27)  # 260 r/min: beyond the table's N11 range, where the nets alone answer
+    n11 = np.linspace(0.0, 260.0, 27)  # 260 r/min: beyond the table's N11 range, where its last values are held
     a = np.linspace(0.0, 32.0, 33)
     nn, aa = (v.ravel() for v in np.meshgrid(n11, a))
     plain = HillNets(flow=nets.flow, torque=nets.torque, opening_unit=nets.opening_unit, training=nets.training)
@@ -229,3 +227,14 @@ def test_a_corrupted_ensemble_member_is_refused_naming_it(nets):
     with pytest.raises(InputError,
                        match=r"ensemble\[4\].torque departs from the point net by \d+% .* median .* allowed 25%"):
         HillNets.from_dict(doc)
+
+
+def test_no_flow_passes_shut_vanes_at_any_speed(nets):
+    """Below half the lowest opening the table answers at every N11 (its last values held beyond its range, 1.5 x
+    the chart's largest N11): at shut vanes Q11 is 0 up to 400 r/min, so a shutdown never runs flow backwards through
+    them. The failing case beside it: the flow net alone pumps backwards there (-0.125 m^3/s at high N11), which the
+    simulator followed when the physical model's pumping limit handed the characteristics back to the nets."""
+    n11 = np.linspace(0.0, 400.0, 81)
+    assert np.all(nets.q11(n11, 0.0) == 0.0) and np.all(nets.q11(n11, 1.0) > 0.0)
+    assert nets.silent_model.n11_top < 400.0
+    assert np.min(nets.flow.evaluate(n11, 0.0)[0]) < -0.1
