@@ -146,7 +146,8 @@ def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: b
 
 def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example: str | None = None,
                what: str = "CSV file") -> Table:
-    """Read the numeric ``columns`` (any order) of a CSV file.
+    """Read the numeric ``columns`` (any order) of a CSV file. Lines starting with ``#`` are comments (before the
+    header or between rows); rows keep their line numbers in the file for messages.
 
     Parameters
     ----------
@@ -173,26 +174,25 @@ def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example:
     expected = example or ",".join(columns)
     text = read_text(path, what)
     lines_text = text.splitlines()
-    first = next((i for i, line in enumerate(lines_text) if line.strip()), None)
-    if first is None:
+    # lines starting with # are comments (a digitizer's notes, a source line), anywhere in the file
+    delimiter, numbered = numbered_rows(text, path, comments=True)
+    if not numbered:
         raise InputError(f"{path}: empty file; expected a header {expected}")
-    delimiter = detect_delimiter(lines_text[first])
-    rows = csv_rows(text, path, delimiter=delimiter)
-    header = [name.strip() for name in rows[first]]
+    header_line = lines_text[numbered[0][0] - 1]
+    header = [name.strip() for name in numbered[0][1]]
     missing = [c for c in columns if c not in header]
     if missing:
         hint = ""
-        if delimiter == "," and len(header) == 1 and any(d in lines_text[first] for d in (";", "\t")):
+        if delimiter == "," and len(header) == 1 and any(d in header_line for d in (";", "\t")):
             hint = " (the header has no comma-separated columns)"
         raise InputError(f"{path}: missing column(s) {missing}{hint}; the header must be {expected}, got "
-                         f"{lines_text[first]!r}")
+                         f"{header_line!r}")
     unknown = [c for c in header if c not in columns]
     if unknown and extra == "error":
         raise InputError(f"{path}: unknown column(s) {unknown}; the header must be {expected}")
     if len(set(header)) != len(header):
         raise InputError(f"{path}: repeated column in header {header}")
-    body = [(line_no, row) for line_no, row in enumerate(rows[first + 1:], start=first + 2)
-            if row and any(cell.strip() for cell in row)]
+    body = numbered[1:]
     decimal_comma, note = decimal_commas(path, delimiter, (row[header.index(c)] for _, row in body for c in columns
                                                           if header.index(c) < len(row)))
     data = {c: [] for c in columns}

@@ -12,6 +12,9 @@ from simulate.results.envelope import envelope_summary, envelope_warnings
 from simulate.results.figures import save_png
 
 #: Per-unit columns of a plant with several units (``U1.speed_rpm``, ...), in order.
+#: Legend of the shaded intervals of :meth:`SimulationResult.plot`: where the trajectory leaves the chart
+#: (simulate.loop.domain: outside the digitized region, outside the nets' training range, or beyond full stroke).
+EXTRAPOLATED_LABEL = "extrapolated: outside the digitized chart, the nets' range or full stroke"
 UNIT_COLUMNS = ("speed_rpm", "head_m", "flow_m3_s", "opening", "opening_chart", "torque_nm", "power_mw", "iterations")
 #: Figures of the plant that are the worst over its units (``max``: the largest unit value, ``min``: the smallest),
 #: with the figure that gives the time and the unit.
@@ -325,7 +328,7 @@ class SimulationResult:
             ax.grid(True, alpha=0.3)
             for i, (t0, t1) in enumerate(intervals):
                 ax.axvspan(t0, t1, color="tab:red", alpha=0.12, lw=0,
-                           label="outside the trusted domain" if i == 0 and ax is axes[0] else None)
+                           label=EXTRAPOLATED_LABEL if i == 0 and ax is axes[0] else None)
         on_axes = {"speed_rpm": axes[0] if series[0][2] == "speed_rpm" else None, "head_m": axes[1]}
         for mark in self.guarantee_marks(band):
             ax = on_axes[mark["trace"]]

@@ -41,6 +41,28 @@ def test_byte_order_mark_is_accepted_in_chart_csv_and_toml(chart_copy):
     np.testing.assert_array_equal(chart.eff_efficiency, ref.eff_efficiency)
 
 
+def test_comment_lines_are_allowed_in_chart_csvs_and_rows_keep_their_line_numbers(chart_copy):
+    """A digitizer's notes as # lines (before the header, between rows) were refused as bad rows; they are comments,
+    and a bad row below them is still named by its line in the file."""
+    for name in ("flow.csv", "efficiency.csv", "runaway.csv"):
+        path = chart_copy / name
+        lines = path.read_text(encoding="utf-8").splitlines()
+        path.write_text("\n".join(["# digitized from the manufacturer's chart", "  # second note", lines[0],
+                                    "# the lowest line", *lines[1:]]) + "\n", encoding="utf-8")
+    chart = load_chart(chart_copy)
+    ref = _reference_chart()
+    np.testing.assert_array_equal(chart.flow_q11, ref.flow_q11)
+    np.testing.assert_array_equal(chart.eff_efficiency, ref.eff_efficiency)
+    np.testing.assert_array_equal(chart.runaway_n11, ref.runaway_n11)
+    assert chart.rows["flow"][0] == 5  # the first data row is line 5 of the file (2 notes, header, a note)
+    path = chart_copy / "flow.csv"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    lines[6] = "10,abc,0.2"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"flow.csv: row 7, column 'n11'"):
+        load_chart(chart_copy)
+
+
 def test_byte_order_mark_is_accepted_in_the_plant_file(tmp_path):
     folder = tmp_path / "plant"
     shutil.copytree(REPO / "data_synthetic", folder, ignore=shutil.ignore_patterns("__pycache__"))
