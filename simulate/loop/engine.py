@@ -211,7 +211,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     dt, n_sub = plan.dt_s, plan.substeps
     n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
-    guards.check_run_size(plant, dt, n_steps, stride)
+    guards.check_run_size(plant, dt, n_steps, stride, n_sub)
     guards.check_initial_state(plant, steady, domain, remember=lambda key, compute: _memo(chars, key + domain_key,
                                                                                           compute))
     warnings = guards.plausibility_warnings(plant) + list(plan.warnings)

@@ -29,23 +29,31 @@ def output_stride(plant, dt_s: float) -> int:
     return stride
 
 
-def estimate(plant, dt_s: float, n_steps: int, stride: int) -> dict:
-    """Node-steps of the run (steps x (nodes + :data:`STEP_OVERHEAD_NODES`)) and the memory of its stored series
-    (bytes)."""
+def estimate(plant, dt_s: float, n_steps: int, stride: int, substeps: int = 1) -> dict:
+    """Node-steps of the run (steps x (nodes + :data:`STEP_OVERHEAD_NODES` x sub-steps of the control and the shaft))
+    and the memory of its stored series (bytes)."""
     if plant.penstock.model == "moc":  # the penstock, and with [[units]] every branch pipe too
         pipes = [plant.penstock.segments] + [unit.branch for unit in getattr(plant, "units", ())]
         nodes = sum(1 + sum(max(1, int(round(s.travel_time_s / dt_s))) for s in segments) for segments in pipes)
     else:
         nodes = 2
     rows = n_steps // stride + 1
-    return {"steps": n_steps, "nodes": nodes, "node_steps": float(n_steps) * (nodes + STEP_OVERHEAD_NODES),
+    return {"steps": n_steps, "nodes": nodes, "substeps": substeps,
+            "node_steps": float(n_steps) * (nodes + STEP_OVERHEAD_NODES * float(substeps)),
             "output_bytes": float(rows) * (ROW_BYTES + 16)}
 
 
-def check_run_size(plant, dt_s: float, n_steps: int, stride: int) -> dict:
+def check_run_size(plant, dt_s: float, n_steps: int, stride: int, substeps: int = 1) -> dict:
     """Refuse a run whose node-steps or stored series exceed ``solver.max_node_steps`` / ``solver.max_output_mb``."""
-    est = estimate(plant, dt_s, n_steps, stride)
+    est = estimate(plant, dt_s, n_steps, stride, substeps)
     sol = plant.solver
+    if est["node_steps"] > sol.max_node_steps and substeps > 1:  # a time constant far below the step
+        raise InputError(
+            f"the run needs {est['steps']:.4g} steps of {substeps:.3g} sub-steps each for the control and the shaft "
+            f"(dt = {dt_s:.3g} s) = {est['node_steps']:.3g} node-steps, more than solver.max_node_steps = "
+            f"{sol.max_node_steps:.3g}: a time scale of the governor or the generator (a time constant, or a gain "
+            f"that sets one) is far shorter than any plant's; check the [governor] and [generator] values and their "
+            f"units (s, not ms), or set solver.substeps")
     if est["node_steps"] > sol.max_node_steps:
         raise InputError(
             f"the run needs {est['steps']:.4g} steps x ({est['nodes']} nodes + {STEP_OVERHEAD_NODES} for the step) = "

@@ -118,7 +118,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     n_sub = max(p.substeps for p in plans)
     n_steps = step_count(plant.scenario.t_end_s, dt)
     stride = guards.output_stride(plant, dt)
-    guards.check_run_size(plant, dt, n_steps, stride)
+    guards.check_run_size(plant, dt, n_steps, stride, n_sub)
     warnings = []
     for unit, view, st, domain, plan in zip(plant.units, views, steady.units, domains, plans):
         try:

@@ -141,7 +141,10 @@ def plan_step(plant, schedules, *, grid_step_s: float | None = None) -> StepPlan
             aligned = tuple(events)
     warnings = []
     moved = []
-    if user:  # the user's step: an event between steps acts from the next one (the rotor, the loads, the faults)
+    # the user's step: an event between steps acts from the next one (the rotor, the loads, the faults). With MOC the
+    # step is the grid's whatever solver.dt_s says (it is accepted only within COURANT_TOLERANCE of it), so an event
+    # acts where it would without the key: nothing to report, and no other step to advise
+    if user and not moc:
         for t in events:
             acts = math.ceil(t / dt - 1e-9) * dt
             if abs(acts - t) > 1e-9 * max(1.0, t):

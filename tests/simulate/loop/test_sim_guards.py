@@ -169,3 +169,15 @@ def test_absurd_penstock_gives_a_clean_error_not_a_math_domain_error():
                                          r"penstock\.static_head_m: no plausible steady flow; check the penstock "
                                          r"segments' length_m, diameter_m and darcy_friction"):
         run_simulation(plant)
+
+
+@pytest.mark.parametrize("key", ["governor.kp", "governor.derivative_filter_s", "governor.servo_time_s"])
+def test_a_time_scale_needing_astronomic_sub_steps_is_refused_by_the_run_size_check(key):
+    """1e-300 for a gain or a time constant of the governor asked for about 1e299 sub-steps a step: the count, a
+    Python integer too large for the compiled loop, escaped as a numba typing error. The run-size check now counts the
+    sub-steps; the shipped plant's sub-steps pass it."""
+    assert run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 2.5})).meta["substeps"] >= 1
+    with pytest.raises(InputError, match=r"the run needs 131 steps of \d\.\d+e\+29\d sub-steps each for the control "
+                                         r"and the shaft .* more than solver\.max_node_steps = 3e\+10: a time scale "
+                                         r"of the governor or the generator"):
+        run_simulation(load_plant(PLANT_HLA339, {**IDEAL, "scenario.t_end_s": 2.5, key: 1e-300}))

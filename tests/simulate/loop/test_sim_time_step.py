@@ -120,6 +120,19 @@ def test_an_event_between_the_steps_of_a_fixed_dt_is_reported_and_recorded():
 
 
 @pytest.mark.slow
+def test_the_moc_grid_step_given_as_solver_dt_s_runs_as_without_it_and_warns_of_no_event():
+    """With MOC, solver.dt_s can only be the grid's own step (the step hillsim prints, 0.0190678 s): the event at 2 s
+    acts where it does without the key, so there is nothing to report. It was warned as falling between the steps,
+    advising a step (0.0190476 s) the Courant condition refuses and 'leave solver.dt_s out', which changes nothing."""
+    base = {**IDEAL, "scenario.t_end_s": 2.5}
+    default = run_simulation(load_plant(PLANT_HLA339, base))
+    printed = run_simulation(load_plant(PLANT_HLA339, {**base, "solver.dt_s": float(f"{default.meta['dt_s']:.6g}")}))
+    assert printed.meta["dt_s"] == default.meta["dt_s"] and 2.0 / default.meta["dt_s"] % 1 > 1e-3  # not on a step
+    assert printed.meta["moved_event_times_s"] == [] == default.meta["moved_event_times_s"]
+    assert printed.summary()["warnings"] == default.summary()["warnings"] == []
+    np.testing.assert_array_equal(printed.speed_rpm, default.speed_rpm)
+
+
 @pytest.mark.parametrize("loop", ["improved", "newton", "traditional"])
 def test_rigid_penstock_at_a_tenth_of_a_millisecond_runs_with_every_pressure_loop(loop):
     # |k Q| ~ 2.6e6 m on the rigid column at dt = 1e-4 s: the head is known to ~1e-9 m only. A fixed tolerance of
