@@ -500,6 +500,7 @@ class Extrapolation:
     hypotheses: Hypotheses
     evidence: Evidence
     n11_top: float
+    overspeed: dict | None = None
 
     @classmethod
     def of_chart(cls, chart, torque, model) -> "Extrapolation":
@@ -512,7 +513,8 @@ class Extrapolation:
         # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's
         # answers held at its pumping limit beyond it, :meth:`Hypotheses.predict`)
         top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
-        return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top)
+        return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top,
+                   overspeed=overspeed_evidence(chart, torque, fit_turbine_model))
 
     @property
     def lowest_opening(self) -> float:
@@ -523,10 +525,77 @@ class Extrapolation:
         return self.evidence.blend(self.hypotheses, n11, opening)
 
     def summary(self) -> str:
-        return self.evidence.summary()
+        text = self.evidence.summary()
+        o = self.overspeed
+        if o:
+            text += (f"; toward runaway the model predicts each line's held-out last point within "
+                     f"{100 * o['model_q11_rms']:.1f} % (Q11) and {100 * o['model_m11_rms']:.1f} % of the M11 range "
+                     f"(a straight continuation of each line: {100 * o['line_q11_rms']:.1f} % and "
+                     f"{100 * o['line_m11_rms']:.1f} %)")
+            if o.get("runaway_n11_rms") is not None:
+                text += f", its held-out runaway speeds within {100 * o['runaway_n11_rms']:.1f} %"
+        return text
 
     def to_dict(self) -> dict:
-        return {**self.evidence.to_dict(), "lowest_opening": self.lowest_opening, "summary": self.summary()}
+        return {**self.evidence.to_dict(), "lowest_opening": self.lowest_opening, "overspeed": self.overspeed,
+                "summary": self.summary()}
+
+
+def overspeed_evidence(chart, torque, fit_model) -> dict | None:
+    """How well the chart predicts itself toward runaway, where a load rejection's maximum speed comes: each line's
+    highest-N11 point held out (lines of 3 or more points) and predicted by the model refitted without them and by a
+    straight continuation of the line through its last two kept points; the runaway points, where given, held out
+    and their N11 predicted by the refitted model's runaway curve. RMS errors: Q11 and runaway N11 relative, M11 a
+    fraction of the measured M11 range. None when no line has 3 points or the refit fails. (Stated as evidence; the
+    overspeed samples of the extension are the whole chart's model.)"""
+    from hillchart.errors import InputError
+
+    torque = np.asarray(torque, float)
+    ends = []
+    for a in np.unique(chart.flow_opening):
+        index = np.flatnonzero(chart.flow_opening == a)
+        if index.size >= 3:
+            ends.append(int(index[np.argmax(chart.flow_n11[index])]))
+    if not ends:
+        return None
+    held = np.zeros(chart.flow_n11.size, bool)
+    held[ends] = True
+    try:
+        model = fit_model(sub_chart(chart, ~held), torque[~held])
+    except InputError:
+        return None
+    scale = float(np.ptp(torque)) or 1.0
+    n, a, q, m = chart.flow_n11[held], chart.flow_opening[held], chart.flow_q11[held], torque[held]
+    q_model, m_model = model.q11(n, a), model.m11(n, a)
+    q_line, m_line = [], []
+    for k in ends:
+        on = np.flatnonzero((chart.flow_opening == chart.flow_opening[k]) & ~held)
+        two = on[np.argsort(chart.flow_n11[on])[-2:]]
+        x = chart.flow_n11[two]
+        for values, out in ((chart.flow_q11, q_line), (torque, m_line)):
+            slope = (values[two[1]] - values[two[0]]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
+            out.append(values[two[1]] + slope * (chart.flow_n11[k] - x[1]))
+    result = {"held_out_points": int(held.sum()),
+              "model_q11_rms": float(np.sqrt(np.mean(((q_model - q) / q) ** 2))),
+              "model_m11_rms": float(np.sqrt(np.mean(((m_model - m) / scale) ** 2))),
+              "line_q11_rms": float(np.sqrt(np.mean(((np.array(q_line) - q) / q) ** 2))),
+              "line_m11_rms": float(np.sqrt(np.mean(((np.array(m_line) - m) / scale) ** 2))),
+              "runaway_n11_rms": None}
+    if chart.has_runaway and chart.runaway_n11.size >= 2:
+        from dataclasses import replace as _replace
+
+        without = _replace(chart, runaway_opening=chart.runaway_opening[:0], runaway_n11=chart.runaway_n11[:0],
+                           runaway_q11=chart.runaway_q11[:0])
+        try:
+            refit = fit_model(without, torque)
+        except InputError:
+            return result
+        predicted = np.array([refit.runaway_n11(float(o)) for o in chart.runaway_opening])
+        ok = np.isfinite(predicted)
+        if ok.any():
+            result["runaway_n11_rms"] = float(np.sqrt(np.mean(((predicted[ok] - chart.runaway_n11[ok])
+                                                                / chart.runaway_n11[ok]) ** 2)))
+    return result
 
 
 def member_positions(members: int, seed: int) -> np.ndarray:
