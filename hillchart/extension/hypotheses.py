@@ -16,6 +16,12 @@ and scores each at the held-out points. The hypotheses, all of them functions of
 ``line``
     a straight line in opening from the lowest line to the closed vanes: ``Q11 = Q_low t``,
     ``M11 = M_0 + (M_low - M_0) t`` with ``M_0 = -K N11^2`` (eq. 8 of the BP hill-chart paper);
+``offset-line``
+    a straight line through the lowest lines that reaches zero flow at ``t0`` before the vanes shut (``t0`` fitted
+    to the lowest :data:`CURVATURE_LINES` lines), with a parabolic foot to the closed vanes (:func:`offset_line`);
+``speed-scaled-line``
+    the line, read at the N11 scaled by the model's runaway-speed ratio ``n_run(a_low) / n_run(a)``: a smaller
+    opening runs closer to its own runaway at the same N11;
 ``quadratic``
     the paper's polynomial extrapolation in opening (section 2.6 (3), degree 2), in the same anchored form:
     ``Q11 = Q_low (t + c t (t - 1))``, ``M11 = M_0 + (M_low - M_0) (t + c t (t - 1))``, the curvature ``c`` fitted
@@ -26,12 +32,14 @@ and scores each at the held-out points. The hypotheses, all of them functions of
 interpolated in N11 (held constant beyond the line's ends). In the simulator it is the nets' value at ``a_low``,
 which fits that line.
 
-The hypotheses are weighed by their held-out mean squared error (inverse-MSE weights of Bates and Granger 1969: with
-a few held-out points, a least-squares stacking regression over the simplex follows their noise; the inverse-MSE
-combination is the standard robust choice), never by their fit to the lines they were fitted on. The residuals of the
-weighed blend at the held-out points, divided by their distance below the lowest kept line (``1 - t``), give the
-band's half-width per unit of distance (:func:`band_scale`, split-conformal): a band that widens with the distance
-from the data and is as wide as this chart's own evidence says.
+The hypotheses are weighed by their held-out likelihood (pseudo-BMA, Yao et al. 2018: ``exp(-n/2 log MSE)`` with
+``n`` the number of held-out lines, since the points of one line share one cause of error), never by their fit to
+the lines they were fitted on (:func:`weigh`; a least-squares stacking over the simplex was tried: better on one
+hold-out of the real chart, much worse on the out-of-class synthetic family). The residuals of the weighed blend at
+the held-out points, divided by the squared distance below the lowest kept line (``d = 1 - t``), give the band's
+width (:func:`band_scale`, split-conformal on the far half of the distances tested, growing no further than the
+furthest of them, :func:`band_square`): a band that widens with the distance from the data and is as wide as this
+chart's own evidence says. Toward runaway the chart's evidence is stated as well (:func:`overspeed_evidence`).
 """
 
 from __future__ import annotations
