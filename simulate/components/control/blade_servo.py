@@ -240,7 +240,13 @@ def _blade_setup(plant, steady, dt_s, characteristics):
 
 
 def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """Governor on the vanes, blades through their servo (module docstring)."""
+    """Governor on the vanes, blades through their servo (module docstring). The vane servo is the first-order
+    one: paper 000's discrete servo (``governor.servo_model = "discrete"``) is refused here rather than ignored."""
+    if plant.governor.servo_model != "first-order":
+        raise InputError(f"governor.servo_model = {plant.governor.servo_model!r} is not available on a "
+                         f"double-regulated unit (a plant with [combinator]): its governor drives the guide vanes "
+                         f"through the first-order servo (governor.servo_time_s) and the blades through "
+                         f"[blade_servo]; set governor.servo_model = \"first-order\" or leave it out")
 
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])

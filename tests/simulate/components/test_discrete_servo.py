@@ -127,3 +127,17 @@ def test_servo_sampling_must_be_a_multiple_of_the_time_step_in_the_loop():
     with pytest.raises(InputError, match=r"governor\.servo_sample_time_s = 0\.21 must be a whole multiple of the time "
                                          r"step 0\.02 s .*set solver\.dt_s"):
         run_simulation(_plant(**{"governor.servo_model": "discrete", "governor.servo_sample_time_s": 0.21}))
+
+
+def test_the_discrete_servo_on_a_double_regulated_unit_is_refused_not_ignored():
+    """The bulb plant's governor drives its vanes through the first-order servo: governor.servo_model = "discrete"
+    ran there and changed nothing (the vane opening equalled the default servo's run exactly); it is refused, naming
+    the key and what to set. Beside it, the same key on the Francis plant runs its discrete servo (the test above)."""
+    from data_synthetic import PLANT_BULB
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    with pytest.raises(InputError, match=r'governor.servo_model = .discrete. is not available on a double-regulated '
+                                         r'unit .* set governor.servo_model = "first-order"'):
+        run_simulation(load_plant(PLANT_BULB, {"governor.servo_model": "discrete", "scenario.t_end_s": 3.0}))
+    assert run_simulation(load_plant(PLANT_BULB, {"scenario.t_end_s": 3.0})).success
