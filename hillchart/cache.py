@@ -36,25 +36,34 @@ def installation_key(version: str) -> str:
     return f"{version}-{hashlib.sha256(location.encode()).hexdigest()[:8]}"
 
 
-def _writable(path: Path) -> bool:
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / f".probe-{os.getpid()}"
-        probe.write_text("")
-        probe.unlink()
-        return True
-    except OSError:
-        return False
+def first_writable(candidates) -> Path | None:
+    """The first of ``candidates`` (paths) that can be created and written to (a probe file is written and removed),
+    or None."""
+    for path in candidates:
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+            probe = path / f".probe-{os.getpid()}"
+            probe.write_text("")
+            probe.unlink()
+            return path
+        except OSError:
+            continue
+    return None
+
+
+def temporary_cache(name: str) -> Path:
+    """A per-user folder ``name`` in the temporary directory: the cache's fallback where no cache folder is
+    writable."""
+    return Path(tempfile.gettempdir()) / f"{name}-{os.getuid() if hasattr(os, 'getuid') else 0}"
 
 
 def numba_cache_dir(version: str) -> Path:
     """The folder numba caches hillsim's compiled functions in: under :func:`cache_root`, else a temporary folder."""
-    uid = os.getuid() if hasattr(os, "getuid") else 0
-    for base in (cache_root() / "numba", Path(tempfile.gettempdir()) / f"hillsim-numba-{uid}"):
-        path = base / installation_key(version)
-        if _writable(path):
-            return path
-    raise OSError("no writable folder for hillsim's compiled-code cache; set HILLSIM_CACHE_DIR to one")
+    key = installation_key(version)
+    path = first_writable([cache_root() / "numba" / key, temporary_cache("hillsim-numba") / key])
+    if path is None:
+        raise OSError("no writable folder for hillsim's compiled-code cache; set HILLSIM_CACHE_DIR to one")
+    return path
 
 
 def configure_numba_cache(version: str) -> str:

@@ -26,7 +26,6 @@ import importlib.util
 import inspect
 import os
 import sys
-import tempfile
 import textwrap
 import threading
 import types
@@ -268,20 +267,16 @@ class CompiledLoop:
 
 
 def _cache_dir() -> Path:
+    from hillchart.cache import first_writable, temporary_cache
+
     root = os.environ.get("HILLSIM_CACHE_DIR")
     candidates = [Path(root)] if root else []
     candidates.append(Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hillsim" / "loops")
-    candidates.append(Path(tempfile.gettempdir()) / f"hillsim-loops-{os.getuid() if hasattr(os, 'getuid') else 0}")
-    for path in candidates:
-        try:
-            path.mkdir(parents=True, exist_ok=True)
-            probe = path / f".probe-{os.getpid()}"
-            probe.write_text("")
-            probe.unlink()
-            return path
-        except OSError:
-            continue
-    raise OSError("no writable directory for the compiled-loop cache; set HILLSIM_CACHE_DIR")
+    candidates.append(temporary_cache("hillsim-loops"))
+    path = first_writable(candidates)
+    if path is None:
+        raise OSError("no writable directory for the compiled-loop cache; set HILLSIM_CACHE_DIR")
+    return path
 
 
 def _fingerprint(source: str, modules: list[str]) -> str:
