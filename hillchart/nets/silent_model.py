@@ -208,20 +208,15 @@ def _silent_nets_value(params, n11, opening, which):
     the pressure loop's iterations and the torque at the converged head need."""
     blend = params[2]
     w = _blend_weight(blend, n11, opening)[0]
-    if w <= 0.0:
+    if w <= 0.0:  # the table alone: the nets need not be evaluated
         y = _table_kernel(blend, n11, opening)[3 * which]
-        if blend[9] == 0.0 or opening >= blend[1]:
-            return y
-        f = _band_factor(blend, opening)[0]
-        if which == 0:
-            return y * f
-        m0 = _closed_torque(blend, n11)[0]
-        return m0 + (y - m0) * f
-    # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
-    # without reference counting refuses (simulate.loop.assembly)
-    y = _net_value_grad(params[0], n11, opening)[0] if which == 0 else _net_value_grad(params[1], n11, opening)[0]
-    if w < 1.0:
-        y = w * y + (1.0 - w) * _table_kernel(blend, n11, opening)[3 * which]
+    else:
+        # static indices: a tuple indexed by a variable hands out a new array reference, which the loop compiled
+        # without reference counting refuses (simulate.loop.assembly)
+        y = _net_value_grad(params[0], n11, opening)[0] if which == 0 else \
+            _net_value_grad(params[1], n11, opening)[0]
+        if w < 1.0:
+            y = w * y + (1.0 - w) * _table_kernel(blend, n11, opening)[3 * which]
     if blend[9] == 0.0 or opening >= blend[1]:
         return y
     f = _band_factor(blend, opening)[0]
@@ -252,8 +247,8 @@ def _silent_eval_many(flow, torque, blend, n11, opening, out):
             out[j, k] = r[j]
 
 
-def _finite_pair(lo, hi, low_open: bool) -> bool:
-    return math.isfinite(lo) and math.isfinite(hi) and (0 < lo if low_open else 0 <= lo) and lo < hi
+def _finite_pair(lo, hi) -> bool:
+    return math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,7 +300,7 @@ class SilentRegionModel:
                              f"{float(q.min())!r}")
         if not (math.isfinite(self.n11_top) and self.n11_top > 0):
             raise InputError(f"silent_model.n11_top must be finite and > 0, got {self.n11_top!r}")
-        if not _finite_pair(*self.blend_openings, low_open=False):
+        if not _finite_pair(*self.blend_openings):
             raise InputError(f"silent_model.blend_openings must be two finite numbers 0 <= low < high, got "
                              f"{list(self.blend_openings)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
@@ -470,8 +465,7 @@ def _from_legacy(doc, key: str) -> SilentRegionModel:
     if not all(math.isfinite(v) and v > 0 for v in values):
         raise InputError(f"nets.json: {key}.parameters must be {len(PARAMETER_NAMES)} finite positive numbers "
                          f"({', '.join(PARAMETER_NAMES)}), got {list(values)!r}")
-    if len(openings) != 2 or len(speeds) != 2 or not _finite_pair(*openings, low_open=False) \
-            or not _finite_pair(*speeds, low_open=False):
+    if len(openings) != 2 or len(speeds) != 2 or not _finite_pair(*openings) or not _finite_pair(*speeds):
         raise InputError(f"nets.json: {key}.blend_openings and {key}.n11_blend must be [low, high] pairs of finite "
                          f"numbers 0 <= low < high")
     p = dict(zip(PARAMETER_NAMES, values))
