@@ -372,9 +372,10 @@ def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
         return
     n11, opening = np.meshgrid(np.linspace(flow.x_min[0], flow.x_max[0], 7),
                                np.linspace(flow.x_min[1], flow.x_max[1], 7))
+    references = {"flow": flow.evaluate(n11, opening)[0], "torque": torque.evaluate(n11, opening)[0]}
     for i, pair in enumerate(ensemble):
         for name, point, member in (("flow", flow, pair[0]), ("torque", torque, pair[1])):
-            reference = point.evaluate(n11, opening)[0]
+            reference = references[name]
             departure = float(np.median(np.abs(member.evaluate(n11, opening)[0] - reference))
                               / (point.y_max - point.y_min))
             if not departure <= MEMBER_DEPARTURE:
