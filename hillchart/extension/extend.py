@@ -273,14 +273,6 @@ class ExtendedSamples:
         return path
 
 
-def _per_line(chart: ChartSamples, values: np.ndarray):
-    """(opening, n11, values) of each equal-opening line, sorted by N11; ``values`` are per flow point."""
-    for opening in chart.openings:
-        m = chart.flow_opening == opening
-        order = np.argsort(chart.flow_n11[m])
-        yield opening, chart.flow_n11[m][order], values[m][order]
-
-
 def zero_opening_torque(chart: ChartSamples, torque: np.ndarray, degree: int):
     """Per-N11 extrapolation of the flow-line torque to a = 0 (section 2.6 (3)) and the K of eq. (8).
 
@@ -292,7 +284,7 @@ def zero_opening_torque(chart: ChartSamples, torque: np.ndarray, degree: int):
     -------
     n11 : ndarray, r/min;   m11_at_zero : ndarray, N*m;   k : float, N*m/(r/min)^2
     """
-    lines = list(_per_line(chart, torque))
+    lines = list(chart.per_line(torque))
     if len(lines) < degree + 1:
         raise InputError(
             f"flow.csv: zero-opening extrapolation of degree {degree} needs at least {degree + 1} opening lines, "

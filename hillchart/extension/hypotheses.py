@@ -204,13 +204,6 @@ def _offset(ratios, ts) -> float:
     return float(np.clip(np.sum((r - t) * (r - 1.0)) / den, 0.0, MAX_OFFSET))
 
 
-def _lines(flow_opening, flow_n11, values):
-    for a in np.unique(flow_opening):
-        on = flow_opening == a
-        order = np.argsort(flow_n11[on])
-        yield float(a), flow_n11[on][order], tuple(v[on][order] for v in values)
-
-
 def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
     """The hypotheses of a chart: its lowest line against ``model`` and the curvature of its lowest lines.
 
@@ -224,7 +217,8 @@ def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
         K of eq. (8), N*m/(r/min)^2.
     """
     torque = np.asarray(torque, float)
-    lines = list(_lines(chart.flow_opening, chart.flow_n11, (chart.flow_q11, torque)))
+    lines = [(float(a), n, (q, m)) for (a, n, q), (_, _, m) in zip(chart.per_line(chart.flow_q11),
+                                                                   chart.per_line(torque))]
     a_low, n_low, (q_low, m_low) = lines[0]
     lowest = LowestLine(opening=a_low, n11=n_low, q11_residual=q_low - model.q11(n_low, a_low),
                         m11_residual=m_low - model.m11(n_low, a_low))
@@ -261,8 +255,6 @@ class HeldOut:
         How many of the lowest lines were held out.
     n11, opening, q11, m11 : ndarray (P,)
         The held-out points (r/min, chart units) and the chart's Q11 (m^3/s) and M11 (N*m) there.
-    m11_zero : ndarray (P,)
-        ``-K N11^2`` (N*m) of the refitted model: M11 with the vanes closed (eq. 8).
     distance : ndarray (P,)
         ``1 - a / a_low`` of each point, ``a_low`` the lowest line kept.
     predictions : dict
@@ -274,7 +266,6 @@ class HeldOut:
     opening: np.ndarray
     q11: np.ndarray
     m11: np.ndarray
-    m11_zero: np.ndarray
     distance: np.ndarray
     predictions: dict
 
@@ -304,7 +295,7 @@ def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
     n, a = chart.flow_n11[held], chart.flow_opening[held]
     predictions = {name: hyp.predict(name, n, a) for name in HYPOTHESES}
     return HeldOut(lines=lines, n11=n, opening=a, q11=chart.flow_q11[held], m11=torque[held],
-                   m11_zero=-model.k_zero_opening * n ** 2, distance=1.0 - a / openings[lines],
+                   distance=1.0 - a / openings[lines],
                    predictions=predictions)
 
 
@@ -372,13 +363,6 @@ class Evidence:
     m11_scale: float = 1.0
     distance_cap: float = 1.0
     notes: list = field(default_factory=list)
-
-    def half_width(self, target: str, distance):
-        """The band's half-width at ``distance`` below the lowest line (log-ratio for Q11, N*m for M11): ``kappa
-        h``, ``h`` of :func:`band_square`."""
-        h = np.vectorize(lambda d: band_square(d, self.distance_cap)[0], otypes=[float])(distance)
-        width = self.band[target] * h
-        return width if target == "q11" else width * self.m11_scale
 
     def blend(self, hypotheses: Hypotheses, n11, opening):
         """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``)."""

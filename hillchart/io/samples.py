@@ -131,6 +131,15 @@ class ChartSamples:
         """The distinct openings of the equal-opening lines, ascending."""
         return np.unique(self.flow_opening)
 
+    def per_line(self, values: np.ndarray):
+        """``(opening, n11, values)`` of each equal-opening line, lowest opening first, sorted by N11; ``values``
+        are per flow point (e.g. the flow points' Q11 or torque)."""
+        values = np.asarray(values)
+        for opening in self.openings:
+            m = self.flow_opening == opening
+            order = np.argsort(self.flow_n11[m])
+            yield opening, self.flow_n11[m][order], values[m][order]
+
 
 def read_chart_info(path) -> ChartInfo:
     """Read and validate ``chart.toml``."""
