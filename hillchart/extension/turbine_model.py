@@ -44,10 +44,6 @@ MAX_MISFIT_PCT = 5.0
 #: Prior on the disc-friction share of the shaft power at the best measured point (median, log-sd).
 DISC_FRICTION_SHARE = 0.01
 DISC_FRICTION_LOG_SD = math.log(5.0)
-#: Largest deviation of a drawn log-parameter from the fitted one (a factor of 10 either way). A parameter the chart
-#: does not constrain has a huge Laplace variance (the pseudo-inverse of a near-singular J^T J); an unbounded draw of
-#: it (a log-parameter of 3353 was seen) overflows exp and is no turbine the chart could have come from.
-MAX_LOG_DEVIATION = math.log(10.0)
 
 
 @dataclass(frozen=True)
@@ -64,10 +60,6 @@ class FittedTurbineModel:
         RMS misfit on the measured flow and torque samples, percent of their range.
     n11_limit : float
         Upper N11 (r/min) of the model's valid range (beyond it: the pumping region), inf when unbounded.
-    log_parameters, log_covariance : ndarray (11,), (11, 11) or None
-        The fitted log-parameters (:data:`PARAMETER_NAMES`) and their covariance by the Gauss-Newton (Laplace)
-        approximation ``s^2 (J^T J)^-1`` at the optimum, ``s^2`` the residual variance (misfit and prior
-        included): what the chart leaves open, e.g. the disc friction and the split of the losses, is wide.
     """
 
     turbine: object
@@ -75,25 +67,6 @@ class FittedTurbineModel:
     q11_rms_pct: float
     m11_rms_pct: float
     n11_limit: float
-    log_parameters: object = None
-    log_covariance: object = None
-
-    def draw(self, rng: np.random.Generator, opening_max: float | None = None):
-        """A plausible model the chart cannot tell from this one: log-parameters drawn from the Laplace
-        approximation (``log_covariance``), each within a factor of 10 of the fit (:data:`MAX_LOG_DEVIATION`,
-        clipped); a draw outside the model's valid geometry is redrawn (at most 20 times, then the fitted model
-        itself). Returns a :class:`hillchart.synthetic.francis.SyntheticFrancis`."""
-        if self.log_parameters is None or self.log_covariance is None:
-            return self.turbine
-        opening_max = self.turbine.params.opening_max if opening_max is None else opening_max
-        for _ in range(20):
-            x = rng.multivariate_normal(self.log_parameters, self.log_covariance, method="eigh")
-            x = np.clip(x, self.log_parameters - MAX_LOG_DEVIATION, self.log_parameters + MAX_LOG_DEVIATION)
-            try:
-                return _model(x, opening_max)
-            except InputError:
-                continue
-        return self.turbine
 
     def q11(self, n11, opening):
         return self.turbine.q11(n11, opening)
@@ -188,10 +161,6 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0) -> Fitte
             if best is None or result.cost < best.cost:
                 best = result
     turbine = _model(best.x, opening_max)
-    # Laplace approximation of what the chart leaves open: cov = s^2 (J^T J)^+ in log-parameter space
-    jac = np.asarray(best.jac, dtype=float)
-    dof = max(n_res - x0.size, 1)
-    covariance = (2.0 * best.cost / dof) * np.linalg.pinv(jac.T @ jac, hermitian=True)
     qq = turbine.q11(chart.flow_n11, chart.flow_opening)
     mm = turbine.m11(chart.flow_n11, chart.flow_opening)
     q_rms = 100.0 * float(np.sqrt(np.mean((qq - chart.flow_q11) ** 2))) / q_scale
@@ -206,5 +175,4 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0) -> Fitte
             "polynomial) and set K by hand (--zero-opening-k)"
         )
     return FittedTurbineModel(turbine=turbine, k_zero_opening=k, q11_rms_pct=q_rms, m11_rms_pct=m_rms,
-                              n11_limit=_n11_limit(turbine.params), log_parameters=np.array(best.x),
-                              log_covariance=covariance)
+                              n11_limit=_n11_limit(turbine.params))
