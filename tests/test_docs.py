@@ -269,7 +269,10 @@ def test_ci_runs_the_readme_test_command_and_the_strict_docs_build():
 @pytest.mark.slow
 def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
     """docs/guarantee-benchmark.md's tables of the real chart with its lowest lines held out are the output of
-    benchmarks/bench_extrapolation.py now (deterministic: seeded training; about 10 s)."""
+    benchmarks/bench_extrapolation.py now (seeded training; about 10 s). The same rows and labels; the numbers within
+    0.5 percentage points and the coverage counts within one point: the trained nets differ by up to 3.7e-3 of their
+    range between CPU families (tests/hillchart/nets/test_nets_accuracy.py), about 0.4 % of Q11 at the held-out
+    openings, which can move a printed digit or a point at the band's edge; on one machine they are equal."""
     from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
 
     require_external(SAYANO_LINES, SAYANO_CONTOURS)
@@ -280,4 +283,11 @@ def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
     printed = capsys.readouterr().out
     page = (DOCS / "guarantee-benchmark.md").read_text(encoding="utf-8")
     block = re.search(r"<!-- bench_extrapolation -->\n(.*?)\n<!-- end bench_extrapolation -->", page, re.S).group(1)
-    assert block.strip() and block in printed, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py"
+    rows = [line for line in block.splitlines() if line.startswith("| ")]
+    now = [line for line in printed.splitlines() if line.startswith("| ")]
+    assert len(rows) == len(now) > 20, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py"
+    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)  # the same labels and layout
+        for old, new in zip(number.findall(row), number.findall(fresh)):
+            assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
