@@ -37,9 +37,9 @@ The hypotheses are weighed by their held-out likelihood (pseudo-BMA, Yao et al. 
 the lines they were fitted on (:func:`weigh`; a least-squares stacking over the simplex was tried: better on one
 hold-out of the real chart, much worse on the out-of-class synthetic family). The residuals of the weighed blend at
 the held-out points, divided by the squared distance below the lowest kept line (``d = 1 - t``), give the band's
-width (:func:`band_scale`, split-conformal on the far half of the distances tested, growing no further than the
-furthest of them, :func:`band_square`): a band that widens with the distance from the data and is as wide as this
-chart's own evidence says. Toward runaway the chart's evidence is stated as well (:func:`overspeed_evidence`).
+widths, one per side (:func:`band_sides`, split-conformal on the far half of the distances tested, growing no further
+than the furthest of them, :func:`band_square`): a band that widens with the distance from the data, is as wide as
+this chart's own evidence says, and reaches furthest on the side where the held-out lines fell. Toward runaway the chart's evidence is stated as well (:func:`overspeed_evidence`).
 """
 
 from __future__ import annotations
@@ -55,18 +55,28 @@ from hillchart.errors import InputError
 HYPOTHESES = ("model", "anchored-model", "line", "offset-line", "speed-scaled-line", "quadratic")
 #: Lines (the lowest, and those just above it) whose bending gives the quadratic hypothesis its curvature.
 CURVATURE_LINES = 4
-#: Held-out folds: the lowest line, then the two lowest (each needs this many lines left to refit on).
+#: Held-out folds: the lowest line, then the two lowest. A fold needs MIN_LINES_LEFT lines left to refit on to
+#: count for the band, MIN_LINES_WEIGHED to count for the weights too (a model refitted on two lines predicts
+#: worse than the chart's answer will, which is all the band needs to know, but it would mislead the weights: on
+#: 4-line charts of the in-class synthetic family, weighing with it doubled the worst max head rise error).
 HOLD_OUT = (1, 2)
-MIN_LINES_LEFT = 3
+MIN_LINES_LEFT = 2
+MIN_LINES_WEIGHED = 3
 #: The band grows as the distance below the lowest line to this power (:func:`band_square`).
 GROWTH = 2.0
 #: The band is calibrated on the held-out points at least this fraction of the furthest distance tested.
 FAR_FRACTION = 0.5
 #: The band's distance is capped at this multiple of the largest distance the hold-outs tested.
 DISTANCE_CAP_FACTOR = 1.0
-#: Coverage the band aims at (two-sided: the 5-95 % band).
+#: Toward runaway the band grows linearly with the N11 gap beyond a line's last point up to this multiple of the
+#: largest gap the held-out last points tested, and no further (:func:`overspeed_evidence`).
+OVERSPEED_GAP_CAP = 2.0
+#: Coverage the band aims at (two-sided: the 5-95 % band; each side is a one-sided 95 % bound).
 BAND_COVERAGE = 0.90
-#: ``kappa`` of the band when the chart gives no held-out evidence (fewer than MIN_LINES_LEFT + 1 lines): 1.2, so
+#: The narrower side of the band is at least this fraction of the wider one: a record of a few held-out lines that
+#: all fell on one side does not show that the other side is impossible, only that it is less likely.
+MIN_SIDE_FRACTION = 0.25
+#: ``kappa`` of the band when the chart gives no held-out evidence (fewer than MIN_LINES_WEIGHED + 1 lines): 1.2, so
 #: +-30 % at half the lowest opening (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter
 #: to a half of the lowest opening below it).
 NO_EVIDENCE_SCALE = 1.2
@@ -259,6 +269,8 @@ class HeldOut:
         ``1 - a / a_low`` of each point, ``a_low`` the lowest line kept.
     predictions : dict
         hypothesis -> ``(Q11, M11)`` arrays.
+    lines_left : int
+        Opening lines the hypotheses were refitted on.
     """
 
     lines: int
@@ -268,6 +280,7 @@ class HeldOut:
     m11: np.ndarray
     distance: np.ndarray
     predictions: dict
+    lines_left: int = 0
 
 
 def sub_chart(chart, keep):
@@ -295,8 +308,8 @@ def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
     n, a = chart.flow_n11[held], chart.flow_opening[held]
     predictions = {name: hyp.predict(name, n, a) for name in HYPOTHESES}
     return HeldOut(lines=lines, n11=n, opening=a, q11=chart.flow_q11[held], m11=torque[held],
-                   distance=1.0 - a / openings[lines],
-                   predictions=predictions)
+                   distance=1.0 - a / openings[lines], predictions=predictions,
+                   lines_left=int(openings.size - lines))
 
 
 def band_square(distance, cap):
@@ -336,15 +349,17 @@ class Evidence:
     Attributes
     ----------
     folds : list of HeldOut
+        The folds behind the weights (and the band).
     weights : dict
         ``{"q11": {hypothesis: weight}, "m11": {...}}``, each summing to 1.
     errors : dict
         ``{"q11": {hypothesis: RMS error}, "m11": {...}}`` at the held-out points, with ``"blend"`` (the weighed
         hypotheses) and ``"blend_worst"``.
     band : dict
-        ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h`` (Q11: log-ratio; M11: fraction of
-        ``m11_scale``), ``h`` of :func:`band_square` at the distance ``d = 1 - a / a_low`` below the lowest line
-        (:func:`band_scale`).
+        ``{"q11": (low, high), "m11": (low, high)}``: the band's half-widths below and above the prediction,
+        ``kappa h`` in log Q11 and ``kappa h (1 - d)`` in M11 (a fraction of ``m11_scale``; at the closed vanes
+        the disc friction's ``-K N11^2`` of eq. 8 holds and the band closes), ``h`` of :func:`band_square` at the
+        distance ``d = 1 - a / a_low`` below the lowest line (:func:`band_sides`).
     m11_scale : float
         N*m.
     distance_cap : float
@@ -353,6 +368,8 @@ class Evidence:
     points : int
         Held-out points behind the weights and the band (0: no evidence; the band is :data:`NO_EVIDENCE_SCALE`).
     notes : list of str
+    band_folds : list of HeldOut
+        Folds refitted on fewer than :data:`MIN_LINES_WEIGHED` lines: behind the band only.
     """
 
     folds: list
@@ -363,6 +380,7 @@ class Evidence:
     m11_scale: float = 1.0
     distance_cap: float = 1.0
     notes: list = field(default_factory=list)
+    band_folds: list = field(default_factory=list)
 
     def blend(self, hypotheses: Hypotheses, n11, opening):
         """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``)."""
@@ -376,7 +394,7 @@ class Evidence:
         """What ``hillsim train`` prints: how well this chart predicts its own held-out lines, and the weights."""
         if not self.points:
             return ("below the lowest line: no held-out evidence (fewer than "
-                    f"{MIN_LINES_LEFT + 1} opening lines): hypotheses weighed equally, the band is wide "
+                    f"{MIN_LINES_WEIGHED + 1} opening lines): hypotheses weighed equally, the band is wide "
                     f"(+-{100 * NO_EVIDENCE_SCALE:.0f} % at half the lowest opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
@@ -387,8 +405,11 @@ class Evidence:
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "held_out_points": self.points,
-                "held_out_lines": [f.lines for f in self.folds], "weights": self.weights,
-                "rms_error": self.errors, "band_per_distance_squared": self.band, "m11_scale": self.m11_scale,
+                "held_out_lines": [f.lines for f in self.folds],
+                "band_only_held_out_lines": [f.lines for f in self.band_folds], "weights": self.weights,
+                "rms_error": self.errors,
+                "band_per_distance_squared": {k: {"low": v[0], "high": v[1]} for k, v in self.band.items()},
+                "m11_scale": self.m11_scale,
                 "distance_cap": self.distance_cap, "notes": list(self.notes)}
 
 
@@ -437,36 +458,85 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
     return float(ordered[-1] * (n + 1) / n)
 
 
+def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE, *, growth: float = GROWTH,
+               far_fraction: float = FAR_FRACTION, shape=None) -> tuple[float, float]:
+    """``(low, high)``: the band's half-widths per squared distance below and above the prediction, each a one-sided
+    split-conformal bound at ``(1 + coverage) / 2`` on the signed scores ``r / d^2`` of the far half of the distances
+    tested (:func:`band_scale` says why ``d^2`` and the far half). ``r`` is prediction minus truth (a log-ratio for
+    Q11), so the held-out points the prediction overshot set the low side.
+
+    The units of evidence are the held-out *lines* (the points of one line share one cause of error): with too few
+    of them for the quantile (``ceil((n + 1) q) > n``), a side is its largest score times ``(lines + 1) / lines``,
+    so a chart with one held-out line gets twice the width its one line showed. Neither side is narrower than
+    :data:`MIN_SIDE_FRACTION` of the other. ``growth`` and ``far_fraction``: the power of the distance and the part
+    of the distances calibrated on (toward runaway, :func:`overspeed_evidence`: 1 and 0); ``shape``, a further
+    factor of the band's growth at each point (M11 below the lowest line: ``1 - d``, the band closing at the
+    closed vanes).
+
+    Examples
+    --------
+    >>> [round(v, 4) for v in band_sides([0.02, 0.04, -0.01], [0.5, 0.5, 0.5], lines=1)]
+    [0.32, 0.08]
+    """
+    residuals = np.asarray(residuals, float)
+    distance = np.maximum(np.asarray(distance, float), 1e-9)
+    far = distance >= far_fraction * distance.max()
+    growth_at = distance ** growth if shape is None else distance ** growth * np.asarray(shape, float)
+    score = residuals[far] / growth_at[far]
+    n = score.size
+    if n == 0 or lines <= 0:
+        return NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE
+    level = 0.5 * (1.0 + coverage)
+    rank = math.ceil((n + 1) * level)
+    sides = []
+    for signed in (score, -score):
+        ordered = np.sort(signed)
+        width = float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (lines + 1) / lines
+        sides.append(max(width, 0.0))
+    widest = max(sides)
+    return tuple(max(v, MIN_SIDE_FRACTION * widest) for v in sides)
+
+
 def weigh(folds, m11_scale: float) -> Evidence:
     """Pseudo-BMA weights of the hypotheses from the held-out folds, the blend's errors and the band.
 
     Each hypothesis' weight is ``exp(-n/2 log MSE)``, its held-out Gaussian log-likelihood (Yao et al. 2018), with
     ``n`` the number of held-out *lines* (the points of one line share one cause of error, so they are one piece of
-    evidence) and the errors divided by ``d^2`` (the error model of :func:`band_scale`)."""
+    evidence) and the errors divided by ``d^2`` (the error model of :func:`band_scale`). The weights come from the
+    folds refitted on at least :data:`MIN_LINES_WEIGHED` lines, the band from every fold."""
     folds = [f for f in folds if f is not None]
-    points = int(sum(f.n11.size for f in folds))
+    weighed = [f for f in folds if f.lines_left >= MIN_LINES_WEIGHED]
+    points = int(sum(f.n11.size for f in weighed))
     if not points:
         equal = {h: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+        wide = (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
         return Evidence(folds=[], weights={"q11": dict(equal), "m11": dict(equal)}, errors={"q11": {}, "m11": {}},
-                        band={"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, points=0,
+                        band={"q11": wide, "m11": wide}, points=0,
                         m11_scale=m11_scale, notes=["no held-out evidence: too few opening lines"])
-    errors = _errors(folds, m11_scale)
+    errors = _errors(weighed, m11_scale)
+    distance_w = np.maximum(np.concatenate([f.distance for f in weighed]), 1e-9)
+    lines_w = sum(f.lines for f in weighed)
+    # the band: the blend's errors at every fold; M11's band closes at the closed vanes (eq. 8), as 1 - d
+    band_errors = _errors(folds, m11_scale)
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
+    closing = {"q11": None, "m11": np.maximum(1.0 - distance, 1e-9)}
     lines = sum(f.lines for f in folds)
     weights, rms, band = {}, {}, {}
     for target in ("q11", "m11"):
-        mse = {h: float(np.mean((e / distance ** GROWTH) ** 2)) for h, e in errors[target].items()}
+        mse = {h: float(np.mean((e / distance_w ** GROWTH) ** 2)) for h, e in errors[target].items()}
         best = max(min(mse.values()), 1e-300)
-        log_w = {h: -0.5 * lines * math.log(max(v, 1e-300) / best) for h, v in mse.items()}
+        log_w = {h: -0.5 * lines_w * math.log(max(v, 1e-300) / best) for h, v in mse.items()}
         total = sum(math.exp(v) for v in log_w.values())
         weights[target] = {h: math.exp(log_w[h]) / total for h in HYPOTHESES}
         blended = sum(weights[target][h] * errors[target][h] for h in HYPOTHESES)
         rms[target] = {h: float(np.sqrt(np.mean(e ** 2))) for h, e in errors[target].items()}
         rms[target]["blend"] = float(np.sqrt(np.mean(blended ** 2)))
         rms[target]["blend_worst"] = float(np.max(np.abs(blended)))
-        band[target] = band_scale(blended, distance)
-    return Evidence(folds=folds, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
-                    distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())))
+        scored = sum(weights[target][h] * band_errors[target][h] for h in HYPOTHESES)
+        band[target] = band_sides(scored, distance, lines, shape=closing[target])
+    return Evidence(folds=weighed, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
+                    distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())),
+                    band_folds=[f for f in folds if f not in weighed])
 
 
 def chart_evidence(chart, torque, fit_model, *, hold_out_lines=HOLD_OUT) -> Evidence:
@@ -493,6 +563,7 @@ class Extrapolation:
     evidence: Evidence
     n11_top: float
     overspeed: dict | None = None
+    line_ends: tuple = ()
 
     @classmethod
     def of_chart(cls, chart, torque, model) -> "Extrapolation":
@@ -505,8 +576,10 @@ class Extrapolation:
         # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's
         # answers held at its pumping limit beyond it, :meth:`Hypotheses.predict`)
         top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
+        ends = tuple((float(a), float(chart.flow_n11[chart.flow_opening == a].max()))
+                     for a in np.unique(chart.flow_opening))
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top,
-                   overspeed=overspeed_evidence(chart, torque, fit_turbine_model))
+                   overspeed=overspeed_evidence(chart, torque, fit_turbine_model), line_ends=ends)
 
     @property
     def lowest_opening(self) -> float:
@@ -515,6 +588,24 @@ class Extrapolation:
     def values(self, n11, opening):
         """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``) below the lowest line."""
         return self.evidence.blend(self.hypotheses, n11, opening)
+
+    def overspeed_widths(self, n11, opening):
+        """``(low, high)``: the M11 band's half-widths (N*m) toward runaway at (``n11``, ``opening``) (arrays): the
+        per-gap widths of :func:`overspeed_evidence` times the relative N11 gap beyond the last point of the
+        digitized line at that opening (up to the cap of :data:`OVERSPEED_GAP_CAP`); 0 on or before it, between lines
+        and below the lowest line (the band there
+        is :class:`Evidence`'s), and when the chart gave no overspeed evidence."""
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        low, high = np.zeros(n11.shape), np.zeros(n11.shape)
+        band = (self.overspeed or {}).get("m11_band_per_gap")
+        if not band:
+            return low, high
+        scale, cap = self.overspeed["m11_scale"], self.overspeed["gap_cap"]
+        for a, n_end in self.line_ends:
+            on = np.isclose(opening, a, rtol=0.0, atol=1e-9 * max(abs(a), 1.0)) & (n11 > n_end)
+            gap = np.minimum((n11[on] - n_end) / n_end, cap)
+            low[on], high[on] = band["low"] * scale * gap, band["high"] * scale * gap
+        return low, high
 
     def summary(self) -> str:
         text = self.evidence.summary()
@@ -538,8 +629,12 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     highest-N11 point held out (lines of 3 or more points) and predicted by the model refitted without them and by a
     straight continuation of the line through its last two kept points; the runaway points, where given, held out
     and their N11 predicted by the refitted model's runaway curve. RMS errors: Q11 and runaway N11 relative, M11 a
-    fraction of the measured M11 range. None when no line has 3 points or the refit fails. (Stated as evidence; the
-    overspeed samples of the extension are the whole chart's model.)"""
+    fraction of the measured M11 range. None when no line has 3 points or the refit fails.
+
+    The overspeed samples of the extension are the whole chart's model; its signed M11 misses here, per relative
+    N11 gap ``(N11 - N11_last) / N11_last`` beyond the line's last kept point, give the band toward runaway
+    (``m11_band_per_gap``, fractions of the M11 range per unit gap, below and above: :func:`band_sides` with linear
+    growth), in which the ensemble members' torque stands (:meth:`Extrapolation.overspeed_widths`)."""
     from hillchart.errors import InputError
 
     torque = np.asarray(torque, float)
@@ -572,7 +667,20 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
         for values, out in ((chart.flow_q11, q_line), (torque, m_line)):
             slope = (values[two[1]] - values[two[0]]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
             out.append(values[two[1]] + slope * (chart.flow_n11[k] - x[1]))
+    # the band toward runaway: the model's signed M11 misses per relative N11 gap beyond the line's last kept point
+    # (one point per line: the lines are the units of evidence), growing linearly with the gap; calibrated on the
+    # far half of the gaps (a miss over a tiny gap is reading noise, not a steep growth), and growing no further
+    # than OVERSPEED_GAP_CAP times the largest gap tested
+    gaps = []
+    for k in ends:
+        on = (chart.flow_opening == chart.flow_opening[k]) & ~held
+        last = float(chart.flow_n11[on].max())
+        gaps.append((chart.flow_n11[k] - last) / last)
+    gaps = np.array(gaps)
+    m_low, m_high = band_sides((m_model - m) / scale, gaps, lines=len(ends), growth=1.0)
     result = {"held_out_points": int(held.sum()), "beyond_model_range": int((~inside).sum()),
+              "m11_band_per_gap": {"low": m_low, "high": m_high}, "m11_scale": scale,
+              "gap_cap": OVERSPEED_GAP_CAP * float(gaps.max()),
               "model_q11_rms": float(np.sqrt(np.mean(((q_model - q) / q) ** 2))),
               "model_m11_rms": float(np.sqrt(np.mean(((m_model - m) / scale) ** 2))),
               "line_q11_rms": float(np.sqrt(np.mean(((np.array(q_line) - q) / q) ** 2))),

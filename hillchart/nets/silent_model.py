@@ -47,9 +47,9 @@ BLEND_START_FRACTION = 0.5
 #: Grid of the table: N11 from 0 to its top, openings from 0 to the lowest digitized one.
 N11_NODES = 41
 OPENING_NODES = 11
-#: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, two unused slots, torque factor, node counts, the
-#: grid's top N11 and opening, the member's band offset and the band's distance cap, then the Q11 and M11 tables
-#: (row-major, N11 first).
+#: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, the member's M11 band offset (N*m), an unused
+#: slot, torque factor, node counts, the grid's top N11 and opening, the member's Q11 band offset and the band's
+#: distance cap, then the Q11 and M11 tables (row-major, N11 first).
 _HEADER = 11
 
 
@@ -153,34 +153,29 @@ _band_square = numba.njit(cache=True)(band_square)
 
 @numba.njit(cache=True)
 def _silent_nets_kernel(params, n11, opening):
-    """:func:`_blended_kernel` moved along the band (an ensemble member's place in it, :func:`_band_factor`)."""
+    """:func:`_blended_kernel` moved along the band (an ensemble member's place in it, :func:`_band_moves`)."""
     q, q_n, q_a, m, m_n, m_a = _blended_kernel(params, n11, opening)
     blend = params[2]
-    if blend[9] == 0.0 or opening >= blend[1]:
+    if (blend[9] == 0.0 and blend[2] == 0.0) or opening >= blend[1]:
         return q, q_n, q_a, m, m_n, m_a
-    f, f_a = _band_factor(blend, opening)
-    m0, m0_n = _closed_torque(blend, n11)
-    return (q * f, q_n * f, q_a * f + q * f_a,
-            m0 + (m - m0) * f, m0_n + (m_n - m0_n) * f, m_a * f + (m - m0) * f_a)
+    f, f_a, dm, dm_a = _band_moves(blend, opening)
+    return q * f, q_n * f, q_a * f + q * f_a, m + dm, m_n, m_a + dm_a
 
 
 @numba.njit(cache=True)
-def _band_factor(blend, opening):
-    """``(exp(u h), d/da)``: an ensemble member's factor below the lowest line, ``u`` its place in the band times
-    the band's width, ``h`` of :func:`_band_square` at the distance ``1 - a / a_low``. Q11 and the hydraulic torque
-    ``M11 - M11(a = 0)`` are multiplied by it (the torque a runner takes from the flow moves with the flow)."""
+def _band_moves(blend, opening):
+    """``(f, df/da, dM, ddM/da)``: an ensemble member's move below the lowest line, Q11 multiplied by
+    ``f = exp(u_q h)`` and M11 shifted by ``dM = u_m h t`` (N*m, times the torque factor), ``u_q`` and ``u_m`` its
+    place in the band times the band's width on that side, ``h`` of :func:`_band_square` at the distance
+    ``d = 1 - t``, ``t = a / a_low``: each target moves by its own held-out evidence, and the torque's band closes
+    at the closed vanes, where the disc friction's -K N11^2 (eq. 8) holds."""
     a_low = blend[1]
-    h, dh = _band_square(1.0 - opening / a_low, blend[10])
-    factor = math.exp(blend[9] * h)
-    return factor, factor * blend[9] * dh * (-1.0 / a_low)
-
-
-@numba.njit(cache=True)
-def _closed_torque(blend, n11):
-    """``(M11, dM11/dN11)`` of the table at the closed vanes (a = 0): the disc friction's -K N11^2 (eq. 8)."""
-    size = int(blend[5]) * int(blend[6])
-    m, m_n, _ = _table_value_grad(blend, _HEADER + size, n11, 0.0)
-    return blend[4] * m, blend[4] * m_n
+    t = opening / a_low
+    h, dh = _band_square(1.0 - t, blend[10])
+    dh_a = dh * (-1.0 / a_low)
+    f = math.exp(blend[9] * h)
+    shift = blend[2] * blend[4]
+    return f, f * blend[9] * dh_a, shift * h * t, shift * (dh_a * t + h / a_low)
 
 
 @numba.njit(cache=True)
@@ -217,13 +212,12 @@ def _silent_nets_value(params, n11, opening, which):
             _net_value_grad(params[1], n11, opening)[0]
         if w < 1.0:
             y = w * y + (1.0 - w) * _table_kernel(blend, n11, opening)[3 * which]
-    if blend[9] == 0.0 or opening >= blend[1]:
+    if (blend[9] == 0.0 and blend[2] == 0.0) or opening >= blend[1]:
         return y
-    f = _band_factor(blend, opening)[0]
+    f, _, dm, _ = _band_moves(blend, opening)
     if which == 0:
         return y * f
-    m0 = _closed_torque(blend, n11)[0]
-    return m0 + (y - m0) * f
+    return y + dm
 
 
 @numba.njit(cache=True)
@@ -251,6 +245,17 @@ def _finite_pair(lo, hi) -> bool:
     return math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi
 
 
+def _band_pair(value):
+    """``(low, high)`` floats of a band's two half-widths (a pair of finite numbers), or None."""
+    try:
+        low, high = (float(v) for v in value)
+    except (TypeError, ValueError):
+        return None
+    if any(isinstance(v, bool) for v in value) or not (math.isfinite(low) and math.isfinite(high)):
+        return None
+    return low, high
+
+
 @dataclass(frozen=True, eq=False)
 class SilentRegionModel:
     """The tabulated extrapolation below the lowest digitized line and where it answers instead of the nets.
@@ -268,15 +273,18 @@ class SilentRegionModel:
     torque_factor : float
         The table's M11 is multiplied by it (1: the chart as measured; the prototype step-up scales the torque of
         nets and table alike, :func:`simulate.components.turbine.step_up.scale_torque`).
-    band_q11 : float
-        The band below the lowest line (:mod:`hillchart.extension.hypotheses`): its half-width is ``band_q11 h``
-        in log Q11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to ``distance_cap``
-        (:func:`_band_square`).
+    band_q11 : (float, float)
+        The band below the lowest line (:mod:`hillchart.extension.hypotheses`), below and above the answer: its
+        half-widths are ``band_q11 h`` in log Q11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to
+        ``distance_cap`` (:func:`_band_square`).
+    band_m11 : (float, float)
+        The same for M11, in N*m of the chart's M11 (times ``torque_factor`` in a run): half-widths
+        ``band_m11 h a / a_low``, closing at the closed vanes.
     distance_cap : float
     position : float
         An ensemble member's place in the band (+-1: the 5-95 % edges); 0 for the point answer. The member's
-        characteristics below the lowest line are ``Q11 f`` and ``M11(a=0) + (M11 - M11(a=0)) f`` with ``f =
-        exp(position band_q11 h)``: the hydraulic torque moves with the flow.
+        characteristics below the lowest line are ``Q11 exp(u_q h)`` and ``M11 + u_m h a / a_low`` with
+        ``u = position`` times the band's width on its side (low for a negative position).
     """
 
     q11: np.ndarray
@@ -284,7 +292,8 @@ class SilentRegionModel:
     n11_top: float
     blend_openings: tuple
     torque_factor: float = 1.0
-    band_q11: float = 0.0
+    band_q11: tuple = (0.0, 0.0)
+    band_m11: tuple = (0.0, 0.0)
     distance_cap: float = 1.0
     position: float = 0.0
 
@@ -305,10 +314,17 @@ class SilentRegionModel:
                              f"{list(self.blend_openings)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
             raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
-        for key, value, high in (("band_q11", self.band_q11, 10.0), ("distance_cap", self.distance_cap, 1.0)):
-            if not (math.isfinite(value) and 0 <= value <= high) or (key == "distance_cap" and value <= 0):
-                raise InputError(f"silent_model.{key} must be a finite number in "
-                                 f"{'(0' if key == 'distance_cap' else '[0'}, {high}], got {value!r}")
+        for key in ("band_q11", "band_m11"):
+            value = getattr(self, key)
+            sides = _band_pair(value)
+            limit = 10.0 if key == "band_q11" else math.inf
+            if sides is None or not all(0 <= v <= limit for v in sides):
+                raise InputError(f"silent_model.{key} must be a pair [low, high] of finite numbers in "
+                                 f"[0, {limit}], got {value!r}")
+            object.__setattr__(self, key, sides)
+        if not (math.isfinite(self.distance_cap) and 0 < self.distance_cap <= 1.0):
+            raise InputError(f"silent_model.distance_cap must be a finite number in (0, 1.0], got "
+                             f"{self.distance_cap!r}")
         if not (math.isfinite(self.position) and abs(self.position) <= 5.0):
             raise InputError(f"silent_model.position must be a finite number in [-5, 5], got {self.position!r}")
         object.__setattr__(self, "q11", q)
@@ -340,8 +356,9 @@ class SilentRegionModel:
     def packed(self) -> np.ndarray:
         """The numbers the kernel reads (:data:`_HEADER` header values, then the Q11 and M11 tables)."""
         nn, na = self.q11.shape
-        header = [*self.blend_openings, 0.0, 0.0, self.torque_factor, nn, na, self.n11_top,
-                  self.blend_openings[1], self.position * self.band_q11, self.distance_cap]
+        side = 0 if self.position < 0 else 1
+        header = [*self.blend_openings, self.position * self.band_m11[side], 0.0, self.torque_factor, nn, na,
+                  self.n11_top, self.blend_openings[1], self.position * self.band_q11[side], self.distance_cap]
         return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
 
     def table(self, n11, opening):
@@ -373,8 +390,7 @@ class SilentRegionModel:
     # ------------------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         doc = {"kind": KIND, "n11_top": self.n11_top, "blend_openings": list(self.blend_openings),
-               "band": {"q11": self.band_q11,
-                                                           "distance_cap": self.distance_cap},
+               "band": {"q11": list(self.band_q11), "m11": list(self.band_m11), "distance_cap": self.distance_cap},
                "q11": self.q11.tolist(), "m11": self.m11.tolist()}
         if self.torque_factor != 1.0:
             doc["torque_factor"] = self.torque_factor
@@ -419,12 +435,15 @@ class SilentRegionModel:
             openings = tuple(float(v) for v in doc["blend_openings"])
             factor = float(doc.get("torque_factor", 1.0))
             band = doc["band"]
-            if not isinstance(band, dict) or set(band) != {"q11", "distance_cap"}:
+            if not isinstance(band, dict) or set(band) not in ({"q11", "m11", "distance_cap"},
+                                                                {"q11", "distance_cap"}):
                 raise ValueError
-            widths = {"band_q11": float(band["q11"]), "distance_cap": float(band["distance_cap"])}
+            # files of the release before the two-sided band: one Q11 width, both sides (no M11 band of its own)
+            widths = {"band_q11": band["q11"] if isinstance(band["q11"], list) else [band["q11"]] * 2,
+                      "band_m11": band.get("m11", [0.0, 0.0]), "distance_cap": float(band["distance_cap"])}
         except (TypeError, ValueError):
             raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, band with "
-                             f"q11 and distance_cap, and the q11 and m11 tables)") from None
+                             f"q11, m11 ([low, high] pairs) and distance_cap, and the q11 and m11 tables)") from None
         if len(openings) != 2:
             raise InputError(f"nets.json: {key}.blend_openings must be a [low, high] pair")
         try:
@@ -438,7 +457,7 @@ def _python_kernel(params, n11, opening):
     """:func:`_silent_nets_kernel` in Python, where the nets alone answer; the compiled kernel elsewhere."""
     blend = params[2]
     s_a = _smoothstep.py_func(opening, blend[0], blend[1])[0]
-    banded = opening < blend[1] and blend[9] != 0.0
+    banded = opening < blend[1] and (blend[9] != 0.0 or blend[2] != 0.0)
     if s_a >= 1.0 and not banded:
         return (*_net_value_grad.py_func(params[0], n11, opening), *_net_value_grad.py_func(params[1], n11, opening))
     return _silent_nets_kernel(params, n11, opening)

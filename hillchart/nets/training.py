@@ -210,12 +210,15 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
                                         boundary_weight=boundary_weight, regularization=regularization,
                                         seed=net_seed, n_threads=probe.n_threads, lm_params=probe._lm_params(),
                                         progress=progress, label=key)
+        moves = _overspeed_moves(extended, key, X, groups, derived, ensemble, seed)
         for i in range(ensemble):
             # member i: its own random 80/20 split of the validated samples (early stopping on its held-out part),
-            # every derived sample in training, its own initialisations
+            # every derived sample in training, its own initialisations; toward runaway its torque samples stand at
+            # its place in the band of the chart's overspeed evidence
             rng = np.random.default_rng([net_seed, 104729, i])
             tr_i, va_i = _split(groups, probe.validation_fraction, validation_groups, rng)
-            results = _lm_runs(xn, yn, tr_i, va_i, np.where(derived, weight, 1.0), h, lam, rng,
+            yn_i = yn if moves is None else yn + 2.0 * moves[i] / (y_max - y_min)
+            results = _lm_runs(xn, yn_i, tr_i, va_i, np.where(derived, weight, 1.0), h, lam, rng,
                                ENSEMBLE_RESTARTS, probe.n_threads, probe._lm_params())
             res = min(results, key=lambda r: r.val_mse)
             w1, b1, w2, b2 = lm.unpack(res.theta, h)
@@ -267,6 +270,25 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
     return nets
 
 
+def _overspeed_moves(extended, key: str, X, groups, derived, members: int, seed: int):
+    """Per ensemble member, the shift (N*m) of each torque sample toward runaway: its place in the band
+    (:func:`hillchart.extension.hypotheses.member_positions`, the same places as below the lowest line) times the
+    band's half-width on that side at the sample (:meth:`hillchart.extension.hypotheses.Extrapolation.overspeed_widths`).
+    Only samples the extension derived from the model move (the overspeed samples, and the runaway points when no
+    runaway curve was digitized); measured ones never do. None for the flow net, without members or evidence."""
+    from hillchart.extension.hypotheses import member_positions
+
+    extrapolation = getattr(extended, "extrapolation", None)
+    if key != "torque" or not members or extrapolation is None:
+        return None
+    low, high = extrapolation.overspeed_widths(X[:, 0], X[:, 1])
+    movable = (groups == "silent-region") | ((groups == "runaway") & derived)
+    low, high = np.where(movable, low, 0.0), np.where(movable, high, 0.0)
+    if not (low.any() or high.any()):
+        return None
+    return [u * (low if u < 0 else high) for u in member_positions(members, seed)]
+
+
 def silent_region_models(extended, members: int = 0, seed: int = 0):
     """The extrapolation the nets hand over to below the lowest digitized opening
     (:class:`hillchart.nets.silent_model.SilentRegionModel`: the extension's weighed hypotheses, tabulated), when
@@ -283,6 +305,7 @@ def silent_region_models(extended, members: int = 0, seed: int = 0):
     evidence = extrapolation.evidence
     table = SilentRegionModel.tabulate(extrapolation.values, extrapolation.lowest_opening, extrapolation.n11_top,
                                        band_q11=evidence.band["q11"],
+                                       band_m11=tuple(evidence.m11_scale * v for v in evidence.band["m11"]),
                                        distance_cap=evidence.distance_cap)
     return table, [table.at(float(u)) for u in member_positions(members, seed)]
 

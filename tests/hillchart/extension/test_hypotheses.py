@@ -66,7 +66,8 @@ def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
         warnings.simplefilter("ignore")
         ext = extend_samples(load_chart(folder))
     ev = ext.extrapolation.evidence
-    assert ev.points == 0 and ev.band == {"q11": H.NO_EVIDENCE_SCALE, "m11": H.NO_EVIDENCE_SCALE}
+    wide = (H.NO_EVIDENCE_SCALE, H.NO_EVIDENCE_SCALE)
+    assert ev.points == 0 and ev.band == {"q11": wide, "m11": wide}
     assert set(ev.weights["q11"].values()) == {1.0 / len(H.HYPOTHESES)}
     assert "no held-out evidence" in ev.summary() and "digitize more opening lines" in ev.summary()
 
@@ -80,6 +81,23 @@ def test_band_scale_is_split_conformal_on_the_far_half():
     assert H.band_scale(residuals, distance) == pytest.approx(0.09 / 0.25 * 9 / 8)
     many = np.linspace(0.01, 0.2, 20)
     assert H.band_scale(many, np.full(20, 0.5)) == pytest.approx(np.sort(many)[18] / 0.25)  # rank ceil(21 x 0.9)
+
+
+def test_band_sides_are_one_sided_conformal_bounds_on_the_signed_scores():
+    """Each side is the ceil((n + 1) 0.95)-th smallest signed score on the far half (prediction minus truth: points
+    the prediction overshot set the low side); with too few points for that rank, the largest score widened by
+    (lines + 1) / lines; the narrow side is at least a quarter of the wide one."""
+    residuals = np.concatenate([np.linspace(0.01, 0.2, 20), np.linspace(-0.019, -0.001, 19)])
+    distance = np.full(residuals.size, 0.5)
+    low, high = H.band_sides(residuals, distance, lines=6)
+    scores = residuals / 0.25
+    rank = int(np.ceil(40 * 0.95))  # 38 of 39 scores
+    assert low == pytest.approx(np.sort(scores)[rank - 1])
+    assert high == pytest.approx(max(np.sort(-scores)[rank - 1], 0.25 * low))  # the floor holds here
+    assert high == pytest.approx(0.25 * low) and low > 0.5  # the failing side: a symmetric |r| band would be 0.76
+    # a thin record: 3 points of one line, widened by (1 + 1) / 1 on each side
+    assert H.band_sides([0.02, 0.04, -0.01], [0.5] * 3, lines=1) == pytest.approx((0.32, 0.08))
+    assert H.band_sides([0.02, 0.04, -0.01], [0.5] * 3, lines=3) == pytest.approx((0.16 * 4 / 3, 0.04 * 4 / 3))
 
 
 @pytest.mark.external

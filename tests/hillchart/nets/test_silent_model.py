@@ -92,18 +92,28 @@ def test_the_compiled_kernel_is_the_python_evaluation(nets):
 
 def test_members_spread_across_the_band_of_the_held_out_evidence(nets):
     """Each member stands at its own place in the band: below half the lowest opening (the table alone) a member's
-    Q11 is the table's times exp(position kappa h(d)), so the members' own 5-95 % percentiles are the band the
-    chart's held-out lines gave (1e-12: the same formula); above the lowest line the band is the nets' alone."""
+    Q11 is the table's times exp(u kappa_side h(d)) and its M11 the table's plus u kappa_m_side h(d) a / a_low, so the
+    members' own 5 and 95 % percentiles are the band's two sides the chart's held-out lines gave (1e-12: the same
+    formula); above the lowest line the band is the nets' alone."""
     members = nets.members()
     silent = nets.silent_model
     positions = np.array([m.silent_model.position for m in members])
     assert len(set(positions)) == len(members) and np.percentile(positions, 95) == pytest.approx(1.0, abs=1e-12)
+    assert np.percentile(positions, 5) == pytest.approx(-1.0, abs=1e-12)
     a1 = silent.blend_openings[1]
     a, n11 = 0.3 * a1, 75.0
     spread = np.log([float(m.q11(n11, a)) / float(nets.q11(n11, a)) for m in members])
+    shift = np.array([float(m.m11(n11, a)) - float(nets.m11(n11, a)) for m in members])
     h = band_square(1.0 - a / a1, silent.distance_cap)[0]
-    np.testing.assert_allclose(spread, positions * silent.band_q11 * h, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(np.percentile(spread, 95), silent.band_q11 * h, rtol=1e-12)
+    sides = np.where(positions < 0, 0, 1)
+    np.testing.assert_allclose(spread, positions * np.array(silent.band_q11)[sides] * h, rtol=1e-12, atol=1e-15)
+    t = a / a1  # the torque's band closes at the closed vanes
+    np.testing.assert_allclose(shift, positions * np.array(silent.band_m11)[sides] * h * t, rtol=1e-10, atol=1e-10)
+    at_shut = [float(m.m11(n11, 0.0)) - float(nets.m11(n11, 0.0)) for m in members]
+    assert max(map(abs, at_shut)) < 1e-9 * abs(float(nets.m11(n11, 0.0)))
+    np.testing.assert_allclose(np.percentile(spread, [5, 95]), np.array([-1, 1]) * np.array(silent.band_q11) * h,
+                               rtol=1e-12)
+    assert silent.band_q11[0] != silent.band_q11[1]  # the two sides differ: a symmetric band would fail above
     spread_data = np.ptp([float(m.q11(n11, 2 * a1)) for m in members]) / float(nets.q11(n11, 2 * a1))
     assert spread_data < np.ptp(spread) / 3  # the failing side: with data, the members agree
 
@@ -163,7 +173,7 @@ def test_a_file_of_an_earlier_version_reads_its_physical_model_as_a_table(nets):
     q, m = old.silent_model.table(n11, a)
     np.testing.assert_allclose(q, model.q11(n11, a), atol=1e-3 * np.ptp(model.q11(n11, a)))
     np.testing.assert_allclose(m, model.m11(n11, a), atol=1e-3 * np.ptp(model.m11(n11, a)))
-    assert old.silent_model.band_q11 == 0.0 and len(old.member_silent_models) == len(old.ensemble)
+    assert old.silent_model.band_q11 == (0.0, 0.0) and len(old.member_silent_models) == len(old.ensemble)
     bad = json.loads(json.dumps(doc))
     bad["silent_model"]["parameters"]["d2"] = -1.0
     with pytest.raises(InputError, match="silent_model.parameters must be 12 finite positive numbers"):
@@ -176,8 +186,11 @@ def test_a_table_with_bad_numbers_is_refused():
         SilentRegionModel(q11=good, m11=np.ones((5, 4)), n11_top=100.0, blend_openings=(1.0, 2.0))
     with pytest.raises(InputError, match=r"silent_model.n11_top must be finite and > 0, got -100.0"):
         SilentRegionModel(q11=good, m11=good, n11_top=-100.0, blend_openings=(1.0, 2.0))
-    with pytest.raises(InputError, match=r"silent_model.band_q11 must be a finite number in \[0, 10.0\]"):
-        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=-1.0)
+    with pytest.raises(InputError, match=r"silent_model.band_q11 must be a pair \[low, high\] of finite numbers in "
+                                         r"\[0, 10.0\], got \(-1.0, 0.2\)"):
+        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=(-1.0, 0.2))
+    with pytest.raises(InputError, match=r"silent_model.band_m11 must be a pair .* got 3.0"):
+        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_m11=3.0)
     SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0))
 
 
