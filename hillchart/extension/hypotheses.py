@@ -39,7 +39,8 @@ hold-out of the real chart, much worse on the out-of-class synthetic family). Th
 the held-out points, divided by the squared distance below the lowest kept line (``d = 1 - t``), give the band's
 widths, one per side (:func:`band_sides`, split-conformal on the far half of the distances tested, growing no further
 than the furthest of them, :func:`band_square`): a band that widens with the distance from the data, is as wide as
-this chart's own evidence says, and reaches furthest on the side where the held-out lines fell. Toward runaway the chart's evidence is stated as well (:func:`overspeed_evidence`).
+this chart's own evidence says, and reaches furthest on the side where the held-out lines fell. Toward runaway the
+chart's evidence gives a band as well (:func:`overspeed_evidence`).
 """
 
 from __future__ import annotations
@@ -399,9 +400,11 @@ class Evidence:
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)
+        h = band_square(0.5, self.distance_cap)[0]
+        low, high = (100.0 * (math.exp(sign * k * h) - 1.0) for sign, k in zip((-1.0, 1.0), self.band["q11"]))
         return (f"below the lowest line this chart predicts its own held-out lines within {100 * q:.1f} % (Q11) and "
                 f"{100 * m:.1f} % of the M11 range (RMS, {self.points} points); hypothesis weights Q11/M11: "
-                f"{weights}")
+                f"{weights}; the band at half the lowest opening spans {low:+.0f} % to {high:+.0f} % of Q11")
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "held_out_points": self.points,
@@ -617,6 +620,10 @@ class Extrapolation:
                      f"{100 * o['line_m11_rms']:.1f} %)")
             if o.get("runaway_n11_rms") is not None:
                 text += f", its held-out runaway speeds within {100 * o['runaway_n11_rms']:.1f} %"
+            band = o.get("m11_band_per_gap")
+            if band:
+                text += (f"; the torque band 10 % beyond a line's last point spans {-10 * band['low']:+.1f} % to "
+                         f"{10 * band['high']:+.1f} % of the M11 range")
         return text
 
     def to_dict(self) -> dict:

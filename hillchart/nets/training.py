@@ -273,7 +273,8 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
 def _overspeed_moves(extended, key: str, X, groups, derived, members: int, seed: int):
     """Per ensemble member, the shift (N*m) of each torque sample toward runaway: its place in the band
     (:func:`hillchart.extension.hypotheses.member_positions`, the same places as below the lowest line) times the
-    band's half-width on that side at the sample (:meth:`hillchart.extension.hypotheses.Extrapolation.overspeed_widths`).
+    band's half-width on that side at the sample
+    (:meth:`hillchart.extension.hypotheses.Extrapolation.overspeed_widths`).
     Only samples the extension derived from the model move (the overspeed samples, and the runaway points when no
     runaway curve was digitized); measured ones never do. None for the flow net, without members or evidence."""
     from hillchart.extension.hypotheses import member_positions

@@ -180,6 +180,22 @@ def test_a_file_of_an_earlier_version_reads_its_physical_model_as_a_table(nets):
         HillNets.from_dict(bad)
 
 
+def test_a_file_with_the_one_number_band_reads_it_as_both_sides(nets):
+    """nets.json of the release before the two-sided band held one Q11 width and no M11 band: it reads as that
+    width on both sides and no torque band (a member's Q11 moves, its M11 does not), exactly."""
+    doc = json.loads(nets.to_json())
+    doc["silent_model"]["band"] = {"q11": 0.3, "distance_cap": doc["silent_model"]["band"]["distance_cap"]}
+    old = HillNets.from_dict(doc)
+    assert old.silent_model.band_q11 == (0.3, 0.3) and old.silent_model.band_m11 == (0.0, 0.0)
+    a, n11 = 0.3 * old.silent_model.blend_openings[1], 75.0
+    member = old.members()[0]
+    assert float(member.m11(n11, a)) == float(old.m11(n11, a))
+    assert float(member.q11(n11, a)) != float(old.q11(n11, a))
+    doc["silent_model"]["band"] = {"q11": [0.3], "distance_cap": 0.5}
+    with pytest.raises(InputError, match=r"silent_model.band_q11 must be a pair \[low, high\]"):
+        HillNets.from_dict(doc)
+
+
 def test_a_table_with_bad_numbers_is_refused():
     good = np.ones((5, 5))
     with pytest.raises(InputError, match=r"silent_model.q11 and silent_model.m11 must be tables of the same shape"):
