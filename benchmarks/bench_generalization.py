@@ -15,7 +15,8 @@ K of eq. (8) against the true disc friction, charts that fail the acceptance bou
 after pipeline, with ``--coverage``) the fraction of truth-grid points inside the ensemble's 5-95 % band.
 
 Usage: ``PYTHONPATH=. python benchmarks/bench_generalization.py [--seeds 3] [--turbines slow,medium,fast]
-[--coverage] [--baseline]`` (about 20-40 min on 2 busy cores; ``--seeds 1`` for a quick look).
+[--coverage] [--baseline]`` (about 20-40 min on 2 busy cores; ``--seeds 1`` for a quick look; ``--turbines
+slow-x,medium-x,fast-x`` for the out-of-class family).
 """
 
 from __future__ import annotations

@@ -75,7 +75,8 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
     Parameters
     ----------
     turbine_name : str
-        A :data:`hillchart.synthetic.francis.FAMILY` member.
+        A member of :data:`hillchart.synthetic.francis.FAMILY` or of the out-of-class family
+        (:data:`hillchart.synthetic.francis_variants.OUT_OF_CLASS_FAMILY`).
     seed : int
         Digitization seed (also the training seed).
     options : DigitizationOptions, optional
@@ -88,10 +89,15 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
     from hillchart.extension.extend import ExtensionOptions, extend_samples
     from hillchart.io.samples import load_chart
 
+    from hillchart.errors import InputError
+    from hillchart.synthetic.francis_variants import OUT_OF_CLASS_FAMILY
+
     options = options or DigitizationOptions()
-    member = FAMILY[turbine_name]
+    member = FAMILY.get(turbine_name) or OUT_OF_CLASS_FAMILY.get(turbine_name)
+    if member is None:
+        raise InputError(f"turbine must be one of {', '.join([*FAMILY, *OUT_OF_CLASS_FAMILY])}, got {turbine_name!r}")
     exact = member.turbine()
-    texts = synthetic_chart_texts(seed=seed, turbine=turbine_name, options=options)
+    texts = synthetic_chart_texts(seed=seed, turbine=member, options=options)
     with tempfile.TemporaryDirectory() as folder:
         for name, text in texts.items():
             (Path(folder) / name).write_text(text, encoding="utf-8")

@@ -49,3 +49,13 @@ def test_the_acceptance_check_fails_the_paper_pipeline():
     failures = acceptance_failures(res)
     assert failures, res.errors
     assert res.k_ratio > 3.0  # the polynomial zero-opening extrapolation: measured 7x
+
+
+def test_the_out_of_class_family_is_measured_too_and_an_unknown_turbine_is_named():
+    """The out-of-class turbines are evaluated like the in-class ones (the benchmark reports both); a name of
+    neither family is refused with the names allowed."""
+    from hillchart.errors import InputError
+
+    with pytest.raises(InputError, match=r"turbine must be one of slow, medium, fast, slow-x, medium-x, fast-x, "
+                                         r"got 'kaplan'"):
+        evaluate("kaplan")
