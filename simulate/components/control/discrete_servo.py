@@ -22,7 +22,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_number
+from simulate.components.parameters import parameter, validate_parameters
 
 #: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
@@ -40,24 +40,24 @@ class DiscreteServoConfig:
     unit circle.
     """
 
-    b0: float = 0.5
-    a1: float = 1.0
-    a2: float = -0.5
-    sample_time_s: float = 0.2
-    stroke_min: float = 0.0
-    stroke_max: float = 1.0
-    closing_time_s: float | None = None
-    opening_time_s: float | None = None
+    b0: float = parameter(0.5, unit="1", low=-10.0, high=10.0,
+                          description="b0 of eq. (37), the weight of the command")
+    a1: float = parameter(1.0, unit="1", low=-10.0, high=10.0,
+                          description="a1 of eq. (37), the weight of the last stroke")
+    a2: float = parameter(-0.5, unit="1", low=-10.0, high=10.0,
+                          description="a2 of eq. (37), the weight of the stroke before it")
+    sample_time_s: float = parameter(0.2, unit="s", low=0.0, low_open=True, high=10.0,
+                                     description="sampling time tau (a whole multiple of the time step)")
+    stroke_min: float = parameter(0.0, unit="stroke fraction", low=0.0, high=1.0, description="lower stroke limit")
+    stroke_max: float = parameter(1.0, unit="stroke fraction", low=0.0, low_open=True, high=1.5,
+                                  description="upper stroke limit")
+    closing_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=1000.0,
+                                             description="time of a full closing stroke at the rate limit")
+    opening_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=1000.0,
+                                             description="time of a full opening stroke at the rate limit")
 
     def __post_init__(self):
-        for key in ("closing_time_s", "opening_time_s"):
-            if getattr(self, key) is not None:
-                check_number(f"servo.{key}", getattr(self, key), low=0.0, high=1000.0, low_open=True)
-        for key in ("b0", "a1", "a2"):
-            check_number(f"servo.{key}", getattr(self, key), low=-10.0, high=10.0)
-        check_number("servo.sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
-        check_number("servo.stroke_min", self.stroke_min, low=0.0, high=1.0)
-        check_number("servo.stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+        validate_parameters("servo", self)
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"servo.stroke_min must be < servo.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")

@@ -8,14 +8,84 @@ Signals: x = n / n_r - 1 (per-unit speed deviation), x_ref the per-unit speed re
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.control.discrete_servo import (check_servo_step, discrete_servo_parameters,
-                                                       discrete_servo_step, initial_servo_state)
+from simulate.components.control.discrete_servo import (DiscreteServoConfig, check_servo_step,
+                                                       discrete_servo_parameters, discrete_servo_step,
+                                                       initial_servo_state)
+from simulate.components.parameters import borrowed, parameter, validate_parameters
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
+
+@dataclass(frozen=True)
+class GovernorConfig:
+    """Parallel PID on the per-unit speed error with permanent droop, derivative filter and a first-order servo.
+
+    ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
+    ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
+    ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
+
+    ``servo_model``: ``"first-order"`` (default: T_y, rate limits, stroke limits) or ``"discrete"``: paper 000's
+    second-order sampled servo, eq. (37), u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every ``servo_sample_time_s``
+    (held in between; a whole multiple of the time step), keys ``servo_b0``, ``servo_a1``, ``servo_a2``,
+    ``servo_sample_time_s`` (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2) at 0.2 s; DC gain 1 and stable poles
+    required), with the stroke limits and the rate limits ``closing_time_s``/``opening_time_s`` applied at each sample
+    (``servo_time_s`` then acts only through the time-step guards).
+    """
+
+    kp: float = parameter(unit="stroke/pu speed", low=0.0, high=1000.0, description="proportional gain")
+    ki: float = parameter(unit="stroke/(pu speed s)", low=0.0, high=1000.0, description="integral gain")
+    kd: float = parameter(unit="stroke s/pu speed", low=0.0, high=1000.0, description="derivative gain")
+    derivative_filter_s: float = parameter(unit="s", low=0.0, high=100.0,
+                                           description="time constant T_f of the derivative filter")
+    permanent_droop: float = parameter(unit="pu speed/stroke", low=0.0, high=1.0, high_open=True,
+                                       description="permanent droop b_p, on the servo stroke")
+    servo_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=100.0,
+                                    description="time constant T_y of the first-order servo")
+    closing_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=1000.0,
+                                      description="time of a full closing stroke at the rate limit")
+    opening_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=1000.0,
+                                      description="time of a full opening stroke at the rate limit")
+    stroke_min: float = parameter(0.0, unit="stroke fraction", low=0.0, high=1.0, description="lower stroke limit")
+    stroke_max: float = parameter(1.0, unit="stroke fraction", low=0.0, low_open=True, high=1.5,
+                                  description="upper stroke limit")
+    servo_model: str = parameter("first-order", unit="", choices=("first-order", "discrete"),
+                                 description="the servo between the governor and the guide vanes")
+    servo_b0: float | None = borrowed(DiscreteServoConfig, "b0")
+    servo_a1: float | None = borrowed(DiscreteServoConfig, "a1")
+    servo_a2: float | None = borrowed(DiscreteServoConfig, "a2")
+    servo_sample_time_s: float | None = borrowed(DiscreteServoConfig, "sample_time_s")
+
+    DISCRETE_KEYS: ClassVar[tuple[str, ...]] = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
+
+    def __post_init__(self):
+        validate_parameters("governor", self)
+        if self.stroke_min >= self.stroke_max:
+            raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
+                             f"got {self.stroke_min!r}")
+        given = [k for k in self.DISCRETE_KEYS if getattr(self, k) is not None]
+        if self.servo_model != "discrete" and given:
+            raise InputError(f"governor.{given[0]} is a key of governor.servo_model = \"discrete\" (eq. (37)); got "
+                             f"servo_model = {self.servo_model!r}")
+        if self.servo_model == "discrete":
+            self.discrete_servo  # validates eq. (37)'s coefficients
+
+    @property
+    def discrete_servo(self) -> DiscreteServoConfig:
+        """:class:`simulate.components.control.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys
+        (servo_model "discrete")."""
+        keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
+        try:
+            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max,
+                                       closing_time_s=self.closing_time_s, opening_time_s=self.opening_time_s)
+        except InputError as exc:
+            raise InputError("governor (servo_model = \"discrete\", eq. (37)): "
+                             + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
+
 
 #: Layout of the governor parameter vector passed to the compiled loop.
 GOVERNOR_PARAMS = ("kp", "ki", "kd", "derivative_filter_s", "permanent_droop", "initial_stroke", "stroke_min",
@@ -30,7 +100,6 @@ def governor_parameters(governor, initial_stroke: float, dt_s: float) -> np.ndar
 
     Examples
     --------
-    >>> from simulate.config import GovernorConfig
     >>> g = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
     ...                    servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
     >>> [round(float(v), 4) for v in governor_parameters(g, 0.8, 0.01)[-3:]]
