@@ -42,7 +42,9 @@ METADATA_KEY = "parameter"
 class Parameter:
     """What a key means and what it may be: ``unit`` (``"s"``, ``"stroke fraction"``, ``"1"`` for a pure number),
     ``description`` (one line for the reference page), a number's bounds ``low``/``high`` (``None``: unbounded;
-    ``low_open``/``high_open``: the bound itself is refused), or a string's ``choices``."""
+    ``low_open``/``high_open``: the bound itself is refused), or a string's ``choices`` (a tuple, or a registry of
+    components, :class:`simulate.components.registry.Registry`: its names at the time of the check, so a component
+    registered later is accepted)."""
 
     unit: str
     description: str
@@ -50,26 +52,30 @@ class Parameter:
     high: float | None = None
     low_open: bool = False
     high_open: bool = False
-    choices: tuple[str, ...] = ()
+    choices: Any = ()
+
+    def options(self) -> tuple[str, ...]:
+        """The allowed strings (none for a number)."""
+        return tuple(self.choices.names()) if hasattr(self.choices, "names") else tuple(self.choices)
 
     def allowed(self) -> str:
         """What is allowed, worded as the error message words it (``in [0.0, 1.0)``, ``one of a, b``)."""
-        if self.choices:
-            return "one of " + ", ".join(self.choices)
+        if self.options():
+            return "one of " + ", ".join(self.options())
         return "in " + interval(self.low, self.high, low_open=self.low_open, high_open=self.high_open)
 
     def check(self, key: str, value: Any) -> None:
         """:class:`InputError` naming ``key``, ``value`` and :meth:`allowed` unless ``value`` is allowed."""
-        if self.choices:
-            check_choice(key, value, self.choices)
+        if self.options():
+            check_choice(key, value, self.options())
         else:
             check_number(key, value, low=self.low, high=self.high, low_open=self.low_open, high_open=self.high_open)
 
     def violations(self) -> list[Any]:
         """Values just outside each finite bound (the bound itself when it is open), and a wrong type: the bad
         inputs the generated tests feed."""
-        if self.choices:
-            return ["no-such-" + self.choices[0], 1.0]
+        if self.options():
+            return ["no-such-" + self.options()[0], 1.0]
         out = []
         if self.low is not None:
             out.append(self.low if self.low_open else self.low - max(1.0, abs(self.low)) * 1e-3)
@@ -80,11 +86,12 @@ class Parameter:
 
 def parameter(default: Any = MISSING, *, unit: str, description: str, low: float | None = None,
               high: float | None = None, low_open: bool = False, high_open: bool = False,
-              choices: tuple[str, ...] = ()) -> Any:
+              choices: Any = ()) -> Any:
     """A dataclass field declared as a :class:`Parameter` (``default`` left out: the key is required; ``None``: the
     key is optional and may be left out)."""
     declared = Parameter(unit=unit, description=description, low=low, high=high, low_open=low_open,
-                         high_open=high_open, choices=tuple(choices))
+                         high_open=high_open,
+                         choices=choices if hasattr(choices, "names") else tuple(choices))
     return dataclasses.field(default=default, metadata={METADATA_KEY: declared})
 
 

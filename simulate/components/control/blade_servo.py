@@ -24,7 +24,10 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_number
-from simulate.components.control.governor import governor_parameters, governor_step, servo_step
+from simulate.components.control.governor import (build_vane_servo, governor_parameters, governor_step,
+                                                  refuse_servo_without_governor)
+from simulate.components.control.servo import first_order_servo_step, servo_step
+from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
 
 BLADE_MODES = ("combinator", "held", "law")
@@ -141,9 +144,13 @@ class CombinatorConfig:
 # ---------------------------------------------------------------------------------------------------------------
 # compiled steps (registry kind "control")
 # ---------------------------------------------------------------------------------------------------------------
-# blade params vector: the servo layout of GOVERNOR_PARAMS (indices 5-10: y0, y_min, y_max, decay, close_step,
-# open_step, in blade stroke fractions) then [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
-_MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 11, 12, 13, 14, 15, 16
+# blade params vector: the first-order servo's layout (simulate.components.control.servo.SERVO_PARAMS, indices 0-4:
+# y_min, y_max, decay, close_step, open_step, in blade stroke fractions), y0 (index 5), then
+# [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
+_Y0, _MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 5, 6, 7, 8, 9, 10, 11
+#: The guide-vane servo the governor's step calls: bound by the builder (as in
+#: :mod:`simulate.components.control.governor`); this default is the first-order servo.
+vane_servo = first_order_servo_step
 
 
 @numba.njit(cache=True)
@@ -156,7 +163,7 @@ def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
     if mode == 0.0:
         command = (cam - blade[_ANGLE_MIN]) / blade[_SPAN]
     elif mode == 1.0 or t_next_s < blade[_LAW_START]:
-        command = blade[5]
+        command = blade[_Y0]
     else:
         command = blade[_LAW_TARGET]
     return servo_step(blade, command, controls[1])
@@ -164,14 +171,14 @@ def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
 
 @numba.njit(cache=True)
 def governor_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """Governor PID and vane servo (as :func:`simulate.components.control.governor.governor_control_step`), then
-    the blades: controls at t_next."""
-    gov, ref_times, ref_values, scal, blade, cam_openings, cam_angles = p
-    state, controls, bstate = s
+    """Governor PID and vane servo (``vane_servo``; as :func:`simulate.components.control.governor.
+    governor_control_step`), then the blades: controls at t_next."""
+    gov, ref_times, ref_values, scal, servo, blade, cam_openings, cam_angles = p
+    state, servo_state, controls, bstate = s
     x = speed_rpm / scal[0] - 1.0
     x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
     command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
-    controls[0] = servo_step(gov, command, controls[0])
+    controls[0] = vane_servo(servo, servo_state, command, controls[0], dt_s)
     controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[1])
     return controls
 
@@ -212,7 +219,7 @@ def blade_parameters(plant, turbine_view, initial_blade_stroke: float, dt_s: flo
         target_deg = servo.angle_min_deg if servo.law_target_deg is None else servo.law_target_deg
         target = turbine_view.blade_stroke(target_deg)
     law_start = servo.law_start_s if servo is not None else 0.0
-    return np.array([0.0, 0.0, 0.0, 0.0, 0.0, initial_blade_stroke, 0.0, 1.0, decay, close_step, open_step,
+    return np.array([0.0, 1.0, decay, close_step, open_step, initial_blade_stroke,
                      mode, turbine_view.angle_min_deg, span, plant.turbine.opening_max, law_start, target])
 
 
@@ -240,34 +247,29 @@ def _blade_setup(plant, steady, dt_s, characteristics):
 
 
 def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """Governor on the vanes, blades through their servo (module docstring). The vane servo is the first-order
-    one: paper 000's discrete servo (``governor.servo_model = "discrete"``) is refused here rather than ignored."""
-    if plant.governor.servo_model != "first-order":
-        raise InputError(f"governor.servo_model = {plant.governor.servo_model!r} is not available on a "
-                         f"double-regulated unit (a plant with [combinator]): its governor drives the guide vanes "
-                         f"through the first-order servo (governor.servo_time_s) and the blades through "
-                         f"[blade_servo]; set governor.servo_model = \"first-order\" or leave it out")
-
+    """Governor on the vanes through the servo ``governor.servo_model`` names, blades through their servo (module
+    docstring)."""
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
+    servo = build_vane_servo(plant, steady.stroke, dt_s)
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
-    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
-              scal, blade, openings, angles)
-    return _part("governor", governor_blade_step, params, (np.zeros(3), controls, bstate), blade, bstate,
-                 characteristics.blade_range_deg)
+    params = (governor_parameters(plant.governor, steady.stroke), schedules.ref_times_s, schedules.ref_values,
+              scal, servo.params, blade, openings, angles)
+    step = Bound(governor_blade_step, (("vane_servo", servo.step),))
+    return _part("governor", step, params, (np.zeros(3), servo.state, controls, bstate), blade, bstate,
+                 characteristics.blade_range_deg, servo.summary)
 
 
 def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristics=None):
     """The scenario's vane law, blades through their servo."""
+    refuse_servo_without_governor(plant, f"the prescribed law of scenario.kind = {plant.scenario.kind!r}")
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
     params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]), blade, openings, angles)
     return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate,
                  characteristics.blade_range_deg)
 
 
-def _part(name, step, params, state, blade, bstate, blade_range):
-    from simulate.components.registry import CompiledPart, PartHooks
-
-    phi0 = blade[_ANGLE_MIN] + blade[5] * blade[_SPAN]
+def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
+    phi0 = blade[_ANGLE_MIN] + blade[_Y0] * blade[_SPAN]
     warnings_after = None
     if blade_range is not None:
         lo, hi = blade_range
@@ -280,7 +282,7 @@ def _part(name, step, params, state, blade, bstate, blade_range):
                         f"angle_max_deg or train the nets over the blade angles the run visits"]
             return []
 
-    hooks = PartHooks(initial_signals=(phi0, float(bstate[0])), n_controls=2,
+    hooks = PartHooks(summary=dict(summary or {}), initial_signals=(phi0, float(bstate[0])), n_controls=2,
                       initial_controls=(float(state[-2][0]), float(state[-2][1])), warnings_after=warnings_after)
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
                         params=params, state=state, signals=SIGNALS, hooks=hooks)

@@ -22,12 +22,15 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.control.servo import Servo
 from simulate.components.parameters import parameter, validate_parameters
 
 #: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
 #: Layout of the state vector: the last two outputs and the time left to the next sample (s).
 SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
+#: Keys of ``[governor]`` this servo reads besides the common ones (``governor.servo_model = "discrete"``).
+GOVERNOR_KEYS = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
 
 @dataclass(frozen=True)
@@ -121,5 +124,43 @@ def discrete_servo_step(params, state, command, dt_s):
     return state[0]
 
 
-__all__ = ["DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
+@numba.njit(cache=True)
+def discrete_servo_component_step(sp, ss, command, stroke, dt_s):
+    """The servo component's step (:mod:`simulate.components.control.servo`): :func:`discrete_servo_step`."""
+    return discrete_servo_step(sp, ss, command, dt_s)
+
+
+def servo_config(governor) -> DiscreteServoConfig:
+    """The :class:`DiscreteServoConfig` of a ``[governor]`` section's ``servo_*`` keys (:data:`GOVERNOR_KEYS`), with
+    its stroke and rate limits; errors name the ``[governor]`` keys."""
+    keys = {k[len("servo_"):]: getattr(governor, k) for k in GOVERNOR_KEYS if getattr(governor, k) is not None}
+    try:
+        return DiscreteServoConfig(**keys, stroke_min=governor.stroke_min, stroke_max=governor.stroke_max,
+                                   closing_time_s=governor.closing_time_s, opening_time_s=governor.opening_time_s)
+    except InputError as exc:
+        raise InputError("governor (servo_model = \"discrete\", eq. (37)): "
+                         + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
+
+
+def check_governor(governor) -> None:
+    """Validate the ``[governor]`` section's eq. (37) keys (called when it is read)."""
+    servo_config(governor)
+
+
+def build_discrete_servo(governor, initial_stroke: float, dt_s: float):
+    """Paper 000's discrete servo (eq. (37)) as the governor's servo; ``dt_s`` must divide
+    ``governor.servo_sample_time_s``."""
+    config = servo_config(governor)
+    try:
+        check_servo_step(config, dt_s)
+    except InputError as exc:
+        raise InputError(str(exc).replace("servo.sample_time_s", "governor.servo_sample_time_s")
+                         + "; set solver.dt_s (or penstock.reaches) or governor.servo_sample_time_s") from None
+    return Servo(discrete_servo_component_step, discrete_servo_parameters(config), initial_servo_state(initial_stroke),
+                 summary={"servo_model": "discrete (Wang et al. 2023, eq. (37))",
+                          "servo_sample_time_s": config.sample_time_s})
+
+
+__all__ = ["GOVERNOR_KEYS", "servo_config", "check_governor", "build_discrete_servo", "discrete_servo_component_step",
+           "DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
            "check_servo_step", "discrete_servo_step"]

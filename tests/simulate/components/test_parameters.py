@@ -9,12 +9,15 @@ import re
 import pytest
 
 from hillchart.errors import InputError
+from simulate.components.control.backlash import BacklashConfig
+from simulate.components.control.dead_time import DeadTimeConfig
 from simulate.components.control.discrete_servo import DiscreteServoConfig
 from simulate.components.control.governor import GovernorConfig
 from simulate.components.parameters import Parameter, declarations
 
 #: (section, config class): the classes whose keys are declared as data
-DECLARED = (("governor", GovernorConfig), ("servo", DiscreteServoConfig))
+DECLARED = (("governor", GovernorConfig), ("servo", DiscreteServoConfig), ("servo", DeadTimeConfig),
+            ("servo", BacklashConfig))
 
 
 def _cases():
@@ -41,8 +44,8 @@ def _make(section, cls, name, value):
 
 def _inside(spec: Parameter):
     """Values on each closed bound and just inside each open one: allowed by the declaration."""
-    if spec.choices:
-        return list(spec.choices)
+    if spec.options():
+        return list(spec.options())
     out = []
     for bound, is_open, sign in ((spec.low, spec.low_open, 1.0), (spec.high, spec.high_open, -1.0)):
         if bound is not None:

@@ -1,0 +1,157 @@
+"""The guide-vane servos (registry kind "servo", governor.servo_model): closed-form responses of each component
+and of the plant loop that runs it.
+
+* rate limit: a load rejection closes the vanes at exactly one full stroke per closing_time_s;
+* dead time: the response is the delay-free one shifted by the dead time;
+* backlash: the vanes follow the piston less half the play once it is taken up, and hold while the piston moves
+  inside it.
+"""
+
+import numpy as np
+import pytest
+
+from hillchart.errors import InputError
+from simulate.components.control.backlash import backlash_servo_step
+from simulate.components.control.dead_time import dead_time_servo_step, delay_steps
+from simulate.components.control.servo import first_order_servo_step
+from simulate.components.registry import SERVOS
+
+#: first-order servo vector (simulate.components.control.servo.SERVO_PARAMS): stroke 0-1, T_y with dt / T_y = 0.1,
+#: a full stroke in 10 s closing / 20 s opening at dt = 0.02 s
+FIRST_ORDER = np.array([0.0, 1.0, np.exp(-0.1), 0.02 / 10.0, 0.02 / 20.0])
+
+
+def _commands(n=400, seed=0):
+    """A command sequence: rest at 0.6, a step to 0.3, then a seeded random walk inside the stroke range."""
+    rng = np.random.default_rng(seed)
+    walk = np.clip(0.3 + np.cumsum(rng.normal(0.0, 0.01, n - 50)), 0.05, 0.95)
+    return np.concatenate([np.full(20, 0.6), np.full(30, 0.3), walk])
+
+
+def _respond(step, sp, ss, commands, y0):
+    out, y = [], y0
+    for c in commands:
+        y = step(sp, ss, c, y, 0.02)
+        out.append(y)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_dead_time_response_is_the_delay_free_one_shifted_by_the_dead_time(seed):
+    commands = _commands(seed=seed)
+    free = _respond(first_order_servo_step, FIRST_ORDER, np.zeros(1), commands, 0.6)
+    n = delay_steps(0.14, 0.02)
+    assert n == 7
+    state = np.full(n + 1, 0.6)
+    state[0] = 0.0
+    delayed = _respond(dead_time_servo_step, FIRST_ORDER, state, commands, 0.6)
+    # the same arithmetic on the same commands n steps later: equal to the last bit (tolerance 0)
+    np.testing.assert_array_equal(delayed[:n], 0.6)
+    np.testing.assert_array_equal(delayed[n:], free[:-n])
+    # beside it, a shift by one step less is not the response (the step to 0.3 moves 0.002 per step at the limit)
+    assert np.max(np.abs(delayed[n:] - free[1:1 - n])) > 1e-3
+
+
+def test_backlash_follows_the_closed_form_dead_band_response():
+    """Piston = command (no lag: decay 0; no rate limit), play b = 0.06: up a ramp 0.5 -> 0.7 the vanes stay until
+    the piston is b/2 above them, then follow at piston - b/2; back down they hold at 0.67 until the piston is b/2
+    below, then follow at piston + b/2."""
+    b = 0.06
+    sp = np.array([0.0, 1.0, 0.0, np.inf, np.inf, b / 2])
+    up = 0.5 + 0.01 * np.arange(1, 21)
+    down = 0.7 - 0.01 * np.arange(1, 31)
+    commands = np.concatenate([up, down])
+    vanes = _respond(backlash_servo_step, sp, np.array([0.5]), commands, 0.5)
+    expected = np.concatenate([np.maximum(0.5, up - b / 2), np.minimum(0.7 - b / 2, down + b / 2)])
+    # closed form on sums of 0.01 steps: equal within rounding (1e-12 is 1e4 ulps of the strokes, far below the
+    # 0.01 a wrong engagement point would show)
+    np.testing.assert_allclose(vanes, expected, rtol=0, atol=1e-12)
+    assert vanes[1] == 0.5 and vanes[3] == pytest.approx(0.51, abs=1e-12)  # engages after b/2 = 0.03 of travel
+    assert np.all(vanes[20:23] == vanes[19])  # holds at the reversal while the piston crosses the play
+    # beside it, without play the vanes follow the command (differ from the closed form by b/2 in the ramps)
+    plain = _respond(backlash_servo_step, np.append(sp[:5], 0.0), np.array([0.5]), commands, 0.5)
+    assert np.max(np.abs(plain - expected)) == pytest.approx(b / 2, abs=1e-12)
+
+
+def test_dead_time_must_be_a_whole_number_of_control_steps():
+    assert delay_steps(0.3, 0.02) == 15
+    with pytest.raises(InputError, match=r"governor\.servo_dead_time_s = 0\.31 must be a whole multiple of the "
+                                         r"control step 0\.02 s"):
+        delay_steps(0.31, 0.02)
+
+
+def test_every_servo_module_declares_its_governor_keys_and_the_governor_refuses_the_others():
+    from simulate.components.control.governor import GovernorConfig
+
+    owned = [k for name in SERVOS.names() for k in SERVOS.attribute(name, "GOVERNOR_KEYS", ())]
+    assert sorted(owned) == sorted(GovernorConfig.servo_keys())  # each servo_* key belongs to exactly one servo
+    base = dict(kp=2.0, ki=0.4, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0, servo_time_s=0.2,
+                closing_time_s=12.0, opening_time_s=20.0)
+    assert GovernorConfig(**base, servo_model="dead-time", servo_dead_time_s=0.2).servo_dead_time_s == 0.2
+    with pytest.raises(InputError, match=r"governor\.servo_dead_time_s is a key of governor\.servo_model = "
+                                         r"'dead-time'; with servo_model = 'backlash' it would be ignored"):
+        GovernorConfig(**base, servo_model="backlash", servo_backlash=0.01, servo_dead_time_s=0.2)
+    with pytest.raises(InputError, match=r"governor\.servo_model = \"backlash\" needs governor\.servo_backlash"):
+        GovernorConfig(**base, servo_model="backlash")
+    with pytest.raises(InputError, match=r"governor\.servo_model must be one of first-order, discrete, dead-time, "
+                                         r"backlash; got 'hydraulic'"):
+        GovernorConfig(**base, servo_model="hydraulic")
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# in the plant loop
+# ---------------------------------------------------------------------------------------------------------------
+
+#: the shipped unit on the ideal turbine and a rigid penstock at dt = 0.02 s: load rejection at t = 2 s with a stiff
+#: governor (kp at its bound: the command drops to the lower stroke limit at once and stays there while the unit is
+#: above speed), so the vanes close at the rate limit
+REJECTION = {"turbine.characteristics": "ideal", "penstock.model": "rigid", "solver.dt_s": 0.02,
+             "scenario.t_end_s": 14.0, "governor.kp": 1000.0}
+
+
+def _run(overrides=None, jit=True):
+    from data_synthetic import PLANT_HLA339
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    return run_simulation(load_plant(PLANT_HLA339, {**REJECTION, **(overrides or {})}), jit=jit)
+
+
+@pytest.mark.slow
+def test_a_load_rejection_closes_at_the_rate_limit_exactly_and_a_dead_time_shifts_it():
+    free = _run()
+    dt, closing = 0.02, 12.0
+    steps = np.diff(free.opening)
+    # the governor sees the rejection in the speed at t = 2.02 s (one step after the event), so the vanes move from
+    # the row of t = 2.04 s on
+    moving = (free.time_s[1:] > 2.0 + 1.5 * dt) & (free.opening[1:] > 0.05)
+    assert steps[np.flatnonzero(free.time_s[1:] > 2.0)[0]] == 0.0
+    # at the limit (T_y (1 - e^-0.1) x stroke > dt / closing_time_s while the stroke is above 0.02): every step
+    # closes by dt / closing_time_s to rounding (1e-12: the stroke is a sum of ~400 such steps)
+    assert moving.sum() > 300
+    np.testing.assert_allclose(steps[moving], -dt / closing, rtol=0, atol=1e-12)
+    # beside it, the opening-time limit would be a different rate: 0.02 / 20 per step
+    assert abs(steps[moving][0] + dt / 20.0) > 1e-4
+
+    delayed = _run({"governor.servo_model": "dead-time", "governor.servo_dead_time_s": 0.3})
+    n = 15
+    assert delayed.summary()["servo_dead_time_steps"] == n
+    # the commands stay at the lower stroke limit through the closure in both runs, so the vane stroke is the
+    # delay-free one shifted by the dead time (1e-9: before the event the stiff governor sees rounding-level speed
+    # deviations, ~1e-12 of stroke per unit of kp)
+    window = free.time_s <= 10.0
+    np.testing.assert_allclose(delayed.opening[n:][window[:-n]], free.opening[:-n][window[:-n]], rtol=0, atol=1e-9)
+    assert np.max(np.abs(delayed.opening[window] - free.opening[window])) > 0.02  # not the same run
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model,keys", [("dead-time", {"governor.servo_dead_time_s": 0.3}),
+                                         ("backlash", {"governor.servo_backlash": 0.02})])
+def test_each_servo_runs_in_the_compiled_loop_as_in_the_python_loop_and_changes_the_run(model, keys):
+    overrides = {"governor.kp": 2.0, "scenario.kind": "load-step", "scenario.initial_power_mw": 180.0,
+                 "scenario.t_end_s": 20.0, "governor.servo_model": model, **keys}
+    compiled, python = _run(overrides), _run(overrides, jit=False)
+    np.testing.assert_allclose(compiled.opening, python.opening, rtol=1e-12, atol=0)  # one source, two runners
+    first = _run({k: v for k, v in overrides.items() if not k.startswith("governor.servo")})
+    assert np.max(np.abs(compiled.opening - first.opening)) > 1e-4  # the servo acts
+    assert compiled.summary()["servo_model"] == model
