@@ -10,6 +10,7 @@ and of the plant loop that runs it.
 import numpy as np
 import pytest
 
+from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
 from simulate.components.control.backlash import backlash_servo_step
 from simulate.components.control.dead_time import dead_time_servo_step, delay_steps
@@ -155,3 +156,47 @@ def test_each_servo_runs_in_the_compiled_loop_as_in_the_python_loop_and_changes_
     first = _run({k: v for k, v in overrides.items() if not k.startswith("governor.servo")})
     assert np.max(np.abs(compiled.opening - first.opening)) > 1e-4  # the servo acts
     assert compiled.summary()["servo_model"] == model
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# every servo on every shipped example plant: it acts, or it is refused with its reason (never accepted and ignored)
+# ---------------------------------------------------------------------------------------------------------------
+
+#: the shipped example plants (every plant file of data_synthetic/: single unit, grid, surge tank, guarantee,
+#: [[units]], double-regulated bulb)
+SHIPPED = sorted(p.name for p in PLANT_HLA339.parent.glob("plant_*.toml"))
+
+
+def _servo_keys(model: str, control_step_s: float) -> dict:
+    """Keys of each servo that fit the plant's control step (sampling time and dead time: 10 control steps)."""
+    return {"discrete": {"governor.servo_sample_time_s": 10 * control_step_s},
+            "dead-time": {"governor.servo_dead_time_s": 10 * control_step_s},
+            "backlash": {"governor.servo_backlash": 0.02},
+            "first-order": {}}[model]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SHIPPED)
+def test_every_servo_acts_on_every_shipped_plant_or_is_refused_with_its_reason(name):
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    assert len(SHIPPED) == 6  # the list can fail: a new example plant joins it (or one is lost)
+    path = PLANT_HLA339.parent / name
+    short = {"scenario.t_end_s": 4.0, "scenario.event_time_s": 1.0}
+    default = run_simulation(load_plant(path, short))
+    control_step_s = default.summary()["dt_s"] / default.summary()["substeps"]
+    for model in SERVOS.names()[1:]:
+        plant = load_plant(path, {**short, "governor.servo_model": model, **_servo_keys(model, control_step_s)})
+        result = run_simulation(plant)
+        # the governor acts on the event within 4 s: a servo that changes nothing would leave the opening equal to
+        # the default servo's run to the last bit; each of these moves it by more than 1e-6 of the stroke
+        moved = np.max(np.abs(result.opening - default.opening))
+        assert moved > 1e-6, (name, model, moved)
+        assert result.summary()["servo_model"].startswith(model)
+    # the default sampling time (0.2 s) may not fit the plant's step: then the run is refused, naming the key (on a
+    # plant with [[units]] after the unit's name)
+    try:
+        run_simulation(load_plant(path, {**short, "governor.servo_model": "discrete"}))
+    except InputError as exc:
+        assert "governor.servo_sample_time_s = 0.2 must be a whole multiple of the time step" in str(exc), str(exc)
