@@ -189,6 +189,7 @@ SERVOS = Registry("servo", "governor.servo_model", {
     "discrete": "simulate.components.control.discrete_servo:build_discrete_servo",
     "dead-time": "simulate.components.control.dead_time:build_dead_time_servo",
     "backlash": "simulate.components.control.backlash:build_backlash_servo",
+    "two-stage": "simulate.components.control.two_stage:build_two_stage_servo",
 })
 SHAFTS = Registry("shaft", "generator.model", {
     "swing": "simulate.components.shaft.rotor:build_rotor",

@@ -19,6 +19,7 @@ from simulate.components.control.backlash import BacklashConfig
 from simulate.components.control.dead_time import DeadTimeConfig
 from simulate.components.control.discrete_servo import DiscreteServoConfig
 from simulate.components.control.servo import first_order_servo_step, servo_step  # noqa: F401  (servo_step: re-export)
+from simulate.components.control.two_stage import TwoStageConfig
 from simulate.components.parameters import borrowed, declarations, parameter, validate_parameters
 from simulate.components.registry import SERVOS, Bound, CompiledPart, PartHooks
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
@@ -44,7 +45,9 @@ class GovernorConfig:
     * ``"dead-time"``: the first-order servo receiving the command ``servo_dead_time_s`` late
       (:mod:`simulate.components.control.dead_time`);
     * ``"backlash"``: the first-order servo with a play of ``servo_backlash`` (stroke fraction) between it and the
-      vanes (:mod:`simulate.components.control.backlash`).
+      vanes (:mod:`simulate.components.control.backlash`);
+    * ``"two-stage"``: the first-order servo closing at the rate of a full stroke per ``servo_break_closing_time_s``
+      once the stroke is at or below ``servo_break_stroke`` (:mod:`simulate.components.control.two_stage`).
 
     A scenario that prescribes the vane stroke (no governor in control) refuses a servo other than the default.
     """
@@ -73,6 +76,8 @@ class GovernorConfig:
     servo_sample_time_s: float | None = borrowed(DiscreteServoConfig, "sample_time_s")
     servo_dead_time_s: float | None = borrowed(DeadTimeConfig, "dead_time_s")
     servo_backlash: float | None = borrowed(BacklashConfig, "backlash")
+    servo_break_stroke: float | None = borrowed(TwoStageConfig, "break_stroke")
+    servo_break_closing_time_s: float | None = borrowed(TwoStageConfig, "break_closing_time_s")
 
     def __post_init__(self):
         validate_parameters("governor", self)

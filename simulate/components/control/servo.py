@@ -69,7 +69,15 @@ def servo_step(params, command, stroke):
     >>> round(float(servo_step(p, 0.0, 0.5)), 4), round(float(servo_step(p, 0.52, 0.5)), 4)
     (0.49, 0.502)
     """
-    y_min, y_max, decay, close_step, open_step = params[0], params[1], params[2], params[3], params[4]
+    return lag_step(params, command, stroke, params[3])
+
+
+@numba.njit(cache=True)
+def lag_step(params, command, stroke, close_step):
+    """:func:`servo_step` with the closing rate limit ``close_step`` (stroke per step) given: the one
+    implementation of the first-order servo's equation (a servo whose closing rate changes along the stroke calls it
+    with the rate of the moment)."""
+    y_min, y_max, decay, open_step = params[0], params[1], params[2], params[4]
     change = (command - stroke) * (1.0 - decay)
     if change < -close_step:
         change = -close_step
@@ -97,5 +105,5 @@ def time_scales(plant, schedules) -> list:
     return [TimeScale("governor.servo_time_s", plant.governor.servo_time_s)]
 
 
-__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "Servo", "first_order_parameters", "servo_step",
+__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "Servo", "first_order_parameters", "servo_step", "lag_step",
            "first_order_servo_step", "build_first_order", "time_scales"]

@@ -13,11 +13,12 @@ from simulate.components.control.backlash import BacklashConfig
 from simulate.components.control.dead_time import DeadTimeConfig
 from simulate.components.control.discrete_servo import DiscreteServoConfig
 from simulate.components.control.governor import GovernorConfig
+from simulate.components.control.two_stage import TwoStageConfig
 from simulate.components.parameters import Parameter, declarations
 
 #: (section, config class): the classes whose keys are declared as data
 DECLARED = (("governor", GovernorConfig), ("servo", DiscreteServoConfig), ("servo", DeadTimeConfig),
-            ("servo", BacklashConfig))
+            ("servo", BacklashConfig), ("servo", TwoStageConfig))
 
 
 def _cases():
@@ -39,7 +40,8 @@ def _make(section, cls, name, value):
     take), the servo's own config directly."""
     if section == "governor":
         return _governor_plant({name: value})
-    return cls(**{name: value})
+    others = {d.name: _inside(d.parameter)[0] for d in declarations(cls) if d.required and d.name != name}
+    return cls(**others, **{name: value})
 
 
 def _inside(spec: Parameter):

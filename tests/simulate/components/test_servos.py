@@ -4,7 +4,9 @@ and of the plant loop that runs it.
 * rate limit: a load rejection closes the vanes at exactly one full stroke per closing_time_s;
 * dead time: the response is the delay-free one shifted by the dead time;
 * backlash: the vanes follow the piston less half the play once it is taken up, and hold while the piston moves
-  inside it.
+  inside it;
+* two-stage closing: a load rejection closes the vanes along the two-stage law of the closure-law scenario
+  (:func:`simulate.components.control.governor.closure_law`), exactly.
 """
 
 import numpy as np
@@ -95,7 +97,7 @@ def test_every_servo_module_declares_its_governor_keys_and_the_governor_refuses_
     with pytest.raises(InputError, match=r"governor\.servo_model = \"backlash\" needs governor\.servo_backlash"):
         GovernorConfig(**base, servo_model="backlash")
     with pytest.raises(InputError, match=r"governor\.servo_model must be one of first-order, discrete, dead-time, "
-                                         r"backlash; got 'hydraulic'"):
+                                         r"backlash, two-stage; got 'hydraulic'"):
         GovernorConfig(**base, servo_model="hydraulic")
 
 
@@ -146,11 +148,34 @@ def test_a_load_rejection_closes_at_the_rate_limit_exactly_and_a_dead_time_shift
 
 
 @pytest.mark.slow
+def test_a_load_rejection_closes_along_the_two_stage_law_exactly():
+    from simulate.components.control.governor import closure_law
+
+    keys = {"governor.servo_model": "two-stage", "governor.servo_break_stroke": 0.3,
+            "governor.servo_break_closing_time_s": 40.0, "scenario.t_end_s": 24.0}
+    run = _run(keys)
+    y0, start = run.opening[0], 2.0 + 0.02  # the vanes leave y0 in the step from t = 2.02 s (see the test above)
+    times, strokes = closure_law(y0, start, 12.0, break_opening=0.3, break_time_s=40.0)
+    # down to 0.01 (below it the servo's lag, not its rate limit, sets the speed: 0.02/40 < 0.01 (1 - e^-0.1));
+    # 1e-12: the strokes are sums of up to ~1000 steps of dt/12 and dt/40
+    window = run.opening > 0.01
+    expected = np.interp(run.time_s, times, strokes)
+    np.testing.assert_allclose(run.opening[window], expected[window], rtol=0, atol=1e-12)
+    assert np.sum(window & (run.opening < 0.3)) > 500  # the second stage is run through (0.29 / (0.02/40) steps)
+    # beside it, the one-stage law (the first-order servo) is not this run: it is at 0 where this one is at 0.2
+    single = _run({"scenario.t_end_s": 24.0})
+    assert np.max(np.abs(single.opening - run.opening)) > 0.1
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("model,keys", [("dead-time", {"governor.servo_dead_time_s": 0.3}),
-                                         ("backlash", {"governor.servo_backlash": 0.02})])
+                                         ("backlash", {"governor.servo_backlash": 0.02}),
+                                         ("two-stage", {"governor.servo_break_stroke": 0.7,
+                                                        "governor.servo_break_closing_time_s": 200.0})])
 def test_each_servo_runs_in_the_compiled_loop_as_in_the_python_loop_and_changes_the_run(model, keys):
+    # a load step down: the governor closes the vanes (a two-stage servo acts only in closing)
     overrides = {"governor.kp": 2.0, "scenario.kind": "load-step", "scenario.initial_power_mw": 180.0,
-                 "scenario.t_end_s": 20.0, "governor.servo_model": model, **keys}
+                 "scenario.load_step": -0.2, "scenario.t_end_s": 20.0, "governor.servo_model": model, **keys}
     compiled, python = _run(overrides), _run(overrides, jit=False)
     np.testing.assert_allclose(compiled.opening, python.opening, rtol=1e-12, atol=0)  # one source, two runners
     first = _run({k: v for k, v in overrides.items() if not k.startswith("governor.servo")})
@@ -175,6 +200,13 @@ def _servo_keys(model: str, control_step_s: float) -> dict:
             "first-order": {}}[model]
 
 
+def _two_stage_keys(initial_stroke: float) -> dict:
+    """A second stage from just above the initial stroke, closing a full stroke in 1000 s: any closing the governor
+    asks for is held back (the first-order servo would follow it)."""
+    return {"governor.servo_break_stroke": min(0.999, initial_stroke + 0.01),
+            "governor.servo_break_closing_time_s": 1000.0}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 def test_every_servo_acts_on_every_shipped_plant_or_is_refused_with_its_reason(name):
@@ -184,10 +216,13 @@ def test_every_servo_acts_on_every_shipped_plant_or_is_refused_with_its_reason(n
     assert len(SHIPPED) == 6  # the list can fail: a new example plant joins it (or one is lost)
     path = PLANT_HLA339.parent / name
     short = {"scenario.t_end_s": 4.0, "scenario.event_time_s": 1.0}
+    if load_plant(path).scenario.kind == "load-step":  # a load step down: the vanes close (the two-stage servo
+        short["scenario.load_step"] = -0.1            # acts in closing only)
     default = run_simulation(load_plant(path, short))
     control_step_s = default.summary()["dt_s"] / default.summary()["substeps"]
     for model in SERVOS.names()[1:]:
-        plant = load_plant(path, {**short, "governor.servo_model": model, **_servo_keys(model, control_step_s)})
+        keys = _two_stage_keys(default.opening[0]) if model == "two-stage" else _servo_keys(model, control_step_s)
+        plant = load_plant(path, {**short, "governor.servo_model": model, **keys})
         result = run_simulation(plant)
         # the governor acts on the event within 4 s: a servo that changes nothing would leave the opening equal to
         # the default servo's run to the last bit; each of these moves it by more than 1e-6 of the stroke
