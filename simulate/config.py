@@ -12,7 +12,8 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
     [[penstock.segments]]  length_m, diameter_m, wave_speed_m_s, darcy_friction   (upstream first)
     [generator]  inertia_time_s, self_regulation, [model]   # swing (default) | subtransient
     [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
-                 opening_time_s, stroke_min, stroke_max
+                 opening_time_s, stroke_min, stroke_max, [servo_model] and its servo_* keys
+                 (simulate.components.control.governor.GovernorConfig: keys declared with unit and bounds)
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
     [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation], [output_dt_s],
                  [max_node_steps], [max_output_mb], [fallback], [substeps]

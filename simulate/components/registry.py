@@ -105,8 +105,8 @@ class CompiledPart:
 class Bound:
     """A component function whose calls of the module globals named in ``names`` go to the functions given there
     instead (``(("vane_servo", dead_time_servo_step),)``): how a governor's control step calls the servo its builder
-    chose. The assembled loop compiles the function with those globals rebound (:mod:`simulate.loop.assembly`);
-    ``python()`` is the same function as plain Python."""
+    chose. The assembled loop compiles the function's source with those globals rebound (``_bind`` in the header
+    :mod:`simulate.loop.assembly` writes), compiled or as plain Python."""
 
     func: Callable
     names: tuple[tuple[str, Callable], ...]
@@ -115,13 +115,6 @@ class Bound:
     def modules(self) -> tuple[str, ...]:
         """The modules whose source the bound function is made of."""
         return (self.func.__module__, *(f.__module__ for _, f in self.names))
-
-    def python(self) -> Callable:
-        import types
-
-        func = getattr(self.func, "py_func", self.func)
-        return types.FunctionType(func.__code__, {**func.__globals__, **dict(self.names)}, func.__name__,
-                                  func.__defaults__, func.__closure__)
 
 
 class Registry:
@@ -149,12 +142,16 @@ class Registry:
         func = getattr(module, "time_scales", None)
         return [] if func is None else list(func(plant, schedules))
 
+    def module(self, name: str) -> str:
+        """The name of the module that holds component ``name``'s builder."""
+        if name not in self._entries:
+            raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
+        return self._entries[name].split(":")[0]
+
     def attribute(self, name: str, attr: str, default: Any = None) -> Any:
         """The module-level ``attr`` of component ``name``'s module (``default`` when it has none), e.g. a servo's
         ``GOVERNOR_KEYS``."""
-        if name not in self._entries:
-            raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
-        return getattr(importlib.import_module(self._entries[name].split(":")[0]), attr, default)
+        return getattr(importlib.import_module(self.module(name)), attr, default)
 
     def register(self, name: str, target: str) -> None:
         """Add a component (``target`` = ``"package.module:builder"``)."""

@@ -18,7 +18,7 @@ from hillchart.errors import InputError
 from simulate.components.control.backlash import BacklashConfig
 from simulate.components.control.dead_time import DeadTimeConfig
 from simulate.components.control.discrete_servo import DiscreteServoConfig
-from simulate.components.control.servo import first_order_servo_step, servo_step  # noqa: F401  (servo_step: re-export)
+from simulate.components.control.servo import first_order_servo_step
 from simulate.components.control.two_stage import TwoStageConfig
 from simulate.components.parameters import borrowed, declarations, parameter, validate_parameters
 from simulate.components.registry import SERVOS, Bound, CompiledPart, PartHooks

@@ -19,8 +19,7 @@ def _owner_files(registry) -> dict[str, set[str]]:
     """name -> the files allowed to name it: the module of its builder and the registry's module."""
     out = {}
     for name in registry.names():
-        module = registry._entries[name].split(":")[0]
-        out[name] = {module.replace(".", "/") + ".py", "simulate/components/registry.py"}
+        out[name] = {registry.module(name).replace(".", "/") + ".py", "simulate/components/registry.py"}
     return out
 
 

@@ -235,3 +235,45 @@ def test_every_servo_acts_on_every_shipped_plant_or_is_refused_with_its_reason(n
         run_simulation(load_plant(path, {**short, "governor.servo_model": "discrete"}))
     except InputError as exc:
         assert "governor.servo_sample_time_s = 0.2 must be a whole multiple of the time step" in str(exc), str(exc)
+
+
+#: A servo written outside the package as a user would: one module (the first-order servo with twice the plant's
+#: time constant) and one registry line; nothing else of hillsim changes.
+USER_SERVO = '''
+import numba
+from dataclasses import replace
+
+from simulate.components.control.servo import Servo, first_order_parameters, servo_step
+import numpy as np
+
+
+@numba.njit(cache=False)
+def step(sp, ss, command, stroke, dt_s):
+    return servo_step(sp, command, stroke)
+
+
+def build(governor, initial_stroke, dt_s):
+    slow = replace(governor, servo_time_s=2.0 * governor.servo_time_s)
+    return Servo(step, first_order_parameters(slow, dt_s), np.zeros(1), summary={"servo_model": "user-slow"})
+'''
+
+
+@pytest.mark.slow
+def test_a_servo_is_one_module_and_one_registry_line(tmp_path, monkeypatch):
+    import sys
+
+    (tmp_path / "user_slow_servo.py").write_text(USER_SERVO, encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(SERVOS._entries, "user-slow", "user_slow_servo:build")
+    try:
+        overrides = {"scenario.kind": "load-step", "scenario.initial_power_mw": 180.0, "scenario.t_end_s": 10.0,
+                     "governor.kp": 2.0}
+        user = _run({**overrides, "governor.servo_model": "user-slow"})
+        assert user.summary()["servo_model"] == "user-slow"
+        # the same as the shipped first-order servo with T_y doubled, to the last bit (same equation, same numbers)
+        doubled = _run({**overrides, "governor.servo_time_s": 0.4})
+        np.testing.assert_array_equal(user.opening, doubled.opening)
+        # beside it, the plant's own T_y gives another run
+        assert np.max(np.abs(_run(overrides).opening - user.opening)) > 1e-5
+    finally:
+        sys.modules.pop("user_slow_servo", None)
