@@ -114,7 +114,10 @@ class Bound:
     @property
     def modules(self) -> tuple[str, ...]:
         """The modules whose source the bound function is made of."""
-        return (self.func.__module__, *(f.__module__ for _, f in self.names))
+        out = [self.func.__module__]
+        for _, f in self.names:
+            out += f.modules if isinstance(f, Bound) else [f.__module__]
+        return tuple(out)
 
 
 class Registry:

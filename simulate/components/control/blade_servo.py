@@ -24,11 +24,10 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_number
-from simulate.components.control.governor import (build_vane_servo, governor_parameters, governor_step,
-                                                  refuse_servo_without_governor)
-from simulate.components.control.servo import first_order_servo_step, servo_step
+from simulate.components.control.governor import build_governor, build_prescribed, governor_control_step
+from simulate.components.control.servo import servo_step
 from simulate.components.registry import Bound, CompiledPart, PartHooks
-from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
+from simulate.components.schedules import GOVERNOR, piecewise_linear
 
 BLADE_MODES = ("combinator", "held", "law")
 COMBINATOR_RELATIONS = ("cam", "model", "table", "off")
@@ -148,9 +147,10 @@ class CombinatorConfig:
 # y_min, y_max, decay, close_step, open_step, in blade stroke fractions), y0 (index 5), then
 # [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
 _Y0, _MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 5, 6, 7, 8, 9, 10, 11
-#: The guide-vane servo the governor's step calls: bound by the builder (as in
-#: :mod:`simulate.components.control.governor`); this default is the first-order servo.
-vane_servo = first_order_servo_step
+#: The vanes' control step the blades' step calls: bound by the builder to the vane component of the scenario (the
+#: governor with its servo, or the prescribed law; :class:`simulate.components.registry.Bound`); this default is the
+#: governor's.
+vane_control = governor_control_step
 
 
 @numba.njit(cache=True)
@@ -170,25 +170,12 @@ def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
 
 
 @numba.njit(cache=True)
-def governor_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """Governor PID and vane servo (``vane_servo``; as :func:`simulate.components.control.governor.
-    governor_control_step`), then the blades: controls at t_next."""
-    gov, ref_times, ref_values, scal, servo, blade, cam_openings, cam_angles = p
-    state, servo_state, controls, bstate = s
-    x = speed_rpm / scal[0] - 1.0
-    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
-    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
-    controls[0] = vane_servo(servo, servo_state, command, controls[0], dt_s)
-    controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[1])
-    return controls
-
-
-@numba.njit(cache=True)
-def prescribed_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """The prescribed vane law at t_next, then the blades."""
-    law_times, law_strokes, scal, blade, cam_openings, cam_angles = p
-    controls, bstate = s
-    controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
+def blade_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """The vanes' control step (``vane_control``: the governor's or the prescribed law's, with its own parameters
+    ``p[0]`` and state ``s[0]``, whose last entry is the control vector), then the blades: controls at t_next."""
+    vane_p, blade, cam_openings, cam_angles, scal = p
+    vane_s, bstate = s
+    controls = vane_control(vane_p, vane_s, speed_rpm, t_s, t_next_s, dt_s)
     controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[0])
     return controls
 
@@ -196,8 +183,8 @@ def prescribed_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 @numba.njit(cache=True)
 def blade_record(p, s, out):
     """Columns ``blade_angle_deg``, ``blade_angle_cam_deg``."""
-    blade = p[-3]
-    controls, bstate = s[-2], s[-1]
+    blade = p[1]
+    controls, bstate = s[0][-1], s[1]
     out[0] = blade[_ANGLE_MIN] + controls[1] * blade[_SPAN]
     out[1] = bstate[0]
 
@@ -247,25 +234,26 @@ def _blade_setup(plant, steady, dt_s, characteristics):
 
 
 def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """Governor on the vanes through the servo ``governor.servo_model`` names, blades through their servo (module
-    docstring)."""
-    blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
-    servo = build_vane_servo(plant, steady.stroke, dt_s)
-    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
-    params = (governor_parameters(plant.governor, steady.stroke), schedules.ref_times_s, schedules.ref_values,
-              scal, servo.params, blade, openings, angles)
-    step = Bound(governor_blade_step, (("vane_servo", servo.step),))
-    return _part("governor", step, params, (np.zeros(3), servo.state, controls, bstate), blade, bstate,
-                 characteristics.blade_range_deg, servo.summary)
+    """Governor on the vanes through the servo ``governor.servo_model`` names (the governor component itself,
+    :func:`simulate.components.control.governor.build_governor`), blades through their servo (module docstring)."""
+    return _with_blades(build_governor(plant, steady, dt_s, schedules), plant, steady, dt_s, characteristics)
 
 
 def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """The scenario's vane law, blades through their servo."""
-    refuse_servo_without_governor(plant, f"the prescribed law of scenario.kind = {plant.scenario.kind!r}")
+    """The scenario's vane law (:func:`simulate.components.control.governor.build_prescribed`), blades through their
+    servo."""
+    return _with_blades(build_prescribed(plant, steady, dt_s, schedules), plant, steady, dt_s, characteristics)
+
+
+def _with_blades(vane, plant, steady, dt_s: float, characteristics):
+    """The vane component ``vane`` (a :class:`CompiledPart` of one control) with the blades as control 1: its step
+    bound into :func:`blade_control_step`, its control vector lengthened to two."""
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
-    params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]), blade, openings, angles)
-    return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate,
-                 characteristics.blade_range_deg)
+    vane_state = (*vane.state[:-1], controls)  # the vane component's control vector, now [vanes, blades]
+    params = (vane.params, blade, openings, angles, np.array([1e-9 * dt_s]))
+    step = Bound(blade_control_step, (("vane_control", vane.functions["step"]),))
+    return _part(vane.name, step, params, (vane_state, bstate), blade, bstate, characteristics.blade_range_deg,
+                 vane.hooks.summary)
 
 
 def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
@@ -282,8 +270,9 @@ def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
                         f"angle_max_deg or train the nets over the blade angles the run visits"]
             return []
 
+    controls = state[0][-1]
     hooks = PartHooks(summary=dict(summary or {}), initial_signals=(phi0, float(bstate[0])), n_controls=2,
-                      initial_controls=(float(state[-2][0]), float(state[-2][1])), warnings_after=warnings_after)
+                      initial_controls=(float(controls[0]), float(controls[1])), warnings_after=warnings_after)
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
                         params=params, state=state, signals=SIGNALS, hooks=hooks)
 
