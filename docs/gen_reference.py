@@ -10,8 +10,10 @@
 * ``docs/reference/plant-file.md``: every section and key of a plant TOML file, from the frozen config dataclasses
   (:mod:`simulate.config`, the scenario classes, the excitation and grid configs, the study sections of
   :mod:`simulate.studies.cases`): type, required or default, and the allowed values as the validation itself states
-  them (each numeric key of a shipped example plant is set to -1e300 and to 1e300 and the ``must be ...`` part
-  of the error is quoted, so the range shown is the one enforced).
+  them: a section whose keys are declared as data in the component's module (:mod:`simulate.components.parameters`;
+  the governor) shows its declarations (allowed values, unit, description), which its validation enforces; for the
+  others each numeric key of a shipped example plant is set to -1e300 and to 1e300 and the ``must be ...`` part of
+  the error is quoted, so the range shown is the one enforced.
 
 ``tests/test_docs.py`` fails when either page differs from this script's output.
 """
@@ -238,16 +240,29 @@ def _deep_copy(value):
 
 
 def _section_table(cls, raw: dict | None, path: tuple[str, ...], skip=()) -> list[str]:
+    """The keys of a section; a class whose keys are declared (:mod:`simulate.components.parameters`) gets its
+    allowed values, units and descriptions from the declarations, the others the probed ranges."""
+    from simulate.components.parameters import declarations
+
     hints = typing.get_type_hints(cls) if not isinstance(cls, str) else {}
+    declared = {d.name: d.parameter for d in declarations(cls)}
     rows = ["| key | type | default | allowed (as checked) |", "|---|---|---|---|"]
+    if declared:
+        rows = ["| key | type | default | allowed | unit | description |", "|---|---|---|---|---|---|"]
     for f in dataclasses.fields(cls):
         if f.name in skip:
             continue
         type_name = _type_name(hints.get(f.name, f.type))
         allowed = ""
-        if raw is not None and _has(raw, path) and type_name in ("number", "integer"):
+        if f.name in declared:
+            allowed = declared[f.name].allowed()
+        elif raw is not None and _has(raw, path) and type_name in ("number", "integer"):
             allowed = _allowed(raw, path + (f.name,), type_name)
-        rows.append(f"| `{f.name}` | {type_name} | {_default_text(f)} | {_cell(allowed)} |")
+        row = f"| `{f.name}` | {type_name} | {_default_text(f)} | {_cell(allowed)} |"
+        if declared:
+            spec = declared.get(f.name)
+            row += f" {_cell(spec.unit) if spec else ''} | {_cell(spec.description) if spec else ''} |"
+        rows.append(row)
     return rows
 
 

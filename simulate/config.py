@@ -12,7 +12,8 @@ File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
     [[penstock.segments]]  length_m, diameter_m, wave_speed_m_s, darcy_friction   (upstream first)
     [generator]  inertia_time_s, self_regulation, [model]   # swing (default) | subtransient
     [governor]   kp, ki, kd, derivative_filter_s, permanent_droop, servo_time_s, closing_time_s,
-                 opening_time_s, stroke_min, stroke_max
+                 opening_time_s, stroke_min, stroke_max, [servo_model] and its servo_* keys
+                 (simulate.components.control.governor.GovernorConfig: keys declared with unit and bounds)
     [scenario]   kind, t_end_s, ... (see :data:`SCENARIO_KEYS`)
     [solver]     [dt_s], [pressure_loop], [tolerance], [max_iterations], [relaxation], [output_dt_s],
                  [max_node_steps], [max_output_mb], [fallback], [substeps]
@@ -33,11 +34,12 @@ import math
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_int, check_number
 
+from simulate.components.control.governor import GovernorConfig
 from simulate.components.registry import PENSTOCKS  # noqa: E402  (light: no numba)
 from simulate.components.turbine.step_up import StepUpConfig
 from simulate.scenarios.base import SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig
@@ -277,77 +279,6 @@ class GeneratorConfig:
             raise InputError(f"generator.model = {self.model!r} has no sub-transient machine")
         keys = {k: getattr(self, k) for k in SUBTRANSIENT_KEYS if getattr(self, k) is not None}
         return SubtransientGeneratorConfig(**keys)
-
-
-@dataclass(frozen=True)
-class GovernorConfig:
-    """Parallel PID on the per-unit speed error with permanent droop, derivative filter and a first-order servo.
-
-    ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
-    ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
-    ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
-
-    ``servo_model``: ``"first-order"`` (default: T_y, rate limits, stroke limits) or ``"discrete"``: paper 000's
-    second-order sampled servo, eq. (37), u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every ``servo_sample_time_s``
-    (held in between; a whole multiple of the time step), keys ``servo_b0``, ``servo_a1``, ``servo_a2``,
-    ``servo_sample_time_s`` (defaults: the printed 0.5 / (1 - z^-1 + 0.5 z^-2) at 0.2 s; DC gain 1 and stable poles
-    required), with the stroke limits and the rate limits ``closing_time_s``/``opening_time_s`` applied at each sample
-    (``servo_time_s`` then acts only through the time-step guards).
-    """
-
-    kp: float
-    ki: float
-    kd: float
-    derivative_filter_s: float
-    permanent_droop: float
-    servo_time_s: float
-    closing_time_s: float
-    opening_time_s: float
-    stroke_min: float = 0.0
-    stroke_max: float = 1.0
-    servo_model: str = "first-order"
-    servo_b0: float | None = None
-    servo_a1: float | None = None
-    servo_a2: float | None = None
-    servo_sample_time_s: float | None = None
-
-    DISCRETE_KEYS: ClassVar[tuple[str, ...]] = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
-
-    def __post_init__(self):
-        check_choice("governor.servo_model", self.servo_model, ("first-order", "discrete"))
-        check_number("governor.kp", self.kp, low=0.0, high=1000.0)
-        check_number("governor.ki", self.ki, low=0.0, high=1000.0)
-        check_number("governor.kd", self.kd, low=0.0, high=1000.0)
-        check_number("governor.derivative_filter_s", self.derivative_filter_s, low=0.0, high=100.0)
-        check_number("governor.permanent_droop", self.permanent_droop, low=0.0, high=1.0, high_open=True)
-        check_number("governor.servo_time_s", self.servo_time_s, low=0.0, high=100.0, low_open=True)
-        check_number("governor.closing_time_s", self.closing_time_s, low=0.0, high=1000.0, low_open=True)
-        check_number("governor.opening_time_s", self.opening_time_s, low=0.0, high=1000.0, low_open=True)
-        check_number("governor.stroke_min", self.stroke_min, low=0.0, high=1.0)
-        check_number("governor.stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
-        if self.stroke_min >= self.stroke_max:
-            raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
-                             f"got {self.stroke_min!r}")
-        given = [k for k in self.DISCRETE_KEYS if getattr(self, k) is not None]
-        if self.servo_model != "discrete" and given:
-            raise InputError(f"governor.{given[0]} is a key of governor.servo_model = \"discrete\" (eq. (37)); got "
-                             f"servo_model = {self.servo_model!r}")
-        if self.servo_model == "discrete":
-            self.discrete_servo  # validates eq. (37)'s coefficients
-
-    @property
-    def discrete_servo(self):
-        """:class:`simulate.components.control.discrete_servo.DiscreteServoConfig` of the ``servo_*`` keys
-        (servo_model "discrete")."""
-        from simulate.components.control.discrete_servo import DiscreteServoConfig
-
-        keys = {k[len("servo_"):]: getattr(self, k) for k in self.DISCRETE_KEYS if getattr(self, k) is not None}
-        try:
-            return DiscreteServoConfig(**keys, stroke_min=self.stroke_min, stroke_max=self.stroke_max,
-                                       closing_time_s=self.closing_time_s, opening_time_s=self.opening_time_s)
-        except InputError as exc:
-            raise InputError("governor (servo_model = \"discrete\", eq. (37)): "
-                             + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
 
 
 #: The smallest ``solver.tolerance``: the turbine boundary accepts a head within max(tolerance x rated head,

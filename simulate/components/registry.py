@@ -14,8 +14,9 @@ penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); updat
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
                                          (optional: the component's extra timeseries columns)
 control    scenario's control            step(p, s, speed_rpm, t, t_next, dt) -> controls (fractions of stroke);
-           (``_blades`` with             record(p, s, out) (optional)
-           ``[combinator]``)
+           (``_blades`` with             record(p, s, out) (optional); a step may be a :class:`Bound` function
+           ``[combinator]``)             (the governor's, bound to its servo)
+servo      ``governor.servo_model``      step(sp, ss, command, stroke, dt) -> stroke (called by the governor's step)
 downstream ``[draft_tube]`` present?     relation(p, s) -> (C_M, B_M) (H_out = C_M + B_M Q at the runner outlet);
                                          update(p, s, H_out, Q); record(p, s, out) (optional)
 shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_torque_nm, t, dt) -> rpm;
@@ -100,6 +101,25 @@ class CompiledPart:
     node_x_m: Any = None
 
 
+@dataclass(frozen=True)
+class Bound:
+    """A component function whose calls of the module globals named in ``names`` go to the functions given there
+    instead (``(("vane_servo", dead_time_servo_step),)``): how a governor's control step calls the servo its builder
+    chose. The assembled loop compiles the function's source with those globals rebound (``_bind`` in the header
+    :mod:`simulate.loop.assembly` writes), compiled or as plain Python."""
+
+    func: Callable
+    names: tuple[tuple[str, Callable], ...]
+
+    @property
+    def modules(self) -> tuple[str, ...]:
+        """The modules whose source the bound function is made of."""
+        out = [self.func.__module__]
+        for _, f in self.names:
+            out += f.modules if isinstance(f, Bound) else [f.__module__]
+        return tuple(out)
+
+
 class Registry:
     """Name (as written in the plant TOML) -> builder, imported lazily from ``"module:function"``."""
 
@@ -124,6 +144,17 @@ class Registry:
         module = importlib.import_module(self._entries[name].split(":")[0])
         func = getattr(module, "time_scales", None)
         return [] if func is None else list(func(plant, schedules))
+
+    def module(self, name: str) -> str:
+        """The name of the module that holds component ``name``'s builder."""
+        if name not in self._entries:
+            raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
+        return self._entries[name].split(":")[0]
+
+    def attribute(self, name: str, attr: str, default: Any = None) -> Any:
+        """The module-level ``attr`` of component ``name``'s module (``default`` when it has none), e.g. a servo's
+        ``GOVERNOR_KEYS``."""
+        return getattr(importlib.import_module(self.module(name)), attr, default)
 
     def register(self, name: str, target: str) -> None:
         """Add a component (``target`` = ``"package.module:builder"``)."""
@@ -150,6 +181,15 @@ CONTROLS = Registry("control", "control", {
 DOWNSTREAM = Registry("downstream", "downstream", {
     "tailwater": "simulate.components.hydraulic.draft_tube:build_tailwater",
     "draft_tube": "simulate.components.hydraulic.draft_tube:build_draft_tube",
+})
+#: The servo between a governor and the guide vanes (the first entry is the default;
+#: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``).
+SERVOS = Registry("servo", "governor.servo_model", {
+    "first-order": "simulate.components.control.servo:build_first_order",
+    "discrete": "simulate.components.control.discrete_servo:build_discrete_servo",
+    "dead-time": "simulate.components.control.dead_time:build_dead_time_servo",
+    "backlash": "simulate.components.control.backlash:build_backlash_servo",
+    "two-stage": "simulate.components.control.two_stage:build_two_stage_servo",
 })
 SHAFTS = Registry("shaft", "generator.model", {
     "swing": "simulate.components.shaft.rotor:build_rotor",

@@ -21,7 +21,8 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import _ROLES, _header_lines, _import_line, _python_kernel, _turbine_lines, compiled_loop
+from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _python_kernel, _turbine_lines,
+                                    compiled_loop)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
 MULTI_TEMPLATE_VERSION = 2
@@ -104,7 +105,7 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
         for alias, (kind, role) in _UNIT_ROLES.items():
             func = parts[kind].functions[role]
             lines.append(_import_line(func, f"u{i}_{alias}", inline=True))
-            modules.add(func.__module__)
+            modules.update(_modules_of(func))
         func = parts["branch"].functions["inlet_flow"]
         lines.append(_import_line(func, f"u{i}_branch_inlet_flow", inline=True))
         unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s = units[{i}]")

@@ -24,8 +24,10 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.validation import check_choice, check_number
-from simulate.components.control.governor import governor_parameters, governor_step, servo_step
-from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
+from simulate.components.control.governor import build_governor, build_prescribed, governor_control_step
+from simulate.components.control.servo import servo_step
+from simulate.components.registry import Bound, CompiledPart, PartHooks
+from simulate.components.schedules import GOVERNOR, piecewise_linear
 
 BLADE_MODES = ("combinator", "held", "law")
 COMBINATOR_RELATIONS = ("cam", "model", "table", "off")
@@ -141,9 +143,14 @@ class CombinatorConfig:
 # ---------------------------------------------------------------------------------------------------------------
 # compiled steps (registry kind "control")
 # ---------------------------------------------------------------------------------------------------------------
-# blade params vector: the servo layout of GOVERNOR_PARAMS (indices 5-10: y0, y_min, y_max, decay, close_step,
-# open_step, in blade stroke fractions) then [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
-_MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 11, 12, 13, 14, 15, 16
+# blade params vector: the first-order servo's layout (simulate.components.control.servo.SERVO_PARAMS, indices 0-4:
+# y_min, y_max, decay, close_step, open_step, in blade stroke fractions), y0 (index 5), then
+# [mode, angle_min, span, opening_max, law_start_s, law_target_stroke]
+_Y0, _MODE, _ANGLE_MIN, _SPAN, _OPENING_MAX, _LAW_START, _LAW_TARGET = 5, 6, 7, 8, 9, 10, 11
+#: The vanes' control step the blades' step calls: bound by the builder to the vane component of the scenario (the
+#: governor with its servo, or the prescribed law; :class:`simulate.components.registry.Bound`); this default is the
+#: governor's.
+vane_control = governor_control_step
 
 
 @numba.njit(cache=True)
@@ -156,32 +163,19 @@ def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
     if mode == 0.0:
         command = (cam - blade[_ANGLE_MIN]) / blade[_SPAN]
     elif mode == 1.0 or t_next_s < blade[_LAW_START]:
-        command = blade[5]
+        command = blade[_Y0]
     else:
         command = blade[_LAW_TARGET]
     return servo_step(blade, command, controls[1])
 
 
 @numba.njit(cache=True)
-def governor_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """Governor PID and vane servo (as :func:`simulate.components.control.governor.governor_control_step`), then
-    the blades: controls at t_next."""
-    gov, ref_times, ref_values, scal, blade, cam_openings, cam_angles = p
-    state, controls, bstate = s
-    x = speed_rpm / scal[0] - 1.0
-    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
-    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
-    controls[0] = servo_step(gov, command, controls[0])
-    controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[1])
-    return controls
-
-
-@numba.njit(cache=True)
-def prescribed_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """The prescribed vane law at t_next, then the blades."""
-    law_times, law_strokes, scal, blade, cam_openings, cam_angles = p
-    controls, bstate = s
-    controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
+def blade_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+    """The vanes' control step (``vane_control``: the governor's or the prescribed law's, with its own parameters
+    ``p[0]`` and state ``s[0]``, whose last entry is the control vector), then the blades: controls at t_next."""
+    vane_p, blade, cam_openings, cam_angles, scal = p
+    vane_s, bstate = s
+    controls = vane_control(vane_p, vane_s, speed_rpm, t_s, t_next_s, dt_s)
     controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[0])
     return controls
 
@@ -189,8 +183,8 @@ def prescribed_blade_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 @numba.njit(cache=True)
 def blade_record(p, s, out):
     """Columns ``blade_angle_deg``, ``blade_angle_cam_deg``."""
-    blade = p[-3]
-    controls, bstate = s[-2], s[-1]
+    blade = p[1]
+    controls, bstate = s[0][-1], s[1]
     out[0] = blade[_ANGLE_MIN] + controls[1] * blade[_SPAN]
     out[1] = bstate[0]
 
@@ -212,7 +206,7 @@ def blade_parameters(plant, turbine_view, initial_blade_stroke: float, dt_s: flo
         target_deg = servo.angle_min_deg if servo.law_target_deg is None else servo.law_target_deg
         target = turbine_view.blade_stroke(target_deg)
     law_start = servo.law_start_s if servo is not None else 0.0
-    return np.array([0.0, 0.0, 0.0, 0.0, 0.0, initial_blade_stroke, 0.0, 1.0, decay, close_step, open_step,
+    return np.array([0.0, 1.0, decay, close_step, open_step, initial_blade_stroke,
                      mode, turbine_view.angle_min_deg, span, plant.turbine.opening_max, law_start, target])
 
 
@@ -240,34 +234,30 @@ def _blade_setup(plant, steady, dt_s, characteristics):
 
 
 def build_governor_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """Governor on the vanes, blades through their servo (module docstring). The vane servo is the first-order
-    one: paper 000's discrete servo (``governor.servo_model = "discrete"``) is refused here rather than ignored."""
-    if plant.governor.servo_model != "first-order":
-        raise InputError(f"governor.servo_model = {plant.governor.servo_model!r} is not available on a "
-                         f"double-regulated unit (a plant with [combinator]): its governor drives the guide vanes "
-                         f"through the first-order servo (governor.servo_time_s) and the blades through "
-                         f"[blade_servo]; set governor.servo_model = \"first-order\" or leave it out")
-
-    blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
-    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
-    params = (governor_parameters(plant.governor, steady.stroke, dt_s), schedules.ref_times_s, schedules.ref_values,
-              scal, blade, openings, angles)
-    return _part("governor", governor_blade_step, params, (np.zeros(3), controls, bstate), blade, bstate,
-                 characteristics.blade_range_deg)
+    """Governor on the vanes through the servo ``governor.servo_model`` names (the governor component itself,
+    :func:`simulate.components.control.governor.build_governor`), blades through their servo (module docstring)."""
+    return _with_blades(build_governor(plant, steady, dt_s, schedules), plant, steady, dt_s, characteristics)
 
 
 def build_prescribed_blades(plant, steady, dt_s: float, schedules, characteristics=None):
-    """The scenario's vane law, blades through their servo."""
+    """The scenario's vane law (:func:`simulate.components.control.governor.build_prescribed`), blades through their
+    servo."""
+    return _with_blades(build_prescribed(plant, steady, dt_s, schedules), plant, steady, dt_s, characteristics)
+
+
+def _with_blades(vane, plant, steady, dt_s: float, characteristics):
+    """The vane component ``vane`` (a :class:`CompiledPart` of one control) with the blades as control 1: its step
+    bound into :func:`blade_control_step`, its control vector lengthened to two."""
     blade, openings, angles, bstate, controls = _blade_setup(plant, steady, dt_s, characteristics)
-    params = (schedules.law_times_s, schedules.law_strokes, np.array([1e-9 * dt_s]), blade, openings, angles)
-    return _part("prescribed", prescribed_blade_step, params, (controls, bstate), blade, bstate,
-                 characteristics.blade_range_deg)
+    vane_state = (*vane.state[:-1], controls)  # the vane component's control vector, now [vanes, blades]
+    params = (vane.params, blade, openings, angles, np.array([1e-9 * dt_s]))
+    step = Bound(blade_control_step, (("vane_control", vane.functions["step"]),))
+    return _part(vane.name, step, params, (vane_state, bstate), blade, bstate, characteristics.blade_range_deg,
+                 vane.hooks.summary)
 
 
-def _part(name, step, params, state, blade, bstate, blade_range):
-    from simulate.components.registry import CompiledPart, PartHooks
-
-    phi0 = blade[_ANGLE_MIN] + blade[5] * blade[_SPAN]
+def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
+    phi0 = blade[_ANGLE_MIN] + blade[_Y0] * blade[_SPAN]
     warnings_after = None
     if blade_range is not None:
         lo, hi = blade_range
@@ -280,8 +270,9 @@ def _part(name, step, params, state, blade, bstate, blade_range):
                         f"angle_max_deg or train the nets over the blade angles the run visits"]
             return []
 
-    hooks = PartHooks(initial_signals=(phi0, float(bstate[0])), n_controls=2,
-                      initial_controls=(float(state[-2][0]), float(state[-2][1])), warnings_after=warnings_after)
+    controls = state[0][-1]
+    hooks = PartHooks(summary=dict(summary or {}), initial_signals=(phi0, float(bstate[0])), n_controls=2,
+                      initial_controls=(float(controls[0]), float(controls[1])), warnings_after=warnings_after)
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
                         params=params, state=state, signals=SIGNALS, hooks=hooks)
 

@@ -22,12 +22,15 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_number
+from simulate.components.control.servo import Servo
+from simulate.components.parameters import parameter, validate_parameters
 
 #: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
 #: Layout of the state vector: the last two outputs and the time left to the next sample (s).
 SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
+#: Keys of ``[governor]`` this servo reads besides the common ones (``governor.servo_model = "discrete"``).
+GOVERNOR_KEYS = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
 
 @dataclass(frozen=True)
@@ -40,24 +43,24 @@ class DiscreteServoConfig:
     unit circle.
     """
 
-    b0: float = 0.5
-    a1: float = 1.0
-    a2: float = -0.5
-    sample_time_s: float = 0.2
-    stroke_min: float = 0.0
-    stroke_max: float = 1.0
-    closing_time_s: float | None = None
-    opening_time_s: float | None = None
+    b0: float = parameter(0.5, unit="1", low=-10.0, high=10.0,
+                          description="b0 of eq. (37), the weight of the command")
+    a1: float = parameter(1.0, unit="1", low=-10.0, high=10.0,
+                          description="a1 of eq. (37), the weight of the last stroke")
+    a2: float = parameter(-0.5, unit="1", low=-10.0, high=10.0,
+                          description="a2 of eq. (37), the weight of the stroke before it")
+    sample_time_s: float = parameter(0.2, unit="s", low=0.0, low_open=True, high=10.0,
+                                     description="sampling time tau (a whole multiple of the time step)")
+    stroke_min: float = parameter(0.0, unit="stroke fraction", low=0.0, high=1.0, description="lower stroke limit")
+    stroke_max: float = parameter(1.0, unit="stroke fraction", low=0.0, low_open=True, high=1.5,
+                                  description="upper stroke limit")
+    closing_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=1000.0,
+                                             description="time of a full closing stroke at the rate limit")
+    opening_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=1000.0,
+                                             description="time of a full opening stroke at the rate limit")
 
     def __post_init__(self):
-        for key in ("closing_time_s", "opening_time_s"):
-            if getattr(self, key) is not None:
-                check_number(f"servo.{key}", getattr(self, key), low=0.0, high=1000.0, low_open=True)
-        for key in ("b0", "a1", "a2"):
-            check_number(f"servo.{key}", getattr(self, key), low=-10.0, high=10.0)
-        check_number("servo.sample_time_s", self.sample_time_s, low=0.0, high=10.0, low_open=True)
-        check_number("servo.stroke_min", self.stroke_min, low=0.0, high=1.0)
-        check_number("servo.stroke_max", self.stroke_max, low=0.0, high=1.5, low_open=True)
+        validate_parameters("servo", self)
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"servo.stroke_min must be < servo.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
@@ -121,5 +124,43 @@ def discrete_servo_step(params, state, command, dt_s):
     return state[0]
 
 
-__all__ = ["DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
+@numba.njit(cache=True)
+def discrete_servo_component_step(sp, ss, command, stroke, dt_s):
+    """The servo component's step (:mod:`simulate.components.control.servo`): :func:`discrete_servo_step`."""
+    return discrete_servo_step(sp, ss, command, dt_s)
+
+
+def servo_config(governor) -> DiscreteServoConfig:
+    """The :class:`DiscreteServoConfig` of a ``[governor]`` section's ``servo_*`` keys (:data:`GOVERNOR_KEYS`), with
+    its stroke and rate limits; errors name the ``[governor]`` keys."""
+    keys = {k[len("servo_"):]: getattr(governor, k) for k in GOVERNOR_KEYS if getattr(governor, k) is not None}
+    try:
+        return DiscreteServoConfig(**keys, stroke_min=governor.stroke_min, stroke_max=governor.stroke_max,
+                                   closing_time_s=governor.closing_time_s, opening_time_s=governor.opening_time_s)
+    except InputError as exc:
+        raise InputError("governor (servo_model = \"discrete\", eq. (37)): "
+                         + str(exc).replace("servo.", "governor.servo_").replace("servo: ", "")) from None
+
+
+def check_governor(governor) -> None:
+    """Validate the ``[governor]`` section's eq. (37) keys (called when it is read)."""
+    servo_config(governor)
+
+
+def build_discrete_servo(governor, initial_stroke: float, dt_s: float):
+    """Paper 000's discrete servo (eq. (37)) as the governor's servo; ``dt_s`` must divide
+    ``governor.servo_sample_time_s``."""
+    config = servo_config(governor)
+    try:
+        check_servo_step(config, dt_s)
+    except InputError as exc:
+        raise InputError(str(exc).replace("servo.sample_time_s", "governor.servo_sample_time_s")
+                         + "; set solver.dt_s (or penstock.reaches) or governor.servo_sample_time_s") from None
+    return Servo(discrete_servo_component_step, discrete_servo_parameters(config), initial_servo_state(initial_stroke),
+                 summary={"servo_model": "discrete (Wang et al. 2023, eq. (37))",
+                          "servo_sample_time_s": config.sample_time_s})
+
+
+__all__ = ["GOVERNOR_KEYS", "servo_config", "check_governor", "build_discrete_servo", "discrete_servo_component_step",
+           "DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
            "check_servo_step", "discrete_servo_step"]

@@ -6,8 +6,8 @@ import scipy.signal
 
 from hillchart.errors import InputError
 from simulate.components.control.discrete_servo import (DiscreteServoConfig, check_servo_step,
-                                                        discrete_servo_parameters,
-                                     discrete_servo_step, initial_servo_state)
+                                                        discrete_servo_parameters, discrete_servo_step,
+                                                        initial_servo_state, servo_config)
 
 
 def _run(config, commands, dt, y0=0.0, jit=True):
@@ -87,7 +87,7 @@ def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_ord
     first = run_simulation(_plant())
     plant = _plant(**{"governor.servo_model": "discrete"})
     # the printed eq. (37) at 0.2 s by default, with the governor's rate limits
-    assert plant.governor.discrete_servo == DiscreteServoConfig(closing_time_s=12.0, opening_time_s=20.0)
+    assert servo_config(plant.governor) == DiscreteServoConfig(closing_time_s=12.0, opening_time_s=20.0)
     assert plant.with_overrides({"scenario.t_end_s": 30.0}).governor == plant.governor  # round trip keeps the keys
     disc = run_simulation(plant)
     assert disc.summary()["servo_model"].startswith("discrete")
@@ -104,9 +104,11 @@ def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_ord
 
 
 @pytest.mark.parametrize("overrides,match", [
-    ({"governor.servo_model": "second-order"}, r"governor\.servo_model must be one of first-order, discrete; "
+    ({"governor.servo_model": "second-order"}, r"governor\.servo_model must be one of first-order, discrete, "
+                                               r"dead-time, backlash, two-stage; "
                                                r"got 'second-order'"),
-    ({"governor.servo_b0": 0.5}, r"governor\.servo_b0 is a key of governor\.servo_model = \"discrete\""),
+    ({"governor.servo_b0": 0.5}, r"governor\.servo_b0 is a key of governor\.servo_model = 'discrete'; with "
+                                 r"servo_model = 'first-order' it would be ignored"),
     ({"governor.servo_model": "discrete", "governor.servo_b0": 0.4},
      r"governor \(servo_model = \"discrete\", eq\. \(37\)\): DC gain b0 / \(1 - a1 - a2\) must be 1"),
     ({"governor.servo_model": "discrete", "governor.servo_a2": -1.0, "governor.servo_b0": 1.0},
@@ -129,15 +131,40 @@ def test_servo_sampling_must_be_a_multiple_of_the_time_step_in_the_loop():
         run_simulation(_plant(**{"governor.servo_model": "discrete", "governor.servo_sample_time_s": 0.21}))
 
 
-def test_the_discrete_servo_on_a_double_regulated_unit_is_refused_not_ignored():
-    """The bulb plant's governor drives its vanes through the first-order servo: governor.servo_model = "discrete"
-    ran there and changed nothing (the vane opening equalled the default servo's run exactly); it is refused, naming
-    the key and what to set. Beside it, the same key on the Francis plant runs its discrete servo (the test above)."""
+@pytest.mark.slow
+def test_the_discrete_servo_drives_the_vanes_of_a_double_regulated_unit():
+    """The bulb plant's governor drives its vanes through the servo governor.servo_model names, as the Francis
+    plant's: the key ran there once and changed nothing (the vane opening equalled the default servo's run
+    exactly), then was refused; now the eq. (37) servo moves the vanes only at its sampling instants."""
     from data_synthetic import PLANT_BULB
     from simulate.config import load_plant
     from simulate.loop.engine import run_simulation
 
-    with pytest.raises(InputError, match=r'governor.servo_model = .discrete. is not available on a double-regulated '
-                                         r'unit .* set governor.servo_model = "first-order"'):
-        run_simulation(load_plant(PLANT_BULB, {"governor.servo_model": "discrete", "scenario.t_end_s": 3.0}))
-    assert run_simulation(load_plant(PLANT_BULB, {"scenario.t_end_s": 3.0})).success
+    short = {"scenario.t_end_s": 4.0}
+    first = run_simulation(load_plant(PLANT_BULB, short))
+    plant = load_plant(PLANT_BULB, {**short, "governor.servo_model": "discrete"})
+    disc = run_simulation(plant)
+    assert disc.success and disc.summary()["servo_model"].startswith("discrete")
+    steps = int(round(0.2 / disc.summary()["dt_s"] * disc.summary()["substeps"]))
+    moved = np.flatnonzero(np.abs(np.diff(disc.opening)) > 1e-12) + 1
+    # the stroke moves only at the servo's sampling instants (every `steps` loop steps; rows as in the test above)
+    assert moved.size > 3 and np.all(moved % (steps // disc.summary()["substeps"]) == 1)
+    assert np.max(np.abs(disc.opening - first.opening)) > 1e-3  # the key acts: not the first-order run
+
+
+def test_a_servo_is_refused_where_a_prescribed_law_drives_the_vanes():
+    """closure-law and opening-steps prescribe the vane stroke: no governor and no servo is in the loop, so a servo
+    other than the default would be accepted and ignored; it is refused, naming the key and why (single unit and
+    double-regulated unit; the run stops before anything is compiled)."""
+    from data_synthetic import PLANT_BULB, PLANT_HLA339
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    for path in (PLANT_HLA339, PLANT_BULB):
+        for kind, keys in (("closure-law", {"scenario.closing_time_s": 10.0}), ("opening-steps", {})):
+            plant = load_plant(path, {"governor.servo_model": "discrete", "scenario.kind": kind,
+                                      "scenario.t_end_s": 3.0, **keys})
+            with pytest.raises(InputError, match=rf"governor\.servo_model = 'discrete' would be ignored: the "
+                                                 rf"prescribed law of scenario\.kind = '{kind}' drives the guide "
+                                                 rf"vanes"):
+                run_simulation(plant)

@@ -1,0 +1,69 @@
+"""A model is chosen by the registry, never by comparing its name: a comparison with a servo model's name
+(``plant.governor.servo_model == "discrete"``) outside the model's own module and the registry fails here. (The
+control registry's names, "governor" and "prescribed", are also section and mode words elsewhere; its choice is
+:func:`simulate.components.registry.control_name`.)"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+from simulate.components.registry import SERVOS
+
+REPO = Path(__file__).resolve().parents[3]
+#: the registries whose names may be compared only in their own modules
+CHECKED = (SERVOS,)
+
+
+def _owner_files(registry) -> dict[str, set[str]]:
+    """name -> the files allowed to name it: the module of its builder and the registry's module."""
+    out = {}
+    for name in registry.names():
+        out[name] = {registry.module(name).replace(".", "/") + ".py", "simulate/components/registry.py"}
+    return out
+
+
+def _compared_strings(tree: ast.AST):
+    """(line, string) of every string constant compared with ==, !=, in or not in (alone or in a tuple, list or
+    set on either side)."""
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Compare):
+            continue
+        for operand in [node.left, *node.comparators]:
+            items = operand.elts if isinstance(operand, (ast.Tuple, ast.List, ast.Set)) else [operand]
+            for item in items:
+                if isinstance(item, ast.Constant) and isinstance(item.value, str):
+                    yield node.lineno, item.value
+
+
+def model_name_comparisons(root: Path = REPO, sources=None) -> list[str]:
+    """``path:line compares "name"`` for each comparison with a checked model name outside its allowed files."""
+    allowed = {}
+    for registry in CHECKED:
+        for name, files in _owner_files(registry).items():
+            allowed.setdefault(name, set()).update(files)
+    found = []
+    if sources is None:
+        sources = {str(p.relative_to(root)): p.read_text(encoding="utf-8")
+                   for package in ("simulate", "hillsim") for p in sorted((root / package).rglob("*.py"))}
+    for path, text in sources.items():
+        for line, value in _compared_strings(ast.parse(text)):
+            if value in allowed and path not in allowed[value]:
+                found.append(f"{path}:{line} compares {value!r}")
+    return found
+
+
+def test_no_servo_model_name_is_compared_outside_its_module_and_the_registry():
+    assert model_name_comparisons() == []
+
+
+@pytest.mark.parametrize("text,hits", [
+    ('if plant.governor.servo_model == "discrete":\n    pass\n', 1),
+    ('ok = model in ("first-order", "backlash")\n', 2),
+    ('label = "discrete"\n', 0),  # a string that is not compared is not a choice of model
+])
+def test_the_check_finds_a_comparison_in_another_module(text, hits):
+    assert len(model_name_comparisons(sources={"simulate/loop/engine.py": text})) == hits
+    # the servo's own module may compare its name
+    assert model_name_comparisons(sources={"simulate/components/control/discrete_servo.py":
+                                           'x = m == "discrete"\n'}) == []
