@@ -672,20 +672,9 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
                          f"guide_vane_deg {opening.min()!r}")
     model = None
     if extension:
-        from hillchart.extension.bulb_model import extension_samples, fit_bulb_model
-
-        model = fit_bulb_model(n11, opening, blade, q11, samples["m11"], opening_closed=opening_closed, seed=seed,
-                               source=f"the table {table.info.name!r}")
-        extra = extension_samples(model, n11, opening, blade)
-        samples = {key: np.concatenate([samples[key], extra[key]]) for key in samples}
-        counts = {o: int(np.sum(extra["origin"] == o)) for o in ("zero-opening", "runaway", "zero-speed",
-                                                                  "silent-region")}
-        closed_text = (f"fitted closed vane {model.opening_closed:.4g} deg" if model.closed_fitted
-                       else f"closed vane {model.opening_closed:g} deg")
-        notes.append(f"extended by the physical bulb model (fits the table to Q11 RMS {model.q11_rms_pct:.2g} %, "
-                     f"M11 RMS {model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
-                     f"{model.k_zero_opening:.3g} N*m/(r/min)^2): "
-                     + ", ".join(f"{n} {o}" for o, n in counts.items()) + " samples")
+        samples, note, model = extend_unit_samples(samples, opening_closed=opening_closed, seed=seed,
+                                                   source=f"the table {table.info.name!r}")
+        notes.append(note)
     elif opening_closed is not None:
         rng = np.random.default_rng([seed, 3])
         k = int(zero_opening_points)
@@ -695,6 +684,29 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
         samples = {key: np.concatenate([samples[key], zero[key]]) for key in samples}
         notes.append(f"extended to the closed vane ({opening_closed:g} deg): {k} samples with Q11 = 0, M11 = 0")
     return samples, notes, model
+
+
+def extend_unit_samples(samples: dict, *, opening_closed: float | None = None, seed: int = 0,
+                        source: str = "the table") -> tuple[dict, str, object]:
+    """Measured unit samples (dict of n11, opening, blade_angle, q11, m11, origin "measured") plus the samples of the
+    physical bulb model fitted to them where they are silent (:func:`hillchart.extension.bulb_model.fit_bulb_model`,
+    :func:`hillchart.extension.bulb_model.extension_samples`), the note that says so, and the model: the extension of
+    :func:`table_unit_samples`. Raises :class:`InputError` when the model cannot represent the samples."""
+    from hillchart.extension.bulb_model import extension_samples, fit_bulb_model
+
+    n11, opening, blade = (np.asarray(samples[k], float) for k in NET3_INPUTS)
+    model = fit_bulb_model(n11, opening, blade, samples["q11"], samples["m11"], opening_closed=opening_closed,
+                           seed=seed, source=source)
+    extra = extension_samples(model, n11, opening, blade)
+    out = {key: np.concatenate([np.asarray(samples[key]), extra[key]]) for key in extra}
+    counts = {o: int(np.sum(extra["origin"] == o)) for o in ("zero-opening", "runaway", "zero-speed", "silent-region")}
+    closed_text = (f"fitted closed vane {model.opening_closed:.4g} deg" if model.closed_fitted
+                   else f"closed vane {model.opening_closed:g} deg")
+    note = (f"extended by the physical bulb model (fits the table to Q11 RMS {model.q11_rms_pct:.2g} %, M11 RMS "
+            f"{model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
+            f"{model.k_zero_opening:.3g} N*m/(r/min)^2): " + ", ".join(f"{n} {o}" for o, n in counts.items())
+            + " samples")
+    return out, note, model
 
 
 def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0, members: int = 5,
