@@ -512,11 +512,9 @@ class BulbExtrapolation:
     curvature_q11, curvature_m11 : float
         ``c`` of the quadratic hypothesis.
     band_q11 : float
-        ``kappa``: the band's half-width in Q11 is ``kappa h(d)`` as a log-ratio.
-    band_m11 : float
-        The same for M11, a fraction of ``m11_scale``.
-    m11_scale : float
-        N*m, the table's M11 range.
+        ``kappa``: the band's half-width in Q11 is ``kappa h(d)`` as a log-ratio; a member's hydraulic torque
+        ``M11 + K N11^2`` moves by the same factor as its flow (as the Francis members' do), so at the closed vanes,
+        where Q11 = 0 and M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes.
     distance_cap : float
         Where the band's growth levels off (:func:`hillchart.extension.hypotheses.band_square`).
     position : float
@@ -528,8 +526,6 @@ class BulbExtrapolation:
     curvature_q11: float
     curvature_m11: float
     band_q11: float
-    band_m11: float
-    m11_scale: float
     distance_cap: float
     position: float = 0.0
 
@@ -542,8 +538,7 @@ class BulbExtrapolation:
                                  f"{', '.join(HYPOTHESES)} summing to 1, got {list(np.ravel(w))!r}")
             object.__setattr__(self, name, tuple(float(v) for v in w))
         limits = {"curvature_q11": (-1.0, 1.0), "curvature_m11": (-1.0, 1.0), "band_q11": (0.0, 1e3),
-                  "band_m11": (0.0, 1e3), "m11_scale": (1e-300, math.inf), "distance_cap": (1e-9, 1.0),
-                  "position": (-5.0, 5.0)}
+                  "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0)}
         for name, (lo, hi) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= value <= hi):
@@ -555,26 +550,24 @@ class BulbExtrapolation:
         q, m = evidence.weight_vectors()
         return cls(weights_q11=tuple(q), weights_m11=tuple(m), curvature_q11=evidence.curvature[0],
                    curvature_m11=evidence.curvature[1], band_q11=float(evidence.band["q11"]),
-                   band_m11=float(evidence.band["m11"]), m11_scale=evidence.m11_scale,
                    distance_cap=evidence.distance_cap, position=float(position))
 
     def packed(self) -> np.ndarray:
-        """13 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets (``position band_q11``,
-        ``position band_m11 m11_scale``) and the distance cap."""
+        """12 numbers: the Q11 and M11 weights, the curvatures, the member's band offset ``position band_q11`` and
+        the distance cap."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
-                         self.position * self.band_q11, self.position * self.band_m11 * self.m11_scale,
-                         self.distance_cap])
+                         self.position * self.band_q11, self.distance_cap])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
                 "weights_m11": list(self.weights_m11), "curvature_q11": self.curvature_q11,
-                "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
-                "m11_scale": self.m11_scale, "distance_cap": self.distance_cap, "position": self.position}
+                "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "distance_cap": self.distance_cap,
+                "position": self.position}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
-                 "band_m11", "m11_scale", "distance_cap", "position"}
+                 "distance_cap", "position"}
         if not isinstance(doc, dict) or set(doc) != names:
             raise InputError(f"{key} must be an object with exactly the keys {', '.join(sorted(names))}, got "
                              f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
