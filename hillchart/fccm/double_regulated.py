@@ -75,7 +75,7 @@ NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf, 0.0]])
 
 
 #: Indices in the packed blend (:meth:`BulbSilentModel.packed`) of the closed vane and the disc friction K, and the
-#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 12 more numbers,
+#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 13 more numbers,
 #: :meth:`hillchart.fccm.evidence.BulbExtrapolation.packed`).
 _CLOSED = POINT_PARAMETERS.index("guide_vane_closed_deg")
 _K_DISC = POINT_PARAMETERS.index("k_disc_friction")
@@ -87,7 +87,7 @@ def weighed_point(net, blend, n11, opening, blade, which):
     """``(y, dy/dN11)`` of the weighed hypotheses (:mod:`hillchart.fccm.evidence`) below the table's smallest
     guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
     member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``, the band multiplies
-    Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d))`` (``h`` of
+    Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d))``, each by its own offset (``h`` of
     :func:`hillchart.extension.hypotheses.band_square` at ``d = 1 - t``)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]
@@ -108,7 +108,7 @@ def weighed_point(net, blend, n11, opening, blade, which):
         if w > 0.0:
             y += w * hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
             dy += w * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
-    f = math.exp(blend[25] * band_square_compiled(1.0 - t, blend[26])[0])
+    f = math.exp(blend[25 + which] * band_square_compiled(1.0 - t, blend[27])[0])
     return y_0 + (y - y_0) * f, dy_0 + (dy - dy_0) * f
 
 
@@ -274,7 +274,7 @@ class BulbSilentModel:
     def packed(self) -> np.ndarray:
         """The numbers :func:`blended_point` reads: the model's parameters, the blend openings, the flag (0.0 the
         nets of the characteristics, 1.0 the residual, :data:`WEIGHED` the residual with the weighed hypotheses, whose
-        12 numbers follow)."""
+        13 numbers follow)."""
         if self.extrapolation is not None:
             return np.concatenate([self.parameters, self.blend_openings, [WEIGHED], self.extrapolation.packed()])
         return np.concatenate([self.parameters, self.blend_openings, [1.0 if self.residual else 0.0]])

@@ -209,6 +209,9 @@ class AngleHoldOut:
         ``1 - t`` of each point below the lowest kept angle of its sweep.
     predictions : dict
         hypothesis -> ``(Q11, M11)`` arrays.
+    m11_closed : ndarray (P,)
+        ``-K N11^2`` of the refitted model at the points (N*m): M11 at the closed vanes, so that ``M11 - m11_closed``
+        is the hydraulic torque.
     """
 
     angles: int
@@ -220,6 +223,7 @@ class AngleHoldOut:
     m11: np.ndarray
     distance: np.ndarray
     predictions: dict
+    m11_closed: np.ndarray
 
 
 def _arrays(samples):
@@ -273,7 +277,7 @@ def hold_out_angles(samples: dict, angles: int, *, opening_closed: float | None 
     predictions = {h: anchor.values(h, n[idx], a[idx], b[idx], curvature) for h in HYPOTHESES}
     return AngleHoldOut(angles=int(angles), sweeps=len(lines), n11=n[idx], opening=a[idx], blade_angle=b[idx],
                         q11=q[idx], m11=m[idx], distance=1.0 - opening_ratio(a[idx], model.opening_closed, low),
-                        predictions=predictions)
+                        predictions=predictions, m11_closed=-model.k_zero_opening * n[idx] ** 2)
 
 
 def pseudo_bma(errors: dict, distance, pieces: int) -> dict:
@@ -323,7 +327,8 @@ class TableEvidence:
         ``{"q11": {hypothesis or "blend": {"rms", "mean_abs", "worst"}}, "m11": {...}}`` at the held-out points of
         every fold together (Q11 log-ratios, M11 fractions of ``m11_scale``).
     band : dict
-        ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h(d)`` (:func:`band_scale`).
+        ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h(d)`` (:func:`band_scale`) as log-ratios of
+        Q11 and of the hydraulic torque ``M11 + K N11^2``.
     points : int
         Held-out points behind the weights (0: none; the band is ``NO_EVIDENCE_SCALE``).
     m11_scale : float
@@ -401,8 +406,16 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int]:
         blended = sum(weights[target][h] * errors[h] for h in HYPOTHESES)
         stats[target] = {h: _stats(e) for h, e in errors.items()}
         stats[target]["blend"] = _stats(blended)
-        band[target] = fold_band(folds, [sum(weights[target][h] * e[target][h] for h in HYPOTHESES)
-                                         for e in per_fold])
+    # the band of a member moves Q11 and the hydraulic torque M11 - M_0 by factors (so it vanishes at the closed vanes):
+    # calibrated on the log-ratios of the weighed blend's Q11 and hydraulic torque at each fold's points
+    for target, index in (("q11", 0), ("m11", 1)):
+        residuals = []
+        for f in folds:
+            blended = sum(weights[target][h] * f.predictions[h][index] for h in HYPOTHESES)
+            base = 0.0 if index == 0 else f.m11_closed
+            actual = (f.q11 if index == 0 else f.m11) - base
+            residuals.append(log_ratio(blended - base, actual, 1e-3 * float(np.max(np.abs(actual)))))
+        band[target] = fold_band(folds, residuals)
     return weights, stats, band, min(1.0, float(distance.max())), points
 
 
@@ -511,10 +524,10 @@ class BulbExtrapolation:
         Weights of :data:`HYPOTHESES` (each summing to 1).
     curvature_q11, curvature_m11 : float
         ``c`` of the quadratic hypothesis.
-    band_q11 : float
-        ``kappa``: the band's half-width in Q11 is ``kappa h(d)`` as a log-ratio; a member's hydraulic torque
-        ``M11 + K N11^2`` moves by the same factor as its flow (as the Francis members' do), so at the closed vanes,
-        where Q11 = 0 and M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes.
+    band_q11, band_m11 : float
+        ``kappa``: the band's half-width is ``kappa h(d)`` as a log-ratio of Q11 and of the hydraulic torque
+        ``M11 + K N11^2``: a member multiplies both by ``exp(position kappa h)``, so at the closed vanes, where
+        Q11 = 0 and M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes.
     distance_cap : float
         Where the band's growth levels off (:func:`hillchart.extension.hypotheses.band_square`).
     position : float
@@ -526,6 +539,7 @@ class BulbExtrapolation:
     curvature_q11: float
     curvature_m11: float
     band_q11: float
+    band_m11: float
     distance_cap: float
     position: float = 0.0
 
@@ -538,7 +552,7 @@ class BulbExtrapolation:
                                  f"{', '.join(HYPOTHESES)} summing to 1, got {list(np.ravel(w))!r}")
             object.__setattr__(self, name, tuple(float(v) for v in w))
         limits = {"curvature_q11": (-1.0, 1.0), "curvature_m11": (-1.0, 1.0), "band_q11": (0.0, 1e3),
-                  "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0)}
+                  "band_m11": (0.0, 1e3), "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0)}
         for name, (lo, hi) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= value <= hi):
@@ -550,24 +564,24 @@ class BulbExtrapolation:
         q, m = evidence.weight_vectors()
         return cls(weights_q11=tuple(q), weights_m11=tuple(m), curvature_q11=evidence.curvature[0],
                    curvature_m11=evidence.curvature[1], band_q11=float(evidence.band["q11"]),
-                   distance_cap=evidence.distance_cap, position=float(position))
+                   band_m11=float(evidence.band["m11"]), distance_cap=evidence.distance_cap, position=float(position))
 
     def packed(self) -> np.ndarray:
-        """12 numbers: the Q11 and M11 weights, the curvatures, the member's band offset ``position band_q11`` and
-        the distance cap."""
+        """13 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        ``position band_m11``, the distance cap."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
-                         self.position * self.band_q11, self.distance_cap])
+                         self.position * self.band_q11, self.position * self.band_m11, self.distance_cap])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
                 "weights_m11": list(self.weights_m11), "curvature_q11": self.curvature_q11,
-                "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "distance_cap": self.distance_cap,
-                "position": self.position}
+                "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
+                "distance_cap": self.distance_cap, "position": self.position}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
-                 "distance_cap", "position"}
+                 "band_m11", "distance_cap", "position"}
         if not isinstance(doc, dict) or set(doc) != names:
             raise InputError(f"{key} must be an object with exactly the keys {', '.join(sorted(names))}, got "
                              f"{sorted(doc) if isinstance(doc, dict) else doc!r}")

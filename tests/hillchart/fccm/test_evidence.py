@@ -119,7 +119,7 @@ def test_an_in_class_sweep_table_weighs_the_model_and_bands_it_narrowly(sweep_sa
 
 def test_extrapolation_records_are_validated_and_round_trip():
     good = dict(weights_q11=(0.5, 0.5, 0.0, 0.0), weights_m11=(0.25,) * 4, curvature_q11=-0.4, curvature_m11=0.1,
-                band_q11=1.0, distance_cap=0.4)
+                band_q11=1.0, band_m11=0.5, distance_cap=0.4)
     record = BulbExtrapolation(**good)
     assert BulbExtrapolation.from_dict(record.to_dict()) == record
     for field, value, allowed in (("weights_q11", (0.5, 0.0, 0.0, 0.0), "summing to 1"),
@@ -145,7 +145,8 @@ def weighed():
     exact bulb as the model and the four hypotheses weighed unevenly, at the band's middle and at +1."""
     plain = load_double_regulated_nets(BULB_DIR / "nets.json")
     record = BulbExtrapolation(weights_q11=(0.1, 0.2, 0.3, 0.4), weights_m11=(0.4, 0.3, 0.2, 0.1),
-                               curvature_q11=-0.3, curvature_m11=0.2, band_q11=0.8, distance_cap=0.5)
+                               curvature_q11=-0.3, curvature_m11=0.2, band_q11=0.8, band_m11=1.5,
+                               distance_cap=0.5)
     params = SyntheticBulb().point_parameters()
     silent = BulbSilentModel(params, (39.0, LOW), residual=True, extrapolation=record)
     point = DoubleRegulatedNets(plain.flow, plain.torque, silent_model=silent)
@@ -181,9 +182,9 @@ def test_the_kernel_reads_the_weighed_hypotheses_below_the_table(weighed):
         np.testing.assert_allclose(point.q11(n11, gv, blade), q, rtol=1e-12, atol=1e-14)
         np.testing.assert_allclose(point.m11(n11, gv, blade), m, rtol=1e-12, atol=1e-12)
         h = np.array([band_square(float(1.0 - v), 0.5)[0] for v in t])
-        # the member at +1 in the band: Q11 and the hydraulic torque M11 + K N11^2 times exp(kappa h)
+        # the member at +1 in the band: Q11 and the hydraulic torque M11 + K N11^2 times exp(kappa h), each its own
         np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h), rtol=1e-12, atol=1e-14)
-        np.testing.assert_allclose(member.m11(n11, gv, blade), m_0 + (m - m_0) * np.exp(0.8 * h), rtol=1e-12,
+        np.testing.assert_allclose(member.m11(n11, gv, blade), m_0 + (m - m_0) * np.exp(1.5 * h), rtol=1e-12,
                                    atol=1e-12)
     # shut vanes pass no flow and the torque is the disc friction's -K N11^2 (eq. (8)), for every member
     k = SyntheticBulb().point_parameters()[POINT_PARAMETERS.index("k_disc_friction")]
@@ -215,7 +216,7 @@ def test_nets_with_the_weighed_hypotheses_round_trip_and_old_files_read_as_befor
     assert again.silent_model.extrapolation == record
     x = (np.array([130.0, 200.0]), np.array([36.0, 37.0]), np.array([-3.0, 5.0]))
     np.testing.assert_array_equal(again.q11(*x), point.q11(*x))
-    assert point.blend_packed().size == 27 and point.blend_packed()[14] == 2.0
+    assert point.blend_packed().size == 28 and point.blend_packed()[14] == 2.0
     # a file written before (no extrapolation block): 15 numbers, the model alone below the blend
     legacy = BulbSilentModel(SyntheticBulb().point_parameters(), (37.5, LOW), residual=True)
     assert "extrapolation" not in legacy.to_dict() and legacy.packed().size == 15
