@@ -238,7 +238,7 @@ def main(argv=None) -> int:
     if args.write_docs:
         page = REPO / "docs" / "bulb-extrapolation.md"
         doc = page.read_text(encoding="utf-8")
-        pattern = re.compile(re.escape(MARKERS[0]) + r"\n.*?\n" + re.escape(MARKERS[1]), re.S)
+        pattern = re.compile(re.escape(MARKERS[0]) + r"\n.*?" + re.escape(MARKERS[1]), re.S)
         if not pattern.search(doc):
             raise SystemExit(f"{page}: the markers {MARKERS} are missing")
         page.write_text(pattern.sub(lambda _: f"{MARKERS[0]}\n{text}\n{MARKERS[1]}", doc), encoding="utf-8")

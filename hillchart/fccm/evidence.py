@@ -102,10 +102,16 @@ def opening_ratio(opening, closed: float, low):
 
 
 def _clusters(values, gap: float) -> np.ndarray:
-    """Labels of ``values`` grouped where consecutive sorted values lie within ``gap``."""
+    """Labels of ``values`` grouped in ascending order, a group spanning at most ``gap`` from its smallest value (not
+    chained: the blade angles of a scattered campaign lie closer than ``gap`` to their neighbours over the whole
+    range)."""
     order = np.argsort(values, kind="stable")
     labels = np.empty(values.size, int)
-    labels[order] = np.concatenate([[0], np.cumsum(np.diff(values[order]) > gap)])
+    label, start = -1, -np.inf
+    for i in order:
+        if values[i] - start > gap:
+            label, start = label + 1, values[i]
+        labels[i] = label
     return labels
 
 

@@ -50,6 +50,9 @@ def test_sweeps_group_a_rigs_noisy_unit_speeds_and_leave_out_single_angles():
     assert held.tolist() == [True, False, False, False, False, False] and len(lines) == 1
     # two angles held out would leave 2 < MIN_ANGLES_LEFT = 3: no sweep takes part
     assert not held_out_mask(n11, opening, np.zeros(6), 2)[0].any()
+    # a scattered campaign's blade angles 0.08 deg apart are not chained into one sweep: groups span <= 0.1 deg
+    chained = sweeps(np.full(4, 150.0), [40.0, 45.0, 50.0, 55.0], [0.0, 0.08, 0.16, 0.24])
+    assert [g.tolist() for g in chained] == [[0, 1], [2, 3]]
 
 
 def test_the_model_predicts_held_out_angles_of_an_in_class_table_and_the_line_does_not(sweep_samples):
@@ -243,3 +246,26 @@ def test_the_real_bulb_tables_evidence(tmp_path):
     assert evidence.weights["q11"]["line"] < 0.01
     # the weighed blend misses these points by up to 9 %: the band says so (kappa 1.0: +-5 % one angle down)
     assert evidence.band["q11"] > 0.5
+
+
+@pytest.mark.external
+def test_the_command_prints_and_records_the_real_tables_evidence(tmp_path, capsys):
+    import json
+
+    from hillsim.cli import main
+    from tests.fccm_external import write_bulb_137kw_table
+
+    table = write_bulb_137kw_table(tmp_path / "bulb137")
+    # small nets: the evidence does not depend on them (it refits the model alone)
+    assert main(["fccm", str(table), "--simulator-nets", "--hidden", "6", "--restarts", "1", "--members", "3",
+                 "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert ("below the lowest guide-vane angle this table predicts its own held-out angles within 4.7 % (Q11)"
+            in printed)
+    doc = json.loads((tmp_path / "out" / "nets.json").read_text())
+    record = doc["training"]["extrapolation"]
+    assert record["held_out_points"] == 24 and record["held_out_angles"] == [1, 2]
+    assert doc["silent_model"]["extrapolation"]["position"] == 0.0
+    positions = sorted(m["silent_model"]["extrapolation"]["position"] for m in doc["ensemble"])
+    # three members at the normal quantiles of 1/6, 1/2, 5/6, scaled so their own 95th percentile is 1
+    assert positions[1] == 0.0 and positions[0] == pytest.approx(-positions[2]) and positions[2] > 1.0

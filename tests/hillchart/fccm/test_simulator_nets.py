@@ -59,6 +59,9 @@ def test_cli_writes_the_nets_the_simulator_reads(bulb_table, tmp_path, capsys):
     assert "extended by the physical bulb model" in printed and "combinator.opening_at_zero_stroke = 35" in printed
     doc = json.loads((extended / "nets.json").read_text())
     assert doc["silent_model"]["kind"] == "bulb-1d" and "boundary_model" in doc["training"]
+    # a best-efficiency campaign measures one N11 per setting: no guide-vane sweep to hold out, and it says so
+    assert "below the lowest guide-vane angle: no held-out evidence" in printed
+    assert doc["training"]["extrapolation"]["held_out_points"] == 0
     assert main(["fccm", str(bulb_table), "--simulator-nets", "--inputs", "a,b", "--out", str(tmp_path / "x")]) == 2
     assert "drop --inputs and --outputs" in capsys.readouterr().err
     assert main(["fccm", str(bulb_table), "--out", str(tmp_path / "y")]) == 2
