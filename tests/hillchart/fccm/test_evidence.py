@@ -100,7 +100,8 @@ def test_a_scattered_table_gives_no_evidence_and_says_so(tmp_path):
     measured = samples["origin"] == "measured"
     evidence = table_evidence({k: v[measured] for k, v in samples.items()}, model)
     assert evidence.points == 0 and evidence.band == {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}
-    assert all(w == 0.25 for w in evidence.weights["q11"].values())
+    # no hypothesis has earned a weight: the physical model alone, as before the evidence
+    assert evidence.weights["q11"] == {"model": 1.0, "anchored-model": 0.0, "line": 0.0, "quadratic": 0.0}
     # +-30 % at half the gap: kappa 1.2 times 0.5^2
     assert "no held-out evidence" in evidence.summary() and "+-30 %" in evidence.summary()
 
