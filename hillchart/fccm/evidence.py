@@ -234,8 +234,19 @@ class AngleHoldOut:
     m11_closed: np.ndarray
 
 
+SAMPLE_KEYS = ("n11", "opening", "blade_angle", "q11", "m11")
+
+
 def _arrays(samples):
-    return tuple(np.asarray(samples[k], float).ravel() for k in ("n11", "opening", "blade_angle", "q11", "m11"))
+    """The measured samples' arrays; an error names what is missing or of unequal length."""
+    missing = [k for k in SAMPLE_KEYS if not isinstance(samples, dict) or k not in samples]
+    if missing:
+        raise InputError(f"samples must be a dict with the arrays {', '.join(SAMPLE_KEYS)}; missing {missing}")
+    arrays = tuple(np.asarray(samples[k], float).ravel() for k in SAMPLE_KEYS)
+    sizes = {k: a.size for k, a in zip(SAMPLE_KEYS, arrays)}
+    if len(set(sizes.values())) != 1:
+        raise InputError(f"samples' arrays must have one length, got {sizes}")
+    return arrays
 
 
 def held_out_mask(n11, opening, blade, angles: int) -> tuple[np.ndarray, list]:

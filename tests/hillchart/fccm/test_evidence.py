@@ -68,6 +68,10 @@ def test_the_model_predicts_held_out_angles_of_an_in_class_table_and_the_line_do
     assert mean["line"] > 0.10  # the failing case beside it
     with pytest.raises(InputError, match="angles must be an integer >= 1, got 0"):
         hold_out_angles(samples, 0)
+    with pytest.raises(InputError, match=r"missing \['m11'\]"):
+        hold_out_angles({k: v for k, v in samples.items() if k != "m11"}, 1)
+    with pytest.raises(InputError, match="one length, got .*'q11': 80"):
+        hold_out_angles({**samples, "q11": samples["q11"][:-1]}, 1)
 
 
 def test_pseudo_bma_weighs_by_held_out_error_and_the_number_of_held_out_angles():
