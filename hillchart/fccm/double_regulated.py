@@ -363,8 +363,9 @@ class DoubleRegulatedNets:
     opening_unit : str
     training : dict, optional
     silent_model : BulbSilentModel, optional
-        The fitted bulb model that answers below the table's smallest guide-vane angle (the extension of
-        :func:`table_unit_samples`); None: the nets alone everywhere.
+        The fitted bulb model the nets extend (the extension of :func:`table_unit_samples`) and what answers below
+        the table's smallest guide-vane angle: the hypotheses weighed by the table's held-out angles
+        (:mod:`hillchart.fccm.evidence`), or the model alone in files without them; None: the nets alone everywhere.
     ensemble : list of (flow, torque, silent_model or None), optional
         The ensemble members (:func:`train_table_nets`; the point nets among them), each run by ``hillsim run
         --uncertainty`` as characteristics of its own (:meth:`members`).
