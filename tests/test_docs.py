@@ -291,3 +291,32 @@ def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
         assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)  # the same labels and layout
         for old, new in zip(number.findall(row), number.findall(fresh)):
             assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
+
+
+@pytest.mark.external
+@pytest.mark.slow
+def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
+    """docs/bulb-extrapolation.md's tables are the output of benchmarks/bench_bulb_extrapolation.py now (seeded
+    training; about a minute). The same rows and labels; the numbers within 0.5 percentage points and the coverage
+    counts within one point, as for the Francis chart's table above (trained nets differ between CPU families)."""
+    from tests.external_charts import require_external
+    from tests.fccm_external import BULB_137KW
+
+    require_external(BULB_137KW)
+    spec = importlib.util.spec_from_file_location("bench_bulb_extrapolation",
+                                                  REPO / "benchmarks" / "bench_bulb_extrapolation.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    assert bench.main([]) == 0
+    printed = capsys.readouterr().out
+    page = (DOCS / "bulb-extrapolation.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_bulb_extrapolation -->\n(.*?)\n<!-- end bench_bulb_extrapolation -->", page,
+                      re.S).group(1)
+    rows = [line for line in block.splitlines() if line.startswith("| ")]
+    now = [line for line in printed.splitlines() if line.startswith("| ")]
+    assert len(rows) == len(now) > 60, "rerun PYTHONPATH=. python benchmarks/bench_bulb_extrapolation.py --write-docs"
+    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.findall(row), number.findall(fresh)):
+            assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)

@@ -11,11 +11,13 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
+from hillchart.fccm.evidence import (HANDOVER_FRACTION, BulbExtrapolation, band_square_compiled,
+                                     hypothesis_value)
 from hillchart.fccm.net import FCCMNet, FCCMWeights
 from hillchart.fccm.plots import _figure
 from hillchart.nets.silent_model import _smoothstep
 from hillchart.nets.weights import ensemble_blocks
-from hillchart.synthetic.bulb import unit_point
+from hillchart.synthetic.bulb import POINT_PARAMETERS, unit_point
 from hillchart.validation import check_finite
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -72,6 +74,44 @@ SILENT_KIND = "bulb-1d"
 NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf, 0.0]])
 
 
+#: Indices in the packed blend (:meth:`BulbSilentModel.packed`) of the closed vane and the disc friction K, and the
+#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 13 more numbers,
+#: :meth:`hillchart.fccm.evidence.BulbExtrapolation.packed`).
+_CLOSED = POINT_PARAMETERS.index("guide_vane_closed_deg")
+_K_DISC = POINT_PARAMETERS.index("k_disc_friction")
+WEIGHED = 2.0
+
+
+@numba.njit(cache=True)
+def weighed_point(net, blend, n11, opening, blade, which):
+    """``(y, dy/dN11)`` of the weighed hypotheses (:mod:`hillchart.fccm.evidence`) below the table's smallest
+    guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
+    member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``, the band multiplies
+    Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d))``, each by its own offset (``h`` of
+    :func:`hillchart.extension.hypotheses.band_square` at ``d = 1 - t``)."""
+    params = blend[:12]
+    a_low, closed = blend[13], params[_CLOSED]
+    t = min(max((opening - closed) / (a_low - closed), 0.0), 1.0)
+    q_m, dq_m, m_m, dm_m = unit_point(params, n11, opening, blade)
+    q_l, dq_l, m_l, dm_l = unit_point(params, n11, a_low, blade)
+    r, dr = net3_point(net, n11, a_low, blade)
+    if which == 0:
+        y_m, dy_m, y_ml, dy_ml, y_0, dy_0 = q_m, dq_m, q_l, dq_l, 0.0, 0.0
+    else:
+        y_m, dy_m, y_ml, dy_ml = m_m, dm_m, m_l, dm_l
+        y_0, dy_0 = -params[_K_DISC] * n11 * n11, -2.0 * params[_K_DISC] * n11  # eq. (8), BP hill-chart paper
+    base = 15 + 4 * which
+    c = blend[23 + which]
+    y = dy = 0.0
+    for h in range(4):
+        w = blend[base + h]
+        if w > 0.0:
+            y += w * hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
+            dy += w * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
+    f = math.exp(blend[25 + which] * band_square_compiled(1.0 - t, blend[27])[0])
+    return y_0 + (y - y_0) * f, dy_0 + (dy - dy_0) * f
+
+
 @numba.njit(cache=True)
 def blended_point(flow, torque, blend, n11, opening, blade):
     """``(q11, dq11/dn11, m11, dm11/dn11)`` of packed three-input nets with the fitted bulb model
@@ -80,10 +120,22 @@ def blended_point(flow, torque, blend, n11, opening, blade):
     N11-derivatives follow the same formula):
 
     * nets of the characteristics (``blend[14]`` 0): ``y = w y_nets + (1 - w) y_model``;
-    * nets of the residual to the model (``blend[14]`` 1): ``y = y_model + w y_nets``.
+    * nets of the residual to the model (``blend[14]`` 1): ``y = y_model + w y_nets``;
+    * residual nets with the weighed hypotheses (``blend[14]`` 2, :data:`WEIGHED`):
+      ``y = w (y_model + y_nets) + (1 - w) y_weighed`` (:func:`weighed_point`).
 
-    Where w is 0 the nets are not evaluated."""
+    Where w is 0 the nets are not evaluated (with the hypotheses: only at the smallest angle)."""
     w = _smoothstep(opening, blend[12], blend[13])[0]
+    if blend[14] == WEIGHED and w < 1.0:
+        eq, edq = weighed_point(flow, blend, n11, opening, blade, 0)
+        em, edm = weighed_point(torque, blend, n11, opening, blade, 1)
+        if w <= 0.0:
+            return eq, edq, em, edm
+        mq, mdq, mm, mdm = unit_point(blend[:12], n11, opening, blade)
+        q, dq = net3_point(flow, n11, opening, blade)
+        m, dm = net3_point(torque, n11, opening, blade)
+        v = 1.0 - w
+        return (w * (mq + q) + v * eq, w * (mdq + dq) + v * edq, w * (mm + m) + v * em, w * (mdm + dm) + v * edm)
     if w <= 0.0:
         return unit_point(blend[:12], n11, opening, blade)
     q, dq = net3_point(flow, n11, opening, blade)
@@ -104,6 +156,12 @@ def blended_value(net, blend, n11, opening, blade, which):
     :func:`blended_point`, by the same formulas: what the pressure loop's iterations and the torque at the converged
     head read."""
     w = _smoothstep(opening, blend[12], blend[13])[0]
+    if blend[14] == WEIGHED and w < 1.0:
+        e = weighed_point(net, blend, n11, opening, blade, which)[0]
+        if w <= 0.0:
+            return e
+        mq, _, mm, _ = unit_point(blend[:12], n11, opening, blade)
+        return w * ((mq if which == 0 else mm) + net3_point(net, n11, opening, blade)[0]) + (1.0 - w) * e
     model = 0.0
     if w < 1.0 or blend[14] != 0.0:
         mq, _, mm, _ = unit_point(blend[:12], n11, opening, blade)
@@ -145,9 +203,14 @@ class BulbSilentModel:
         The nets give the residual to the model (``y = y_model + w y_nets``, :func:`blended_point`), as nets
         trained on a table with the extension do: they learn what the model misses, and the model's physics carries
         every region the table leaves out; False: the nets give the characteristics themselves.
+    extrapolation : BulbExtrapolation, optional
+        With residual nets: below the table's smallest angle (``blend_openings[1]``) the hypotheses weighed by the
+        table's held-out angles answer (:mod:`hillchart.fccm.evidence`), at this member's place in their band,
+        instead of the model alone; None (files written before): the model alone.
     """
 
-    def __init__(self, parameters, blend_openings, residual: bool = False):
+    def __init__(self, parameters, blend_openings, residual: bool = False,
+                 extrapolation: BulbExtrapolation | None = None):
         from hillchart.synthetic.bulb import POINT_PARAMETERS
 
         values = np.asarray(parameters, dtype=float)
@@ -159,14 +222,34 @@ class BulbSilentModel:
             raise InputError(f"silent_model.blend_openings must be two finite angles low < high, got {[lo, hi]!r}")
         if not isinstance(residual, bool):
             raise InputError(f"silent_model.residual must be true or false, got {residual!r}")
+        if extrapolation is not None and not (isinstance(extrapolation, BulbExtrapolation) and residual):
+            raise InputError("silent_model.extrapolation needs residual nets (residual = true) and a "
+                             "BulbExtrapolation")
+        if extrapolation is not None and not lo > values[_CLOSED]:
+            raise InputError(f"silent_model.blend_openings must lie above the closed vane "
+                             f"{values[_CLOSED]:g} deg with the extrapolation, got {[lo, hi]!r}")
         self.parameters, self.blend_openings, self.residual = values, (lo, hi), residual
+        self.extrapolation = extrapolation
 
     @classmethod
-    def from_fitted(cls, model, opening_min: float, residual: bool = False) -> "BulbSilentModel":
-        """From a :class:`hillchart.extension.bulb_model.FittedBulbModel` and the table's smallest guide-vane angle."""
+    def from_fitted(cls, model, opening_min: float, residual: bool = False,
+                    extrapolation: BulbExtrapolation | None = None) -> "BulbSilentModel":
+        """From a :class:`hillchart.extension.bulb_model.FittedBulbModel` and the table's smallest guide-vane angle
+        (with ``extrapolation`` the hand-over starts at :data:`hillchart.fccm.evidence.HANDOVER_FRACTION` of the gap
+        from the closed vane, else at :data:`BLEND_START_FRACTION`)."""
         closed = model.opening_closed
-        return cls(model.params, (closed + BLEND_START_FRACTION * (opening_min - closed), float(opening_min)),
-                   residual=residual)
+        fraction = BLEND_START_FRACTION if extrapolation is None else HANDOVER_FRACTION
+        return cls(model.params, (closed + fraction * (opening_min - closed), float(opening_min)),
+                   residual=residual, extrapolation=extrapolation)
+
+    def at(self, position: float) -> "BulbSilentModel":
+        """The same model and hypotheses at ``position`` in the band (an ensemble member's)."""
+        from dataclasses import replace
+
+        if self.extrapolation is None:
+            return self
+        return BulbSilentModel(self.parameters, self.blend_openings, residual=self.residual,
+                               extrapolation=replace(self.extrapolation, position=float(position)))
 
     def _values(self, n11, opening, blade_angle):
         from hillchart.extension.bulb_model import model_values
@@ -189,8 +272,11 @@ class BulbSilentModel:
         return efficiency_from_unit_torque(q, n11, m)
 
     def packed(self) -> np.ndarray:
-        """The 15 numbers :func:`blended_point` reads: the model's parameters, the blend openings, the residual
-        flag (1.0 or 0.0)."""
+        """The numbers :func:`blended_point` reads: the model's parameters, the blend openings, the flag (0.0 the
+        nets of the characteristics, 1.0 the residual, :data:`WEIGHED` the residual with the weighed hypotheses, whose
+        13 numbers follow)."""
+        if self.extrapolation is not None:
+            return np.concatenate([self.parameters, self.blend_openings, [WEIGHED], self.extrapolation.packed()])
         return np.concatenate([self.parameters, self.blend_openings, [1.0 if self.residual else 0.0]])
 
     def to_dict(self) -> dict:
@@ -200,6 +286,8 @@ class BulbSilentModel:
                "blend_openings": list(self.blend_openings)}
         if self.residual:
             doc["residual"] = True
+        if self.extrapolation is not None:
+            doc["extrapolation"] = self.extrapolation.to_dict()
         return doc
 
     @classmethod
@@ -208,9 +296,9 @@ class BulbSilentModel:
         from hillchart.synthetic.bulb import POINT_PARAMETERS
 
         required = {"kind", "parameters", "blend_openings"}
-        if not isinstance(doc, dict) or not required <= set(doc) <= required | {"residual"}:
+        if not isinstance(doc, dict) or not required <= set(doc) <= required | {"residual", "extrapolation"}:
             raise InputError(f"{key} must be an object with the keys kind, parameters, blend_openings (and optionally "
-                             f"residual), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
+                             f"residual, extrapolation), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
         residual = doc.get("residual", False)
         if not isinstance(residual, bool):
             raise InputError(f"{key}.residual must be true or false, got {residual!r}")
@@ -227,7 +315,9 @@ class BulbSilentModel:
             pair = [float(check_finite(f"{key}.blend_openings", v)) for v in blend]
         except (TypeError, ValueError):
             raise InputError(f"{key} must hold numbers (parameters, blend_openings)") from None
-        return cls(values, pair, residual=residual)
+        extrapolation = (BulbExtrapolation.from_dict(doc["extrapolation"], key=f"{key}.extrapolation")
+                         if "extrapolation" in doc else None)
+        return cls(values, pair, residual=residual, extrapolation=extrapolation)
 
 
 def _net_block(weights: FCCMWeights, output: str) -> dict:
@@ -273,8 +363,9 @@ class DoubleRegulatedNets:
     opening_unit : str
     training : dict, optional
     silent_model : BulbSilentModel, optional
-        The fitted bulb model that answers below the table's smallest guide-vane angle (the extension of
-        :func:`table_unit_samples`); None: the nets alone everywhere.
+        The fitted bulb model the nets extend (the extension of :func:`table_unit_samples`) and what answers below
+        the table's smallest guide-vane angle: the hypotheses weighed by the table's held-out angles
+        (:mod:`hillchart.fccm.evidence`), or the model alone in files without them; None: the nets alone everywhere.
     ensemble : list of (flow, torque, silent_model or None), optional
         The ensemble members (:func:`train_table_nets`; the point nets among them), each run by ``hillsim run
         --uncertainty`` as characteristics of its own (:meth:`members`).
@@ -579,20 +670,9 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
                          f"guide_vane_deg {opening.min()!r}")
     model = None
     if extension:
-        from hillchart.extension.bulb_model import extension_samples, fit_bulb_model
-
-        model = fit_bulb_model(n11, opening, blade, q11, samples["m11"], opening_closed=opening_closed, seed=seed,
-                               source=f"the table {table.info.name!r}")
-        extra = extension_samples(model, n11, opening, blade)
-        samples = {key: np.concatenate([samples[key], extra[key]]) for key in samples}
-        counts = {o: int(np.sum(extra["origin"] == o)) for o in ("zero-opening", "runaway", "zero-speed",
-                                                                  "silent-region")}
-        closed_text = (f"fitted closed vane {model.opening_closed:.4g} deg" if model.closed_fitted
-                       else f"closed vane {model.opening_closed:g} deg")
-        notes.append(f"extended by the physical bulb model (fits the table to Q11 RMS {model.q11_rms_pct:.2g} %, "
-                     f"M11 RMS {model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
-                     f"{model.k_zero_opening:.3g} N*m/(r/min)^2): "
-                     + ", ".join(f"{n} {o}" for o, n in counts.items()) + " samples")
+        samples, note, model = extend_unit_samples(samples, opening_closed=opening_closed, seed=seed,
+                                                   source=f"the table {table.info.name!r}")
+        notes.append(note)
     elif opening_closed is not None:
         rng = np.random.default_rng([seed, 3])
         k = int(zero_opening_points)
@@ -602,6 +682,29 @@ def table_unit_samples(table, *, opening_closed: float | None = None, zero_openi
         samples = {key: np.concatenate([samples[key], zero[key]]) for key in samples}
         notes.append(f"extended to the closed vane ({opening_closed:g} deg): {k} samples with Q11 = 0, M11 = 0")
     return samples, notes, model
+
+
+def extend_unit_samples(samples: dict, *, opening_closed: float | None = None, seed: int = 0,
+                        source: str = "the table") -> tuple[dict, str, object]:
+    """Measured unit samples (dict of n11, opening, blade_angle, q11, m11, origin "measured") plus the samples of the
+    physical bulb model fitted to them where they are silent (:func:`hillchart.extension.bulb_model.fit_bulb_model`,
+    :func:`hillchart.extension.bulb_model.extension_samples`), the note that says so, and the model: the extension of
+    :func:`table_unit_samples`. Raises :class:`InputError` when the model cannot represent the samples."""
+    from hillchart.extension.bulb_model import extension_samples, fit_bulb_model
+
+    n11, opening, blade = (np.asarray(samples[k], float) for k in NET3_INPUTS)
+    model = fit_bulb_model(n11, opening, blade, samples["q11"], samples["m11"], opening_closed=opening_closed,
+                           seed=seed, source=source)
+    extra = extension_samples(model, n11, opening, blade)
+    out = {key: np.concatenate([np.asarray(samples[key]), extra[key]]) for key in extra}
+    counts = {o: int(np.sum(extra["origin"] == o)) for o in ("zero-opening", "runaway", "zero-speed", "silent-region")}
+    closed_text = (f"fitted closed vane {model.opening_closed:.4g} deg" if model.closed_fitted
+                   else f"closed vane {model.opening_closed:g} deg")
+    note = (f"extended by the physical bulb model (fits the table to Q11 RMS {model.q11_rms_pct:.2g} %, M11 RMS "
+            f"{model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
+            f"{model.k_zero_opening:.3g} N*m/(r/min)^2): " + ", ".join(f"{n} {o}" for o, n in counts.items())
+            + " samples")
+    return out, note, model
 
 
 def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed: int = 0, members: int = 5,
@@ -615,11 +718,12 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
 
     With ``model`` (the fitted bulb model :func:`table_unit_samples` returns), the nets learn the residual to the
     model (what it misses at the measured samples, zero at its own extension samples), and the model is stored with
-    them (:class:`BulbSilentModel`, ``residual``): the characteristics are the model's plus the nets' residual, the
-    model alone below the table's smallest guide-vane angle. Every member after the first trains on the measured
-    samples plus the extension of its own draw of the model (:meth:`FittedBulbModel.draw`, seeded by ``seed``), as
-    the residual to that draw: what the table leaves open about runaway and the closed vane shows in the spread, as
-    for the Francis nets.
+    them (:class:`BulbSilentModel`, ``residual``): the characteristics are the model's plus the nets' residual. Below
+    the table's smallest guide-vane angle the hypotheses weighed by the table's own held-out angles answer
+    (:func:`hillchart.fccm.evidence.table_evidence`, recorded in ``training["extrapolation"]``); the point nets read
+    their weighed answer, each member stands at its place in their band
+    (:func:`hillchart.extension.hypotheses.member_positions`, seeded by ``seed``), as the Francis nets do. The members
+    differ otherwise by their seeds (splits and initialisations).
 
     Returns
     -------
@@ -642,33 +746,27 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
                 fitted[k] = fitted[k] + np.repeat([-1.0, 0.0, 1.0], size)
         return fitted
 
-    member_samples = [samples] * max(1, members)
-    member_models = [model] * max(1, members)
     measured = np.asarray(samples.get("origin", np.full(X["n11"].size, "measured"))) == "measured"
-    if model is not None and members > 1:
-        from hillchart.extension.bulb_model import extension_samples
+    fitted = samples
+    if model is not None:  # what the model misses (0 where the model sampled)
+        n, a, b = (np.asarray(samples[k], float) for k in NET3_INPUTS)
+        fitted = {**samples, "q11": np.asarray(samples["q11"], float) - model.q11(n, a, b),
+                  "m11": np.asarray(samples["m11"], float) - model.m11(n, a, b)}
+    count = max(1, members)
+    ensemble = [train_double_regulated_nets(widened(fitted), hidden=hidden, restarts=restarts, seed=seed + 2 * i,
+                                            split=split) for i in range(count)]
+    member_silent = [None] * count
+    evidence = None
+    if model is not None:  # the nets are the residual to the model; below the table the weighed hypotheses answer
+        from hillchart.extension.hypotheses import member_positions
+        from hillchart.fccm.evidence import table_evidence
 
-        base = {k: np.asarray(samples[k], float)[measured] for k in arrays}
-        rng = np.random.default_rng([seed, 4])  # the members' model draws: their own stream of the seed
-        for i in range(1, members):
-            member_models[i] = model.draw(rng)
-            extra = extension_samples(member_models[i], base["n11"], base["opening"], base["blade_angle"])
-            member_samples[i] = {k: np.concatenate([base[k], extra[k]]) for k in arrays}
-
-    def residual(member_samples, member_model):  # what the member's model misses (0 where the model sampled)
-        if member_model is None:
-            return member_samples
-        n, a, b = (np.asarray(member_samples[k], float) for k in NET3_INPUTS)
-        return {**member_samples, "q11": np.asarray(member_samples["q11"], float) - member_model.q11(n, a, b),
-                "m11": np.asarray(member_samples["m11"], float) - member_model.m11(n, a, b)}
-
-    ensemble = [train_double_regulated_nets(widened(residual(member_samples[i], member_models[i])), hidden=hidden,
-                                            restarts=restarts, seed=seed + 2 * i, split=split)
-                for i in range(max(1, members))]
-    if model is not None:  # the nets are the residual to each member's own model, which alone answers below the table
-        for member, member_model in zip(ensemble, member_models):
-            member.silent_model = BulbSilentModel.from_fitted(member_model, float(X["opening"][measured].min()),
-                                                              residual=True)
+        evidence = table_evidence({k: np.asarray(samples[k], float)[measured] for k in arrays}, model, seed=seed)
+        point = BulbSilentModel.from_fitted(model, float(X["opening"][measured].min()), residual=True,
+                                            extrapolation=BulbExtrapolation.of_evidence(evidence))
+        member_silent = [point.at(float(u)) for u in member_positions(count, seed)] if count > 1 else [point]
+        for member, silent in zip(ensemble, member_silent):
+            member.silent_model = silent
     nets = ensemble[0]
     lo = np.array([X[k].min() for k in NET3_INPUTS])
     hi = np.array([X[k].max() for k in NET3_INPUTS])
@@ -709,6 +807,9 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     nets.training["ensemble_seeds"] = [seed + 2 * i for i in range(len(ensemble))]
     if len(ensemble) > 1:  # kept for the bands of the guarantee figures (hillsim run --uncertainty)
         nets.ensemble = [(m.flow, m.torque, m.silent_model) for m in ensemble]
+    if evidence is not None:  # the point nets read the weighed hypotheses themselves, their members the band
+        nets.silent_model = nets.silent_model.at(0.0)
+        nets.training["extrapolation"] = evidence.to_dict()
     return nets, report
 
 

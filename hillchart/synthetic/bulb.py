@@ -491,6 +491,58 @@ controls = ["blade_angle_deg", "guide_vane_deg"]
 """
 
 
+def _measured(op: OperatingPoints, noise: float, seed: int) -> dict:
+    """The columns :data:`TABLE_COLUMNS` of operating points as a rig measures them: head, flow and power with
+    Gaussian relative noise ``noise`` (stream ``[seed, 1]``), the efficiency from those measured values."""
+    rng = np.random.default_rng([seed, 1])  # a separate stream for the measurement noise
+    size = op.head_m.size
+    head = op.head_m * (1.0 + noise * rng.standard_normal(size))
+    flow = op.flow_m3_s * (1.0 + noise * rng.standard_normal(size))
+    power = op.power_kw * (1.0 + noise * rng.standard_normal(size))
+    return {"blade_angle_deg": op.blade_angle_deg, "guide_vane_deg": op.guide_vane_deg, "head_m": head,
+            "flow_m3_s": flow, "power_kw": power, "efficiency": power * 1e3 / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)}
+
+
+def write_bulb_sweep_table(out_dir, *, blade_angles, guide_vanes, n11_rpm, seed: int = 0, noise: float = 0.003,
+                           turbine: SyntheticBulb | None = None) -> dict[str, Path]:
+    """Write a model test of guide-vane sweeps (``table.csv`` + ``table.toml``): every blade angle of
+    ``blade_angles`` at every unit speed of ``n11_rpm`` (the rig steps the head, ``H = (n D / n11)^2``, as for the
+    propeller curves) over the guide-vane angles ``guide_vanes`` (deg), less the points beyond a setting's runaway;
+    the noise of :func:`write_bulb_table`. A rig such as the 137 kW fixed-blade bulb of the external data measures
+    this way (heads x guide-vane sweep); its lowest angles are what :mod:`hillchart.fccm.evidence` holds out.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> files = write_bulb_sweep_table(tempfile.mkdtemp(), blade_angles=[0.0], guide_vanes=[40.0, 50.0],
+    ...                                n11_rpm=[140.0, 160.0])
+    >>> len(files["table.csv"].read_text().splitlines())   # header + 2 angles x 2 unit speeds
+    5
+    """
+    if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not (0 <= noise < 0.1):
+        raise InputError(f"noise must be a relative standard deviation in [0, 0.1), got {noise!r}")
+    turbine = turbine or SyntheticBulb()
+    p = turbine.params
+    blade, gv = (np.round(g.ravel(), DIGITS[c]) for g, c in zip(
+        np.meshgrid(np.asarray(blade_angles, float), np.asarray(guide_vanes, float), indexing="ij"),
+        ("blade_angle_deg", "guide_vane_deg")))
+    op = turbine.propeller_points(blade, gv, n11_rpm)
+    keep = op.power_kw > 0  # a rig measures turbine operation: no point beyond a setting's runaway
+    op = OperatingPoints(**{f.name: getattr(op, f.name)[keep] for f in fields(OperatingPoints)})
+    table = _measured(op, noise, seed)
+    suffix = f", guide-vane sweeps, seed {seed}, noise {noise:g}"
+    texts = {"table.toml": TABLE_TOML.format(suffix=suffix, diameter=repr(float(p.runner_diameter_m)),
+                                             speed=repr(float(p.speed_rpm))),
+             "table.csv": _csv_text(TABLE_COLUMNS, _fmt_rows(TABLE_COLUMNS, table))}
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = {}
+    for name, text in texts.items():
+        written[name] = out / name
+        written[name].write_text(text, encoding="utf-8")
+    return written
+
+
 def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: float = 0.003,
                      truth_step_deg: float = 0.5, closure: str = "water-system",
                      turbine: SyntheticBulb | None = None) -> dict[str, Path]:
@@ -535,14 +587,7 @@ def write_bulb_table(out_dir, *, seed: int = 0, n_points: int = 150, noise: floa
     if closure == "propeller-curves":  # a rig measures turbine operation: no point beyond a setting's runaway
         keep = op.power_kw > 0
         op = OperatingPoints(**{f.name: getattr(op, f.name)[keep] for f in fields(OperatingPoints)})
-    rng = np.random.default_rng([seed, 1])  # a separate stream for the measurement noise
-    size = op.head_m.size
-    head = op.head_m * (1.0 + noise * rng.standard_normal(size))
-    flow = op.flow_m3_s * (1.0 + noise * rng.standard_normal(size))
-    power = op.power_kw * (1.0 + noise * rng.standard_normal(size))
-    table = {"blade_angle_deg": op.blade_angle_deg, "guide_vane_deg": op.guide_vane_deg, "head_m": head,
-             "flow_m3_s": flow, "power_kw": power,
-             "efficiency": power * 1e3 / (RHO_WATER_KG_M3 * G_M_S2 * flow * head)}
+    table = _measured(op, noise, seed)
     bl_grid = np.arange(BLADE_RANGE_DEG[0], BLADE_RANGE_DEG[1] + 1e-9, truth_step_deg)
     gv_grid = np.arange(GUIDE_VANE_RANGE_DEG[0], GUIDE_VANE_RANGE_DEG[1] + 1e-9, truth_step_deg)
     bb, gg = (g.ravel() for g in np.meshgrid(bl_grid, gv_grid, indexing="ij"))

@@ -200,6 +200,8 @@ def _run_simulator_nets(args) -> int:
         print(f"note: {line}")
     for line in report["warnings"]:
         print(f"warning: {line}")
+    if "extrapolation" in nets.training:  # the table's own held-out angles: how far below it to trust the answer
+        print(nets.training["extrapolation"]["summary"])
     if model is not None:
         box = nets.training["measured_box"]
         blades = ('combinator.relation = "off", fixed_angle_deg = ' + f"{box['blade_angle'][0]:g}"

@@ -69,8 +69,9 @@ def _chart_point(scal, controls):
 @numba.njit(cache=True)
 def nets_control_kernel(params, n11, controls):
     """Three-input nets: ``(q11, dq11/dn11, m11, dm11/dn11)``; params = (flow packed, torque packed, blend
-    (:meth:`hillchart.fccm.double_regulated.DoubleRegulatedNets.blend_packed`: the fitted bulb model below the
-    table's smallest guide-vane angle, or none), [opening at zero stroke, angle_min_deg, angle span deg])."""
+    (:meth:`hillchart.fccm.double_regulated.DoubleRegulatedNets.blend_packed`: below the table's smallest guide-vane
+    angle the hypotheses weighed by the table's held-out angles, at the member's place in their band, or the fitted
+    bulb model alone in files without them, or none), [opening at zero stroke, angle_min_deg, angle span deg])."""
     flow, torque, blend, scal = params
     opening, blade = _chart_point(scal, controls)
     return blended_point(flow, torque, blend, n11, opening, blade)
