@@ -396,7 +396,8 @@ class Evidence:
         if not self.points:
             return ("below the lowest line: no held-out evidence (fewer than "
                     f"{MIN_LINES_WEIGHED + 1} opening lines): hypotheses weighed equally, the band is wide "
-                    f"(+-{100 * NO_EVIDENCE_SCALE:.0f} % at half the lowest opening); digitize more opening lines")
+                    f"(+-{100 * NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap)[0]:.0f} % of Q11 at half "
+                    f"the lowest opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)

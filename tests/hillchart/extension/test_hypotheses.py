@@ -70,6 +70,8 @@ def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
     assert ev.points == 0 and ev.band == {"q11": wide, "m11": wide}
     assert set(ev.weights["q11"].values()) == {1.0 / len(H.HYPOTHESES)}
     assert "no held-out evidence" in ev.summary() and "digitize more opening lines" in ev.summary()
+    # kappa h at half the lowest opening: 1.2 x 0.5^2 (the message once printed kappa itself, "+-120 %")
+    assert "(+-30 % of Q11 at half the lowest opening)" in ev.summary()
 
 
 def test_band_scale_is_split_conformal_on_the_far_half():
