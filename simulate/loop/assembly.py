@@ -130,7 +130,10 @@ def _import_line(func, alias: str, *, inline: bool = False) -> str:
         lines = [_import_line(func.func, f"_{alias}_unbound")]
         names = []
         for i, (name, target) in enumerate(func.names):
-            lines.append(_import_line(target, f"_{alias}_name{i}"))
+            # inlined like the component's own step: a bound function compiled on its own inside the loop without
+            # reference counting may not return an array that is not its argument (a prescribed vane law returning
+            # its state's control vector to the blades' step), inlined it may
+            lines.append(_import_line(target, f"_{alias}_name{i}", inline=True))
             names.append(f"{name}=_{alias}_name{i}")
         lines.append(f"{alias} = _inline_bound(_bind(_{alias}_unbound, {', '.join(names)}))")
         return "\n".join(lines)
