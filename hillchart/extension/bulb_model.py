@@ -15,8 +15,8 @@ blade angle (degrees, linear: a table's blade-angle convention is its own), the 
 friction (logs). Least squares (``scipy.optimize.least_squares``, trust-region reflective, several seeded starts) on
 the table's Q11 and M11 (M11 from the efficiency, eq. (5) of paper 004), each scaled by its range, with the weak
 log-normal prior on the disc-friction share of the shaft power of :mod:`hillchart.extension.turbine_model` (median
-1 %, factor 5 at one standard deviation). The covariance ``s^2 (J^T J)^+`` of the log/linear parameters gives each
-ensemble member a model the table cannot tell from the fitted one (:meth:`FittedBulbModel.draw`).
+1 %, factor 5 at one standard deviation). Below the table's smallest guide-vane angle the model is one hypothesis
+among several, weighed by the table's own held-out angles (:mod:`hillchart.fccm.evidence`).
 
 There is one implementation of the model's equations, :func:`hillchart.synthetic.bulb.unit_point` (the compiled
 kernel the simulator runs for the exact bulb); this module only fits its parameter vector.
@@ -28,7 +28,6 @@ it is an approximation, and the fit is refused (with what to do instead) when it
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -48,8 +47,6 @@ PARAMETER_NAMES = ("hub_ratio", "swirl_factor", "closed_gap_deg", "beta1_deg", "
 #: the table's blade-angle range, the gap set from its guide-vane range).
 START = {"hub_ratio": 0.4, "swirl_factor": 0.35, "beta1_deg": 30.0, "beta2_deg": 24.0, "k_guide_vane": 0.05,
          "k_incidence": 0.5, "k_runner": 0.05, "k_draft_tube": 0.2, "k_swirl": 0.6, "k_disc_friction": 5e-4}
-#: Tries of :meth:`FittedBulbModel.draw` before it gives the fitted model itself.
-DRAW_TRIES = 200
 #: Blade inlet/outlet angles (deg from the circumferential direction) the model keeps over the table's blade range.
 BLADE_ANGLE_LIMITS_DEG = (2.0, 88.0)
 
@@ -110,11 +107,11 @@ class FittedBulbModel:
         RMS misfit on the table's Q11 and M11, percent of their largest measured value.
     closed_fitted : bool
         True when the closed guide-vane angle was fitted (not given).
-    x, covariance : ndarray
+    x : ndarray
         The fitted parameters in fit coordinates (:data:`PARAMETER_NAMES`, without ``closed_gap_deg`` when the closed
-        angle was given) and their Laplace covariance ``s^2 (J^T J)^+``.
+        angle was given).
     objective : _Objective
-        The fit's scaled residuals (for :meth:`draw`'s acceptance test).
+        The fit's scaled residuals.
     cost : float
         Half the sum of squares of the scaled residuals at the fit.
     """
@@ -124,7 +121,6 @@ class FittedBulbModel:
     m11_rms_pct: float
     closed_fitted: bool
     x: np.ndarray
-    covariance: np.ndarray
     objective: "_Objective"
     cost: float
 
@@ -166,25 +162,6 @@ class FittedBulbModel:
                 "closed_vane": "fitted" if self.closed_fitted else "given",
                 "q11_rms_pct_of_max": self.q11_rms_pct, "m11_rms_pct_of_max": self.m11_rms_pct}
 
-    def draw(self, rng: np.random.Generator) -> "FittedBulbModel":
-        """A model the table cannot tell from this one: fit coordinates drawn from the Laplace approximation
-        (:attr:`covariance`) and kept when the table's misfit grows by no more than the approximation's own 95 %
-        bound, ``2 (cost(x) - cost) / s^2 <= chi^2_0.95(k)`` with k the fitted parameters: the model is far from
-        linear in its parameters, and a plain Laplace draw of a fixed-blade table missed it by 3-40 % of its flow.
-        The covariance is halved after every :data:`DRAW_TRIES` // 8 rejected tries (the accepted region is narrower
-        than the approximation says); after :data:`DRAW_TRIES` tries, this model itself."""
-        from scipy.stats import chi2
-
-        limit = self.cost + 0.5 * self.objective.s2(self.cost, self.x.size) * float(chi2.ppf(0.95, self.x.size))
-        for i in range(DRAW_TRIES):
-            scale = 0.5 ** (i // (DRAW_TRIES // 8))
-            x = rng.multivariate_normal(self.x, scale * self.covariance, method="eigh")
-            params = self.objective.params(x)
-            if params is None or 0.5 * float(np.sum(self.objective(x) ** 2)) > limit:
-                continue
-            return dataclasses.replace(self, params=params, x=x)
-        return self
-
 
 def _full(x, opening_closed):
     """Fit coordinates with ``closed_gap_deg`` put back (as 0: unused) when the closed angle is given."""
@@ -219,10 +196,6 @@ class _Objective:
         except OverflowError:  # a log-parameter far out
             return None
         return params if np.all(np.isfinite(params)) and _valid(params, self.blade_range) else None
-
-    def s2(self, cost: float, k: int) -> float:
-        """Residual variance ``2 cost / (residuals - k)``."""
-        return 2.0 * cost / max(self.size - k, 1)
 
     def __call__(self, x):
         params = self.params(x)
@@ -289,11 +262,6 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
             if best is None or result.cost < best.cost:
                 best = result
     params = residuals.params(best.x)
-    jac = np.asarray(best.jac, dtype=float)
-    # directions the table does not determine at all (e.g. runner friction and draft-tube loss of a fixed-blade table
-    # both multiply cm^2) have a near-zero eigenvalue: the cut-off drops them (no spread along them) instead of
-    # drawing log-parameters of 1e4
-    covariance = residuals.s2(best.cost, best.x.size) * np.linalg.pinv(jac.T @ jac, rtol=1e-8, hermitian=True)
     qq, mm = unit_values(params, n, a, b)
     # misfit as % of the largest measured value: a fixed-blade table swept over a few heads spans a narrow M11 range
     # (the 137 kW rig's: 830-1000 N*m), against which a 3 % torque error would read as 15 %
@@ -307,7 +275,7 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
             "degrees), or train without the extension (--no-extension) and keep the simulation inside the table's "
             "range")
     return FittedBulbModel(params=params, q11_rms_pct=q_rms, m11_rms_pct=m_rms, closed_fitted=opening_closed is None,
-                           x=np.array(best.x), covariance=covariance, objective=residuals, cost=float(best.cost))
+                           x=np.array(best.x), objective=residuals, cost=float(best.cost))
 
 
 #: N11 values of the extension grid (0 to past the largest runaway speed) and guide-vane angles over the tested range.

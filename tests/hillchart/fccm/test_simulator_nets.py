@@ -329,7 +329,7 @@ def test_the_ensemble_is_kept_and_gives_the_band_of_a_rejection(bulb_table, tmp_
     assert len(members) == 2 and all(m.silent_model is not None for m in members)
     x = (150.0, 50.0, -5.0)
     assert float(members[0].m11(*x)) == float(nets.m11(*x))  # the first member is the point nets, bit-exact in JSON
-    assert float(members[1].m11(*x)) != float(members[0].m11(*x))  # another seed and another draw of the model
+    assert float(members[1].m11(*x)) != float(members[0].m11(*x))  # another seed and another place in the band
     plant = load_plant(PLANT_BULB, {"turbine.characteristics": str(tmp_path / "nets.json"),
                                     "combinator.relation": "model", "scenario.t_end_s": 8.0})
     band, _ = run_ensemble(plant)
