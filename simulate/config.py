@@ -577,7 +577,7 @@ class PlantConfig:
             if name not in names:
                 raise InputError(f"scenario.units names {name!r}, which is not a unit of this plant; the units are "
                                  f"{', '.join(names)}")
-        if self.penstock.model != "moc":
+        if not PENSTOCKS.traits(self.penstock.model).computes_branches:
             raise InputError(f"penstock.model = {self.penstock.model!r}: a plant with [[units]] computes the common "
                              f"conduit and the branches by the method of characteristics; set penstock.model = "
                              f"\"moc\"")
@@ -642,7 +642,7 @@ class PlantConfig:
                 raise InputError(f"the time step (shortest travel time)/penstock.reaches = {moc_dt!r} s is not a "
                                  f"positive number: check penstock lengths and wave speeds")
             return moc_dt
-        if self.penstock.model == "moc":
+        if PENSTOCKS.traits(self.penstock.model).grid_fixes_time_step:
             if abs(self.solver.dt_s - moc_dt) > COURANT_TOLERANCE * moc_dt:
                 raise InputError(
                     f"solver.dt_s = {self.solver.dt_s!r} s does not meet the MOC Courant condition: with "

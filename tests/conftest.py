@@ -105,11 +105,13 @@ def register_penstock(tmp_path, monkeypatch):
 
     modules = []
 
-    def register(name: str, text: str) -> str:
+    def register(name: str, text: str, traits=None) -> str:
         module = f"{name}_model"
         (tmp_path / f"{module}.py").write_text(text, encoding="utf-8")
         monkeypatch.syspath_prepend(str(tmp_path))
         monkeypatch.setitem(PENSTOCKS._entries, name, f"{module}:build")
+        # what the code asks of the model (its registry line's traits); the test columns are rigid ones
+        monkeypatch.setitem(PENSTOCKS._traits, name, traits or PENSTOCKS.traits("rigid"))
         modules.append(module)
         return name
 

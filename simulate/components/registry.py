@@ -123,8 +123,9 @@ class Bound:
 class Registry:
     """Name (as written in the plant TOML) -> builder, imported lazily from ``"module:function"``."""
 
-    def __init__(self, kind: str, key: str, entries: dict[str, str]):
+    def __init__(self, kind: str, key: str, entries: dict[str, str], traits: dict[str, Any] | None = None):
         self.kind, self.key, self._entries = kind, key, dict(entries)
+        self._traits = dict(traits or {})
 
     def names(self) -> tuple[str, ...]:
         return tuple(self._entries)
@@ -151,14 +152,50 @@ class Registry:
             raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
         return self._entries[name].split(":")[0]
 
+    def traits(self, name: str) -> Any:
+        """What the entry of component ``name`` says of it beside its builder (for a penstock model its
+        :class:`ConduitTraits`): the code asks these instead of comparing the model's name, without importing the
+        model's module."""
+        if name not in self._entries:
+            raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
+        if name not in self._traits:
+            raise TypeError(f"{self.key} = {name!r}: its registry entry declares no traits")
+        return self._traits[name]
+
     def attribute(self, name: str, attr: str, default: Any = None) -> Any:
         """The module-level ``attr`` of component ``name``'s module (``default`` when it has none), e.g. a servo's
         ``GOVERNOR_KEYS``."""
         return getattr(importlib.import_module(self.module(name)), attr, default)
 
-    def register(self, name: str, target: str) -> None:
-        """Add a component (``target`` = ``"package.module:builder"``)."""
+    def register(self, name: str, target: str, traits: Any = None) -> None:
+        """Add a component (``target`` = ``"package.module:builder"``; ``traits``: what the code asks of it, where
+        the registry's other entries declare them)."""
         self._entries[name] = target
+        if traits is not None:
+            self._traits[name] = traits
+
+
+@dataclass(frozen=True)
+class ConduitTraits:
+    """What the rest of the code asks of a penstock model (:meth:`Registry.traits`, never its name).
+
+    Attributes
+    ----------
+    grid_fixes_time_step : bool
+        Its grid sets the step (the method of characteristics: Courant number 1, ``penstock.reaches``); otherwise
+        ``solver.dt_s`` does.
+    carries_waves : bool
+        Pressure waves travel in it (the linear reference keeps the wave time; a rigid column has none).
+    lumped_column : bool
+        The column is one lumped element, as the identification's linear model of the plant assumes.
+    computes_branches : bool
+        It computes a common conduit with branch pipes (a plant with ``[[units]]``).
+    """
+
+    grid_fixes_time_step: bool
+    carries_waves: bool
+    lumped_column: bool
+    computes_branches: bool
 
 
 PENSTOCKS = Registry("penstock", "penstock.model", {
@@ -166,6 +203,14 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
     "zdomain": "simulate.components.hydraulic.penstock:build_zdomain",
     "lumped": "simulate.components.hydraulic.penstock:build_lumped",
     "rigid": "simulate.components.hydraulic.penstock:build_rigid",
+}, traits={
+    "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True),
+    "zdomain": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=False,
+                             computes_branches=False),
+    "lumped": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=True,
+                            computes_branches=False),
+    "rigid": ConduitTraits(grid_fixes_time_step=False, carries_waves=False, lumped_column=True,
+                           computes_branches=False),
 })
 UPSTREAM = Registry("upstream", "upstream", {
     "reservoir": "simulate.components.hydraulic.reservoir:build_reservoir",

@@ -29,6 +29,7 @@ import numpy as np
 
 from hillchart.errors import InputError, NumericalError
 from hillchart.linearize import six_coefficients
+from simulate.components.registry import PENSTOCKS
 from simulate.identification.experiment import ExperimentSettings, run_experiment
 from simulate.identification.results import (
     BATCH_LS_TOLERANCE,
@@ -419,7 +420,7 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     exact_coeffs = six_coefficients(exact, n11=coeffs.n11_rpm, opening=coeffs.opening) if exact is not None else None
     found, traces = identify_series(run.series, settings, reference=linear, reference_coefficients=coeffs,
                                     exact_coefficients=exact_coeffs, arma_series=run.arma_series,
-                                    penstock_matches=run_plant.penstock.model in ("rigid", "lumped"),
+                                    penstock_matches=PENSTOCKS.traits(run_plant.penstock.model).lumped_column,
                                     unjudged_reason=coefficients_unjudged(run_plant))
     simulated_step = sweep = None
     if settings.step_amplitude > 0:
@@ -470,7 +471,8 @@ def identify_measured(series: RelativeSeries, settings: ExperimentSettings, *, p
             exact_coeffs = six_coefficients(exact, n11=coeffs.n11_rpm, opening=coeffs.opening)
     found, traces = identify_series(series, settings, reference=reference, reference_coefficients=coeffs,
                                     exact_coefficients=exact_coeffs, arma_series=arma_series,
-                                    penstock_matches=plant is not None and plant.penstock.model in ("rigid", "lumped"),
+                                    penstock_matches=(plant is not None
+                                                      and PENSTOCKS.traits(plant.penstock.model).lumped_column),
                                     unjudged_reason=coefficients_unjudged(plant) if plant is not None else None)
     summary = IdentificationSummary.build(
         found, source="measured", penstock_model=plant.penstock.model if plant is not None else None,

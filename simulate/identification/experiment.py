@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.registry import PENSTOCKS
 from simulate.identification.measured import OperatingPoint, RelativeSeries
 
 @dataclass(frozen=True)
@@ -170,7 +171,7 @@ def experiment_plant(plant, settings: ExperimentSettings, *, initial_stroke: flo
     pen = plant.penstock if penstock_model is None else replace(plant.penstock, model=penstock_model)
     solver = plant.solver
     tau = settings.sample_time_s
-    if pen.model != "moc":
+    if not PENSTOCKS.traits(pen.model).grid_fixes_time_step:
         dt0 = pen.moc_time_step_s if solver.dt_s is None else solver.dt_s
         solver = replace(solver, dt_s=tau / max(1, math.ceil(tau / dt0 - 1e-9)))
     else:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from hillchart.errors import InputError
 from hillchart.linearize import six_coefficients
+from simulate.components.registry import PENSTOCKS
 from simulate.identification.results import CoefficientSet, optional
 from simulate.linear.models import LinearPlant
 
@@ -50,7 +51,7 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
         inertia_time_s=gen.inertia_time_s * torque_ratio * steady.speed_rpm / turbine.rated_speed_rpm,
         self_regulation=(plant.rotor_self_regulation(steady.torque_nm / turbine.rated_torque_nm) * torque_ratio
                          * steady.speed_rpm / turbine.rated_speed_rpm),
-        wave_time_s=0.0 if model == "rigid" else pen.travel_time_s,
+        wave_time_s=pen.travel_time_s if PENSTOCKS.traits(model).carries_waves else 0.0,
         alpha=pen.lumped_alpha,
         friction_slope=2.0 * pen.friction_coefficient_s2_m5 * steady.flow_m3_s**2 / steady.head_m,
     )

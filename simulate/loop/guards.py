@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from hillchart.errors import InputError
+from simulate.components.registry import PENSTOCKS
 
 #: The loop's cost per step beyond its nodes, in node-equivalents (measured: the shipped plant's 3147 steps of 26
 #: MOC nodes take about 1 ms, i.e. ~0.3 us a step where a node costs ~3 ns).
@@ -32,7 +33,7 @@ def output_stride(plant, dt_s: float) -> int:
 def estimate(plant, dt_s: float, n_steps: int, stride: int, substeps: int = 1) -> dict:
     """Node-steps of the run (steps x (nodes + :data:`STEP_OVERHEAD_NODES` x sub-steps of the control and the shaft))
     and the memory of its stored series (bytes)."""
-    if plant.penstock.model == "moc":  # the penstock, and with [[units]] every branch pipe too
+    if PENSTOCKS.traits(plant.penstock.model).grid_fixes_time_step:  # the penstock; with [[units]] the branches
         pipes = [plant.penstock.segments] + [unit.branch for unit in getattr(plant, "units", ())]
         nodes = sum(1 + sum(max(1, int(round(s.travel_time_s / dt_s))) for s in segments) for segments in pipes)
     else:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from hillchart.errors import InputError
+from simulate.components.registry import PENSTOCKS
 from simulate.components.timescale import RESOLVE_FRACTION, TimeScale  # noqa: F401  (RESOLVE_FRACTION: re-exported)
 
 #: A coupled time scale T with dt > this x T is refused.
@@ -122,7 +123,7 @@ def plan_step(plant, schedules, *, grid_step_s: float | None = None) -> StepPlan
         The MOC grid or a user-fixed step is more than :data:`REFUSE_FRACTION` x a coupled time scale.
     """
     scales = time_scales(plant, schedules)
-    moc = plant.penstock.model == "moc"
+    moc = PENSTOCKS.traits(plant.penstock.model).grid_fixes_time_step
     user = plant.solver.dt_s is not None
     # the MOC grid's step, or the user's (checked against the Courant condition for MOC)
     base = plant.time_step_s if grid_step_s is None else float(grid_step_s)

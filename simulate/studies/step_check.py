@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from simulate.components.registry import PENSTOCKS
 from simulate.config import MAX_REACHES
 from simulate.loop.engine import run_simulation
 
@@ -18,7 +19,7 @@ STEP_CHECK_VALUES = (("max_head_m", "m"), ("min_head_m", "m"), ("t_max_speed_s",
 def halved_step_plant(plant, dt_s: float):
     """``plant`` at half the step ``dt_s`` it ran with: twice ``penstock.reaches`` for MOC (the grid fixes the
     step), ``solver.dt_s`` = dt / 2 otherwise."""
-    if plant.penstock.model == "moc":
+    if PENSTOCKS.traits(plant.penstock.model).grid_fixes_time_step:
         return replace(plant, penstock=replace(plant.penstock, reaches=2 * plant.penstock.reaches))
     return replace(plant, solver=replace(plant.solver, dt_s=0.5 * dt_s))
 
@@ -28,7 +29,7 @@ def check_halving_allowed(plant) -> None:
     twice ``penstock.reaches`` above its largest allowed value (the message says what to set)."""
     from hillchart.errors import InputError
 
-    if plant.penstock.model != "moc":
+    if not PENSTOCKS.traits(plant.penstock.model).grid_fixes_time_step:
         return  # solver.dt_s / 2 is always allowed (any dt_s > 0)
     try:
         halved_step_plant(plant, plant.time_step_s)

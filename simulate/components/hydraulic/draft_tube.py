@@ -29,6 +29,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
+from simulate.components.registry import PENSTOCKS
 
 SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
 
@@ -91,7 +92,6 @@ def build_draft_tube(plant, steady, dt_s: float):
     """The plant's ``[draft_tube]`` on the step ``dt_s``, started at the steady flow."""
     from types import SimpleNamespace
 
-    from simulate.components.hydraulic.penstock import build_moc, build_rigid
     from simulate.components.registry import CompiledPart, PartHooks
 
     config = plant.draft_tube  # simulate.config.DraftTubeConfig
@@ -99,7 +99,7 @@ def build_draft_tube(plant, steady, dt_s: float):
     fake_plant = SimpleNamespace(penstock=mirrored, turbine=plant.turbine)
     fake_steady = SimpleNamespace(flow_m3_s=-steady.flow_m3_s)
     try:
-        inner = (build_moc if config.model == "moc" else build_rigid)(fake_plant, fake_steady, dt_s, 0.0)
+        inner = PENSTOCKS.builder(config.model)(fake_plant, fake_steady, dt_s, 0.0)
     except InputError as exc:
         # the grid's message names the mirrored section (its own placeholder reaches); the draft tube has no reaches:
         # its step is the plant's, set by the penstock
@@ -109,7 +109,8 @@ def build_draft_tube(plant, steady, dt_s: float):
                             f"penstock.reaches or the draft tube's length_m or wave_speed_m_s")
         raise InputError(f"[draft_tube]: {text}") from None
     head0 = config.friction_coefficient_s2_m5 * steady.flow_m3_s * abs(steady.flow_m3_s)
-    if config.model == "moc":
+    on_grid = PENSTOCKS.traits(config.model).grid_fixes_time_step  # the draft tube on its MOC grid
+    if on_grid:
         head0 = float(inner.state[0][0, -1])  # the grid's own steady head at the outlet
         functions = {"relation": moc_draft_relation, "update": moc_draft_update, "record": draft_record}
     else:
@@ -133,7 +134,7 @@ def build_draft_tube(plant, steady, dt_s: float):
         return []
 
     summary = {"draft_tube_model": config.model, "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5}
-    if config.model == "moc":
+    if on_grid:
         summary["draft_tube_moc_reaches"] = inner.hooks.summary["moc_reaches"]
     hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset), summary_after=summary_after,
                       warnings_after=warnings_after)
@@ -147,7 +148,7 @@ def time_scales(plant, schedules) -> list:
     from simulate.components.timescale import TimeScale
 
     config = getattr(plant, "draft_tube", None)
-    if config is None or config.model == "moc":
+    if config is None or PENSTOCKS.traits(config.model).grid_fixes_time_step:
         return []
     t = plant.turbine
     return [TimeScale("draft tube water time (draft_tube segments, rated flow and head)",

@@ -1,5 +1,7 @@
-"""A model is chosen by the registry, never by comparing its name: a comparison with a servo model's name
-(``plant.governor.servo_model == "discrete"``) outside the model's own module and the registry fails here. (The
+"""A model is chosen by the registry, never by comparing its name: a comparison with a servo or penstock model's
+name (``plant.governor.servo_model == "discrete"``, ``plant.penstock.model == "moc"``) outside the model's own module
+and the registry fails here; what the code needs to know of a penstock model it asks its registry entry
+(:meth:`simulate.components.registry.Registry.traits`). (The
 control registry's names, "governor" and "prescribed", are also section and mode words elsewhere; its choice is
 :func:`simulate.components.registry.control_name`.)"""
 
@@ -8,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from simulate.components.registry import SERVOS
+from simulate.components.registry import PENSTOCKS, SERVOS
 
 REPO = Path(__file__).resolve().parents[3]
 #: the registries whose names may be compared only in their own modules
-CHECKED = (SERVOS,)
+CHECKED = (SERVOS, PENSTOCKS)
 
 
 def _owner_files(registry) -> dict[str, set[str]]:
@@ -53,7 +55,7 @@ def model_name_comparisons(root: Path = REPO, sources=None) -> list[str]:
     return found
 
 
-def test_no_servo_model_name_is_compared_outside_its_module_and_the_registry():
+def test_no_servo_or_penstock_model_name_is_compared_outside_its_module_and_the_registry():
     assert model_name_comparisons() == []
 
 
@@ -61,9 +63,33 @@ def test_no_servo_model_name_is_compared_outside_its_module_and_the_registry():
     ('if plant.governor.servo_model == "discrete":\n    pass\n', 1),
     ('ok = model in ("first-order", "backlash")\n', 2),
     ('label = "discrete"\n', 0),  # a string that is not compared is not a choice of model
+    ('if plant.penstock.model == "moc":\n    pass\n', 1),
+    ('lumped = plant.penstock.model in ("rigid", "lumped")\n', 2),
 ])
 def test_the_check_finds_a_comparison_in_another_module(text, hits):
     assert len(model_name_comparisons(sources={"simulate/loop/engine.py": text})) == hits
     # the servo's own module may compare its name
     assert model_name_comparisons(sources={"simulate/components/control/discrete_servo.py":
                                            'x = m == "discrete"\n'}) == []
+
+
+def test_a_penstock_model_is_asked_its_traits_not_its_name():
+    """What the code needs of a penstock model is its registry entry's traits: the MOC grid fixes the step and
+    computes branches; the rigid column carries no waves and is lumped; an unknown model is refused naming the
+    choices; a model registered without traits says so (the failing case)."""
+    from hillchart.errors import InputError
+    from simulate.components.registry import ConduitTraits, Registry
+
+    moc, rigid = PENSTOCKS.traits("moc"), PENSTOCKS.traits("rigid")
+    assert moc.grid_fixes_time_step and moc.computes_branches and moc.carries_waves and not moc.lumped_column
+    assert not rigid.grid_fixes_time_step and not rigid.carries_waves and rigid.lumped_column
+    assert [PENSTOCKS.traits(n).lumped_column for n in PENSTOCKS.names()] == [False, False, True, True]
+    with pytest.raises(InputError, match="penstock.model must be one of moc, zdomain, lumped, rigid; got 'pipe'"):
+        PENSTOCKS.traits("pipe")
+    mine = Registry("penstock", "penstock.model", {"moc": "simulate.components.hydraulic.penstock:build_moc"})
+    with pytest.raises(TypeError, match="its registry entry declares no traits"):
+        mine.traits("moc")
+    mine.register("mine", "simulate.components.hydraulic.penstock:build_rigid",
+                  ConduitTraits(grid_fixes_time_step=False, carries_waves=False, lumped_column=True,
+                                computes_branches=False))
+    assert mine.traits("mine").lumped_column
