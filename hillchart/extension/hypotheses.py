@@ -643,8 +643,6 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     N11 gap ``(N11 - N11_last) / N11_last`` beyond the line's last kept point, give the band toward runaway
     (``m11_band_per_gap``, fractions of the M11 range per unit gap, below and above: :func:`band_sides` with linear
     growth), in which the ensemble members' torque stands (:meth:`Extrapolation.overspeed_widths`)."""
-    from hillchart.errors import InputError
-
     torque = np.asarray(torque, float)
     ends = []
     for a in np.unique(chart.flow_opening):
@@ -667,23 +665,19 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     q_model, m_model = np.zeros_like(q), np.zeros_like(m)
     if inside.any():
         q_model[inside], m_model[inside] = model.q11(n[inside], a[inside]), model.m11(n[inside], a[inside])
-    q_line, m_line = [], []
+    q_line, m_line, gaps = [], [], []
     for k in ends:
         on = np.flatnonzero((chart.flow_opening == chart.flow_opening[k]) & ~held)
         two = on[np.argsort(chart.flow_n11[on])[-2:]]
-        x = chart.flow_n11[two]
+        x = chart.flow_n11[two]  # x[1]: the line's last kept point
         for values, out in ((chart.flow_q11, q_line), (torque, m_line)):
             slope = (values[two[1]] - values[two[0]]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
             out.append(values[two[1]] + slope * (chart.flow_n11[k] - x[1]))
+        gaps.append((chart.flow_n11[k] - x[1]) / x[1])
     # the band toward runaway: the model's signed M11 misses per relative N11 gap beyond the line's last kept point
     # (one point per line: the lines are the units of evidence), growing linearly with the gap; calibrated on the
     # far half of the gaps (a miss over a tiny gap is reading noise, not a steep growth), and growing no further
     # than OVERSPEED_GAP_CAP times the largest gap tested
-    gaps = []
-    for k in ends:
-        on = (chart.flow_opening == chart.flow_opening[k]) & ~held
-        last = float(chart.flow_n11[on].max())
-        gaps.append((chart.flow_n11[k] - last) / last)
     gaps = np.array(gaps)
     m_low, m_high = band_sides((m_model - m) / scale, gaps, lines=len(ends), growth=1.0)
     result = {"held_out_points": int(held.sum()), "beyond_model_range": int((~inside).sum()),
@@ -695,10 +689,8 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
               "line_m11_rms": float(np.sqrt(np.mean(((np.array(m_line) - m) / scale) ** 2))),
               "runaway_n11_rms": None}
     if chart.has_runaway and chart.runaway_n11.size >= 2:
-        from dataclasses import replace as _replace
-
-        without = _replace(chart, runaway_opening=chart.runaway_opening[:0], runaway_n11=chart.runaway_n11[:0],
-                           runaway_q11=chart.runaway_q11[:0])
+        without = replace(chart, runaway_opening=chart.runaway_opening[:0], runaway_n11=chart.runaway_n11[:0],
+                          runaway_q11=chart.runaway_q11[:0])
         try:
             refit = fit_model(without, torque)
         except InputError:
