@@ -21,8 +21,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from hillchart.errors import InputError
-from simulate.components.control.servo import Servo, first_order_parameters, servo_step
+from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import parameter, validate_parameters
 
@@ -46,9 +45,7 @@ class BacklashConfig:
 
 def check_governor(governor) -> None:
     """``servo_backlash`` is required with this servo."""
-    if governor.servo_backlash is None:
-        raise InputError("governor.servo_model = \"backlash\" needs governor.servo_backlash (the play of the linkage, "
-                         "stroke fraction)")
+    require_keys(governor, "backlash", GOVERNOR_KEYS, "the play of the linkage, stroke fraction")
 
 
 @numba.njit(cache=True)

@@ -19,7 +19,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.control.servo import Servo, first_order_parameters, servo_step
+from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import parameter, validate_parameters
 
@@ -41,9 +41,7 @@ class DeadTimeConfig:
 
 def check_governor(governor) -> None:
     """``servo_dead_time_s`` is required with this servo."""
-    if governor.servo_dead_time_s is None:
-        raise InputError("governor.servo_model = \"dead-time\" needs governor.servo_dead_time_s (s, the dead time "
-                         "of the command before the servo)")
+    require_keys(governor, "dead-time", GOVERNOR_KEYS, "s, the dead time of the command before the servo")
 
 
 def delay_steps(dead_time_s: float, dt_s: float) -> int:

@@ -32,6 +32,16 @@ SERVO_PARAMS = ("stroke_min", "stroke_max", "decay", "close_step", "open_step")
 GOVERNOR_KEYS: tuple[str, ...] = ()
 
 
+def require_keys(governor, model: str, keys, what: str) -> None:
+    """:class:`InputError` naming the ``[governor]`` keys among ``keys`` that ``governor.servo_model = model`` needs
+    and the section leaves out (``what`` says what they are)."""
+    from hillchart.errors import InputError
+
+    missing = [f"governor.{k}" for k in keys if getattr(governor, k) is None]
+    if missing:
+        raise InputError(f"governor.servo_model = \"{model}\" needs {' and '.join(missing)} ({what})")
+
+
 @dataclass(frozen=True)
 class Servo:
     """A compiled servo: its ``step`` function (module docstring), parameter and state vectors, and the figures it
@@ -105,5 +115,5 @@ def time_scales(plant, schedules) -> list:
     return [TimeScale("governor.servo_time_s", plant.governor.servo_time_s)]
 
 
-__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "Servo", "first_order_parameters", "servo_step", "lag_step",
+__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "require_keys", "Servo", "first_order_parameters", "servo_step", "lag_step",
            "first_order_servo_step", "build_first_order", "time_scales"]

@@ -21,8 +21,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from hillchart.errors import InputError
-from simulate.components.control.servo import Servo, first_order_parameters, lag_step
+from simulate.components.control.servo import Servo, first_order_parameters, lag_step, require_keys
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import parameter, validate_parameters
 
@@ -49,10 +48,7 @@ class TwoStageConfig:
 
 def check_governor(governor) -> None:
     """Both second-stage keys are required with this servo."""
-    missing = [f"governor.{k}" for k in GOVERNOR_KEYS if getattr(governor, k) is None]
-    if missing:
-        raise InputError(f"governor.servo_model = \"two-stage\" needs {' and '.join(missing)} (the break stroke and "
-                         f"the second stage's closing time)")
+    require_keys(governor, "two-stage", GOVERNOR_KEYS, "the break stroke and the second stage's closing time")
 
 
 @numba.njit(cache=True)
