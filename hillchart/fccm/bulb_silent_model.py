@@ -89,7 +89,7 @@ def weighed_point(net, blend, n11, opening, blade, which):
     guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
     member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``, the band multiplies
     Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d))``, each by its own offset (``h`` of
-    :func:`hillchart.extension.hypotheses.band_square` at ``d = 1 - t``)."""
+    :func:`hillchart.extension.band.band_square` at ``d = 1 - t``)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]
     t = min(max((opening - closed) / (a_low - closed), 0.0), 1.0)

@@ -211,7 +211,7 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     the table's smallest guide-vane angle the hypotheses weighed by the table's own held-out angles answer
     (:func:`hillchart.fccm.evidence.table_evidence`, recorded in ``training["extrapolation"]``); the point nets read
     their weighed answer, each member stands at its place in their band
-    (:func:`hillchart.extension.hypotheses.member_positions`, seeded by ``seed``), as the Francis nets do. The members
+    (:func:`hillchart.extension.band.member_positions`, seeded by ``seed``), as the Francis nets do. The members
     differ otherwise by their seeds (splits and initialisations).
 
     Returns
@@ -247,7 +247,7 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     member_silent = [None] * count
     evidence = None
     if model is not None:  # the nets are the residual to the model; below the table the weighed hypotheses answer
-        from hillchart.extension.hypotheses import member_positions
+        from hillchart.extension.band import member_positions
         from hillchart.fccm.evidence import table_evidence
 
         evidence = table_evidence({k: np.asarray(samples[k], float)[measured] for k in arrays}, model, seed=seed)

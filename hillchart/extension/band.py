@@ -1,0 +1,143 @@
+"""The band around an answer the data do not reach: how wide each side is from held-out residuals (split-conformal,
+:func:`band_scale`, :func:`band_sides`), how it grows with the distance from the data (:func:`band_square`), and
+where each ensemble member stands in it (:func:`member_positions`).
+
+Below a Francis chart's lowest digitized line (:mod:`hillchart.extension.hypotheses`) and below a double-regulated
+table's smallest guide-vane angle (:mod:`hillchart.fccm.evidence`) alike, the residuals of the weighed hypotheses at
+the held-out points, divided by the squared distance below the lowest kept line (``d = 1 - t``), give the band's
+widths: a band that widens with the distance from the data and is as wide as the chart's own evidence says.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: The band grows as the distance below the lowest line to this power (:func:`band_square`).
+GROWTH = 2.0
+#: The band is calibrated on the held-out points at least this fraction of the furthest distance tested.
+FAR_FRACTION = 0.5
+#: Coverage the band aims at (two-sided: the 5-95 % band; each side is a one-sided 95 % bound).
+BAND_COVERAGE = 0.90
+#: The narrower side of the band is at least this fraction of the wider one: a record of a few held-out lines that
+#: all fell on one side does not show that the other side is impossible, only that it is less likely.
+MIN_SIDE_FRACTION = 0.25
+#: ``kappa`` of the band when the chart gives no held-out evidence (fewer than
+#: :data:`hillchart.extension.hypotheses.MIN_LINES_WEIGHED` + 1 lines): 1.2, so +-30 % at half the lowest opening
+#: (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter to a half of the lowest opening below
+#: it).
+NO_EVIDENCE_SCALE = 1.2
+
+
+def band_square(distance, cap):
+    """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^p``
+    (``p`` = :data:`GROWTH`) up to ``cap``, continued C1 to a plateau at ``2 cap`` (the slope falls linearly to 0
+    there); 0 above the lowest line. Scalars; the simulator's kernel compiles this function
+    (:mod:`hillchart.nets.silent_model`).
+
+    Examples
+    --------
+    >>> band_square(0.2, 0.5)[0] == 0.2 ** GROWTH, band_square(1.0, 0.5)[1]
+    (True, 0.0)
+    """
+    if distance <= 0.0:
+        return 0.0, 0.0
+    if distance <= cap:
+        return distance ** GROWTH, GROWTH * distance ** (GROWTH - 1.0)
+    slope = GROWTH * cap ** (GROWTH - 1.0)
+    e = min(distance, 2.0 * cap) - cap
+    return cap ** GROWTH + slope * (e - e * e / (2.0 * cap)), slope * (1.0 - e / cap)
+
+
+def log_ratio(predicted, actual, floor):
+    """``log(predicted / actual)`` of two positive quantities, each floored at ``floor`` (a sign change counts as
+    a large error, not as an undefined one)."""
+    return np.log(np.maximum(predicted, floor) / np.maximum(actual, floor))
+
+
+def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
+    """Half-width per squared distance that covers ``coverage`` of the held-out residuals: split-conformal on the
+    scores ``|r| / d^2`` (the ``ceil((n + 1) coverage)``-th smallest; with too few points for that, the largest
+    times ``(n + 1) / n``, so a thin record gives a wider band, never a narrower one).
+
+    The square: every anchored hypothesis passes through the lowest line, so its error there is zero; an error in
+    the slope grows as ``d``, one in the curvature as ``d^2``. The inner hold-outs reach only one or two line
+    spacings below the lowest kept line, where the curvature error is still small; scaling their scores by ``d^2``
+    rather than ``d`` widens the band faster with the distance, which is what the real chart shows (its lowest lines
+    bend away from every hypothesis fitted above them).
+
+    Examples
+    --------
+    >>> round(band_scale([0.01, -0.02, 0.03], [0.5, 0.5, 0.5]), 4)
+    0.16
+    """
+    residuals = np.abs(np.asarray(residuals, float))
+    distance = np.maximum(np.asarray(distance, float), 1e-9)
+    # calibrated where the hold-outs reach furthest (the far half of their distances): near the lowest line the
+    # residuals are reading noise, which divided by a small d^p would pass for a steep growth
+    far = distance >= FAR_FRACTION * distance.max()
+    score = residuals[far] / distance[far] ** GROWTH
+    n = score.size
+    if n == 0:
+        return NO_EVIDENCE_SCALE
+    rank = math.ceil((n + 1) * coverage)
+    ordered = np.sort(score)
+    if rank <= n:
+        return float(ordered[rank - 1])
+    return float(ordered[-1] * (n + 1) / n)
+
+
+def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE, *, growth: float = GROWTH,
+               far_fraction: float = FAR_FRACTION, shape=None) -> tuple[float, float]:
+    """``(low, high)``: the band's half-widths per squared distance below and above the prediction, each a one-sided
+    split-conformal bound at ``(1 + coverage) / 2`` on the signed scores ``r / d^2`` of the far half of the distances
+    tested (:func:`band_scale` says why ``d^2`` and the far half). ``r`` is prediction minus truth (a log-ratio for
+    Q11), so the held-out points the prediction overshot set the low side.
+
+    The units of evidence are the held-out *lines* (the points of one line share one cause of error): with too few
+    of them for the quantile (``ceil((n + 1) q) > n``), a side is its largest score times ``(lines + 1) / lines``,
+    so a chart with one held-out line gets twice the width its one line showed. Neither side is narrower than
+    :data:`MIN_SIDE_FRACTION` of the other. ``growth`` and ``far_fraction``: the power of the distance and the part
+    of the distances calibrated on (toward runaway, :func:`hillchart.extension.hypotheses.overspeed_evidence`: 1 and
+    0); ``shape``, a further factor of the band's growth at each point (M11 below the lowest line: ``1 - d``, the
+    band closing at the closed vanes).
+
+    Examples
+    --------
+    >>> [round(v, 4) for v in band_sides([0.02, 0.04, -0.01], [0.5, 0.5, 0.5], lines=1)]
+    [0.32, 0.08]
+    """
+    residuals = np.asarray(residuals, float)
+    distance = np.maximum(np.asarray(distance, float), 1e-9)
+    far = distance >= far_fraction * distance.max()
+    growth_at = distance ** growth if shape is None else distance ** growth * np.asarray(shape, float)
+    score = residuals[far] / growth_at[far]
+    n = score.size
+    if n == 0 or lines <= 0:
+        return NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE
+    level = 0.5 * (1.0 + coverage)
+    rank = math.ceil((n + 1) * level)
+    sides = []
+    for signed in (score, -score):
+        ordered = np.sort(signed)
+        width = float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (lines + 1) / lines
+        sides.append(max(width, 0.0))
+    widest = max(sides)
+    return tuple(max(v, MIN_SIDE_FRACTION * widest) for v in sides)
+
+
+
+def member_positions(members: int, seed: int) -> np.ndarray:
+    """Where each of ``members`` ensemble members stands in the band (standard units, +-1 the 5-95 % edges):
+    evenly spaced normal quantiles ``Phi^-1((i + 1/2) / members)``, scaled so that their own 95th percentile is 1
+    (the band a report reads from the members is then the band of the evidence), shuffled with ``seed`` so that a
+    member's place does not follow its index (the nets of member i are trained on their own split)."""
+    from scipy.stats import norm
+
+    if members <= 0:
+        return np.zeros(0)
+    positions = norm.ppf((np.arange(members) + 0.5) / members)
+    if members > 1:  # the members' own 5-95 % percentiles (as the report reads a band) fall on +-1
+        positions = positions / np.percentile(positions, 95.0)
+    return np.random.default_rng([seed, 7]).permutation(positions)
