@@ -127,7 +127,6 @@ def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE,
     return tuple(max(v, MIN_SIDE_FRACTION * widest) for v in sides)
 
 
-
 def member_positions(members: int, seed: int) -> np.ndarray:
     """Where each of ``members`` ensemble members stands in the band (standard units, +-1 the 5-95 % edges):
     evenly spaced normal quantiles ``Phi^-1((i + 1/2) / members)``, scaled so that their own 95th percentile is 1

@@ -303,8 +303,6 @@ def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
                    lines_left=int(openings.size - lines))
 
 
-
-
 @dataclass(frozen=True)
 class Evidence:
     """What the chart's own held-out lines say about the region below its lowest line.
@@ -394,7 +392,6 @@ def _errors(folds, m11_scale):
             m.append((pm - f.m11) / m11_scale)
         out["q11"][name], out["m11"][name] = np.concatenate(q), np.concatenate(m)
     return out
-
 
 
 def weigh(folds, m11_scale: float) -> Evidence:

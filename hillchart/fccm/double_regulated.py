@@ -302,7 +302,6 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     return nets, report
 
 
-
 __all__ = ["NET3_INPUTS", "BLEND_START_FRACTION", "SILENT_KIND", "NO_BLEND", "WEIGHED", "SHIPPED_BULB_NETS",
            "packed_net3", "net3_point", "weighed_point", "blended_point", "blended_value", "BulbSilentModel",
            "DoubleRegulatedNets", "load_double_regulated_nets", "on_cam_relation", "plot_on_cam",

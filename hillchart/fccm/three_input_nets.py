@@ -236,7 +236,6 @@ def load_double_regulated_nets(path) -> DoubleRegulatedNets:
         raise InputError(f"{path}: {exc}") from None
 
 
-
 def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_diameter_m: float,
                     blade_range=(-18.0, 16.0), step_deg: float = 0.05) -> dict:
     """The on-cam (combinator) relation phi(a, H): the blade angle of best efficiency at each guide-vane opening a

@@ -107,7 +107,6 @@ def run_chunk(plant: PlantConfig, characteristics, chunk: Sequence[tuple[int, di
     return [run_case(plant, characteristics, i, v, domain=domain, keep_series=keep_series) for i, v in chunk]
 
 
-
 def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=None, mechanism: str = "auto",
               workers: int | None = None, chunk_size: int | None = None, keep_series: bool = False,
               progress: Callable[[int, int], None] | None = None) -> BatchResult:
@@ -201,8 +200,6 @@ def run_batch(plant: PlantConfig, variants: Iterable[dict], *, characteristics=N
     cases.sort(key=lambda c: c.index)
     return BatchResult(keys=keys, cases=cases, mechanism=mechanism, workers=workers, chunk_size=chunk_size,
                        wall_time_s=time.perf_counter() - wall)
-
-
 
 
 def _run_grouped(plant: PlantConfig, keys: tuple, variants: list[dict], *, characteristics, mechanism, workers,
