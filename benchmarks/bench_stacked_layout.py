@@ -34,7 +34,7 @@ from data_synthetic import PLANT_HLA339
 from hillchart.nets.weights import _net_value_grad
 from simulate.components.hydraulic.penstock import build_moc_grid, moc_step, moc_steady_state
 from simulate.config import load_characteristics, load_plant
-from simulate.components.registry import compile_characteristics
+from simulate.components.turbine.evaluation import compile_characteristics
 
 
 @numba.njit(cache=True)

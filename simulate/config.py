@@ -1080,28 +1080,7 @@ def read_plant_toml(path: Path) -> tuple[dict, bytes]:
                          "levels deep") from None
 
 
-def load_characteristics(turbine: TurbineConfig, base_dir: Path | str = "."):
-    """The characteristics object named by ``turbine.characteristics``.
-
-    One resolver for every command (:func:`simulate.components.registry.resolve_characteristics`): ``"ideal"`` gives
-    :class:`hillchart.characteristics.IdealTurbine` from the rated values:
-    q11_max = Q_r / (D1^2 sqrt(H_r)) at full stroke (opening_max), efficiency P_r / (rho g Q_r H_r).
-    ``"synthetic"`` the exact synthetic Francis turbine; anything else is a nets.json path (relative to
-    ``base_dir``) read by ``hillchart.nets.hill_nets.load_nets``. With ``turbine.step_up`` the model chart is
-    converted to the prototype here (:func:`simulate.components.turbine.step_up.apply_step_up`), so every command
-    runs on the same stepped-up characteristics.
-
-    Examples
-    --------
-    >>> t = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
-    ...                   runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
-    >>> ideal = load_characteristics(t)
-    >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
-    (0.25, 0.917431)
-    """
-    from simulate.components.registry import resolve_characteristics
-
-    return resolve_characteristics(turbine.characteristics, turbine=turbine, base_dir=base_dir)
+from simulate.components.turbine.component import load_characteristics  # noqa: E402  (the turbine's own)
 
 
 __all__ = [  # noqa: F822  (PENSTOCK_MODELS: served by the module's __getattr__)

@@ -20,6 +20,8 @@ import numpy as np
 from hillchart.errors import InputError
 from hillsim import progress
 
+#: The exact turbine the shipped synthetic nets were trained on (``--exact auto``).
+EXACT_OF_SHIPPED_NETS = "synthetic"
 
 
 def _penstock_models() -> tuple[str, ...]:
@@ -82,32 +84,34 @@ def register(subparsers) -> None:
     grid.add_argument("--closed-loop-ti", type=float, nargs="+", default=None, metavar="TI_S",
                       help="integral times of the closed-loop runs, s (default 0.5 0.15; needs --closed-loop-kp)")
     parser.add_argument("--no-plot", action="store_true", help="do not write the PNG figures")
-    parser.add_argument("--exact", choices=("auto", "synthetic", "none"), default="auto",
+    parser.add_argument("--exact", choices=("auto", EXACT_OF_SHIPPED_NETS, "none"), default="auto",
                         help="also report the exact synthetic turbine's coefficients (auto: when the plant uses the "
                              "shipped synthetic nets)")
     parser.set_defaults(func=run)
 
 
 def _exact(choice: str, plant):
-    """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics."""
+    """The exact turbine reported next to the nets (``--exact``), from the one resolver of characteristics: the
+    word of the exact turbine ``--exact`` names, or with ``auto`` the synthetic Francis turbine when the plant runs on
+    the shipped synthetic nets (stepped up like the nets when the plant has [turbine.step_up])."""
     if choice == "none":
         return None
-    from simulate.components.registry import resolve_characteristics
+    from simulate.components.turbine.kinds import nets_path, resolve_characteristics
 
-    if choice == "synthetic":  # stepped up like the nets when the plant has [turbine.step_up]
-        return resolve_characteristics("synthetic", turbine=plant.turbine)
-    chars = plant.turbine.characteristics
-    if chars == "ideal":
-        return None
-    try:
-        from importlib.resources import files
+    if choice == "auto":
+        path = nets_path(plant.turbine.characteristics, plant.base_dir)
+        if path is None:
+            return None
+        try:
+            from importlib.resources import files
 
-        shipped = Path(str(files("data_synthetic.francis") / "nets.json")).resolve()
-    except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - data package always ships
-        return None
-    if (Path(plant.base_dir) / chars).resolve() != shipped:
-        return None
-    return resolve_characteristics("synthetic", turbine=plant.turbine)
+            shipped = Path(str(files("data_synthetic.francis") / "nets.json")).resolve()
+        except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - data package always ships
+            return None
+        if path.resolve() != shipped:
+            return None
+        choice = EXACT_OF_SHIPPED_NETS
+    return resolve_characteristics(choice, turbine=plant.turbine)
 
 
 def run(args: argparse.Namespace) -> int:

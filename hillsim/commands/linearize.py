@@ -27,18 +27,15 @@ def _penstock_models() -> tuple[str, ...]:
 
 def load_characteristics(source: str, plant=None):
     """``(characteristics, label, opening_unit)`` for ``NETS``, through the one resolver of every command
-    (:func:`simulate.components.registry.resolve_characteristics`): a nets.json path, ``"synthetic"``, or ``"ideal"``
-    (needs ``--plant``: the ideal turbine from the plant's rated values)."""
-    from simulate.components.registry import resolve_characteristics
+    (:func:`simulate.components.turbine.kinds.load_kind`): a nets.json path, or a registry word (``"synthetic"``,
+    ``"synthetic-bulb"``, ``"ideal"``, which needs ``--plant``: the ideal turbine from the plant's rated values)
+    labelled by its kind."""
+    from simulate.components.turbine.kinds import kind_of, load_kind
 
-    characteristics = resolve_characteristics(source, turbine=plant.turbine if plant is not None else None,
-                                              key="NETS")
-    if source == "synthetic":
-        return characteristics, "synthetic Francis turbine (exact)", "mm"
-    if source == "synthetic-bulb":
-        return characteristics, "synthetic bulb turbine (exact, double regulated)", "deg"
-    if source == "ideal":
-        return characteristics, "ideal turbine (the plant's rated values)", "chart units"
+    name, characteristics, path, _ = load_kind(source, turbine=plant.turbine if plant is not None else None,
+                                               key="NETS")
+    if path is None:
+        return characteristics, kind_of(name).label, kind_of(name).opening_unit
     return characteristics, str(source), getattr(characteristics, "opening_unit", "chart units")
 
 
@@ -149,11 +146,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("the operating point needs --n11, or all of --speed-rpm, --head-m and --d1-m")
     record = coeffs.to_dict()
     import sys
-    from pathlib import Path
 
+    from simulate.components.turbine.kinds import nets_path
     from simulate.loop.domain import point_warnings  # never extrapolate silently
 
-    domain_dir = None if args.nets == "synthetic" else Path(args.nets).parent
+    path = nets_path(args.nets)
+    domain_dir = None if path is None else path.parent
     warnings = point_warnings(characteristics, record["n11_rpm"], args.opening, chart_dir=domain_dir)
     for line in warnings:
         print(f"hillsim linearize: warning: {line}", file=sys.stderr)

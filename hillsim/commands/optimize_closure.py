@@ -159,7 +159,8 @@ def optimum_plant_toml(source: Path, study, plant, law, worst: int, folder: Path
 
 def optimize_command(args: argparse.Namespace) -> int:
     from simulate.studies.closure_opt import closure_plant, optimize_closure
-    from simulate.config import load_characteristics, parse_override
+    from simulate.components.turbine.component import plant_turbine
+    from simulate.config import parse_override
     from simulate.studies.cases import load_study
 
     for name in ("maxiter", "popsize", "workers"):
@@ -188,10 +189,11 @@ def optimize_command(args: argparse.Namespace) -> int:
     else:
         raise InputError("give --max-speed-rise or --max-head-rise (or limits.max_speed_rise in the plant file)")
     plant = closure_plant(study.plant)
-    base = load_characteristics(plant.turbine, plant.base_dir)
+    turbine = plant_turbine(plant)
+    base = turbine.characteristics
     members = [base]
     if args.ensemble:
-        if plant.turbine.characteristics == "ideal":
+        if turbine.path is None:
             raise InputError("--ensemble needs turbine.characteristics to be a nets.json with an \"ensemble\" list")
         extra = base.members() if hasattr(base, "members") else []  # stepped up with the point nets, if asked
         if not extra:

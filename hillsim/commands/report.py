@@ -81,7 +81,9 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
     else:
         law = {"kind": "governor (PID) with servo rate limits", "closing_time_s": gov.closing_time_s,
                "opening_time_s": gov.opening_time_s}
-    source = {"kind": "ideal turbine" if t.characteristics == "ideal" else "nets.json",
+    from simulate.components.turbine.kinds import kind_of
+
+    source = {"kind": "nets.json" if chars_path is not None else kind_of(t.characteristics).label,
               "path": t.characteristics}
     if chars_path is not None:
         source["sha256"] = _hash(chars_path)
@@ -91,7 +93,7 @@ def plant_sheet(plant, chars_path: Path | None, chars) -> dict:
             nets_doc = read_nets_json(chars_path)
             source["format"] = f"{nets_doc.get('format')} version {nets_doc.get('version')}"
         except (OSError, InputError):
-            pass  # load_characteristics has read and validated the same file just before
+            pass  # the turbine's kind has read and validated the same file just before
         training = getattr(chars, "training", None) or {}
         source["training"] = {k: v for k, v in training.items() if isinstance(v, (str, int, float, bool))}
         from simulate.components.turbine.step_up import step_up_of
@@ -296,7 +298,8 @@ def build_report(args) -> tuple[dict, Path]:
     """Run the cases, write the per-case files and figures; return (report.json document, out dir)."""
     import hillsim
     from simulate.studies.batch import case_from_result, nets_domain, variant_overrides
-    from simulate.config import load_characteristics, parse_override
+    from simulate.components.turbine.component import plant_turbine
+    from simulate.config import parse_override
     from simulate.loop.engine import plant_characteristics, run_simulation
     from simulate.studies.cases import load_study
     from simulate.studies.uncertainty import BAND_INFLATION, run_ensemble
@@ -321,9 +324,9 @@ def build_report(args) -> tuple[dict, Path]:
         if not isinstance(sweep_doc, dict) or "cases" not in sweep_doc:
             raise InputError(f"--sweep {str(args.sweep)!r}: {path.name} is not a hillsim sweep output")
     plant = study.plant
-    chars = load_characteristics(plant.turbine, plant.base_dir)
-    chars_path = None if plant.turbine.characteristics == "ideal" else \
-        (plant.base_dir / plant.turbine.characteristics).resolve()
+    turbine = plant_turbine(plant)
+    chars = turbine.characteristics
+    chars_path = None if turbine.path is None else turbine.path.resolve()
     domain = nets_domain(chars, plant)
     # the ensemble's band: each limit is judged on its conservative side (the chart leaves that much open)
     with_band = bool(getattr(chars, "members", None) and chars.members()) and study.limits is not None

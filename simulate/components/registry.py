@@ -27,17 +27,17 @@ Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, d
 dt_s)``, control/shaft ``build(plant, steady, dt_s, schedules)`` (the blade controls also take the plant's
 characteristics view, ``characteristics=``), each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
 A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
-accepted by the plant file and built like the shipped ones. The turbine characteristics are
-compiled by :func:`compile_characteristics` (any object with ``numba_kernel()`` (two inputs N11, a),
-``numba_control_kernel()`` (N11 and the control vector) or just the four Python methods).
+accepted by the plant file and built like the shipped ones. The turbine characteristics are a kind of their own
+(``CHARACTERISTICS``: entries are :class:`simulate.components.turbine.kinds.CharacteristicKind` objects, which load
+themselves from a registry word or claim a nets.json by its content); the turbine component
+(:mod:`simulate.components.turbine.component`) owns them, and their compiled form
+(:func:`simulate.components.turbine.evaluation.compile_characteristics`) writes how the loop evaluates them.
 """
 
 from __future__ import annotations
 
 import importlib
-import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable
 
 
@@ -240,12 +240,15 @@ SHAFTS = Registry("shaft", "generator.model", {
     "swing": "simulate.components.shaft.rotor:build_rotor",
     "subtransient": "simulate.components.shaft.generator_shaft:build_subtransient",
 })
-#: Turbine characteristics by the word in ``turbine.characteristics`` (anything else is a nets.json path).
+#: Kinds of turbine characteristics (:class:`simulate.components.turbine.kinds.CharacteristicKind`): chosen by their
+#: word in ``turbine.characteristics`` ("ideal", "synthetic", "synthetic-bulb"), or, for a nets.json path, the kind
+#: whose ``owns(document)`` claims the file's content (two-input nets, three-input nets).
 CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
-    "ideal": "simulate.components.registry:ideal_from_rated",
-    "synthetic": "simulate.components.registry:synthetic_francis",
-    "synthetic-bulb": "simulate.components.registry:synthetic_bulb",
-    "nets": "simulate.components.registry:nets_from_path",
+    "ideal": "simulate.components.turbine.kinds:IDEAL",
+    "synthetic": "simulate.components.turbine.kinds:SYNTHETIC_FRANCIS",
+    "synthetic-bulb": "simulate.components.turbine.kinds:SYNTHETIC_BULB",
+    "nets": "simulate.components.turbine.kinds:TWO_INPUT_NETS",
+    "nets-3": "simulate.components.turbine.kinds:THREE_INPUT_NETS",
 })
 
 
@@ -286,120 +289,3 @@ def shaft_section(plant):
     """``(name, config)`` of the plant's shaft component: ``generator.model`` (``"swing"``, the swing equation, or
     ``"subtransient"``, paper 001's machine with ``[excitation]`` and ``[grid]``) and the ``[generator]`` section."""
     return plant.generator.model, plant.generator
-
-
-def ideal_from_rated(turbine, base_dir=None):
-    """:class:`hillchart.characteristics.IdealTurbine` from the rated values: q11_max = Q_r / (D1^2 sqrt(H_r)) at full
-    stroke, efficiency P_r / (rho g Q_r H_r)."""
-    from hillchart.characteristics import IdealTurbine
-
-    q11_max = turbine.rated_flow_m3_s / (turbine.runner_diameter_m ** 2 * math.sqrt(turbine.rated_head_m))
-    return IdealTurbine(q11_max_m3_s=q11_max, opening_max=turbine.opening_max, efficiency=turbine.rated_efficiency)
-
-
-def synthetic_francis(turbine=None, base_dir=None):
-    """The exact synthetic Francis turbine the shipped chart was drawn from."""
-    from hillchart.synthetic.francis import SyntheticFrancis
-
-    return SyntheticFrancis()
-
-
-def synthetic_bulb(turbine=None, base_dir=None):
-    """The exact synthetic double-regulated bulb turbine (three inputs: n11, guide-vane angle, blade angle)."""
-    from hillchart.synthetic.bulb import SyntheticBulb
-
-    return SyntheticBulb()
-
-
-def _is_three_input_nets(path: Path) -> bool:
-    """True when the nets.json at ``path`` has three-input blocks (inputs n11, opening, blade_angle); a file that is
-    not JSON (or nested beyond reason) is an InputError naming it (:func:`hillchart.nets.hill_nets.read_nets_json`,
-    the reader of both loaders)."""
-    from hillchart.nets.hill_nets import read_nets_json
-
-    try:
-        doc = read_nets_json(path)
-    except OSError:
-        return False  # the two-input loader reports what is wrong with the file
-    flow = doc.get("flow") if isinstance(doc, dict) else None
-    return isinstance(flow, dict) and flow.get("inputs") == ["n11", "opening", "blade_angle"]
-
-
-def nets_from_path(path, base_dir=None, *, key: str = "turbine.characteristics"):
-    """Nets read from a nets.json ``path`` (relative to ``base_dir``)."""
-    spec = str(path)
-    path = Path(path)
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    if not path.is_file():
-        where = " (relative to the plant file)" if base_dir is not None else ""
-        raise InputError(f"{key} = {spec!r}: nets file {str(path)!r} does not exist; give \"ideal\", "
-                         f"\"synthetic\" or the path of a nets.json{where}")
-    if _is_three_input_nets(path):
-        from hillchart.fccm.double_regulated import load_double_regulated_nets
-
-        return load_double_regulated_nets(path)
-    from hillchart.nets.hill_nets import load_nets
-
-    return load_nets(path)
-
-
-def resolve_characteristics(spec: str, *, turbine=None, base_dir=None, key: str = "turbine.characteristics"):
-    """The one resolver of characteristics for the plant file and every command: ``"ideal"`` (needs ``turbine``),
-    ``"synthetic"``, ``"synthetic-bulb"`` or a nets.json path (two-input nets, or three-input ones with inputs
-    n11, opening, blade_angle); with ``turbine.step_up`` the model's characteristics converted to the prototype
-    (:func:`simulate.components.turbine.step_up.apply_step_up`)."""
-    if spec == "ideal":
-        if turbine is None:
-            raise InputError(f"{key} = 'ideal' needs the plant's rated values")
-        if getattr(turbine, "step_up", None) is not None:
-            raise InputError(f"turbine.step_up converts a model test's chart to the prototype; {key} = \"ideal\" is "
-                             f"built from the prototype's own rated values: remove [turbine.step_up] or give a "
-                             f"nets.json")
-        return ideal_from_rated(turbine)
-    if spec == "synthetic":
-        characteristics = synthetic_francis()
-    elif spec == "synthetic-bulb":
-        characteristics = synthetic_bulb()
-    else:
-        characteristics = nets_from_path(spec, base_dir, key=key)
-    if turbine is not None and getattr(turbine, "step_up", None) is not None:
-        from simulate.components.turbine.step_up import apply_step_up
-
-        characteristics = apply_step_up(characteristics, turbine)
-    return characteristics
-
-
-@dataclass(frozen=True)
-class CompiledCharacteristics:
-    """How the loop evaluates the turbine: ``source`` is ``"two-input"`` (a kernel ``(params, n11, a)`` returning
-    ``(q11, dq11_dn11, dq11_da, m11, dm11_dn11, dm11_da)``), ``"controls"`` (a kernel ``(params, n11, controls)``
-    returning ``(q11, dq11_dn11, m11, dm11_dn11)``) or ``"python"`` (no numba kernel: the loop runs as Python)."""
-
-    source: str
-    kernel: Callable
-    params: tuple
-    jitted: bool
-    #: ``flow_kernel(params, n11, controls) -> (q11, dq11_dn11, ...)`` on the same params, for the pressure loop's
-    #: iterations that read Q11 only (None: the loop reads ``kernel``)
-    flow_kernel: Callable | None = None
-    #: two-input characteristics: ``flow_value(params, n11, a) -> q11`` and ``torque_value(params, n11, a) -> m11``,
-    #: the kernel's values without derivatives (``numba_value_kernels()``; None: the loop reads ``kernel``);
-    #: on the controls: ``torque_value(params, n11, controls) -> m11`` (``numba_control_torque_kernel()``)
-    flow_value: Callable | None = None
-    torque_value: Callable | None = None
-
-
-def compile_characteristics(characteristics) -> CompiledCharacteristics:
-    if hasattr(characteristics, "numba_control_kernel"):
-        kernel, params = characteristics.numba_control_kernel()
-        flow = getattr(characteristics, "numba_control_flow_kernel", lambda: None)()
-        torque = getattr(characteristics, "numba_control_torque_kernel", lambda: None)()
-        return CompiledCharacteristics("controls", kernel, tuple(params), True, flow_kernel=flow, torque_value=torque)
-    from hillchart.characteristics import scalar_kernel
-
-    kernel, params, jitted = scalar_kernel(characteristics)
-    flow, torque = characteristics.numba_value_kernels() \
-        if jitted and hasattr(characteristics, "numba_value_kernels") else (None, None)
-    return CompiledCharacteristics("two-input" if jitted else "python", kernel, tuple(params), bool(jitted),
-                                   flow_value=flow, torque_value=torque)

@@ -410,10 +410,10 @@ def compare_identification(plant, *, settings: ExperimentSettings | None = None,
     -------
     IdentificationReport
     """
-    from simulate.config import load_characteristics
+    from simulate.components.turbine.component import characteristics_of
 
     settings = settings or ExperimentSettings()
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    chars = characteristics_of(plant, characteristics)
     run = run_experiment(plant, settings, chars, penstock_model=penstock_model, initial_opening=initial_opening)
     run_plant, steady, result = run.plant, run.steady, run.result
     coeffs, linear = linear_reference(run_plant, chars, steady)
@@ -460,9 +460,9 @@ def identify_measured(series: RelativeSeries, settings: ExperimentSettings, *, p
     if plant is not None:
         from types import SimpleNamespace
 
-        from simulate.config import load_characteristics
+        from simulate.components.turbine.component import characteristics_of
 
-        chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+        chars = characteristics_of(plant, characteristics)
         op = series.operating_point
         steady = SimpleNamespace(speed_rpm=op.speed_rpm, head_m=op.head_m, flow_m3_s=op.flow_m3_s,
                                  torque_nm=op.torque_nm, opening_chart=op.opening * plant.turbine.opening_max)

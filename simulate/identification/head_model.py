@@ -305,10 +305,11 @@ def closed_loop_identification(plant, *, kp_relative: float = 7.5, ti_s: float =
     regulator. A persistently exciting reference (or dither) restores identifiability; a single step does not.
     """
     from simulate.identification.linear_reference import linear_reference
-    from simulate.config import ScenarioConfig, load_characteristics
+    from simulate.components.turbine.component import characteristics_of
+    from simulate.config import ScenarioConfig
     from simulate.loop.engine import initial_state, run_simulation
 
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    chars = characteristics_of(plant, characteristics)
     base = replace(plant, scenario=ScenarioConfig(kind="load-step", t_end_s=t_end_s, initial_opening=initial_opening,
                                                   event_time_s=5.0, load_step=load_step),
                    penstock=replace(plant.penstock, model="lumped"),

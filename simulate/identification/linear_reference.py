@@ -131,10 +131,11 @@ def plant_linearization(plant, characteristics=None, *, initial_opening: float |
     """
     from dataclasses import replace as _replace
 
-    from simulate.config import ScenarioConfig, load_characteristics
+    from simulate.components.turbine.component import characteristics_of
+    from simulate.config import ScenarioConfig
     from simulate.loop.engine import initial_state
 
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    chars = characteristics_of(plant, characteristics)
     if initial_opening is not None:
         plant = _replace(plant, scenario=ScenarioConfig(kind="opening-steps", t_end_s=10.0,
                                                         initial_opening=initial_opening))

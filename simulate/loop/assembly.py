@@ -189,29 +189,10 @@ def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[st
 
 
 def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[str]:
-    """The characteristics kernel as the global ``kernel``, the pressure-loop templates and the turbine step
-    (adds the modules they import to ``modules``)."""
-    lines = []
-    # the turbine characteristics as the global ``kernel(params, n11, controls) -> (q11, dq11_dn11, m11, dm11_dn11)``
-    if characteristics.source == "python":
-        lines += ["kernel = None  # set after import: a Python function"]
-    else:
-        lines.append(_import_line(characteristics.kernel, "_characteristics_kernel"))
-        modules.add(characteristics.kernel.__module__)
-        if characteristics.source == "two-input":
-            lines += ["@_jit_inner", "def kernel(params, n11, controls):",
-                      "    out = _characteristics_kernel(params, n11, controls[0])",
-                      "    return out[0], out[1], out[3], out[4]"]
-        else:
-            lines += ["kernel = _characteristics_kernel"]
-    # ``flow_kernel``: what the iterations of a pressure loop that reads Q11 only call (a kernel's flow half where
-    # the characteristics offer one: the torque is evaluated once, at the converged head); ``torque_kernel``: M11 at
-    # the converged head (the value alone where the characteristics offer it)
-    source = characteristics.source
-    flow = getattr(characteristics, "flow_kernel" if source == "controls" else "flow_value", None)
-    lines += _half_kernel("flow_kernel", flow, source, "({},)", "kernel(params, n11, controls)", modules)
-    lines += _half_kernel("torque_kernel", getattr(characteristics, "torque_value", None), source, "{}",
-                          "kernel(params, n11, controls)[2]", modules)
+    """The characteristics' kernels as the globals ``kernel``, ``flow_kernel`` and ``torque_kernel`` (their compiled
+    form writes them: :meth:`simulate.components.turbine.evaluation.CompiledCharacteristics.loop_lines`), the
+    pressure-loop templates and the turbine step (adds the modules they import to ``modules``)."""
+    lines = characteristics.loop_lines(_import_line, modules)
     solver = boundary.SOLVERS[pressure_loop]
     solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
     if pressure_loop in boundary.FLOW_ONLY_SOLVERS:
@@ -225,20 +206,6 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
     lines.append(newton_source.replace(f"def {newton.__name__}(", "def newton_loop("))
     lines.append(_template(boundary.turbine_step, drop_first=False))
     return lines
-
-
-def _half_kernel(name: str, func, source: str, value: str, fallback: str, modules: set) -> list[str]:
-    """Lines defining the loop global ``name(params, n11, controls)``: ``func`` itself for characteristics on the
-    control vector (source ``"controls"``), ``func`` on the guide vane ``controls[0]`` returned as ``value`` (a
-    format of its call) for two-input ones, else ``fallback``, an expression of the whole ``kernel``."""
-    if func is not None and source in ("controls", "two-input"):
-        modules.add(func.__module__)
-        if source == "controls":
-            return [_import_line(func, name)]
-        call = f"_{name}_value(params, n11, controls[0])"
-        return [_import_line(func, f"_{name}_value"), "@_jit_inner", f"def {name}(params, n11, controls):",
-                f"    return {value.format(call)}"]
-    return ["@_jit_inner", f"def {name}(params, n11, controls):", f"    return {fallback}"]
 
 
 def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool,
@@ -341,9 +308,7 @@ def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
     roles = tuple(parts[kind].functions[role] for kind, role in _ROLES.values())
     records = tuple((kind, parts[kind].functions["record"], len(parts[kind].signals))
                     for kind in RECORDING_KINDS if parts[kind].signals)
-    return (roles, records, characteristics.source, characteristics.kernel,
-            getattr(characteristics, "flow_kernel", None), getattr(characteristics, "flow_value", None),
-            getattr(characteristics, "torque_value", None), pressure_loop, boundary.SOLVERS[pressure_loop])
+    return roles, records, characteristics.identity(), pressure_loop, boundary.SOLVERS[pressure_loop]
 
 
 _ASSEMBLING = threading.RLock()
@@ -368,7 +333,7 @@ def _assemble(parts, characteristics, pressure_loop, compiled, key):
         source, _ = loop_source(parts, characteristics, pressure_loop, compiled)
         namespace = {"__name__": "hillsim_loop_python"}
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
-        namespace["kernel"] = _python_kernel(characteristics)
+        namespace["kernel"] = characteristics.python_kernel()
         return namespace["time_loop"]
     _ASSEMBLED[key] = compiled_loop(lambda cache, counted: loop_source(
         parts, characteristics, pressure_loop, True, cache=cache, counted=counted))
@@ -418,16 +383,3 @@ def _load(source: str, modules: list[str], key: str | None = None) -> types.Modu
     spec.loader.exec_module(module)
     _LOADED[key] = module
     return module
-
-
-def _python_kernel(characteristics):
-    kernel, source = characteristics.kernel, characteristics.source
-    kernel = getattr(kernel, "py_func", kernel)
-    if source == "controls":
-        return kernel
-
-    def two_input(params, n11, controls):
-        out = kernel(params, n11, controls[0])
-        return out[0], out[1], out[3], out[4]
-
-    return two_input

@@ -176,12 +176,10 @@ def trusted_domain(characteristics, *, chart_dir=None) -> TrustedDomain:
 def plant_domain(plant, characteristics) -> TrustedDomain:
     """The domain for a plant run: the chart folder is the folder of ``turbine.characteristics`` when that is a
     nets.json path."""
-    spec = plant.turbine.characteristics
-    chart_dir = None
-    if spec not in ("ideal", "synthetic"):
-        path = Path(spec)
-        chart_dir = (path if path.is_absolute() else Path(plant.base_dir) / path).parent
-    return trusted_domain(characteristics, chart_dir=chart_dir)
+    from simulate.components.turbine.kinds import nets_path
+
+    path = nets_path(plant.turbine.characteristics, plant.base_dir)
+    return trusted_domain(characteristics, chart_dir=None if path is None else path.parent)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")

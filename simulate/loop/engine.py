@@ -24,7 +24,8 @@ import numpy as np
 
 from hillchart.errors import NumericalError
 from simulate.components.turbine.boundary import FALLBACK_DAMPING, STATUS_TEXT, turbine_parameters, turbine_state
-from simulate.config import PlantConfig, load_characteristics
+from simulate.components.turbine.component import characteristics_of
+from simulate.config import PlantConfig
 from simulate.results.result import SimulationResult
 from simulate.scenarios import GOVERNOR, build_schedules, initial_target
 from simulate.loop.steady import SteadyState, steady_state
@@ -102,8 +103,7 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     """
     from hillchart.characteristics import scalar_kernel
 
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    view = plant_characteristics(plant, chars)
+    view = plant_characteristics(plant, characteristics_of(plant, characteristics))
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:
@@ -136,7 +136,8 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: 
     """The compiled components of ``plant`` by kind (penstock, upstream, control, shaft, downstream), from the
     registries, and the scenario's schedules (``schedules``: those of :func:`plant_schedules`, when the caller has
     them). Control and shaft are built for the sub-step ``dt_s / substeps`` (see :mod:`simulate.loop.timestep`).
-    ``characteristics``: the plant's view of them (a double-regulated unit's blade control reads its cam)."""
+    ``characteristics``: those the run uses (default the plant's own, :func:`simulate.components.turbine.component.
+    characteristics_of`); a double-regulated unit's blade control reads their plant view's cam."""
     from simulate.components.registry import (CONTROLS, DOWNSTREAM, PENSTOCKS, SHAFTS, UPSTREAM, control_name,
                                               downstream_section, shaft_section, upstream_section)
 
@@ -152,7 +153,8 @@ def build_parts(plant: PlantConfig, steady: SteadyState, dt_s: float, substeps: 
         "downstream": DOWNSTREAM.builder(downstream_section(plant)[0])(plant, steady, dt_s),
     }
     control = control_name(plant, schedules)
-    extra = {"characteristics": characteristics} if control.endswith("_blades") else {}
+    extra = {"characteristics": plant_characteristics(plant, characteristics_of(plant, characteristics))} \
+        if control.endswith("_blades") else {}
     parts["control"] = CONTROLS.builder(control)(plant, steady, sub_dt, schedules, **extra)
     return parts, schedules
 
@@ -192,13 +194,12 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         return run_units(plant, characteristics, jit=jit, raise_on_failure=raise_on_failure, progress=progress)
     from simulate.loop import guards
     from simulate.loop.assembly import RECORDING_KINDS, assemble
-    from simulate.components.registry import compile_characteristics
+    from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.components.turbine.step_up import step_up_of
     from simulate.loop.timestep import plan_step
 
     plant.time_step_s  # noqa: B018  (the Courant check of the grid before anything heavier)
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
-    chars = plant_characteristics(plant, chars)
+    chars = plant_characteristics(plant, characteristics_of(plant, characteristics))
     compiled_chars = _memo(chars, ("compiled",), lambda: compile_characteristics(chars))
     turbine, pen = plant.turbine, plant.penstock
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain

@@ -21,7 +21,7 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _python_kernel, _turbine_lines,
+from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _turbine_lines,
                                     compiled_loop)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
@@ -145,7 +145,7 @@ def assemble_units(common: dict, units: list[dict], characteristics, pressure_lo
         source, _ = multi_loop_source(common, units, characteristics, pressure_loop, compiled)
         namespace = {"__name__": "hillsim_loop_python"}
         exec(compile(source, "<hillsim loop>", "exec"), namespace)
-        namespace["kernel"] = _python_kernel(characteristics)
+        namespace["kernel"] = characteristics.python_kernel()
         return namespace["time_loop"]
     return compiled_loop(lambda cache, counted: multi_loop_source(
         common, units, characteristics, pressure_loop, True, cache=cache, counted=counted))

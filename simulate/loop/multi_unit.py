@@ -13,7 +13,8 @@ import numpy as np
 
 from hillchart.errors import InputError, NumericalError
 from simulate.components.turbine.boundary import STATUS_TEXT, turbine_parameters, turbine_state
-from simulate.config import PlantConfig, load_characteristics
+from simulate.components.turbine.component import load_characteristics
+from simulate.config import PlantConfig
 from simulate.loop.manifold import MANIFOLD_SERIES, UNIT_SERIES
 from simulate.loop.steady import ManifoldSteadyState, manifold_steady_state
 from simulate.results.result import SimulationResult, unit_figures, worst_over_units
@@ -88,8 +89,8 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     to; ``result.units`` holds every unit's, ``signals`` the manifold head and the common flow, and the summary the
     worst figures over the units (see :func:`simulate.results.result.worst_over_units`) and ``"units"``.
     """
-    from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, compile_characteristics, \
-        upstream_section
+    from simulate.components.registry import CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM, upstream_section
+    from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.loop import guards
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain, units_record
     from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice, run_in_chunks, step_count
@@ -106,7 +107,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     compiled_chars = [compiled_once[id(c)] for c in chars]
     first = compiled_chars[0]
     for unit, cc in zip(plant.units[1:], compiled_chars[1:]):
-        if cc.source != first.source or cc.kernel is not first.kernel:
+        if type(cc) is not type(first) or cc.kernel is not first.kernel:
             raise InputError(f"unit {unit.name!r}: turbine.characteristics = {unit.turbine.characteristics!r} is "
                              f"another kind of characteristics than those of unit {plant.units[0].name!r} "
                              f"({plant.units[0].turbine.characteristics!r}); the units of one plant share one kind "

@@ -206,15 +206,13 @@ def _toml_value(value) -> str:
     raise TypeError(f"cannot write {value!r} as TOML")
 
 
-#: ``turbine.characteristics`` values that name built-in characteristics, not a file.
-_BUILT_IN_CHARACTERISTICS = ("ideal", "synthetic", "synthetic-bulb")
-
-
 def _characteristics_path(spec: str, base_dir: Path, relative_to: Path | None) -> str:
     """A nets.json path of the plant (relative to ``base_dir``) for a file written into the folder ``relative_to``:
     relative to that folder (absolute where there is no relative path, e.g. another drive), or absolute without it.
-    A built-in name stays as it is."""
-    if spec in _BUILT_IN_CHARACTERISTICS:
+    A registry word (:data:`simulate.components.registry.CHARACTERISTICS`) stays as it is."""
+    from simulate.components.turbine.kinds import word_kinds
+
+    if spec in word_kinds():
         return spec
     target = (Path(base_dir) / spec).resolve()
     if relative_to is None:

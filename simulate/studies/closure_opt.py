@@ -30,7 +30,8 @@ from scipy.optimize import brentq, differential_evolution
 
 from hillchart.errors import InputError
 from simulate.studies.batch import BatchPool
-from simulate.config import PlantConfig, load_characteristics
+from simulate.components.turbine.component import characteristics_of
+from simulate.config import PlantConfig
 from simulate.studies.cases import LoadCase
 
 #: Weight of the relative constraint excess in the penalized objective.
@@ -124,7 +125,7 @@ class ClosureEvaluator:
                  workers: int | None = 1):
         self.plant = closure_plant(plant)
         self.load_cases = tuple(load_cases)
-        self.members = members or [load_characteristics(self.plant.turbine, self.plant.base_dir)]
+        self.members = members or [characteristics_of(self.plant)]
         self.pool = BatchPool(self.plant, self.members, workers=workers)
         self.evaluations = 0
         self.history: list[LawEvaluation] = []

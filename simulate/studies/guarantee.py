@@ -234,15 +234,13 @@ def evaluate_chart(turbine_name: str, *, density: str = "dense", noise_pct: floa
                                       opening_max=chart_opening_max)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                for label, plant, chars in (("exact turbine", exact_plant, exact), ("nets", nets_plant, nets)):
+                want, got = {}, {}  # the exact turbine's figures, the nets'
+                for label, plant, chars, figures in (("exact turbine", exact_plant, exact, want),
+                                                     ("nets", nets_plant, nets, got)):
                     try:
-                        figures = _figures(run_simulation(plant, characteristics=chars))
+                        figures.update(_figures(run_simulation(plant, characteristics=chars)))
                     except HillsimError as exc:  # re-raised with the case it belongs to
                         raise type(exc)(f"{label}, closing {closing} s, load {load:.0%}: {exc}") from exc
-                    if label == "nets":
-                        got = figures
-                    else:
-                        want = figures
                 members = run_members(nets_plant, nets) if band else {k: {"values": []} for k in BAND_JUDGED}
             cases.append(CaseResult(closing, load, want, got, {k: list(members[k]["values"]) for k in BAND_JUDGED}))
     return ChartGuarantee(turbine_name, density, noise_pct, runaway, seed, cases, refused, train_s)

@@ -40,8 +40,9 @@ def check_halving_allowed(plant) -> None:
                          f"set penstock.reaches <= {half_max} to check the step, or drop --check-step") from None
 
 
-def check_step(plant, result, characteristics=None) -> dict:
-    """Rerun ``plant`` at half the step of ``result`` and compare the summary figures.
+def check_step(plant, result) -> dict:
+    """Rerun ``plant`` at half the step of ``result`` (on the characteristics ``result`` ran on) and compare the
+    summary figures.
 
     Returns ``{"dt_s", "half_dt_s", "figures": {name: {"value", "half_step", "change", "unit"}}, "max_change_points"}``
     with the change of the per-unit figures in points of percent (``unit`` = ``"points"``).

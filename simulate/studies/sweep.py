@@ -27,7 +27,8 @@ from hillchart.errors import InputError
 from simulate.studies.batch import (STRUCTURE_CHOICE_KEYS, BatchResult, check_choice_value, check_key, check_value,
                             default_workers, nets_domain, run_batch, run_chunk, structure_variant,
                             validate_variants)
-from simulate.config import PlantConfig, load_characteristics
+from simulate.components.turbine.component import characteristics_of
+from simulate.config import PlantConfig
 
 #: Largest number of cases one sweep accepts (a typo such as 4:20:90000 x 3 keys should not start).
 MAX_CASES = 1_000_000
@@ -238,7 +239,7 @@ def run_batch_dask(plant: PlantConfig, variants, *, characteristics=None, addres
         chunk_size = max(1, min(64, math.ceil(n / (4 * n_workers)))) if n else 1
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         raise InputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
-    chars = load_characteristics(plant.turbine, plant.base_dir) if characteristics is None else characteristics
+    chars = characteristics_of(plant, characteristics)
     indexed = list(enumerate(variants))
     chunks = [indexed[s:s + chunk_size] for s in range(0, n, chunk_size)]
     wall = time.perf_counter()

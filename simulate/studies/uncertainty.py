@@ -71,13 +71,16 @@ class TraceBand:
 
 
 def _nets_of(plant):
-    """The plant's nets through the one resolver (:func:`simulate.config.load_characteristics`): with
-    ``[turbine.step_up]`` every member is stepped up like the point nets."""
-    from simulate.config import load_characteristics
+    """The plant's nets, its turbine's own characteristics (:func:`simulate.components.turbine.component.
+    characteristics_of`): with ``[turbine.step_up]`` every member is stepped up like the point nets."""
+    from simulate.components.turbine.component import characteristics_of
+    from simulate.components.turbine.kinds import nets_path
 
-    if plant.turbine.characteristics == "ideal":
-        raise InputError("--uncertainty needs nets with an ensemble: turbine.characteristics is \"ideal\"")
-    return load_characteristics(plant.turbine, plant.base_dir)
+    spec = plant.turbine.characteristics
+    if nets_path(spec, plant.base_dir) is None:
+        raise InputError(f"--uncertainty needs nets with an ensemble: turbine.characteristics is {spec!r}, not a "
+                         f"nets.json")
+    return characteristics_of(plant)
 
 
 def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:

@@ -54,7 +54,7 @@ def test_linearize_missing_nets_file(capsys, tmp_path):
     pytest.importorskip("hillchart.nets.hill_nets")
     assert main(["linearize", str(tmp_path / "none.json"), "--n11", "67.8", "--opening", "20"]) == 2
     err = capsys.readouterr().err
-    # the one resolver of characteristics (simulate.components.registry.resolve_characteristics) names the argument
+    # the one resolver of characteristics (simulate.components.turbine.kinds.resolve_characteristics) names the argument
     assert err.startswith("hillsim linearize: error: NETS = ") and "none.json' does not exist" in err
     assert "relative to the plant file" not in err  # NETS is relative to the working folder
 

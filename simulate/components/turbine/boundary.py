@@ -153,7 +153,7 @@ def solve_newton(kernel, params, c_l, k, speed_rpm, opening, head_guess_m, d1_m,
 
 SOLVERS = {"improved": solve_improved, "traditional": solve_traditional, "newton": solve_newton}
 #: Solvers whose iterations read Q11 only (``kernel(...)[0]``): the assembled loop gives them the characteristics'
-#: flow half where there is one (:class:`simulate.components.registry.CompiledCharacteristics`).
+#: flow half where there is one (:class:`simulate.components.turbine.evaluation.CompiledCharacteristics`).
 FLOW_ONLY_SOLVERS = ("improved", "traditional")
 
 #: The head of a step is accepted within max(``solver.tolerance`` x rated head, this x (|C_L| + |k Q|)): the penstock

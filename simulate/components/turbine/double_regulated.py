@@ -10,7 +10,7 @@ counted from another zero: the synthetic bulb's vanes touch at 35 deg); the blad
 :class:`DoubleRegulatedTurbine` is the plant's view of the characteristics:
 
 * for the compiled loop, ``numba_control_kernel()``: ``kernel(params, n11, controls) -> (q11, dq11/dn11, m11,
-  dm11/dn11)`` on the chart controls ``[a, y_b]`` (the seam of :func:`simulate.components.registry.
+  dm11/dn11)`` on the chart controls ``[a, y_b]`` (the seam of :func:`simulate.components.turbine.evaluation.
   compile_characteristics`);
 * for everything that works on two inputs (the steady state, the trusted domain, ``hillsim linearize``'s six
   coefficients), ``q11(n11, a)`` ... with the blades where the combinator puts them at constant speed: on the cam

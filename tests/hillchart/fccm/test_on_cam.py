@@ -95,7 +95,7 @@ def test_nets_follow_the_chart_and_close(tmp_path):
 def test_real_kaplan_chart_runs_a_load_rejection(tmp_path, capsys):
     """The Liszka et al. Kaplan chart (on-cam: no guide-vane angle) -> nets -> a load rejection of a plausible unit."""
     from hillsim.cli import main
-    from simulate.components.registry import resolve_characteristics
+    from simulate.components.turbine.kinds import resolve_characteristics
     from tests.fccm_external import write_kaplan_table
 
     out = tmp_path / "nets"

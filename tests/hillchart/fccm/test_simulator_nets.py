@@ -48,7 +48,7 @@ def test_cli_writes_the_nets_the_simulator_reads(bulb_table, tmp_path, capsys):
     nets = load_double_regulated_nets(out / "nets.json")
     assert nets.training["ensemble_seeds"] == [0, 2]
     assert "plausibility" in json.loads((out / "plausibility.json").read_text())
-    from simulate.components.registry import resolve_characteristics
+    from simulate.components.turbine.kinds import resolve_characteristics
 
     assert type(resolve_characteristics(str(out / "nets.json"))).__name__ == "DoubleRegulatedNets"
     capsys.readouterr()

@@ -298,7 +298,7 @@ def test_the_cam_is_computed_once_for_the_same_nets_read_again():
 
 @pytest.mark.slow
 def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch):
-    from simulate.components.registry import compile_characteristics
+    from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.components.turbine.double_regulated import (DoubleRegulatedTurbine, nets_control_flow,
                                                               nets_control_torque)
     from simulate.loop.assembly import loop_source

@@ -1,6 +1,7 @@
 """A model is chosen by the registry, never by comparing its name: a comparison with a servo or penstock model's
-name (``plant.governor.servo_model == "discrete"``, ``plant.penstock.model == "moc"``) outside the model's own module
-and the registry fails here; what the code needs to know of a penstock model it asks its registry entry
+or a kind of characteristics' name (``plant.governor.servo_model == "discrete"``, ``plant.penstock.model == "moc"``,
+``plant.turbine.characteristics == "ideal"``) outside the model's own module and the registry fails here; what
+the code needs to know of a penstock model it asks its registry entry
 (:meth:`simulate.components.registry.Registry.traits`). (The
 control registry's names, "governor" and "prescribed", are also section and mode words elsewhere; its choice is
 :func:`simulate.components.registry.control_name`.)"""
@@ -10,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from simulate.components.registry import PENSTOCKS, SERVOS
+from simulate.components.registry import CHARACTERISTICS, PENSTOCKS, SERVOS
 
 REPO = Path(__file__).resolve().parents[3]
 #: the registries whose names may be compared only in their own modules
-CHECKED = (SERVOS, PENSTOCKS)
+CHECKED = (SERVOS, PENSTOCKS, CHARACTERISTICS)
 
 
 def _owner_files(registry) -> dict[str, set[str]]:
@@ -55,7 +56,7 @@ def model_name_comparisons(root: Path = REPO, sources=None) -> list[str]:
     return found
 
 
-def test_no_servo_or_penstock_model_name_is_compared_outside_its_module_and_the_registry():
+def test_no_servo_penstock_or_characteristics_name_is_compared_outside_its_module_and_the_registry():
     assert model_name_comparisons() == []
 
 
@@ -65,12 +66,16 @@ def test_no_servo_or_penstock_model_name_is_compared_outside_its_module_and_the_
     ('label = "discrete"\n', 0),  # a string that is not compared is not a choice of model
     ('if plant.penstock.model == "moc":\n    pass\n', 1),
     ('lumped = plant.penstock.model in ("rigid", "lumped")\n', 2),
+    ('if plant.turbine.characteristics == "ideal":\n    pass\n', 1),
+    ('chart_dir = None if spec in ("ideal", "synthetic") else path\n', 2),
 ])
 def test_the_check_finds_a_comparison_in_another_module(text, hits):
     assert len(model_name_comparisons(sources={"simulate/loop/engine.py": text})) == hits
     # the servo's own module may compare its name
     assert model_name_comparisons(sources={"simulate/components/control/discrete_servo.py":
                                            'x = m == "discrete"\n'}) == []
+    # and the module of the characteristics' kinds may compare theirs
+    assert model_name_comparisons(sources={"simulate/components/turbine/kinds.py": 'x = m == "ideal"\n'}) == []
 
 
 def test_a_penstock_model_is_asked_its_traits_not_its_name():

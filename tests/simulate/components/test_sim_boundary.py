@@ -148,7 +148,7 @@ class _DroppingTurbine:
 
 
 def test_engine_failure_raises_with_time_state_residual_and_what_to_change_or_returns_unsuccessful():
-    from simulate.components.registry import ideal_from_rated
+    from simulate.components.turbine.kinds import ideal_from_rated
 
     plant = load_plant(resources.files("data_synthetic") / "plant_hla339.toml",
                        {"turbine.characteristics": "ideal", "scenario.t_end_s": 5.0})

@@ -67,7 +67,7 @@ def test_registries_name_their_entries_and_reject_unknown_names():
     assert UPSTREAM.names() == ("reservoir", "surge_tank")
     assert CONTROLS.names() == ("governor", "prescribed", "governor_blades", "prescribed_blades")
     assert SHAFTS.names() == ("swing", "subtransient")
-    assert set(CHARACTERISTICS.names()) == {"ideal", "synthetic", "synthetic-bulb", "nets"}
+    assert CHARACTERISTICS.names() == ("ideal", "synthetic", "synthetic-bulb", "nets", "nets-3")
     with pytest.raises(InputError, match=r"penstock\.model must be one of moc, zdomain, lumped, rigid; got 'elastic'"):
         PENSTOCKS.builder("elastic")
 

@@ -1,0 +1,116 @@
+"""The turbine as a component: the plant's turbine section and the characteristics it owns.
+
+The characteristics are loaded by their kind (:mod:`simulate.components.turbine.kinds`) once per plant: every
+function that takes a plant and an optional characteristics object asks :func:`characteristics_of`, which returns
+the caller's object when one is given (an ensemble member, a user's own turbine: it overrides the plant's) and
+otherwise the plant's own, loaded at the first call and kept for that plant object while its nets.json is unchanged
+(a run reads the file once, and a steady state, a run and a step check of one plant read it once together).
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from simulate.components.turbine.kinds import file_stamp, load_kind
+
+
+@dataclass(frozen=True)
+class Turbine:
+    """A turbine section with its characteristics.
+
+    Attributes
+    ----------
+    config : simulate.config.TurbineConfig
+        The plant's turbine section.
+    characteristics : object
+        Its characteristics (q11, m11 and their gradients), as the kind loaded them (stepped up with
+        ``turbine.step_up``) or as the caller gave them.
+    kind : str or None
+        The registry entry that loaded them (:data:`simulate.components.registry.CHARACTERISTICS`); None for the
+        caller's object.
+    path : Path or None
+        The nets.json they were read from (None for a registry word or the caller's object).
+    stamp : tuple or None
+        That file's :func:`~simulate.components.turbine.kinds.file_stamp` when it was read.
+    """
+
+    config: Any
+    characteristics: Any
+    kind: str | None = None
+    path: Path | None = None
+    stamp: tuple | None = None
+
+    def is_current(self) -> bool:
+        """False when the nets.json the characteristics came from has changed (or gone) since it was read."""
+        if self.path is None:
+            return True
+        try:
+            return file_stamp(self.path) == self.stamp
+        except OSError:
+            return False
+
+
+def load_turbine(turbine, base_dir: Path | str = ".") -> Turbine:
+    """The :class:`Turbine` of the section ``turbine`` (a :class:`simulate.config.TurbineConfig`), its
+    characteristics loaded by their kind (a nets.json read once)."""
+    kind, characteristics, path, stamp = load_kind(turbine.characteristics, turbine=turbine, base_dir=base_dir)
+    return Turbine(turbine, characteristics, kind, path, stamp)
+
+
+def load_characteristics(turbine, base_dir: Path | str = "."):
+    """The characteristics object named by ``turbine.characteristics``.
+
+    One resolver for every command (:func:`simulate.components.turbine.kinds.resolve_characteristics`): ``"ideal"``
+    gives :class:`hillchart.characteristics.IdealTurbine` from the rated values: q11_max = Q_r / (D1^2 sqrt(H_r)) at
+    full stroke (opening_max), efficiency P_r / (rho g Q_r H_r). ``"synthetic"`` the exact synthetic Francis
+    turbine, ``"synthetic-bulb"`` the exact synthetic bulb; anything else is a nets.json path (relative to
+    ``base_dir``) read by the registered kind that owns its content (two- or three-input nets). With
+    ``turbine.step_up`` the model chart is converted to the prototype here
+    (:func:`simulate.components.turbine.step_up.apply_step_up`), so every command runs on the same stepped-up
+    characteristics.
+
+    Examples
+    --------
+    >>> from simulate.config import TurbineConfig
+    >>> t = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
+    ...                   runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
+    >>> ideal = load_characteristics(t)
+    >>> round(ideal.q11_max_m3_s, 6), round(ideal.efficiency, 6)
+    (0.25, 0.917431)
+    """
+    return load_turbine(turbine, base_dir).characteristics
+
+
+#: The turbine of each plant object (by ``id``, with a weak reference that removes the entry with the plant).
+_OWN: dict[int, tuple] = {}
+_OWN_LOCK = threading.Lock()
+
+
+def plant_turbine(plant, characteristics=None) -> Turbine:
+    """The :class:`Turbine` of ``plant``: with ``characteristics`` given, that object (it overrides the plant's);
+    else the plant's own, loaded once per plant object (again only when its nets.json has changed)."""
+    if characteristics is not None:
+        return Turbine(plant.turbine, characteristics)
+    key = id(plant)
+    with _OWN_LOCK:
+        found = _OWN.get(key)
+    if found is not None and found[0]() is plant and found[1].is_current():
+        return found[1]
+    turbine = load_turbine(plant.turbine, plant.base_dir)
+    try:
+        ref = weakref.ref(plant, lambda _, key=key: _OWN.pop(key, None))
+    except TypeError:  # a plant that cannot be weakly referenced: nothing remembered
+        return turbine
+    with _OWN_LOCK:
+        _OWN[key] = (ref, turbine)
+    return turbine
+
+
+def characteristics_of(plant, characteristics=None):
+    """The characteristics a run of ``plant`` uses: ``characteristics`` when given, else the plant's own
+    (:func:`plant_turbine`)."""
+    return plant_turbine(plant, characteristics).characteristics
