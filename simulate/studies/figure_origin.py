@@ -193,8 +193,9 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
     ranked = sorted(weights["q11"], key=lambda h: -(weights["q11"][h] + weights["m11"][h]))
     text = (f"opening {opening:.4g} below the lowest line's {details['lowest_opening']:.4g} (distance "
             f"1 - a / a_low = {details['distance']:.2f}); weights Q11/M11 and held-out RMS error Q11/M11 (M11 as "
-            f"a share of its measured range) on the chart's own lowest line(s) {record['held_out_lines']} "
-            f"({record['held_out_points']} points): "
+            f"a share of its measured range) on the chart's own lowest lines, held out "
+            f"{' and '.join(str(k) for k in record['held_out_lines'])} at a time ({record['held_out_points']} "
+            f"points): "
             + ", ".join(f"{h} {weights['q11'][h]:.2f}/{weights['m11'][h]:.2f} ({_pct(errors['q11'][h])}/"
                         f"{_pct(errors['m11'][h])})" for h in ranked)
             + f"; the blend {_pct(errors['q11']['blend'])}/{_pct(errors['m11']['blend'])}")
