@@ -52,6 +52,11 @@ REGIONS = {"below_lowest_line": "below the lowest digitized opening line",
            "unknown": "unknown (the nets record no digitized region)"}
 #: Keys of a single-regulated chart's held-out record (:meth:`hillchart.extension.hypotheses.Extrapolation.to_dict`).
 HELD_OUT_KEYS = ("weights", "rms_error", "held_out_points", "held_out_lines", "lowest_opening")
+#: What answers outside the digitized chart without the hypotheses' record, and why there is no evidence.
+NETS_ALONE = "the nets alone, extrapolating the extension's samples"
+NO_RECORD = ("this nets.json has no silent_model block and no held-out record (a file of an earlier version, or "
+             "trained with --no-silent-regions or --boundaries polynomial): outside the digitized chart the nets "
+             "extrapolate the extension's samples, which no held-out line has tested")
 #: Relative tolerance of a deciding member's re-run against its figure in the band: the same plant and member run
 #: the same compiled loop, so the figure repeats to rounding.
 RERUN_RTOL = 1e-9
@@ -170,10 +175,7 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
                     {"kind": "none", "text": "no held-out evidence: this nets.json holds the fitted physical model "
                      "below the lowest line without the hypotheses' held-out record (training.extrapolation); "
                      "retrain with hillsim train to weigh them"})
-        return ("the nets alone, extrapolating the extension's samples",
-                {"kind": "none", "text": "no held-out evidence: this nets.json has no silent_model block (a "
-                 "legacy file, or trained with --no-silent-regions): below the lowest line the nets extrapolate "
-                 "the extension's samples, which no held-out line has tested"})
+        return NETS_ALONE, {"kind": "none", "text": f"no held-out evidence: {NO_RECORD}"}
     evidence = {"kind": "held_out_lines", "held_out_points": int(record["held_out_points"]),
                 "held_out_lines": record["held_out_lines"], "weights": record["weights"],
                 "rms_error": record["rms_error"], "lowest_opening": details["lowest_opening"],
@@ -211,11 +213,13 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
 
 def _toward_runaway(characteristics, details) -> tuple[str, dict]:
     record = held_out_record(characteristics)
-    overspeed = None if record is None else record.get("overspeed")
+    if record is None:
+        return NETS_ALONE, {"kind": "none", "text": f"no held-out evidence: {NO_RECORD}"}
+    overspeed = record.get("overspeed")
     decided = "the extension toward runaway (the fitted model's overspeed samples)"
     if not isinstance(overspeed, dict):
-        return decided, {"kind": "none", "text": "no held-out evidence toward runaway in this nets.json (no "
-                                                 "training.extrapolation.overspeed record)"}
+        return decided, {"kind": "none", "text": "no held-out evidence toward runaway in this nets.json (its "
+                                                 "chart has no line of 3 points to hold the last one out)"}
     gap = details["gap"]
     band = overspeed["m11_band_per_gap"]
     # the torque band at this gap, as Extrapolation.overspeed_widths draws it beyond a line's last point (per unit

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339
-from simulate.studies.figure_origin import classify, figure_origins, hull_span
+from simulate.studies.figure_origin import classify, figure_origins, hull_span, region_evidence
 
 NETS = json.loads((FRANCIS_DIR / "nets.json").read_text())
 RECORD = NETS["training"]["extrapolation"]
@@ -186,10 +186,10 @@ def test_nets_without_a_silent_model_say_there_is_no_held_out_evidence(tmp_path)
     for member in doc["ensemble"]:
         member.pop("silent_model", None)
     (tmp_path / "nets.json").write_text(json.dumps(doc))
-    origins = {}
+    origins, nets = {}, {}
     for name, path in (("stripped", tmp_path / "nets.json"), ("shipped", FRANCIS_DIR / "nets.json")):
         plant = _plant(**{"turbine.characteristics": str(path), "scenario.t_end_s": 12.0})
-        chars = _chars(plant)
+        nets[name] = chars = _chars(plant)
         origins[name] = figure_origins(plant, chars, run_simulation(plant, characteristics=chars))[0]["max_speed_rise"]
     stripped, shipped = origins["stripped"], origins["shipped"]
     assert stripped["region"] == shipped["region"] == "below_lowest_line"
@@ -199,3 +199,11 @@ def test_nets_without_a_silent_model_say_there_is_no_held_out_evidence(tmp_path)
     assert stripped["evidence"]["kind"] == "none" and "weights" not in stripped["evidence"]
     assert stripped["evidence"]["text"].startswith("no held-out evidence: this nets.json has no silent_model block")
     assert stripped["decided_by"] == "the nets alone, extrapolating the extension's samples"
+    # toward runaway too: no overspeed samples of the model, no held-out line ends
+    details = {"edge_n11_rpm": 80.0, "gap": 0.1}
+    decided, evidence = region_evidence(nets["stripped"], None, "toward_runaway", details, stripped)
+    assert decided == stripped["decided_by"] and evidence["kind"] == "none"
+    decided, evidence = region_evidence(nets["shipped"], None, "toward_runaway", details, stripped)
+    assert evidence["kind"] == "held_out_line_ends" and evidence["band_m11_range"] == pytest.approx(
+        [-0.1 * RECORD["overspeed"]["m11_band_per_gap"]["low"], 0.1 * RECORD["overspeed"]["m11_band_per_gap"]["high"]],
+        rel=1e-12)  # a gap of 10 %, under the cap: the summary's "10 % beyond a line's last point"
