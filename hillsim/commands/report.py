@@ -4,7 +4,9 @@ report (one HTML file) for the plant's load cases.
 Runs the plant's scenario for every ``[[load_cases]]`` entry (or the plant's own scenario) exactly as
 ``hillsim run`` does and writes, in DIR: ``report.html`` (everything embedded), ``report.json`` (every number the page
 shows; each number in the page carries its ``report.json`` key in ``data-key``), ``cases/<n>/timeseries.csv`` and
-``cases/<n>/summary.json`` (the ``hillsim run`` files of each case), and the figures.
+``cases/<n>/summary.json`` (the ``hillsim run`` files of each case), ``cases/<n>/member_<k>_timeseries.csv`` (the
+ensemble member whose run decided a banded figure, :func:`simulate.studies.figure_origin.figure_origins`), and the
+figures.
 """
 
 from __future__ import annotations
@@ -205,12 +207,13 @@ def trajectories(plant, runs) -> list[tuple[str, np.ndarray, np.ndarray]]:
     are one unit's)."""
     from simulate.results.result import unit_series
 
+    from hillchart.characteristics import unit_quantities
+
     out = []
     for name, result in runs:
         for unit, s, d1 in unit_series(result, plant):
-            sqrt_h = np.sqrt(np.maximum(s["head_m"], 1e-9))
-            out.append((name if unit is None else f"{name}, {unit}", s["speed_rpm"] * d1 / sqrt_h,
-                        s["flow_m3_s"] / (d1 * d1 * sqrt_h)))
+            n11, q11 = unit_quantities(s["speed_rpm"], s["flow_m3_s"], np.maximum(s["head_m"], 1e-9), d1)
+            out.append((name if unit is None else f"{name}, {unit}", n11, q11))
     return out
 
 
