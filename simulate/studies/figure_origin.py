@@ -94,6 +94,23 @@ def held_out_record(characteristics) -> dict | None:
     return record if isinstance(record, dict) and all(k in record for k in HELD_OUT_KEYS) else None
 
 
+def _other_kind(characteristics) -> bool:
+    """Whether the characteristics keep an extrapolation of another kind than a single-regulated chart's (a
+    double-regulated table's silent model or record, :mod:`hillchart.fccm.evidence`), which this module does not
+    read."""
+    table = getattr(characteristics, "silent_model", None)
+    record = (getattr(characteristics, "training", None) or {}).get("extrapolation")
+    return (table is not None and _silent_table(characteristics) is None) or (
+        isinstance(record, dict) and held_out_record(characteristics) is None)
+
+
+#: The evidence of characteristics of :func:`_other_kind`.
+NOT_READ = ("the characteristics' own extrapolation", {
+    "kind": "not_read", "text": "these characteristics keep their extrapolation and its evidence in another form (a "
+                                "double-regulated table's held-out angles, hillsim fccm), which this report does not "
+                                "read"})
+
+
 def lowest_opening(characteristics, hull) -> tuple[float | None, str]:
     """``(opening, source)`` of the lowest digitized opening line (chart units): the silent-region table's, else the
     held-out record's, else the digitized region's smallest opening; ``(None, "")`` when none is known."""
@@ -261,6 +278,12 @@ def region_evidence(characteristics, member, region: str, details: dict, point: 
     """``(decided by, evidence)`` of an operating point in ``region`` (module docstring); ``member``: the deciding
     ensemble member's characteristics, or None for the point nets. ``evidence`` has ``kind`` (``none`` where there
     is no evidence) and ``text``."""
+    if region == "unknown":
+        return "not placed", {"kind": "not_placed", "text": "the nets record no digitized region (and no flow.csv "
+                                                            "lies beside them), so the point cannot be placed on the "
+                                                            "chart nor its evidence read"}
+    if region in ("below_lowest_line", "toward_runaway") and _other_kind(characteristics):
+        return NOT_READ[0], dict(NOT_READ[1])
     if region == "below_lowest_line":
         return _below_lowest_line(characteristics, member, details, point["opening"])
     if region == "toward_runaway":

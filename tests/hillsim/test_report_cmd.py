@@ -294,6 +294,9 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
     assert main(["report", str(PLANT_BULB), "--out", str(out), "--set", "scenario.t_end_s=4"]) == 0
     doc = json.loads((out / "report.json").read_text())
     assert (out / "hillchart.png").stat().st_size > 10_000 and doc["cases"][0]["status"] == "ok"
+    # the bulb's nets record no digitized region: its figures are not placed on the chart, and the page says so
+    decided = doc["cases"][0]["decided"]["max_speed_rise"]
+    assert decided["region"] == "unknown" and decided["evidence"]["kind"] == "not_placed"
     plant = load_plant(PLANT_BULB)
     view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
     assert view.opening_unit == "deg above the closed vane"

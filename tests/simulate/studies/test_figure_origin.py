@@ -207,3 +207,17 @@ def test_nets_without_a_silent_model_say_there_is_no_held_out_evidence(tmp_path)
     assert evidence["kind"] == "held_out_line_ends" and evidence["band_m11_range"] == pytest.approx(
         [-0.1 * RECORD["overspeed"]["m11_band_per_gap"]["low"], 0.1 * RECORD["overspeed"]["m11_band_per_gap"]["high"]],
         rel=1e-12)  # a gap of 10 %, under the cap: the summary's "10 % beyond a line's last point"
+
+
+def test_an_extrapolation_of_another_kind_is_not_read_as_missing():
+    """Characteristics whose silent model is not a single-regulated chart's table (a double-regulated table's) keep
+    their evidence in another form: the report says it does not read it, never that there is none; the shipped
+    nets beside it give their held-out lines."""
+    from types import SimpleNamespace
+
+    point = {"opening": 5.0, "q11_m3_s": 0.2}
+    details = {"lowest_opening": 10.0, "distance": 0.5}
+    other = SimpleNamespace(silent_model=object(), training={"extrapolation": {"summary": "angles held out"}})
+    decided, evidence = region_evidence(other, None, "below_lowest_line", details, point)
+    assert evidence["kind"] == "not_read" and "does not read" in evidence["text"]
+    assert region_evidence(_chars(_plant()), None, "below_lowest_line", details, point)[1]["kind"] == "held_out_lines"
