@@ -214,8 +214,20 @@ def report_example(ctx: Context) -> str:
         verdicts = ", ".join(f"{v['limit']} {v['verdict']}" for v in case["verdicts"])
         rows.append(f"| {case['name']} | {_pct(case['max_speed_rise'])} | {case['max_head_m']:.1f} | {verdicts} |")
     set_limits = ", ".join(f"{k} {v:g}" for k, v in limits.items() if v is not None)
+    decided = ["| load case | figure | conservative end | run | t (s) | N11 (r/min) | opening (mm) | region |",
+               "|---|---|---|---|---|---|---|---|"]
+    for case in report["cases"]:
+        for figure in ("max_speed_rise", "max_head_m"):
+            d = case["decided"][figure]
+            end = _pct(d["conservative_end"]) if figure == "max_speed_rise" else f"{d['conservative_end']:.1f} m"
+            decided.append(f"| {case['name']} | {figure} | {end} | {d['run']} | {d['time_s']:.2f} | "
+                           f"{d['n11_rpm']:.1f} | {d['opening']:.2f} | {d['region_text']} |")
+    rated = report["cases"][0]["decided"]["max_speed_rise"]
     return (f"Shipped plant under the governor (limits: {set_limits}; overall verdict "
-            f"{report['overall_verdict']}):\n\n" + "\n".join(rows) + "\n")
+            f"{report['overall_verdict']}):\n\n" + "\n".join(rows) + "\n\nWhat decided the judged figures "
+            "(`report.json` `cases.<n>.decided`; the evidence column of the page is left out here):\n\n"
+            + "\n".join(decided) + f"\n\nThe evidence behind the rated load's max speed rise: "
+            f"{rated['evidence']['text']}.\n")
 
 
 IDENTIFY_ARGS = ["identify", PLANT, "--penstock-model", "lumped", "--initial-opening", "0.68"]

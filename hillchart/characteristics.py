@@ -76,6 +76,27 @@ def unit_torque_from_efficiency(q11, n11, efficiency):
     return RHO_WATER_KG_M3 * G_M_S2 * q11 * np.asarray(efficiency, dtype=float) / (n11 * RPM_TO_RAD_S)
 
 
+def unit_quantities(speed_rpm, flow_m3_s, head_m, runner_diameter_m):
+    """``(N11, Q11)`` of a plant operating point by the model law: ``N11 = n D1 / sqrt(H)`` (r/min),
+    ``Q11 = Q / (D1^2 sqrt(H))`` (m^3/s); arrays broadcast.
+
+    Parameters
+    ----------
+    speed_rpm : array_like, r/min
+    flow_m3_s : array_like, m^3/s
+    head_m : array_like, m, > 0 (the net head at the turbine)
+    runner_diameter_m : float, m
+
+    Examples
+    --------
+    >>> [round(float(v), 6) for v in unit_quantities(200.0, 142.5, 176.0, 4.5)]
+    [67.840053, 0.530437]
+    """
+    sqrt_h = np.sqrt(np.asarray(head_m, dtype=float))
+    d1 = float(runner_diameter_m)
+    return np.asarray(speed_rpm, dtype=float) * d1 / sqrt_h, np.asarray(flow_m3_s, dtype=float) / (d1 * d1 * sqrt_h)
+
+
 def efficiency_from_unit_torque(q11, n11, m11):
     """Hydraulic efficiency (fraction) ``eta = M11 (2 pi N11 / 60) / (rho g Q11)``: eq. (5) of the BP hill-chart
     paper solved for eta, the inverse of :func:`unit_torque_from_efficiency`. NaN where Q11 <= 0 or N11 <= 0.

@@ -361,6 +361,35 @@ class SilentRegionModel:
                   self.n11_top, self.blend_openings[1], self.position * self.band_q11[side], self.distance_cap]
         return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
 
+    def nets_weight(self, opening: float) -> float:
+        """The nets' weight ``w = s(a)`` in the blend at ``opening`` (chart units): 0 where the table alone answers
+        (at or below ``blend_openings[0]``), 1 at and above the lowest digitized opening (module docstring)."""
+        return float(_smoothstep.py_func(float(opening), *self.blend_openings)[0])
+
+    def band_sides(self, opening: float) -> dict:
+        """The band's two sides at ``opening`` (chart units), as the kernel moves a member at position -1 and +1
+        (:func:`_band_moves`): ``q11`` the relative changes of Q11 ``(exp(-k_low h) - 1, exp(k_high h) - 1)``,
+        ``m11_nm`` the shifts of M11 ``(-b_low h t, +b_high h t)`` (N*m, times the torque factor), with ``h`` of
+        :func:`hillchart.extension.hypotheses.band_square` at the distance ``d = 1 - t``, ``t = a / a_low``; all
+        zero at and above the lowest digitized opening.
+
+        Examples
+        --------
+        >>> table = SilentRegionModel(np.ones((4, 4)), np.zeros((4, 4)), 100.0, (5.0, 10.0),
+        ...                           band_q11=(0.4, 0.2), band_m11=(30.0, 10.0), distance_cap=1.0)
+        >>> sides = table.band_sides(5.0)  # d = 0.5, h = d^2 = 0.25, t = 0.5
+        >>> [round(v, 6) for v in sides["q11"]], [round(v, 6) for v in sides["m11_nm"]]
+        ([-0.095163, 0.051271], [-3.75, 1.25])
+        """
+        a_low = self.blend_openings[1]
+        t = float(opening) / a_low
+        distance = 1.0 - t
+        h = _band_square.py_func(distance, self.distance_cap)[0] if float(opening) < a_low else 0.0
+        factor = self.torque_factor
+        return {"distance": distance, "h": h,
+                "q11": (math.exp(-self.band_q11[0] * h) - 1.0, math.exp(self.band_q11[1] * h) - 1.0),
+                "m11_nm": (-self.band_m11[0] * h * t * factor, self.band_m11[1] * h * t * factor)}
+
     def table(self, n11, opening):
         """``(Q11, M11)`` of the table alone (the torque times its factor), broadcast arrays."""
         n11_b, a_b = np.broadcast_arrays(np.asarray(n11, dtype=float), np.asarray(opening, dtype=float))

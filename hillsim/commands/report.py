@@ -4,7 +4,9 @@ report (one HTML file) for the plant's load cases.
 Runs the plant's scenario for every ``[[load_cases]]`` entry (or the plant's own scenario) exactly as
 ``hillsim run`` does and writes, in DIR: ``report.html`` (everything embedded), ``report.json`` (every number the page
 shows; each number in the page carries its ``report.json`` key in ``data-key``), ``cases/<n>/timeseries.csv`` and
-``cases/<n>/summary.json`` (the ``hillsim run`` files of each case), and the figures.
+``cases/<n>/summary.json`` (the ``hillsim run`` files of each case), ``cases/<n>/member_<k>_timeseries.csv`` (the
+ensemble member whose run decided a banded figure, :func:`simulate.studies.figure_origin.figure_origins`), and the
+figures.
 """
 
 from __future__ import annotations
@@ -29,9 +31,11 @@ def register(subparsers) -> None:
         description="Run the plant's scenario for each [[load_cases]] entry (or the plant's scenario) and write a "
                     "self-contained report.html with the plant data sheet, the [limits] with PASS/FAIL per case, "
                     "transients, the head envelope (when the simulator provides it), the hill chart with the "
-                    "operating range, extrapolation warnings, version, date and input hashes. Exit status: 0 "
-                    "when no limit FAILs (every limit PASS or not judged, or no [limits]); 3 when a limit FAILs in "
-                    "some load case (the report is written all the same); 2 on bad input.")
+                    "operating range, what decided each figure (the run, operating point and chart region of its "
+                    "conservative end, and the held-out evidence there), extrapolation warnings, version, date and "
+                    "input hashes. Exit status: 0 when no limit FAILs (every limit PASS or not judged, or no "
+                    "[limits]); 3 when a limit FAILs in some load case (the report is written all the same); 2 on "
+                    "bad input.")
     parser.add_argument("plant", type=Path, help="plant TOML file (optional [limits] and [[load_cases]])")
     parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")
     parser.add_argument("--closure", type=Path, default=None, metavar="DIR",
@@ -205,12 +209,13 @@ def trajectories(plant, runs) -> list[tuple[str, np.ndarray, np.ndarray]]:
     are one unit's)."""
     from simulate.results.result import unit_series
 
+    from hillchart.characteristics import unit_quantities
+
     out = []
     for name, result in runs:
         for unit, s, d1 in unit_series(result, plant):
-            sqrt_h = np.sqrt(np.maximum(s["head_m"], 1e-9))
-            out.append((name if unit is None else f"{name}, {unit}", s["speed_rpm"] * d1 / sqrt_h,
-                        s["flow_m3_s"] / (d1 * d1 * sqrt_h)))
+            n11, q11 = unit_quantities(s["speed_rpm"], s["flow_m3_s"], np.maximum(s["head_m"], 1e-9), d1)
+            out.append((name if unit is None else f"{name}, {unit}", n11, q11))
     return out
 
 
@@ -367,6 +372,7 @@ def build_report(args) -> tuple[dict, Path]:
         doc = _case_json(case, lc, verdicts, folder)
         if band is not None:
             doc["band"] = {k: v for k, v in band.items() if k != "failed"}
+        doc["decided"] = _decided(case_plant, chars, result, band, out, folder)
         cases.append(doc)
         runs.append((lc.name, result))
         plot_transient(result, case, case_plant, study.limits, out / f"transient_{i}.png",
@@ -413,6 +419,23 @@ def build_report(args) -> tuple[dict, Path]:
                                                                                 "error", "extrapolated_cases")},
     }
     return report, out
+
+
+def _decided(plant, chars, result, band, out: Path, folder: str) -> dict:
+    """Per banded figure, where its conservative end was decided and the evidence there
+    (:func:`simulate.studies.figure_origin.figure_origins`); the time series of each deciding ensemble member is
+    written beside the case's own. Empty for a failed run (its figures are not judged)."""
+    from simulate.studies.figure_origin import figure_origins
+
+    if not result.success:
+        return {}
+    origins, member_runs = figure_origins(plant, chars, result, band)
+    for member, run in member_runs.items():
+        run.to_csv(out / folder / f"member_{member}_timeseries.csv")
+    for origin in origins.values():
+        origin["timeseries_file"] = (f"{folder}/timeseries.csv" if origin["member"] is None
+                                     else f"{folder}/member_{origin['member']}_timeseries.csv")
+    return origins
 
 
 def _extrapolation_evidence(chars) -> dict | None:
@@ -504,14 +527,16 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
                                if banded else (Value(None), Value(None))),
                              Value(None) if share is None else
                              _v(share, f"cases.{i}.extrapolation_share.{figure}", "{:.0%}"),
+                             c["decided"][v["limit"]]["region_text"] if v["limit"] in c["decided"] else "-",
                              Verdict(v["verdict"], key=f"report.json:cases.{i}.verdicts.{j}.verdict")))
         r.table(("load case", "limit", "allowed", "point nets", "band low", "band high",
-                 "run outside the chart up to it", "verdict"), rows,
+                 "run outside the chart up to it", "decided", "verdict"), rows,
                 caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}), judged on "
                         f"{report['judged_on']}; n/a = not computed by this simulator version (min pressure head "
                         f"needs the penstock envelope) or the run failed; 'run outside the chart up to it': the "
                         f"share of the run up to the figure spent outside the digitized chart (its extrapolation "
-                        f"share: what the chart did not show of what decided it)")
+                        f"share: what the chart did not show of what decided it); 'decided': the region of the "
+                        f"chart where the figure's conservative end was decided (next section)")
 
     def share(i, c, figure):
         value = (c.get("extrapolation_share") or {}).get(figure)
@@ -534,6 +559,7 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
             caption="figures of each run (heads at the turbine inlet; rises relative to the initial value); "
                     "'outside chart' beside a figure: its extrapolation share, the share of the run up to it spent "
                     "outside the digitized chart; the hillsim run files of each case are in cases/<n>/")
+    _decided_section(r, cases)
     r.heading("Transients")
     for i, c in enumerate(cases):
         r.figure(out / f"transient_{i}.png", f"{c['name']}: speed, head and stroke with the maxima and the event")
@@ -581,6 +607,29 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         if sweep_dir is not None and (sweep_dir / "sweep.png").is_file():
             r.figure(sweep_dir / "sweep.png", "sweep: each maximum against the varied keys")
     return r.write(out / "report.html")
+
+
+def _decided_section(r: Report, cases: list) -> None:
+    """Per case and banded figure: the conservative end, the run it came from, the operating point of its extremum,
+    the chart region there and the evidence the characteristics rest on (``cases.<i>.decided``)."""
+    r.heading("What decided each figure")
+    rows = []
+    for i, c in enumerate(cases):
+        for figure, d in c["decided"].items():
+            key = f"cases.{i}.decided.{figure}"
+            rows.append((c["name"], figure, _v(d["conservative_end"], f"{key}.conservative_end", "{:.5g}"), d["run"],
+                         _v(d["time_s"], f"{key}.time_s", "{:.2f}"), _v(d["n11_rpm"], f"{key}.n11_rpm", "{:.2f}"),
+                         _v(d["opening"], f"{key}.opening", "{:.3g}"), d["region_text"], d["decided_by"],
+                         d["evidence"]["text"]))
+    r.table(("load case", "figure", "conservative end", "run", "t (s)", "N11 (r/min)", "opening", "region",
+             "decided by", "evidence"), rows,
+            caption="the conservative end of each banded figure (the band's upper end, never milder than the point "
+                    "nets' figure) came from the point nets, or else from the ensemble member with the largest "
+                    "figure (its time series in cases/<n>/member_<k>_timeseries.csv); at its extremum, N11 = n D1 / "
+                    "sqrt(H) and the opening (chart units) place it in the chart: inside the digitized chart the "
+                    "measured chart decides (the nets' fit error stated), below the lowest digitized opening line "
+                    "the blend of extrapolation hypotheses with the held-out evidence that weighed them and the band "
+                    "there, beyond the last digitized N11 the extension toward runaway with its held-out line ends")
 
 
 def _esc(text: str) -> str:

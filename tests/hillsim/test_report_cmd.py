@@ -11,8 +11,9 @@ import pytest
 from data_synthetic import FRANCIS_DIR, PLANT_HLA339, PLANT_HLA339_GUARANTEE
 from hillsim.cli import main
 
-SECTIONS = ("Plant data sheet", "Guarantee limits", "Load cases", "Transients", "Head envelope along the penstock",
-            "Hill chart and operating range", "Extrapolation warnings", "Closure-law optimization", "Sweep")
+SECTIONS = ("Plant data sheet", "Guarantee limits", "Load cases", "What decided each figure", "Transients",
+            "Head envelope along the penstock", "Hill chart and operating range", "Extrapolation warnings",
+            "Closure-law optimization", "Sweep")
 
 
 class Cells(HTMLParser):
@@ -135,6 +136,41 @@ def test_page_has_every_section_self_contained(made):
     assert speed["judged"] == "band" and low < speed["value"] < high
 
 
+def test_the_report_says_what_decided_the_max_speed_rise(made):
+    """Rated load: the conservative end of the max speed rise came from the member with the largest figure; its
+    maximum, by hand from that member's time series in the report folder (N11 = n D1 / sqrt(H)), lies below the
+    lowest digitized line, and the page names the region and the hypotheses' weights of nets.json."""
+    out, html, doc, cells = made
+    case = doc["cases"][0]
+    decided = case["decided"]["max_speed_rise"]
+    values = case["band"]["max_speed_rise"]["values"]
+    k = int(np.argmax(values))
+    assert decided["member"] == k and decided["member_value"] == values[k]
+    assert decided["conservative_end"] == case["band"]["max_speed_rise"]["high"]
+    series = np.genfromtxt(out / decided["timeseries_file"], delimiter=",", names=True)
+    assert decided["timeseries_file"] == f"cases/0/member_{k}_timeseries.csv"
+    i = int(np.argmax(series["speed_rpm"]))
+    # the csv holds 10 significant digits, report.json 12
+    assert decided["time_s"] == pytest.approx(series["time_s"][i], rel=1e-9)
+    assert decided["n11_rpm"] == pytest.approx(series["speed_rpm"][i] * 4.5 / np.sqrt(series["head_m"][i]), rel=2e-9)
+    assert decided["opening"] == pytest.approx(series["opening_chart"][i], rel=1e-9)
+    assert series["speed_rpm"][i] / series["speed_rpm"][0] - 1 == pytest.approx(values[k], rel=1e-9)
+    # failing case beside: the point nets' own series peaks at another speed (the member's file is the one read)
+    point = np.genfromtxt(out / case["timeseries_file"], delimiter=",", names=True)
+    assert abs(point["speed_rpm"].max() - series["speed_rpm"][i]) > 0.1
+    nets = json.loads((FRANCIS_DIR / "nets.json").read_text())
+    record = nets["training"]["extrapolation"]
+    assert decided["opening"] < record["lowest_opening"] and decided["region"] == "below_lowest_line"
+    weights = record["weights"]
+    for target in ("q11", "m11"):  # report.json holds 12 significant digits
+        assert decided["evidence"]["weights"][target] == pytest.approx(weights[target], rel=1e-11)
+    for hypothesis in ("model", "anchored-model", "quadratic"):
+        assert f"{hypothesis} {weights['q11'][hypothesis]:.2f}/{weights['m11'][hypothesis]:.2f}" in html
+    assert "What decided each figure" in cells.headings
+    assert html.count("below the lowest digitized opening line") >= 3  # the section and the verdict table
+    assert "report.json:cases.0.decided.max_speed_rise.n11_rpm" in {key for key, _ in cells.cells}
+
+
 def _plant(tmp_path, extra):
     text = PLANT_HLA339.read_text().replace('"francis/nets.json"', json.dumps(str(FRANCIS_DIR / "nets.json")))
     path = tmp_path / "plant.toml"
@@ -173,6 +209,29 @@ def test_fail_verdict_and_extrapolation_warning(tmp_path, capsys):
     assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=10"]) == 0
     assert json.loads((out / "report.json").read_text())["overall_verdict"] == "PASS"
     assert "FAIL" not in capsys.readouterr().err
+
+
+def test_nets_without_held_out_evidence_are_reported_as_such(tmp_path):
+    """A nets.json without the silent_model block (a legacy or --no-silent-regions file): the report says there is
+    no held-out evidence below the lowest line, with no weights, where the shipped file names them."""
+    doc = json.loads((FRANCIS_DIR / "nets.json").read_text())
+    del doc["silent_model"], doc["training"]["extrapolation"]
+    for member in doc["ensemble"]:
+        member.pop("silent_model", None)
+    (tmp_path / "nets.json").write_text(json.dumps(doc))
+    text = PLANT_HLA339.read_text().replace('"francis/nets.json"', json.dumps(str(tmp_path / "nets.json")))
+    plant = tmp_path / "plant.toml"
+    plant.write_text("[limits]\nmax_speed_rise = 0.6\n[[load_cases]]\nname = \"rated\"\n"
+                     "scenario.initial_power_mw = 225.0\n" + text)
+    out = tmp_path / "rep"
+    assert main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=12"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    decided = report["cases"][0]["decided"]["max_speed_rise"]
+    assert decided["region"] == "below_lowest_line" and decided["evidence"]["kind"] == "none"
+    assert "weights" not in decided["evidence"] and report["extrapolation_evidence"] is None
+    html = (out / "report.html").read_text()
+    assert "no held-out evidence: this nets.json has no silent_model block" in html
+    assert "anchored-model" not in html
 
 
 def test_envelope_along_the_penstock_matches_the_turbine_head(tmp_path):
@@ -235,6 +294,9 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
     assert main(["report", str(PLANT_BULB), "--out", str(out), "--set", "scenario.t_end_s=4"]) == 0
     doc = json.loads((out / "report.json").read_text())
     assert (out / "hillchart.png").stat().st_size > 10_000 and doc["cases"][0]["status"] == "ok"
+    # the bulb's nets record no digitized region: its figures are not placed on the chart, and the page says so
+    decided = doc["cases"][0]["decided"]["max_speed_rise"]
+    assert decided["region"] == "unknown" and decided["evidence"]["kind"] == "not_placed"
     plant = load_plant(PLANT_BULB)
     view = plant_characteristics(plant, load_characteristics(plant.turbine, plant.base_dir))
     assert view.opening_unit == "deg above the closed vane"
