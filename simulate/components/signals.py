@@ -1,5 +1,6 @@
-"""The named signals a control component reads: one float vector of a fixed layout, filled by the time loop before
-each control sub-step (an argument of the loop: the compiled loop allocates nothing).
+"""The named signals a control component reads: one float vector of a fixed layout, an argument of the time loop
+(the compiled loop allocates nothing), which fills the signals the control reads (``PartHooks.reads``) before each
+control sub-step; a signal no control reads is not computed (its entry keeps its value at t = 0).
 
 =================== ============================ =============================================================
 name                unit                         filled from

@@ -48,7 +48,8 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
     """Steps k0 .. k1-1 (t = k dt). Every ``stride``-th step is stored in row (k + 1) // stride of the out arrays.
     Control and shaft advance in ``n_sub`` sub-steps of dt / n_sub (the turbine torque held over the step); the
     control reads the named signals ``sig`` (layout :data:`simulate.components.signals.SIGNALS`; net head and vane
-    stroke carried from the last step and sub-step, set at t = 0 by the caller).
+    stroke carried from the last step and sub-step, set at t = 0 by the caller; the loop fills those the control
+    reads).
     Returns (status, k): status 0 and k1, or the turbine boundary's failure status and the failing step."""
     h = dt / n_sub
     torque = turbine_signals(tb_s)[2]
@@ -59,13 +60,9 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
             t_sub = t + j * h if j > 0 else t
             t_sub_next = t + (j + 1) * h if j < n_sub - 1 else t_next
             # 1. control: the control vector at t_sub_next from the signals at t_sub
-            speed_now = shaft_speed(sh, sh_s)
-            sig[SPEED_RPM] = speed_now
-            sig[ELECTRICAL_POWER_MW] = shaft_power(sh, sh_s, t_sub)
-            sig[TURBINE_POWER_MW] = torque * speed_now * RPM_NM_TO_MW
-            sig[GRID_FREQUENCY_HZ] = shaft_grid_frequency(sh, sh_s)
+{fill}
             controls = control_step(ctl, ctl_s, sig, t_sub, t_sub_next, h)
-            sig[VANE_STROKE] = controls[0]
+{after_control}
             # 2. shaft: speed at t_sub_next from the turbine torque at t
             speed = shaft_step(sh, sh_s, torque, t_sub, h)
         # 3. penstock: H = C_L + k Q at the turbine, with the upstream head of this step
@@ -79,7 +76,7 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
             diag[0] = t_next
             return status, k
         head, flow, torque = turbine_signals(tb_s)
-        sig[NET_HEAD_M] = head
+{after_turbine}
         outlet = c_m + b_m * flow
         inlet = head + outlet
         # 5. penstock, downstream and upstream updates
@@ -129,6 +126,24 @@ def role_function(part, role: str):
     if part.kind == "shaft" and role in SHAFT_DEFAULTS:
         return shaft_function(part, role)
     return part.functions[role]
+
+
+def signal_lines(reads, unit: int | None = None) -> tuple[str, str, str]:
+    """The loop's lines that fill the named signals the control ``reads``
+    (:data:`simulate.components.signals.SIGNALS`): before the control step, after it (the vane stroke) and after the
+    turbine step (the net head); ``unit``: the unit's index in the loop of several units (its names ``sig0``,
+    ``u0_shaft_speed``, ...). A signal no control reads is not computed (``pass`` keeps each block a statement)."""
+    n, f = ("", "") if unit is None else (str(unit), f"u{unit}_")
+    sh = f"sh{n}, sh{n}_s"
+    fills = {"speed_rpm": f"speed_now{n}", "electrical_power_mw": f"{f}shaft_power({sh}, t_sub)",
+             "turbine_power_mw": f"torque{n} * speed_now{n} * RPM_NM_TO_MW",
+             "grid_frequency_hz": f"{f}shaft_grid_frequency({sh})"}
+    sub, step = " " * 12, " " * 8
+    before = [f"{sub}speed_now{n} = {f}shaft_speed({sh})"]
+    before += [f"{sub}sig{n}[{name.upper()}] = {value}" for name, value in fills.items() if name in reads]
+    after_control = [f"{sub}sig{n}[VANE_STROKE] = controls{n}[0]"] if "vane_stroke" in reads else [f"{sub}pass"]
+    after_turbine = [f"{step}sig{n}[NET_HEAD_M] = head{n}"] if "net_head_m" in reads else [f"{step}pass"]
+    return "\n".join(before), "\n".join(after_control), "\n".join(after_turbine)
 
 
 def _template(func, drop_first: bool) -> str:
@@ -287,7 +302,9 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
             records.append(f"            {alias}({ps}, {ss}, out_signals[row, {column}:{column + len(part.signals)}])")
             column += len(part.signals)
     lines += _turbine_lines(characteristics, pressure_loop, modules)
-    lines.append(_LOOP.replace("{records}", "\n".join(records)))
+    fill = signal_lines(parts["control"].hooks.reads)
+    lines.append(_LOOP.replace("{records}", "\n".join(records)).replace("{fill}", fill[0])
+                 .replace("{after_control}", fill[1]).replace("{after_turbine}", fill[2]))
     return "\n".join(lines) + "\n", sorted(modules)
 
 
@@ -364,7 +381,7 @@ def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
     roles = tuple(role_function(parts[kind], role) for kind, role in _ROLES.values())
     records = tuple((kind, parts[kind].functions["record"], len(parts[kind].signals))
                     for kind in RECORDING_KINDS if parts[kind].signals)
-    return (roles, records, characteristics.source, characteristics.kernel,
+    return (roles, records, parts["control"].hooks.reads, characteristics.source, characteristics.kernel,
             getattr(characteristics, "flow_kernel", None), getattr(characteristics, "flow_value", None),
             getattr(characteristics, "torque_value", None), pressure_loop, boundary.SOLVERS[pressure_loop])
 

@@ -22,7 +22,7 @@ kernel (its parameters are the unit's own).
 from __future__ import annotations
 
 from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _python_kernel, _turbine_lines,
-                                    compiled_loop, role_function)
+                                    compiled_loop, role_function, signal_lines)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
 MULTI_TEMPLATE_VERSION = 3
@@ -111,13 +111,10 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
         unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, sig{i} = units[{i}]")
         init.append(f"    torque{i} = turbine_signals(tb{i}_s)[2]")
         # the unit's named signals at t_sub (simulate.components.signals), as in the single-unit loop
-        substep += [f"            speed_now{i} = u{i}_shaft_speed(sh{i}, sh{i}_s)",
-                    f"            sig{i}[SPEED_RPM] = speed_now{i}",
-                    f"            sig{i}[ELECTRICAL_POWER_MW] = u{i}_shaft_power(sh{i}, sh{i}_s, t_sub)",
-                    f"            sig{i}[TURBINE_POWER_MW] = torque{i} * speed_now{i} * RPM_NM_TO_MW",
-                    f"            sig{i}[GRID_FREQUENCY_HZ] = u{i}_shaft_grid_frequency(sh{i}, sh{i}_s)",
+        before, after_control, after_turbine = signal_lines(parts["control"].hooks.reads, i)
+        substep += [before,
                     f"            controls{i} = u{i}_control_step(ctl{i}, ctl{i}_s, sig{i}, t_sub, t_sub_next, h)",
-                    f"            sig{i}[VANE_STROKE] = controls{i}[0]",
+                    after_control,
                     f"            speed{i} = u{i}_shaft_step(sh{i}, sh{i}_s, torque{i}, t_sub, h)"]
         inlets.append(f"        c_m[{i}], b_in[{i}] = branch_inlet_relation(br{i}, br{i}_s)")
         turbines += [f"        c_l{i}, slope{i} = u{i}_branch_relation(br{i}, br{i}_s, h_man)",
@@ -128,7 +125,7 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
                      f"            diag[8] = {i}",
                      "            return status, k",
                      f"        head{i}, flow{i}, torque{i} = turbine_signals(tb{i}_s)",
-                     f"        sig{i}[NET_HEAD_M] = head{i}",
+                     after_turbine,
                      f"        u{i}_branch_update(br{i}, br{i}_s, h_man, head{i}, flow{i})"]
         records += [f"            out_units[row, {i}, 0] = speed{i}",
                     f"            out_units[row, {i}, 1] = head{i}",
