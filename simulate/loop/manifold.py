@@ -108,7 +108,8 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
             modules.update(_modules_of(func))
         func = parts["branch"].functions["inlet_flow"]
         lines.append(_import_line(func, f"u{i}_branch_inlet_flow", inline=True))
-        unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, sig{i} = units[{i}]")
+        unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, sig{i} = "
+                      f"units[{i}]")
         init.append(f"    torque{i} = turbine_signals(tb{i}_s)[2]")
         # the unit's named signals at t_sub (simulate.components.signals), as in the single-unit loop
         before, after_control, after_turbine = signal_lines(parts["control"].hooks.reads, i)
