@@ -13,14 +13,19 @@ penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); updat
                                          node_heads(p, s, H_up, H, out)
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
                                          (optional: the component's extra timeseries columns)
-control    scenario's control            step(p, s, speed_rpm, t, t_next, dt) -> controls (fractions of stroke);
-           (``_blades`` with             record(p, s, out) (optional); a step may be a :class:`Bound` function
-           ``[combinator]``)             (the governor's, bound to its servo)
+control    scenario's control            step(p, s, signals, t, t_next, dt) -> controls (fractions of stroke;
+           (``_blades`` with             ``signals``: the named signals at t, :mod:`simulate.components.signals`);
+           ``[combinator]``)             record(p, s, out) (optional); a step may be a :class:`Bound` function
+                                         (the governor's, bound to its servo)
+governor   ``governor.mode``             a control component's builder (the governor's control law; called by
+                                         the control ``governor``)
 servo      ``governor.servo_model``      step(sp, ss, command, stroke, dt) -> stroke (called by the governor's step)
 downstream ``[draft_tube]`` present?     relation(p, s) -> (C_M, B_M) (H_out = C_M + B_M Q at the runner outlet);
                                          update(p, s, H_out, Q); record(p, s, out) (optional)
 shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_torque_nm, t, dt) -> rpm;
-                                         record(p, s, out) (optional)
+                                         record(p, s, out), power(p, s, t) -> electrical power MW,
+                                         grid_frequency(p, s) -> Hz (optional: the signals they fill are NaN
+                                         without them)
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, downstream ``build(plant, steady,
@@ -55,7 +60,8 @@ class PartHooks:
     ``error_after(time_s, signals) -> str`` a reason the run is invalid ("" when it is not); ``failure() -> str``:
     why the part failed first when the loop stopped ("" when it did not). A control part: ``n_controls`` the length
     of its control vector (1: the guide vanes; 2 with the runner blades) and ``initial_controls`` its value at t = 0
-    (default: the steady stroke).
+    (default: the steady stroke); ``reads`` the named signals its step reads
+    (:data:`simulate.components.signals.SIGNALS`; the engine refuses a plant whose shaft does not fill one).
     """
 
     summary: dict = field(default_factory=dict)
@@ -63,6 +69,7 @@ class PartHooks:
     initial_signals: tuple[float, ...] = ()
     n_controls: int = 1
     initial_controls: tuple[float, ...] = ()
+    reads: tuple[str, ...] = ()
     summary_after: Callable[[Any, dict], dict] | None = None
     warnings_after: Callable[[dict], list] | None = None
     error_after: Callable[[Any, dict], str] | None = None
@@ -227,6 +234,14 @@ DOWNSTREAM = Registry("downstream", "downstream", {
     "tailwater": "simulate.components.hydraulic.draft_tube:build_tailwater",
     "draft_tube": "simulate.components.hydraulic.draft_tube:build_draft_tube",
 })
+#: The governor's control law (the first entry is the default; builders ``build(plant, steady, dt_s, schedules) ->
+#: CompiledPart``, each mode's keys of ``[governor]`` its module's ``GOVERNOR_KEYS``).
+GOVERNORS = Registry("governor", "governor.mode", {
+    "speed": "simulate.components.control.governor:build_speed_governor",
+    "power": "simulate.components.control.power_governor:build_power_governor",
+    "opening": "simulate.components.control.opening_governor:build_opening_governor",
+    "dashpot": "simulate.components.control.dashpot_governor:build_dashpot_governor",
+})
 #: The servo between a governor and the guide vanes (the first entry is the default;
 #: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``).
 SERVOS = Registry("servo", "governor.servo_model", {
@@ -235,6 +250,7 @@ SERVOS = Registry("servo", "governor.servo_model", {
     "dead-time": "simulate.components.control.dead_time:build_dead_time_servo",
     "backlash": "simulate.components.control.backlash:build_backlash_servo",
     "two-stage": "simulate.components.control.two_stage:build_two_stage_servo",
+    "rate-limit": "simulate.components.control.rate_limit:build_rate_limit_servo",
 })
 SHAFTS = Registry("shaft", "generator.model", {
     "swing": "simulate.components.shaft.rotor:build_rotor",

@@ -34,17 +34,22 @@ from pathlib import Path
 import numba
 
 from simulate.components.registry import Bound
+from simulate.components.signals import SHAFT_DEFAULTS, shaft_function
 from simulate.components.turbine import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
-TEMPLATE_VERSION = 7
+TEMPLATE_VERSION = 8
 
 _LOOP = '''
 @_jit
 def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl, ctl_s, sh, sh_s, dn, dn_s,
-              out_speed, out_head, out_flow, out_torque, out_iter, out_controls, out_signals, env_max, env_min, diag):
+              out_speed, out_head, out_flow, out_torque, out_iter, out_controls, out_signals, env_max, env_min, diag,
+              sig):
     """Steps k0 .. k1-1 (t = k dt). Every ``stride``-th step is stored in row (k + 1) // stride of the out arrays.
-    Control and shaft advance in ``n_sub`` sub-steps of dt / n_sub (the turbine torque held over the step).
+    Control and shaft advance in ``n_sub`` sub-steps of dt / n_sub (the turbine torque held over the step); the
+    control reads the named signals ``sig`` (layout :data:`simulate.components.signals.SIGNALS`; net head and vane
+    stroke carried from the last step and sub-step, set at t = 0 by the caller; the loop fills those the control
+    reads).
     Returns (status, k): status 0 and k1, or the turbine boundary's failure status and the failing step."""
     h = dt / n_sub
     torque = turbine_signals(tb_s)[2]
@@ -54,8 +59,10 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
         for j in range(n_sub):
             t_sub = t + j * h if j > 0 else t
             t_sub_next = t + (j + 1) * h if j < n_sub - 1 else t_next
-            # 1. control: the control vector at t_sub_next from the speed at t_sub
-            controls = control_step(ctl, ctl_s, shaft_speed(sh, sh_s), t_sub, t_sub_next, h)
+            # 1. control: the control vector at t_sub_next from the signals at t_sub
+{fill}
+            controls = control_step(ctl, ctl_s, sig, t_sub, t_sub_next, h)
+{after_control}
             # 2. shaft: speed at t_sub_next from the turbine torque at t
             speed = shaft_step(sh, sh_s, torque, t_sub, h)
         # 3. penstock: H = C_L + k Q at the turbine, with the upstream head of this step
@@ -69,6 +76,7 @@ def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl
             diag[0] = t_next
             return status, k
         head, flow, torque = turbine_signals(tb_s)
+{after_turbine}
         outlet = c_m + b_m * flow
         inlet = head + outlet
         # 5. penstock, downstream and upstream updates
@@ -94,6 +102,8 @@ _ROLES = {
     "control_step": ("control", "step"),
     "shaft_speed": ("shaft", "speed"),
     "shaft_step": ("shaft", "step"),
+    "shaft_power": ("shaft", "power"),
+    "shaft_grid_frequency": ("shaft", "grid_frequency"),
     "upstream_head": ("upstream", "head"),
     "upstream_step": ("upstream", "step"),
     "penstock_relation": ("penstock", "relation"),
@@ -108,6 +118,32 @@ RECORDING_KINDS = ("upstream", "shaft", "control", "downstream")
 #: kind -> the loop's names of its params and state
 _ARGS = {"upstream": ("up", "up_s"), "shaft": ("sh", "sh_s"), "control": ("ctl", "ctl_s"),
          "downstream": ("dn", "dn_s")}
+
+
+def role_function(part, role: str):
+    """The part's function ``role``; a shaft's optional signal functions (``power``, ``grid_frequency``) default to
+    NaN (:data:`simulate.components.signals.SHAFT_DEFAULTS`)."""
+    if part.kind == "shaft" and role in SHAFT_DEFAULTS:
+        return shaft_function(part, role)
+    return part.functions[role]
+
+
+def signal_lines(reads, unit: int | None = None) -> tuple[str, str, str]:
+    """The loop's lines that fill the named signals the control ``reads``
+    (:data:`simulate.components.signals.SIGNALS`): before the control step, after it (the vane stroke) and after the
+    turbine step (the net head); ``unit``: the unit's index in the loop of several units (its names ``sig0``,
+    ``u0_shaft_speed``, ...). A signal no control reads is not computed (``pass`` keeps each block a statement)."""
+    n, f = ("", "") if unit is None else (str(unit), f"u{unit}_")
+    sh = f"sh{n}, sh{n}_s"
+    fills = {"speed_rpm": f"speed_now{n}", "electrical_power_mw": f"{f}shaft_power({sh}, t_sub)",
+             "turbine_power_mw": f"torque{n} * speed_now{n} * RPM_NM_TO_MW",
+             "grid_frequency_hz": f"{f}shaft_grid_frequency({sh})"}
+    sub, step = " " * 12, " " * 8
+    before = [f"{sub}speed_now{n} = {f}shaft_speed({sh})"]
+    before += [f"{sub}sig{n}[{name.upper()}] = {value}" for name, value in fills.items() if name in reads]
+    after_control = [f"{sub}sig{n}[VANE_STROKE] = controls{n}[0]"] if "vane_stroke" in reads else [f"{sub}pass"]
+    after_turbine = [f"{step}sig{n}[NET_HEAD_M] = head{n}"] if "net_head_m" in reads else [f"{step}pass"]
+    return "\n".join(before), "\n".join(after_control), "\n".join(after_turbine)
 
 
 def _template(func, drop_first: bool) -> str:
@@ -157,7 +193,9 @@ def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[st
              "from simulate.components.turbine.boundary import OK, NO_POSITIVE_HEAD, NAN, NOT_CONVERGED, "
              "quadratic_flow",
              "from simulate.components.turbine.boundary import ROUNDOFF_TOLERANCE, FALLBACK_DAMPING",
-             "from simulate.components.turbine.boundary import turbine_signals"]
+             "from simulate.components.turbine.boundary import turbine_signals",
+             "from simulate.components.signals import SPEED_RPM, ELECTRICAL_POWER_MW, TURBINE_POWER_MW, NET_HEAD_M, "
+             "VANE_STROKE, GRID_FREQUENCY_HZ, RPM_NM_TO_MW"]
     if compiled and not counted:
         # The templates (pressure loop, turbine step) and the components' step functions are inlined into
         # time_loop at numba-IR level, and the whole is compiled without reference counting (_nrt=False): every
@@ -213,9 +251,9 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
     """Text of the loop module for ``parts`` (kind -> CompiledPart) and the module names it imports; ``counted``:
     the loop with reference counting (see :class:`CompiledLoop`)."""
     lines = _header_lines(compiled, cache, counted)
-    modules = {"simulate.components.turbine.boundary"}
+    modules = {"simulate.components.turbine.boundary", "simulate.components.signals"}
     for alias, (kind, role) in _ROLES.items():
-        func = parts[kind].functions[role]
+        func = role_function(parts[kind], role)
         lines.append(_import_line(func, alias, inline=True))
         modules.update(_modules_of(func))
     records = []
@@ -231,7 +269,9 @@ def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool
             records.append(f"            {alias}({ps}, {ss}, out_signals[row, {column}:{column + len(part.signals)}])")
             column += len(part.signals)
     lines += _turbine_lines(characteristics, pressure_loop, modules)
-    lines.append(_LOOP.replace("{records}", "\n".join(records)))
+    fill = signal_lines(parts["control"].hooks.reads)
+    lines.append(_LOOP.replace("{records}", "\n".join(records)).replace("{fill}", fill[0])
+                 .replace("{after_control}", fill[1]).replace("{after_turbine}", fill[2]))
     return "\n".join(lines) + "\n", sorted(modules)
 
 
@@ -305,10 +345,11 @@ _ASSEMBLED: dict[tuple, object] = {}
 def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
     """What :func:`loop_source` reads: the components' functions (by object), the recording columns, the
     characteristics' kernels and the pressure loop. Template files do not change within a process."""
-    roles = tuple(parts[kind].functions[role] for kind, role in _ROLES.values())
+    roles = tuple(role_function(parts[kind], role) for kind, role in _ROLES.values())
     records = tuple((kind, parts[kind].functions["record"], len(parts[kind].signals))
                     for kind in RECORDING_KINDS if parts[kind].signals)
-    return roles, records, characteristics.identity(), pressure_loop, boundary.SOLVERS[pressure_loop]
+    return (roles, records, parts["control"].hooks.reads, characteristics.identity(), pressure_loop,
+            boundary.SOLVERS[pressure_loop])
 
 
 _ASSEMBLING = threading.RLock()

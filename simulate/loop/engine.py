@@ -3,7 +3,8 @@
 
 Per step k -> k+1 (t = k dt):
 
-1. control: the control vector at t_{k+1} (governor PID + servo on the speed at t_k, or a prescribed law);
+1. control: the control vector at t_{k+1} from the named signals at t_k (:mod:`simulate.components.signals`: the
+   governor's law + servo, or a prescribed law);
 2. shaft: the speed at t_{k+1} from the turbine torque and the load at t_k (explicit Euler);
 3. penstock: the linear relation H = C_L + k Q at the turbine, with the upstream head of this step;
 4. turbine boundary: (H, Q) at n_{k+1} and the controls by the chosen pressure loop; turbine torque M11 D1^3 H;
@@ -194,6 +195,7 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
         return run_units(plant, characteristics, jit=jit, raise_on_failure=raise_on_failure, progress=progress)
     from simulate.loop import guards
     from simulate.loop.assembly import RECORDING_KINDS, assemble
+    from simulate.components.signals import check_provided, initial_signals
     from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.components.turbine.step_up import step_up_of
     from simulate.loop.timestep import plan_step
@@ -253,13 +255,16 @@ def run_simulation(plant: PlantConfig, characteristics=None, *, jit: bool = True
     env_max, env_min = nodes.copy(), nodes.copy()
     diag = np.zeros(8)
 
+    check_provided(parts["control"], parts["shaft"])
+    sig = initial_signals(parts["control"], parts["shaft"], steady.head_m, steady.torque_nm)
+
     compiled = bool(jit and compiled_chars.jitted)
     loop = assemble(parts, compiled_chars, plant.solver.pressure_loop, compiled=compiled)
     args = (compiled_chars.params, tp, ts, pen_part.params, pen_part.state, up_part.params, up_part.state,
             parts["control"].params, parts["control"].state, parts["shaft"].params, parts["shaft"].state,
             parts["downstream"].params, parts["downstream"].state,
             out["speed"], out["head"], out["flow"], out["torque"], out_iter, out_controls, out_signals,
-            env_max, env_min, diag)
+            env_max, env_min, diag, sig)
     status, k_done, wall = run_in_chunks(loop, args, n_steps, dt, n_sub, stride, progress)
 
     message = "ok"

@@ -21,11 +21,11 @@ kernel (its parameters are the unit's own).
 
 from __future__ import annotations
 
-from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _turbine_lines,
-                                    compiled_loop)
+from simulate.loop.assembly import (_ROLES, _header_lines, _import_line, _modules_of, _turbine_lines, compiled_loop,
+                                    role_function, signal_lines)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
-MULTI_TEMPLATE_VERSION = 2
+MULTI_TEMPLATE_VERSION = 3
 
 #: Per-unit series in ``out_units[row, unit, :]``.
 UNIT_SERIES = ("speed_rpm", "head_m", "flow_m3_s", "torque_nm", "opening")
@@ -82,7 +82,7 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
 
     lines = _header_lines(compiled, cache, counted)
     lines[0] += f" (several units, template {MULTI_TEMPLATE_VERSION})"
-    modules = {"simulate.components.turbine.boundary", junction.__name__}
+    modules = {"simulate.components.turbine.boundary", "simulate.components.signals", junction.__name__}
     for alias, func in (("manifold_solve", junction.manifold_solve),
                         ("branch_inlet_relation", junction.moc_inlet_relation),
                         ("branch_inlet_head", junction.moc_inlet_head),
@@ -103,15 +103,19 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
     base = len(MANIFOLD_SERIES)
     for i, parts in enumerate(units):
         for alias, (kind, role) in _UNIT_ROLES.items():
-            func = parts[kind].functions[role]
+            func = role_function(parts[kind], role)
             lines.append(_import_line(func, f"u{i}_{alias}", inline=True))
             modules.update(_modules_of(func))
         func = parts["branch"].functions["inlet_flow"]
         lines.append(_import_line(func, f"u{i}_branch_inlet_flow", inline=True))
-        unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s = units[{i}]")
+        unpack.append(f"    tb{i}, tb{i}_s, ch{i}, br{i}, br{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, sig{i} = "
+                      f"units[{i}]")
         init.append(f"    torque{i} = turbine_signals(tb{i}_s)[2]")
-        substep += [f"            controls{i} = u{i}_control_step(ctl{i}, ctl{i}_s, u{i}_shaft_speed(sh{i}, sh{i}_s), "
-                    f"t_sub, t_sub_next, h)",
+        # the unit's named signals at t_sub (simulate.components.signals), as in the single-unit loop
+        before, after_control, after_turbine = signal_lines(parts["control"].hooks.reads, i)
+        substep += [before,
+                    f"            controls{i} = u{i}_control_step(ctl{i}, ctl{i}_s, sig{i}, t_sub, t_sub_next, h)",
+                    after_control,
                     f"            speed{i} = u{i}_shaft_step(sh{i}, sh{i}_s, torque{i}, t_sub, h)"]
         inlets.append(f"        c_m[{i}], b_in[{i}] = branch_inlet_relation(br{i}, br{i}_s)")
         turbines += [f"        c_l{i}, slope{i} = u{i}_branch_relation(br{i}, br{i}_s, h_man)",
@@ -122,6 +126,7 @@ def multi_loop_source(common: dict, units: list[dict], characteristics, pressure
                      f"            diag[8] = {i}",
                      "            return status, k",
                      f"        head{i}, flow{i}, torque{i} = turbine_signals(tb{i}_s)",
+                     after_turbine,
                      f"        u{i}_branch_update(br{i}, br{i}_s, h_man, head{i}, flow{i})"]
         records += [f"            out_units[row, {i}, 0] = speed{i}",
                     f"            out_units[row, {i}, 1] = head{i}",

@@ -95,6 +95,7 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, plant_domain, units_record
     from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice, run_in_chunks, step_count
     from simulate.loop.manifold import assemble_units
+    from simulate.components.signals import check_provided, initial_signals
     from simulate.loop.timestep import plan_step
 
     dt = plant.time_step_s
@@ -157,10 +158,12 @@ def run_units(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
                                 head_floor_m=HEAD_FLOOR_FRACTION * unit.turbine.rated_head_m,
                                 closed_stroke=CLOSED_STROKE, control_scales=[unit.turbine.opening_max])
         ts = turbine_state(st.head_m, st.flow_m3_s, st.torque_nm, 1)
+        check_provided(parts["control"], parts["shaft"], f"unit {unit.name!r}: ")
         unit_parts.append(parts)
         unit_args.append((tp, ts, cc.params, parts["branch"].params, parts["branch"].state,
                           parts["control"].params, parts["control"].state, parts["shaft"].params,
-                          parts["shaft"].state))
+                          parts["shaft"].state, initial_signals(parts["control"], parts["shaft"], st.head_m,
+                                                                st.torque_nm)))
 
     n_units = len(plant.units)
     rows = n_steps // stride + 1

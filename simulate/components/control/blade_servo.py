@@ -170,12 +170,12 @@ def blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s):
 
 
 @numba.njit(cache=True)
-def blade_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
+def blade_control_step(p, s, sig, t_s, t_next_s, dt_s):
     """The vanes' control step (``vane_control``: the governor's or the prescribed law's, with its own parameters
     ``p[0]`` and state ``s[0]``, whose last entry is the control vector), then the blades: controls at t_next."""
     vane_p, blade, cam_openings, cam_angles, scal = p
     vane_s, bstate = s
-    controls = vane_control(vane_p, vane_s, speed_rpm, t_s, t_next_s, dt_s)
+    controls = vane_control(vane_p, vane_s, sig, t_s, t_next_s, dt_s)
     controls[1] = blade_step(blade, cam_openings, cam_angles, bstate, controls, t_next_s + scal[0])
     return controls
 
@@ -253,10 +253,10 @@ def _with_blades(vane, plant, steady, dt_s: float, characteristics):
     params = (vane.params, blade, openings, angles, np.array([1e-9 * dt_s]))
     step = Bound(blade_control_step, (("vane_control", vane.functions["step"]),))
     return _part(vane.name, step, params, (vane_state, bstate), blade, bstate, characteristics.blade_range_deg,
-                 vane.hooks.summary)
+                 vane.hooks.summary, vane.hooks.reads)
 
 
-def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
+def _part(name, step, params, state, blade, bstate, blade_range, summary=None, reads=()):
     phi0 = blade[_ANGLE_MIN] + blade[_Y0] * blade[_SPAN]
     warnings_after = None
     if blade_range is not None:
@@ -272,7 +272,8 @@ def _part(name, step, params, state, blade, bstate, blade_range, summary=None):
 
     controls = state[0][-1]
     hooks = PartHooks(summary=dict(summary or {}), initial_signals=(phi0, float(bstate[0])), n_controls=2,
-                      initial_controls=(float(controls[0]), float(controls[1])), warnings_after=warnings_after)
+                      initial_controls=(float(controls[0]), float(controls[1])), warnings_after=warnings_after,
+                      reads=tuple(reads))
     return CompiledPart(kind="control", name=f"{name} + blades", functions={"step": step, "record": blade_record},
                         params=params, state=state, signals=SIGNALS, hooks=hooks)
 

@@ -1,7 +1,14 @@
-"""Speed governor (parallel PID with permanent droop and derivative filter) and prescribed guide-vane laws. Pure
-step functions on per-unit quantities (paper 000 sections 2.5-2.7). The servo between the governor and the vanes is
-a component of its own (``governor.servo_model``, :data:`simulate.components.registry.SERVOS`; the first-order one
-in :mod:`simulate.components.control.servo`).
+"""The governor (``[governor]``: :class:`GovernorConfig`) and prescribed guide-vane laws, registry kind "control".
+
+What the governor controls is its mode, ``governor.mode`` (:data:`simulate.components.registry.GOVERNORS`, one
+module each): ``speed`` (the default, here: paper 000 sections 2.5-2.7's parallel PID on the per-unit speed error with
+the permanent droop on the servo stroke), ``power`` (the droop on the electrical power,
+:mod:`simulate.components.control.power_governor`), ``opening`` (the stroke follows an opening reference,
+:mod:`simulate.components.control.opening_governor`) and ``dashpot`` (OpenHPL's transient-droop governor,
+:mod:`simulate.components.control.dashpot_governor`). The servo between the governor and the vanes is a component of
+its own (``governor.servo_model``, :data:`simulate.components.registry.SERVOS`; the first-order one in
+:mod:`simulate.components.control.servo`). A mode's step reads the named signals
+(:mod:`simulate.components.signals`) its builder resolved.
 
 Signals: x = n / n_r - 1 (per-unit speed deviation), x_ref the per-unit speed reference, y the servo stroke
 (fraction of full stroke; chart opening a = y * opening_max).
@@ -16,21 +23,47 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.control.backlash import BacklashConfig
+from simulate.components.control.dashpot_governor import DashpotConfig
 from simulate.components.control.dead_time import DeadTimeConfig
 from simulate.components.control.discrete_servo import DiscreteServoConfig
-from simulate.components.control.servo import first_order_servo_step
+from simulate.components.control.opening_governor import OpeningModeConfig
+from simulate.components.control.pid import (  # noqa: F401  (the PID's parts, re-exported)
+    GOVERNOR_PARAMS, PID_KEYS, governor_parameters, governor_step, pid_time_scales)
+from simulate.components.control.power_governor import PowerModeConfig
+from simulate.components.control.servo import build_vane_servo, first_order_servo_step
 from simulate.components.control.two_stage import TwoStageConfig
 from simulate.components.parameters import borrowed, declarations, parameter, validate_parameters
-from simulate.components.registry import SERVOS, Bound, CompiledPart, PartHooks
+from simulate.components.registry import GOVERNORS, SERVOS, Bound, CompiledPart, PartHooks
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
+from simulate.components.signals import signal_indices
 
-@dataclass(frozen=True)
+
+def _owners(registry, key: str) -> str:
+    return " or ".join(repr(n) for n in registry.names() if key in registry.attribute(n, "GOVERNOR_KEYS", ()))
+
+
+@dataclass(frozen=True, kw_only=True)
 class GovernorConfig:
-    """Parallel PID on the per-unit speed error with permanent droop, derivative filter and a first-order servo.
+    """The governor: its control law (``mode``), the servo behind it and the stroke limits.
 
-    ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s); ``derivative_filter_s`` T_f of kd s / (1 + T_f s);
-    ``permanent_droop`` b_p (per-unit speed per stroke); ``servo_time_s`` T_y; ``closing_time_s`` and
-    ``opening_time_s``: time for a full stroke at the rate limit; ``stroke_min``/``stroke_max`` stroke limits.
+    ``mode``: what the governor controls (:data:`simulate.components.registry.GOVERNORS`; the keys of a mode are
+    refused under another, the ones it needs are required):
+
+    * ``"speed"`` (default): parallel PID on the per-unit speed error e = x_ref - x - b_p (y - y0) with the
+      permanent droop on the servo stroke; keys ``kp`` (stroke per unit speed), ``ki`` (1/s), ``kd`` (s),
+      ``derivative_filter_s`` T_f of kd s / (1 + T_f s), ``permanent_droop`` b_p (per-unit speed per stroke);
+    * ``"power"``: the same PID on e = x_ref - x - b_p (P - P_ref), the permanent droop on the electrical power P
+      (per unit of the turbine's rated power) from ``power_reference_mw`` P_ref (default: the initial electrical
+      power), the mode of a grid-connected unit (:mod:`simulate.components.control.power_governor`);
+    * ``"opening"``: the stroke follows ``opening_reference`` (stroke fraction; default the initial stroke) through
+      the servo, speed not controlled (:mod:`simulate.components.control.opening_governor`);
+    * ``"dashpot"``: OpenHPL's transient-droop governor, ``permanent_droop``, ``transient_droop``,
+      ``dashpot_time_s``, ``pilot_servo_time_s``, ``gate_servo_time_s``
+      (:mod:`simulate.components.control.dashpot_governor`).
+
+    Every mode drives the vanes through the servo: ``servo_time_s`` T_y (required by every servo but
+    ``rate-limit``); ``closing_time_s`` and ``opening_time_s``: time for a full stroke at the rate limit;
+    ``stroke_min``/``stroke_max`` stroke limits.
 
     ``servo_model``: the servo between the governor and the vanes, a component of its own
     (:data:`simulate.components.registry.SERVOS`; the ``servo_*`` keys belong to one servo each and are refused under
@@ -47,20 +80,31 @@ class GovernorConfig:
     * ``"backlash"``: the first-order servo with a play of ``servo_backlash`` (stroke fraction) between it and the
       vanes (:mod:`simulate.components.control.backlash`);
     * ``"two-stage"``: the first-order servo closing at the rate of a full stroke per ``servo_break_closing_time_s``
-      once the stroke is at or below ``servo_break_stroke`` (:mod:`simulate.components.control.two_stage`).
+      once the stroke is at or below ``servo_break_stroke`` (:mod:`simulate.components.control.two_stage`);
+    * ``"rate-limit"``: a pure ramp limiter, the stroke moves to the command at no more than a full stroke per
+      ``closing_time_s``/``opening_time_s``, no lag (:mod:`simulate.components.control.rate_limit`; it reads no
+      ``servo_time_s``, which every other servo requires).
 
     A scenario that prescribes the vane stroke (no governor in control) refuses a servo other than the default.
     """
 
-    kp: float = parameter(unit="stroke/pu speed", low=0.0, high=1000.0, description="proportional gain")
-    ki: float = parameter(unit="stroke/(pu speed s)", low=0.0, high=1000.0, description="integral gain")
-    kd: float = parameter(unit="stroke s/pu speed", low=0.0, high=1000.0, description="derivative gain")
-    derivative_filter_s: float = parameter(unit="s", low=0.0, high=100.0,
-                                           description="time constant T_f of the derivative filter")
-    permanent_droop: float = parameter(unit="pu speed/stroke", low=0.0, high=1.0, high_open=True,
-                                       description="permanent droop b_p, on the servo stroke")
-    servo_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=100.0,
-                                    description="time constant T_y of the first-order servo")
+    mode: str = parameter("speed", unit="", choices=GOVERNORS, description="what the governor controls")
+    kp: float | None = parameter(None, unit="stroke/pu speed", low=0.0, high=1000.0,
+                                 description="proportional gain (modes speed, power)")
+    ki: float | None = parameter(None, unit="stroke/(pu speed s)", low=0.0, high=1000.0,
+                                 description="integral gain (modes speed, power)")
+    kd: float | None = parameter(None, unit="stroke s/pu speed", low=0.0, high=1000.0,
+                                 description="derivative gain (modes speed, power)")
+    derivative_filter_s: float | None = parameter(None, unit="s", low=0.0, high=100.0,
+                                                  description="time constant T_f of the derivative filter (modes "
+                                                              "speed, power)")
+    permanent_droop: float | None = parameter(None, unit="pu speed/stroke (power: pu speed/pu power)", low=0.0,
+                                              high=1.0, high_open=True,
+                                              description="permanent droop b_p, on the servo stroke (modes speed, "
+                                                          "dashpot) or on the electrical power (mode power)")
+    servo_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=100.0,
+                                           description="time constant T_y of the first-order servo (every servo "
+                                                       "but rate-limit)")
     closing_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=1000.0,
                                       description="time of a full closing stroke at the rate limit")
     opening_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=1000.0,
@@ -68,6 +112,12 @@ class GovernorConfig:
     stroke_min: float = parameter(0.0, unit="stroke fraction", low=0.0, high=1.0, description="lower stroke limit")
     stroke_max: float = parameter(1.0, unit="stroke fraction", low=0.0, low_open=True, high=1.5,
                                   description="upper stroke limit")
+    power_reference_mw: float | None = borrowed(PowerModeConfig, "power_reference_mw")
+    opening_reference: float | None = borrowed(OpeningModeConfig, "opening_reference")
+    transient_droop: float | None = borrowed(DashpotConfig, "transient_droop")
+    dashpot_time_s: float | None = borrowed(DashpotConfig, "dashpot_time_s")
+    pilot_servo_time_s: float | None = borrowed(DashpotConfig, "pilot_servo_time_s")
+    gate_servo_time_s: float | None = borrowed(DashpotConfig, "gate_servo_time_s")
     servo_model: str = parameter("first-order", unit="", choices=SERVOS,
                                  description="the servo between the governor and the guide vanes")
     servo_b0: float | None = borrowed(DiscreteServoConfig, "b0")
@@ -84,6 +134,18 @@ class GovernorConfig:
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
+        own = GOVERNORS.attribute(self.mode, "GOVERNOR_KEYS", ())
+        for key in self.mode_keys():
+            if getattr(self, key) is not None and key not in own:
+                raise InputError(f"governor.{key} is a key of governor.mode = {_owners(GOVERNORS, key)}; with "
+                                 f"mode = {self.mode!r} it would be ignored: set governor.mode or remove the key")
+        missing = [f"governor.{k}" for k in GOVERNORS.attribute(self.mode, "REQUIRED_KEYS", ())
+                   if getattr(self, k) is None]
+        if missing:
+            raise InputError(f"governor.mode = \"{self.mode}\" needs {' and '.join(missing)}")
+        check = GOVERNORS.attribute(self.mode, "check_governor")
+        if check is not None:
+            check(self)
         own = SERVOS.attribute(self.servo_model, "GOVERNOR_KEYS", ())
         for key in self.servo_keys():
             if getattr(self, key) is not None and key not in own:
@@ -91,6 +153,11 @@ class GovernorConfig:
                 raise InputError(f"governor.{key} is a key of governor.servo_model = {' or '.join(owners)!r}; "
                                  f"with servo_model = {self.servo_model!r} it would be ignored: set servo_model "
                                  f"or remove the key")
+        if SERVOS.attribute(self.servo_model, "LAG", True) != (self.servo_time_s is not None):
+            raise InputError(f"governor.servo_model = \"{self.servo_model}\" needs governor.servo_time_s (its time "
+                             f"constant T_y)" if self.servo_time_s is None else
+                             f"governor.servo_time_s would be ignored: governor.servo_model = "
+                             f"\"{self.servo_model}\" has no lag; remove the key")
         check = SERVOS.attribute(self.servo_model, "check_governor")
         if check is not None:
             check(self)
@@ -98,55 +165,19 @@ class GovernorConfig:
     @classmethod
     def servo_keys(cls) -> tuple[str, ...]:
         """The optional ``servo_*`` keys: each belongs to one servo model (its module's ``GOVERNOR_KEYS``)."""
-        return tuple(d.name for d in declarations(cls) if d.name.startswith("servo_") and d.default is None)
+        return tuple(d.name for d in declarations(cls) if d.name.startswith("servo_") and d.default is None
+                     and d.name != "servo_time_s")
+
+    @classmethod
+    def mode_keys(cls) -> tuple[str, ...]:
+        """The optional keys of the modes (the PID's gains, each mode's own): each is read by the modes whose
+        module's ``GOVERNOR_KEYS`` name it, refused under the others."""
+        return tuple(d.name for d in declarations(cls) if not d.name.startswith("servo_") and d.default is None)
 
 
-#: Layout of the governor parameter vector passed to the compiled loop.
-GOVERNOR_PARAMS = ("kp", "ki", "kd", "derivative_filter_s", "permanent_droop", "initial_stroke", "stroke_min",
-                   "stroke_max")
-
-
-def governor_parameters(governor, initial_stroke: float) -> np.ndarray:
-    """The float vector (layout :data:`GOVERNOR_PARAMS`) for :func:`governor_step`.
-
-    Examples
-    --------
-    >>> g = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.04,
-    ...                    servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
-    >>> governor_parameters(g, 0.8).tolist()
-    [2.0, 0.5, 0.0, 0.0, 0.04, 0.8, 0.0, 1.0]
-    """
-    return np.array([governor.kp, governor.ki, governor.kd, governor.derivative_filter_s, governor.permanent_droop,
-                     initial_stroke, governor.stroke_min, governor.stroke_max])
-
-
-@numba.njit(cache=True)
-def governor_step(params, state, speed_dev, speed_ref, stroke, dt_s):
-    """Controller output u (stroke command) after one step; updates ``state`` = [integral, derivative, e_prev].
-
-    e = x_ref - x - b_p (y - y0) (permanent droop on the servo stroke);
-    u = y0 + kp e + I + D, I' = ki e, T_f D' + D = kd e' (backward Euler). The command is clipped to the stroke
-    limits. Anti-windup by integrator clamping: the integral stays within [stroke_min - y0, stroke_max - y0], so
-    it can always bring the command back from either limit. (Back-calculation of the clipped amount would load the
-    derivative kick of a reference step into the integral, which then drives the vanes the wrong way as the kick
-    decays; conditional integration would freeze the integral during a long overspeed, and the proportional part
-    alone would reopen the vanes while the unit is still far above speed.)
-
-    Examples
-    --------
-    >>> p = np.array([2.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.9, 0.01, 0.01])
-    >>> s = np.zeros(3)
-    >>> round(float(governor_step(p, s, -0.01, 0.0, 0.5, 0.1)), 4)   # 0.5 + 2*0.01 + 0.5*0.01*0.1
-    0.5205
-    """
-    kp, ki, kd, tf = params[0], params[1], params[2], params[3]
-    droop, y0, y_min, y_max = params[4], params[5], params[6], params[7]
-    error = speed_ref - speed_dev - droop * (stroke - y0)
-    state[1] = (tf * state[1] + kd * (error - state[2])) / (tf + dt_s)
-    state[2] = error
-    state[0] = min(max(state[0] + ki * error * dt_s, y_min - y0), y_max - y0)
-    command = y0 + kp * error + state[0] + state[1]
-    return min(max(command, y_min), y_max)
+#: The ``[governor]`` keys the ``speed`` mode reads (all required).
+GOVERNOR_KEYS = PID_KEYS
+REQUIRED_KEYS = PID_KEYS
 
 
 def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, break_opening: float | None = None,
@@ -184,18 +215,20 @@ def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, br
 # Components for the time loop (registry kind "control"; see simulate.components.registry)
 # ---------------------------------------------------------------------------------------------------------------
 # A control component owns the control vector (fractions of each control's full stroke; control 0 the guide vane)
-# and offers  step(p, s, speed_rpm, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state).
+# and offers  step(p, s, signals, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state;
+# ``signals``: the named signals at t_s, simulate.components.signals).
 #: The servo the governor's step calls: its builder binds the plant's (:class:`Bound`); this default, the first-order
 #: servo, serves a call of the step outside the assembled loop.
 vane_servo = first_order_servo_step
 
 
 @numba.njit(cache=True)
-def governor_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """Governor PID on the speed at t, then the guide-vane servo (``vane_servo``): controls at t_next."""
-    gov, ref_times, ref_values, scal, servo = p
+def governor_control_step(p, s, sig, t_s, t_next_s, dt_s):
+    """Governor PID on the speed at t (the signal ``speed_rpm``), then the guide-vane servo (``vane_servo``):
+    controls at t_next."""
+    gov, ref_times, ref_values, scal, servo, reads = p
     state, servo_state, controls = s
-    x = speed_rpm / scal[0] - 1.0
+    x = sig[reads[0]] / scal[0] - 1.0
     x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
     command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
     controls[0] = vane_servo(servo, servo_state, command, controls[0], dt_s)
@@ -203,30 +236,41 @@ def governor_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
 
 
 @numba.njit(cache=True)
-def prescribed_control_step(p, s, speed_rpm, t_s, t_next_s, dt_s):
-    """The prescribed stroke law at t_next (piecewise linear)."""
+def prescribed_control_step(p, s, sig, t_s, t_next_s, dt_s):
+    """The prescribed stroke law at t_next (piecewise linear; reads no signal)."""
     law_times, law_strokes, scal = p
     controls = s[0]
     controls[0] = piecewise_linear(law_times, law_strokes, t_next_s + scal[0])
     return controls
 
 
-def build_vane_servo(plant, initial_stroke: float, dt_s: float):
-    """The plant's guide-vane servo (``governor.servo_model``), a :class:`simulate.components.control.servo.Servo`."""
-    return SERVOS.builder(plant.governor.servo_model)(plant.governor, initial_stroke, dt_s)
-
-
 def build_governor(plant, steady, dt_s: float, schedules):
-    """Governor + servo on the guide vane; the speed reference follows the scenario's schedule. The servo is the
-    one ``governor.servo_model`` names (:data:`simulate.components.registry.SERVOS`)."""
+    """The governor of ``governor.mode`` (:data:`simulate.components.registry.GOVERNORS`) with the servo
+    ``governor.servo_model`` names, on the guide vane."""
+    return GOVERNORS.builder(plant.governor.mode)(plant, steady, dt_s, schedules)
+
+
+#: What the speed mode reads (names of :data:`simulate.components.signals.SIGNALS`).
+READS = ("speed_rpm",)
+
+
+def build_speed_governor(plant, steady, dt_s: float, schedules):
+    """Mode ``speed``: the PID on the speed with the droop on the stroke, then the servo; the speed reference
+    follows the scenario's schedule."""
     servo = build_vane_servo(plant, steady.stroke, dt_s)
     scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
     params = (governor_parameters(plant.governor, steady.stroke), schedules.ref_times_s, schedules.ref_values, scal,
-              servo.params)
+              servo.params, signal_indices(READS, "governor.mode = 'speed'"))
     state = (np.zeros(3), servo.state, np.array([steady.stroke]))
     return CompiledPart(kind="control", name="governor",
                         functions={"step": Bound(governor_control_step, (("vane_servo", servo.step),))},
-                        params=params, state=state, signals=(), hooks=PartHooks(summary=dict(servo.summary)))
+                        params=params, state=state, signals=(),
+                        hooks=PartHooks(summary=dict(servo.summary), reads=READS))
+
+
+def mode_time_scales(plant) -> list:
+    """The speed mode's: the PID's (:func:`simulate.components.control.pid.pid_time_scales`)."""
+    return pid_time_scales(plant)
 
 
 def refuse_servo_without_governor(plant, what: str) -> None:
@@ -248,18 +292,11 @@ def build_prescribed(plant, steady, dt_s: float, schedules):
 
 
 def time_scales(plant, schedules) -> list:
-    """The governor's servo, derivative filter and integral time while it is in control (a prescribed law has
-    none); sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
-    from simulate.components.timescale import TimeScale
-
+    """The governor's servo and its mode's time scales (the mode module's ``mode_time_scales(plant)``) while it is
+    in control (a prescribed law has none); sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
     gov = plant.governor
     if schedules.mode != GOVERNOR:
         return []
     out = SERVOS.time_scales(gov.servo_model, plant, schedules)
-    if gov.kd > 0.0 and gov.derivative_filter_s > 0.0:
-        # implicit Euler (first order, unlike the servo's exact exponential): 0.05 x T_f keeps the step-halving
-        # change of the head rise below 0.1 point on the shipped plant
-        out.append(TimeScale("governor.derivative_filter_s", gov.derivative_filter_s, resolve_fraction=0.05))
-    if gov.ki > 0.0 and gov.kp > 0.0:
-        out.append(TimeScale("governor integral time kp/ki", gov.kp / gov.ki))
-    return out
+    mode = GOVERNORS.attribute(gov.mode, "mode_time_scales")
+    return out + ([] if mode is None else list(mode(plant)))

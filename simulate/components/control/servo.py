@@ -25,6 +25,8 @@ from typing import Callable
 import numba
 import numpy as np
 
+from simulate.components.registry import SERVOS
+
 #: Layout of the first-order servo's parameter vector (``decay`` = exp(-dt / T_y); ``close_step``/``open_step``:
 #: the largest stroke change per step, dt / closing_time_s and dt / opening_time_s).
 SERVO_PARAMS = ("stroke_min", "stroke_max", "decay", "close_step", "open_step")
@@ -108,6 +110,11 @@ def build_first_order(governor, initial_stroke: float, dt_s: float) -> Servo:
     return Servo(first_order_servo_step, first_order_parameters(governor, dt_s), np.zeros(1))
 
 
+def build_vane_servo(plant, initial_stroke: float, dt_s: float) -> Servo:
+    """The plant's guide-vane servo (``governor.servo_model``, :data:`simulate.components.registry.SERVOS`)."""
+    return SERVOS.builder(plant.governor.servo_model)(plant.governor, initial_stroke, dt_s)
+
+
 def time_scales(plant, schedules) -> list:
     """T_y, sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
     from simulate.components.timescale import TimeScale
@@ -116,4 +123,4 @@ def time_scales(plant, schedules) -> list:
 
 
 __all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "require_keys", "Servo", "first_order_parameters", "servo_step", "lag_step",
-           "first_order_servo_step", "build_first_order", "time_scales"]
+           "first_order_servo_step", "build_first_order", "build_vane_servo", "time_scales"]

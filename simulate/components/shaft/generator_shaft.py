@@ -49,6 +49,7 @@ from simulate.components.electrical.generator import (
 from simulate.components.electrical.standalone import RUN_COLUMNS
 from simulate.components.schedules import piecewise_constant
 from simulate.components.shaft.rotor import rotor_step
+from simulate.components.signals import RPM_NM_TO_MW
 
 #: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.standalone.RUN_COLUMNS`
 #: without time).
@@ -57,9 +58,9 @@ SIGNALS = tuple(c for c in RUN_COLUMNS if c != "time_s")
 #: Layout of the scalar parameter vector.
 SHAFT_SCALARS = ("rated_speed_rpm", "rated_torque_nm", "inertia_time_s", "time_eps_s", "initial_load_pu",
                  "speed_held", "fault_time_s", "field_held", "field_step_time_s", "field_step_pu",
-                 "steady_field_pu", "rated_frequency_hz")
+                 "steady_field_pu", "rated_frequency_hz", "infinite_bus")
 (C_NR, C_MR, C_TA, C_EPS, C_LOAD0, C_SPEED_HELD, C_FAULT_T, C_FIELD_HELD, C_FIELD_T, C_FIELD_STEP, C_FIELD0,
- C_FN) = range(len(SHAFT_SCALARS))
+ C_FN, C_BUS) = range(len(SHAFT_SCALARS))
 #: Layout of the small state vector ``misc``: field voltage held over the coming step, failure status, its time.
 M_FIELD, M_STATUS, M_TIME = 0, 1, 2
 
@@ -108,6 +109,24 @@ def _network_and_field(scal, gp, ep, load_times, load_values, gs, es, out, misc,
 @numba.njit(cache=True)
 def subtransient_speed(p, s):
     return s[0][0]
+
+
+@numba.njit(cache=True)
+def subtransient_electrical_power(p, s, t_s):
+    """The electrical power at the terminals, MW, of the network solution at the present state: machine-base per
+    unit x rated MVA (= x torque ratio x P_r, P_r = m_r n_r on the turbine's base)."""
+    scal, gp = p[0], p[1]
+    out = s[3]
+    return out[O_PE] * gp[P_TORQUE_RATIO] * scal[C_MR] * scal[C_NR] * RPM_NM_TO_MW
+
+
+@numba.njit(cache=True)
+def subtransient_grid_frequency(p, s):
+    """The grid's frequency, Hz: the island's is the unit's, f_n n / n_r; the infinite bus runs at f_n."""
+    scal = p[0]
+    if scal[C_BUS] > 0.5:
+        return scal[C_FN]
+    return scal[C_FN] * s[0][0] / scal[C_NR]
 
 
 @numba.njit(cache=True)
@@ -183,7 +202,7 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s, load0,
                      1.0 if schedules.speed_held else 0.0, schedules.fault_time_s,
                      1.0 if schedules.field_held else 0.0, schedules.field_step_time_s, schedules.field_step_pu,
-                     arrays.field_voltage_pu, grid.frequency_hz])
+                     arrays.field_voltage_pu, grid.frequency_hz, 1.0 if grid.kind == "infinite-bus" else 0.0])
     params = (scal, arrays.generator_params, arrays.excitation_params, schedules.load_times_s,
               schedules.load_values)
     misc = np.zeros(3)
@@ -228,7 +247,8 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
                "generator_steady_max_residual": max(abs(v) for v in arrays.steady.residuals.values())}
     return CompiledPart(kind="shaft", name="subtransient",
                         functions={"speed": subtransient_speed, "step": subtransient_shaft_step,
-                                   "record": subtransient_record},
+                                   "record": subtransient_record, "power": subtransient_electrical_power,
+                                   "grid_frequency": subtransient_grid_frequency},
                         params=params, state=state, signals=SIGNALS,
                         hooks=PartHooks(summary=summary, initial_signals=tuple(first), failure=failure,
                                         error_after=error_after, summary_after=summary_after,

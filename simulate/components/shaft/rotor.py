@@ -5,6 +5,7 @@ from __future__ import annotations
 import numba
 
 from simulate.components.schedules import piecewise_constant
+from simulate.components.signals import RPM_NM_TO_MW
 
 
 @numba.njit(cache=True)
@@ -25,9 +26,22 @@ def rotor_step(speed_dev, turbine_torque_pu, load_torque_pu, self_regulation, in
 # A shaft component owns the speed and offers
 #   speed(p, s) -> speed_rpm                                   at the current step
 #   step(p, s, turbine_torque_nm, t_s, dt_s) -> speed_rpm      the speed at t + dt
+#   power(p, s, t_s) -> electrical_power_mw                    (optional) the named signal electrical_power_mw
 @numba.njit(cache=True)
 def rotor_speed(p, s):
     return s[0][0]
+
+
+@numba.njit(cache=True)
+def rotor_electrical_power(p, s, t_s):
+    """The power the load takes at t, MW: its torque (m_g + e_g x) m_r (the swing equation's load term, with the
+    schedule's values at t) times the speed."""
+    scal, load_times, load_values, regulation_values = p
+    n_r, m_r, eps_t, load0, reg0 = scal[0], scal[1], scal[3], scal[4], scal[5]
+    speed = s[0][0]
+    load = piecewise_constant(load_times, load_values, t_s + eps_t, load0)
+    reg = piecewise_constant(load_times, regulation_values, t_s + eps_t, reg0)
+    return (load + reg * (speed / n_r - 1.0)) * m_r * speed * RPM_NM_TO_MW
 
 
 @numba.njit(cache=True)
@@ -54,7 +68,8 @@ def build_rotor(plant, steady, dt_s: float, schedules):
     scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s,
                      schedules.initial_load, schedules.initial_self_regulation])
     params = (scal, schedules.load_times_s, schedules.load_values, schedules.self_regulation_values)
-    return CompiledPart(kind="shaft", name="rotor", functions={"speed": rotor_speed, "step": rotor_shaft_step},
+    return CompiledPart(kind="shaft", name="rotor", functions={"speed": rotor_speed, "step": rotor_shaft_step,
+                                                               "power": rotor_electrical_power},
                         params=params, state=(np.array([steady.speed_rpm]),))
 
 

@@ -105,7 +105,7 @@ def test_discrete_servo_option_samples_every_tau_and_settles_where_the_first_ord
 
 @pytest.mark.parametrize("overrides,match", [
     ({"governor.servo_model": "second-order"}, r"governor\.servo_model must be one of first-order, discrete, "
-                                               r"dead-time, backlash, two-stage; "
+                                               r"dead-time, backlash, two-stage, rate-limit; "
                                                r"got 'second-order'"),
     ({"governor.servo_b0": 0.5}, r"governor\.servo_b0 is a key of governor\.servo_model = 'discrete'; with "
                                  r"servo_model = 'first-order' it would be ignored"),

@@ -1,8 +1,8 @@
 """A model is chosen by the registry, never by comparing its name: a comparison with a servo or penstock model's
-or a kind of characteristics' name (``plant.governor.servo_model == "discrete"``, ``plant.penstock.model == "moc"``,
-``plant.turbine.characteristics == "ideal"``) outside the model's own module and the registry fails here; what
-the code needs to know of a penstock model it asks its registry entry
-(:meth:`simulate.components.registry.Registry.traits`). (The
+or a kind of characteristics' or a governor mode's name (``plant.governor.servo_model == "discrete"``,
+``plant.penstock.model == "moc"``, ``plant.turbine.characteristics == "ideal"``, ``plant.governor.mode == "power"``)
+outside the model's own module and the registry fails here; what the code needs to know of a penstock model it asks
+its registry entry (:meth:`simulate.components.registry.Registry.traits`). (The
 control registry's names, "governor" and "prescribed", are also section and mode words elsewhere; its choice is
 :func:`simulate.components.registry.control_name`.)"""
 
@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from simulate.components.registry import CHARACTERISTICS, PENSTOCKS, SERVOS
+from simulate.components.registry import CHARACTERISTICS, GOVERNORS, PENSTOCKS, SERVOS
 
 REPO = Path(__file__).resolve().parents[3]
 #: the registries whose names may be compared only in their own modules
-CHECKED = (SERVOS, PENSTOCKS, CHARACTERISTICS)
+CHECKED = (SERVOS, PENSTOCKS, CHARACTERISTICS, GOVERNORS)
 
 
 def _owner_files(registry) -> dict[str, set[str]]:
@@ -27,16 +27,27 @@ def _owner_files(registry) -> dict[str, set[str]]:
 
 
 def _compared_strings(tree: ast.AST):
-    """(line, string) of every string constant compared with ==, !=, in or not in (alone or in a tuple, list or
-    set on either side)."""
+    """(line, string) of every string constant compared with == or != (alone or in a tuple, list or set on either
+    side), or tested with in / not in against a literal tuple, list or set (``mode in ("speed", "power")``). A
+    string looked up in a runtime container (``"opening" in measured_box``: a key, not a choice of model) is not a
+    comparison."""
+    def literals(operand):
+        items = operand.elts if isinstance(operand, (ast.Tuple, ast.List, ast.Set)) else [operand]
+        return [item.value for item in items if isinstance(item, ast.Constant) and isinstance(item.value, str)]
+
     for node in ast.walk(tree):
         if not isinstance(node, ast.Compare):
             continue
-        for operand in [node.left, *node.comparators]:
-            items = operand.elts if isinstance(operand, (ast.Tuple, ast.List, ast.Set)) else [operand]
-            for item in items:
-                if isinstance(item, ast.Constant) and isinstance(item.value, str):
-                    yield node.lineno, item.value
+        operands = [node.left, *node.comparators]
+        for left, op, right in zip(operands, node.ops, operands[1:]):
+            if isinstance(op, (ast.Eq, ast.NotEq)):
+                found = literals(left) + literals(right)
+            elif isinstance(op, (ast.In, ast.NotIn)) and isinstance(right, (ast.Tuple, ast.List, ast.Set)):
+                found = literals(left) + literals(right)
+            else:
+                found = []
+            for value in found:
+                yield node.lineno, value
 
 
 def model_name_comparisons(root: Path = REPO, sources=None) -> list[str]:
@@ -56,7 +67,7 @@ def model_name_comparisons(root: Path = REPO, sources=None) -> list[str]:
     return found
 
 
-def test_no_servo_penstock_or_characteristics_name_is_compared_outside_its_module_and_the_registry():
+def test_no_servo_penstock_characteristics_or_governor_mode_name_is_compared_outside_its_module_and_the_registry():
     assert model_name_comparisons() == []
 
 
@@ -68,6 +79,10 @@ def test_no_servo_penstock_or_characteristics_name_is_compared_outside_its_modul
     ('lumped = plant.penstock.model in ("rigid", "lumped")\n', 2),
     ('if plant.turbine.characteristics == "ideal":\n    pass\n', 1),
     ('chart_dir = None if spec in ("ideal", "synthetic") else path\n', 2),
+    ('if plant.governor.mode == "dashpot":\n    pass\n', 1),
+    ('pid = plant.governor.mode not in ["opening", "dashpot"]\n', 2),
+    ('droop = "power" != mode\n', 1),
+    ('known = "opening" in measured_box\n', 0),  # a key looked up in a mapping, not a choice of mode
 ])
 def test_the_check_finds_a_comparison_in_another_module(text, hits):
     assert len(model_name_comparisons(sources={"simulate/loop/engine.py": text})) == hits

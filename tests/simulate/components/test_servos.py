@@ -6,7 +6,9 @@ and of the plant loop that runs it.
 * backlash: the vanes follow the piston less half the play once it is taken up, and hold while the piston moves
   inside it;
 * two-stage closing: a load rejection closes the vanes along the two-stage law of the closure-law scenario
-  (:func:`simulate.components.control.governor.closure_law`), exactly.
+  (:func:`simulate.components.control.governor.closure_law`), exactly;
+* rate limit (the ramp limiter, no lag): a closure runs at one full stroke per closing_time_s exactly, down to the
+  closed end; a command within one step's travel is reached in that step.
 """
 
 import numpy as np
@@ -97,8 +99,41 @@ def test_every_servo_module_declares_its_governor_keys_and_the_governor_refuses_
     with pytest.raises(InputError, match=r"governor\.servo_model = \"backlash\" needs governor\.servo_backlash"):
         GovernorConfig(**base, servo_model="backlash")
     with pytest.raises(InputError, match=r"governor\.servo_model must be one of first-order, discrete, dead-time, "
-                                         r"backlash, two-stage; got 'hydraulic'"):
+                                         r"backlash, two-stage, rate-limit; got 'hydraulic'"):
         GovernorConfig(**base, servo_model="hydraulic")
+    # the ramp limiter has no lag: servo_time_s would be ignored under it, and every other servo needs it
+    lag_free = {k: v for k, v in base.items() if k != "servo_time_s"}
+    assert GovernorConfig(**lag_free, servo_model="rate-limit").servo_time_s is None
+    with pytest.raises(InputError, match=r"governor\.servo_time_s would be ignored: governor\.servo_model = "
+                                         r"\"rate-limit\" has no lag; remove the key"):
+        GovernorConfig(**base, servo_model="rate-limit")
+    with pytest.raises(InputError, match=r"governor\.servo_model = \"first-order\" needs governor\.servo_time_s"):
+        GovernorConfig(**lag_free)
+
+
+def test_the_rate_limit_servo_is_a_ramp_without_lag():
+    """Per step the stroke moves to the command, by at most dt / closing_time_s down and dt / opening_time_s up:
+    a far command is approached on the exact ramp, a near one reached in one step; the first-order servo (T_y
+    with dt / T_y = 0.1) on the same commands lags."""
+    from simulate.components.control.rate_limit import rate_limit_parameters
+    from simulate.components.control.governor import GovernorConfig
+
+    gov = GovernorConfig(kp=2.0, ki=0.4, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
+                         servo_model="rate-limit", closing_time_s=10.0, opening_time_s=20.0)
+    sp = rate_limit_parameters(gov, 0.02)
+    commands = np.concatenate([np.zeros(100), np.full(120, 0.7), np.full(5, 0.6985)])
+    stroke = _respond(first_order_servo_step, sp, np.zeros(1), commands, 0.8)
+    # closing from 0.8 at 0.002 a step for 100 steps, opening at 0.001 a step to the command 0.7 and holding it;
+    # 1e-12: sums of up to 200 steps (rounding ~1e-16 each), far below the 1e-3 a wrong rate shows in one step
+    expected = np.concatenate([0.8 - 0.002 * np.arange(1, 101), 0.6 + 0.001 * np.arange(1, 101), np.full(20, 0.7),
+                               np.full(5, 0.6985)])
+    np.testing.assert_allclose(stroke[:220], expected[:220], rtol=0, atol=1e-12)
+    # a command 0.0015 below the stroke (inside one closing step of 0.002) is met in that step: no lag
+    np.testing.assert_allclose(stroke[220:], 0.6985, rtol=0, atol=1e-12)
+    # beside it, the first-order servo with the same rate limits is not this: near each command its lag (it closes
+    # 1 - e^-0.1 of the gap a step) leaves it 0.0037 short where the ramp has arrived
+    lagged = _respond(first_order_servo_step, FIRST_ORDER, np.zeros(1), commands, 0.8)
+    assert np.max(np.abs(lagged - expected)) > 3e-3
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -197,6 +232,7 @@ def _servo_keys(model: str, control_step_s: float) -> dict:
     return {"discrete": {"governor.servo_sample_time_s": 10 * control_step_s},
             "dead-time": {"governor.servo_dead_time_s": 10 * control_step_s},
             "backlash": {"governor.servo_backlash": 0.02},
+            "rate-limit": {},
             "first-order": {}}[model]
 
 
@@ -205,6 +241,19 @@ def _two_stage_keys(initial_stroke: float) -> dict:
     asks for is held back (the first-order servo would follow it)."""
     return {"governor.servo_break_stroke": min(0.999, initial_stroke + 0.01),
             "governor.servo_break_closing_time_s": 1000.0}
+
+
+def _load_without_lag(path, overrides):
+    """The plant file with ``overrides`` and without ``governor.servo_time_s`` (a servo without lag refuses it)."""
+    import tomllib
+
+    from simulate.config import apply_overrides, plant_from_dict, read_plant_toml, split_study_sections
+
+    raw = tomllib.loads(read_plant_toml(path)[1].decode())
+    split_study_sections(raw)
+    apply_overrides(raw, overrides)
+    raw["governor"].pop("servo_time_s", None)
+    return plant_from_dict(raw, base_dir=path.parent)
 
 
 @pytest.mark.slow
@@ -222,7 +271,9 @@ def test_every_servo_acts_on_every_shipped_plant_or_is_refused_with_its_reason(n
     control_step_s = default.summary()["dt_s"] / default.summary()["substeps"]
     for model in SERVOS.names()[1:]:
         keys = _two_stage_keys(default.opening[0]) if model == "two-stage" else _servo_keys(model, control_step_s)
-        plant = load_plant(path, {**short, "governor.servo_model": model, **keys})
+        plant = _load_without_lag(path, {**short, "governor.servo_model": model, **keys}) \
+            if not SERVOS.attribute(model, "LAG", True) else load_plant(path, {**short, "governor.servo_model": model,
+                                                                               **keys})
         result = run_simulation(plant)
         # the governor acts on the event within 4 s: a servo that changes nothing would leave the opening equal to
         # the default servo's run to the last bit; each of these moves it by more than 1e-6 of the stroke
