@@ -26,6 +26,10 @@ from hillchart.errors import InputError
 from simulate.components.registry import CHARACTERISTICS
 
 
+#: The inputs a nets.json file's flow block names, in order, for two- and three-input nets.
+TWO_INPUTS = ["n11", "opening"]
+THREE_INPUTS = ["n11", "opening", "blade_angle"]
+
 class CharacteristicKind:
     """The contract of an entry of :data:`~simulate.components.registry.CHARACTERISTICS` (module docstring).
 
@@ -141,7 +145,7 @@ class TwoInputNetsKind(CharacteristicKind):
 
     def owns(self, document) -> bool:
         return (isinstance(document, dict) and document.get("format") == NETS_FORMAT
-                and _flow_inputs(document) in (None, ["n11", "opening"]))
+                and _flow_inputs(document) in (None, TWO_INPUTS))
 
     def read(self, document, path):
         from hillchart.nets.hill_nets import HillNets
@@ -157,7 +161,7 @@ class ThreeInputNetsKind(CharacteristicKind):
 
     def owns(self, document) -> bool:
         return (isinstance(document, dict) and document.get("format") == NETS_FORMAT
-                and _flow_inputs(document) == ["n11", "opening", "blade_angle"])
+                and _flow_inputs(document) == THREE_INPUTS)
 
     def read(self, document, path):
         from hillchart.fccm.double_regulated import DoubleRegulatedNets
