@@ -1,31 +1,16 @@
-"""Plant configuration: a TOML file -> the components' frozen config dataclasses, composed into a
-:class:`PlantConfig`.
+"""Plant configuration: the reader that composes a TOML file's sections (:data:`SECTIONS`) into a :class:`PlantConfig`.
 
-This module is the reader: each section's class, with every key declared as data (unit, bounds, default,
-description: :mod:`simulate.components.parameters`), lives in its component's package, and the reader composes the
-registered sections by name (:data:`SECTIONS`). Every section is read by one strict reader
-(:func:`simulate.components.parameters.read_section`: an unknown or missing key is an error naming the key and the
-valid ones) and written by one writer (:func:`simulate.components.parameters.section_dict`), so a key declared in a
-component is read, written and overridden without a change here.
-
-File layout (units in the key names; ``[scenario]`` keys depend on ``kind``)::
-
-    [turbine]    simulate.components.turbine.rated.TurbineConfig (and [turbine.step_up])
-    [penstock]   simulate.components.hydraulic.conduit.PenstockConfig, [[penstock.segments]] (PenstockSegment)
-    [generator]  simulate.components.shaft.generator_config.GeneratorConfig
-    [governor]   simulate.components.control.governor.GovernorConfig
-    [scenario]   simulate.scenarios.base.ScenarioConfig (one class per kind)
-    [solver]     simulate.components.solver.SolverConfig (optional)
-    [surge_tank] simulate.components.hydraulic.surge_tank.SurgeTankConfig (optional)
-    [draft_tube] simulate.components.hydraulic.draft_tube.DraftTubeConfig (optional)
-    [blade_servo], [combinator]  double-regulated units (simulate.components.control.blade_servo)
-    [excitation], [grid]  with generator.model = "subtransient"
-                 (simulate.components.control.excitation, simulate.components.electrical.generator)
-    [[units]]    simulate.components.unit.UnitConfig (several units on one waterway)
+Each section's class lives in its component's package with every key declared as data (unit, bounds, default,
+description: :mod:`simulate.components.parameters`; the plant-file reference page is generated from them). Every
+section is read by one strict reader (:func:`simulate.components.parameters.read_section`: an unknown or missing key
+is an error naming the key and the valid ones) and written by one writer
+(:func:`simulate.components.parameters.section_dict`), so a key declared in a component is read, written and
+overridden without a change here.
 """
 
 from __future__ import annotations
 
+import importlib
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -42,12 +27,9 @@ from simulate.components.parameters import declarations, read_section, read_toml
 from simulate.components.registry import PENSTOCKS
 from simulate.components.shaft.generator_config import SUBTRANSIENT_KEYS, GeneratorConfig  # noqa: F401
 from simulate.components.solver import COURANT_TOLERANCE, PRESSURE_LOOPS, TOLERANCE_FLOOR, SolverConfig  # noqa: F401
-from simulate.components.turbine.rated import TurbineConfig
+from simulate.components.turbine.rated import COMBINATOR_HEAD_RANGE, TurbineConfig, check_combinator_head  # noqa: F401
 from simulate.components.unit import UNIT_KEYS, UNIT_OVERRIDE_SECTIONS, UnitConfig, check_units
 from simulate.scenarios.base import SCENARIO_KEYS, SCENARIO_KINDS, ScenarioConfig
-
-#: ``combinator.head_m`` may lie from this[0] x ``turbine.rated_head_m`` to this[1] x ``penstock.static_head_m``.
-COMBINATOR_HEAD_RANGE = (0.25, 1.5)
 
 
 @dataclass(frozen=True)
@@ -72,39 +54,15 @@ class PlantConfig:
     def __post_init__(self):
         sc, gov = self.scenario, self.governor
         check_units(self)
-        electrical = [name for name in ("excitation", "grid") if getattr(self, name) is not None]
-        if self.generator.model == "subtransient":
-            for name in ("excitation", "grid"):
-                if getattr(self, name) is None:
-                    raise InputError(f"missing section [{name}]: generator.model = \"subtransient\" needs [excitation] "
-                                     f"and [grid]")
-        elif electrical:
-            raise InputError(f"section [{electrical[0]}] is used only by generator.model = \"subtransient\" (got "
-                             f"generator.model = {self.generator.model!r})")
+        self.generator.electrical(self.excitation, self.grid)  # [excitation] and [grid] with the sub-transient model
         sc.check_plant(self)
-        self._check_combinator_head()
+        check_combinator_head(self.combinator, self.turbine, self.penstock)
         if sc.initial_opening is not None and not (gov.stroke_min <= sc.initial_opening <= gov.stroke_max):
             raise InputError(f"scenario.initial_opening must be in [governor.stroke_min, governor.stroke_max] = "
                              f"[{gov.stroke_min!r}, {gov.stroke_max!r}], got {sc.initial_opening!r}")
         if sc.initial_power_mw is not None and sc.initial_power_mw > 1.5 * self.turbine.rated_power_mw:
             raise InputError(f"scenario.initial_power_mw must be in [0, 1.5 * turbine.rated_power_mw] = "
                              f"[0, {1.5 * self.turbine.rated_power_mw!r}], got {sc.initial_power_mw!r}")
-
-    def _check_combinator_head(self) -> None:
-        """``combinator.head_m`` within the plant's heads: from a quarter of the rated head (a low-head unit at
-        flood) to 1.5 x the static head (the gross head, which the net head stays below)."""
-        head = getattr(self.combinator, "head_m", None)
-        if head is None:
-            return
-        low, high = COMBINATOR_HEAD_RANGE[0] * self.turbine.rated_head_m, \
-            COMBINATOR_HEAD_RANGE[1] * self.penstock.static_head_m
-        if not low <= head <= high:
-            raise InputError(f"combinator.head_m = {head!r} m is outside this plant's heads (turbine.rated_head_m = "
-                             f"{self.turbine.rated_head_m!r} m, penstock.static_head_m = "
-                             f"{self.penstock.static_head_m!r} m); allowed [{low:.4g}, {high:.4g}] m "
-                             f"({COMBINATOR_HEAD_RANGE[0]:g} x the rated head "
-                             f"to {COMBINATOR_HEAD_RANGE[1]:g} x the static head): give the net head in m of this "
-                             f"plant, or leave head_m out (the net head of the initial steady state)")
 
     def require_one_unit(self, what: str) -> None:
         """An :class:`InputError` when the plant has ``[[units]]``: ``what`` (a command or a study) models one unit."""
@@ -149,24 +107,12 @@ class PlantConfig:
     def electrical(self):
         """:class:`simulate.components.electrical.generator.ElectricalConfig` of ``[generator]``, ``[excitation]``,
         ``[grid]`` (model "subtransient"; None for the swing model)."""
-        if self.generator.model != "subtransient":
-            return None
-        from simulate.components.electrical.generator import ElectricalConfig
-
-        return ElectricalConfig(generator=self.generator.subtransient, excitation=self.excitation, grid=self.grid)
+        return self.generator.electrical(self.excitation, self.grid)
 
     def rotor_self_regulation(self, load_pu: float) -> float:
-        """e_g of the rotor's load (per unit of rated torque per unit speed) at a load of ``load_pu`` (rated torque
-        units), for the linear models: ``generator.self_regulation`` with the swing model; with the sub-transient
-        generator on an island ``grid.frequency_p * load_pu`` (the air-gap power P0 (1 + frequency_p x) with the
-        voltage held at its set point by the excitation, which settles much faster than the rotor). On an infinite
-        bus the rotor sees a synchronizing torque, which the linear models do not have: :class:`InputError`."""
-        if self.generator.model != "subtransient":
-            return self.generator.self_regulation
-        if self.grid.kind != "island":
-            raise InputError(f"grid.kind = {self.grid.kind!r}: the linear turbine models have no synchronizing torque; "
-                             f"linearize with grid.kind = 'island' or generator.model = 'swing'")
-        return self.grid.island_frequency_p * float(load_pu)
+        """e_g of the rotor's load at a load of ``load_pu`` for the linear models
+        (:meth:`simulate.components.shaft.generator_config.GeneratorConfig.rotor_self_regulation`)."""
+        return self.generator.rotor_self_regulation(self.grid, load_pu)
 
     def with_overrides(self, overrides: dict[str, Any]) -> "PlantConfig":
         """A copy with ``{"section.key": value}`` replaced, validated like the file (see :func:`plant_from_dict`).
@@ -221,7 +167,6 @@ SECTIONS = {
     "units": UnitConfig, "blade_servo": "simulate.components.control.blade_servo:BladeServoConfig",
     "combinator": "simulate.components.control.blade_servo:CombinatorConfig", "draft_tube": DraftTubeConfig,
 }
-_SECTIONS = SECTIONS
 #: Sections a plant file must have.
 REQUIRED_SECTIONS = ("turbine", "penstock", "generator", "governor", "scenario")
 #: Keys whose change rebuilds more than their own field: the scenario kind drops the keys the new kind does not use.
@@ -230,12 +175,7 @@ _REBUILT_KEYS = {("scenario", "kind")}
 
 def _section_class(name: str):
     cls = SECTIONS[name]
-    if isinstance(cls, str):
-        import importlib
-
-        module, attr = cls.split(":")
-        cls = getattr(importlib.import_module(module), attr)
-    return cls
+    return getattr(importlib.import_module(cls.split(":")[0]), cls.split(":")[1]) if isinstance(cls, str) else cls
 
 
 #: Sections of a guarantee study's plant file, which :mod:`simulate.studies.cases` reads; :func:`load_plant` skips
@@ -405,7 +345,7 @@ def load_plant(path: str | Path, overrides: dict[str, Any] | None = None, *,
                skipped: list[str] | None = None) -> PlantConfig:
     """Read a plant TOML file (strict keys), apply ``{"section.key": value}`` overrides, validate.
 
-    A guarantee study's sections (``[limits]``, ``[[load_cases]]``: :data:`STUDYSECTIONS`) are not part of the plant:
+    A guarantee study's sections (``[limits]``, ``[[load_cases]]``: :data:`STUDY_SECTIONS`) are not part of the plant:
     they are skipped unread (:func:`simulate.studies.cases.load_study` reads and validates them), and their names
     appended to ``skipped`` when given, so a command can say so.
 

@@ -29,6 +29,7 @@ hillchart.errors.InputError: valve.closing_time_s must be in (0.0, 1000.0], got 
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from dataclasses import MISSING, dataclass
 from pathlib import Path
@@ -46,10 +47,10 @@ KINDS = ("number", "integer", "boolean", "text", "array", "table")
 @dataclass(frozen=True)
 class Parameter:
     """What a key means and what it may be: ``unit`` (``"s"``, ``"stroke fraction"``, ``"1"`` for a pure number),
-    ``description`` (one line for the reference page), a number's bounds ``low``/``high`` (``None``: unbounded;
-    ``low_open``/``high_open``: the bound itself is refused), or a string's ``choices`` (a tuple, or a registry of
-    components, :class:`simulate.components.registry.Registry`: its names at the time of the check, so a component
-    registered later is accepted).
+    ``description`` (one line for the reference page), a number's bounds ``low``/``high`` (``None``: unbounded; a
+    string: the value of that other key of the section; ``low_open``/``high_open``: the bound itself is refused), or
+    a string's ``choices`` (a tuple, or a registry of components, :class:`simulate.components.registry.Registry`:
+    its names at the time of the check, so a component registered later is accepted).
 
     ``kind``: what the value is, one of :data:`KINDS`: ``"number"`` (a real number, the default), ``"integer"``
     (an integer between the bounds, both given), ``"boolean"`` (true or false), ``"text"`` (a non-empty string, such
@@ -87,6 +88,12 @@ class Parameter:
         if self.options():
             return "one of " + ", ".join(self.options())
         if self.kind == "number":
+            if isinstance(self.low, str) or isinstance(self.high, str):  # a bound named by another key
+                low = "-inf" if self.low is None else self.low if isinstance(self.low, str) else repr(float(self.low))
+                high = "inf" if self.high is None else self.high if isinstance(self.high, str) else repr(
+                    float(self.high))
+                return (f"in {'(' if self.low_open or self.low is None else '['}{low}, {high}"
+                        f"{')' if self.high_open or self.high is None else ']'}")
             return "in " + interval(self.low, self.high, low_open=self.low_open, high_open=self.high_open)
         if self.what:
             return self.what
@@ -114,6 +121,19 @@ class Parameter:
                 raise
             raise InputError(f"{exc} {self.hint}") from None
 
+    def resolved(self, config) -> "Parameter":
+        """This declaration with each bound named by another key of the section (``high="t_end_s"``) replaced by
+        that key's value in ``config`` (``None``, no bound, where the value is not a finite number: that key's own
+        check reports it)."""
+        def value(bound):
+            if not isinstance(bound, str):
+                return bound
+            number = getattr(config, bound, None)
+            ok = isinstance(number, (int, float)) and not isinstance(number, bool) and math.isfinite(number)
+            return float(number) if ok else None
+
+        return dataclasses.replace(self, low=value(self.low), high=value(self.high))
+
     def violations(self) -> list[Any]:
         """Values just outside each finite bound (the bound itself when it is open), and a wrong type: the bad
         inputs the generated tests feed."""
@@ -124,9 +144,9 @@ class Parameter:
         if self.kind != "number":
             return {"boolean": ["yes", 1], "text": ["", 1.0], "array": [[], 1.0], "table": [1.0, True]}[self.kind]
         out = []
-        if self.low is not None:
+        if self.low is not None and not isinstance(self.low, str):
             out.append(self.low if self.low_open else self.low - max(1.0, abs(self.low)) * 1e-3)
-        if self.high is not None:
+        if self.high is not None and not isinstance(self.high, str):
             out.append(self.high if self.high_open else self.high + max(1.0, abs(self.high)) * 1e-3)
         return out + ["1.0", True]
 
@@ -179,7 +199,7 @@ def validate_parameters(section: str, config) -> None:
         value = getattr(config, declared.name)
         if value is None and declared.default is None:
             continue
-        declared.parameter.check(f"{section}.{declared.name}", value)
+        declared.parameter.resolved(config).check(f"{section}.{declared.name}", value)
 
 
 def read_section(section: str, cls, raw: Any, *, ignore: tuple[str, ...] = ()):

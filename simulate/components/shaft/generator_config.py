@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from hillchart.errors import InputError
-from simulate.components.electrical.generator import SubtransientGeneratorConfig
+from simulate.components.electrical.generator import ElectricalConfig, SubtransientGeneratorConfig
 from simulate.components.parameters import borrowed, declarations, parameter, validate_parameters
 from simulate.components.registry import SHAFTS
 
@@ -71,6 +71,36 @@ class GeneratorConfig:
             raise InputError(f"generator.model = {self.model!r} has no sub-transient machine")
         return SubtransientGeneratorConfig(**{k: getattr(self, k) for k in SUBTRANSIENT_KEYS
                                               if getattr(self, k) is not None})
+
+
+    def electrical(self, excitation, grid) -> ElectricalConfig | None:
+        """:class:`simulate.components.electrical.generator.ElectricalConfig` of this section, ``[excitation]`` and
+        ``[grid]`` (model "subtransient", which needs both sections; None for the swing model, which takes
+        neither)."""
+        given = [name for name, section in (("excitation", excitation), ("grid", grid)) if section is not None]
+        if self.model != "subtransient":
+            if given:
+                raise InputError(f"section [{given[0]}] is used only by generator.model = \"subtransient\" (got "
+                                 f"generator.model = {self.model!r})")
+            return None
+        for name in ("excitation", "grid"):
+            if name not in given:
+                raise InputError(f"missing section [{name}]: generator.model = \"subtransient\" needs [excitation] "
+                                 f"and [grid]")
+        return ElectricalConfig(generator=self.subtransient, excitation=excitation, grid=grid)
+
+    def rotor_self_regulation(self, grid, load_pu: float) -> float:
+        """e_g of the rotor's load (per unit of rated torque per unit speed) at a load of ``load_pu`` (rated torque
+        units), for the linear models: ``self_regulation`` with the swing model; with the sub-transient generator on
+        an island ``grid.frequency_p * load_pu`` (the air-gap power P0 (1 + frequency_p x) with the voltage held at
+        its set point by the excitation, which settles much faster than the rotor). On an infinite bus the rotor
+        sees a synchronizing torque, which the linear models do not have: :class:`InputError`."""
+        if self.model != "subtransient":
+            return self.self_regulation
+        if grid.kind != "island":
+            raise InputError(f"grid.kind = {grid.kind!r}: the linear turbine models have no synchronizing torque; "
+                             f"linearize with grid.kind = 'island' or generator.model = 'swing'")
+        return grid.island_frequency_p * float(load_pu)
 
 
 __all__ = ["SUBTRANSIENT_KEYS", "GeneratorConfig"]

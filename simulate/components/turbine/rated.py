@@ -64,4 +64,24 @@ class TurbineConfig:
         return self.rated_power_mw * 1e6 / (self.rated_speed_rpm * RPM_TO_RAD_S)
 
 
-__all__ = ["TurbineConfig"]
+#: ``combinator.head_m`` may lie from this[0] x ``turbine.rated_head_m`` to this[1] x ``penstock.static_head_m``.
+COMBINATOR_HEAD_RANGE = (0.25, 1.5)
+
+
+def check_combinator_head(combinator, turbine: TurbineConfig, penstock) -> None:
+    """``combinator.head_m`` (when the plant has a combinator that sets it) within the plant's heads: from a quarter
+    of the rated head (a low-head unit at flood) to 1.5 x the static head (the gross head, which the net head stays
+    below)."""
+    head = getattr(combinator, "head_m", None)
+    if head is None:
+        return
+    low, high = COMBINATOR_HEAD_RANGE[0] * turbine.rated_head_m, COMBINATOR_HEAD_RANGE[1] * penstock.static_head_m
+    if not low <= head <= high:
+        raise InputError(f"combinator.head_m = {head!r} m is outside this plant's heads (turbine.rated_head_m = "
+                         f"{turbine.rated_head_m!r} m, penstock.static_head_m = {penstock.static_head_m!r} m); "
+                         f"allowed [{low:.4g}, {high:.4g}] m ({COMBINATOR_HEAD_RANGE[0]:g} x the rated head "
+                         f"to {COMBINATOR_HEAD_RANGE[1]:g} x the static head): give the net head in m of this "
+                         f"plant, or leave head_m out (the net head of the initial steady state)")
+
+
+__all__ = ["COMBINATOR_HEAD_RANGE", "TurbineConfig", "check_combinator_head"]
