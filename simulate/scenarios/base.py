@@ -102,7 +102,7 @@ class ScenarioConfig:
     def __post_init__(self):
         event = self.event_time_s
         if (isinstance(event, (int, float)) and not isinstance(event, bool) and math.isfinite(event)
-                and isinstance(self.t_end_s, (int, float)) and 0.0 < self.t_end_s <= event):  # which bound, and why
+                and type(self.t_end_s) in (int, float) and 0.0 < self.t_end_s <= event):  # which bound, and why
             raise InputError(f"scenario.event_time_s = {float(event)!r} s is not before scenario.t_end_s = "
                              f"{float(self.t_end_s)!r} s: the run would end before its event; set scenario.t_end_s "
                              f"beyond the event (e.g. {event + max(10.0, event):g}) or an earlier event_time_s")

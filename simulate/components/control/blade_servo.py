@@ -23,7 +23,6 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_number
 from simulate.components.control.governor import build_governor, build_prescribed, governor_control_step
 from simulate.components.control.servo import servo_step
 from simulate.components.parameters import parameter, validate_parameters
@@ -54,7 +53,7 @@ class BladeServoConfig:
     angle_max_deg: float = parameter(unit="deg", low=-90.0, high=90.0, description="blade angle at full stroke")
     mode: str = parameter("combinator", unit="", choices=BLADE_MODES, description="what the blades follow")
     law_start_s: float = parameter(0.0, unit="s", low=0.0, high=1e6, description="start of the blade law (mode law)")
-    law_target_deg: float | None = parameter(None, unit="deg", low=-90.0, high=90.0,
+    law_target_deg: float | None = parameter(None, unit="deg", low="angle_min_deg", high="angle_max_deg",
                                              description="the blade law's angle (mode law; default angle_min_deg)")
 
     def __post_init__(self):
@@ -62,9 +61,6 @@ class BladeServoConfig:
         if not self.angle_max_deg > self.angle_min_deg:
             raise InputError(f"blade_servo.angle_max_deg must be > blade_servo.angle_min_deg = "
                              f"{self.angle_min_deg!r}, got {self.angle_max_deg!r}")
-        if self.law_target_deg is not None:
-            check_number("blade_servo.law_target_deg", self.law_target_deg, low=self.angle_min_deg,
-                         high=self.angle_max_deg)
         law_keys = (("law_start_s", 0.0), ("law_target_deg", None))  # with their defaults
         given = [f"blade_servo.{key} = {getattr(self, key)!r}" for key, default in law_keys
                  if getattr(self, key) != default]
