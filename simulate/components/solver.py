@@ -73,6 +73,10 @@ class SolverConfig:
                              f"epsilons), the round-off floor of the head residual as a fraction of the rated head: "
                              f"no step can be solved closer, so the loop would use the floor; set solver.tolerance in "
                              f"[{TOLERANCE_FLOOR:.4g}, 0.01] (default 1e-10)")
+        if self.pressure_loop == "newton" and self.relaxation != 1.0:
+            raise InputError(f"solver.relaxation = {self.relaxation!r} is used by the improved and traditional "
+                             f"loops; with solver.pressure_loop = \"newton\" it would be ignored: remove the key or "
+                             f"choose another loop")
 
     def time_step_s(self, moc_dt_s: float, grid_fixes_time_step: bool, reaches: int) -> float:
         """The simulation step, s, from the MOC step ``moc_dt_s`` (shortest travel time / ``reaches``): ``dt_s``

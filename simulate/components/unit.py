@@ -98,6 +98,9 @@ def check_units(plant) -> None:
         raise InputError(f"penstock.model = {plant.penstock.model!r}: a plant with [[units]] computes the common "
                          f"conduit and the branches by the method of characteristics; set penstock.model = "
                          f"\"moc\"")
+    for key in plant.penstock.unread_keys():  # no linear reference of a plant of several units reads it either
+        raise InputError(f"penstock.{key} = {getattr(plant.penstock, key)!r}: a plant with [[units]] computes its "
+                         f"conduit by the method of characteristics, which does not read it; remove the key")
     if plant.generator.model != "swing":
         raise InputError(f"generator.model = {plant.generator.model!r}: a plant with [[units]] takes "
                          f"generator.model = \"swing\"")

@@ -103,6 +103,10 @@ class CombinatorConfig:
         validate_parameters("combinator", self)
         if self.relation == "off" and self.fixed_angle_deg is None:
             raise InputError("combinator.relation = \"off\" (blades fixed) needs combinator.fixed_angle_deg (deg)")
+        if self.relation != "off" and self.fixed_angle_deg is not None:
+            raise InputError(f"combinator.fixed_angle_deg = {self.fixed_angle_deg!r} goes with relation = \"off\" "
+                             f"(blades fixed); with relation = {self.relation!r} the blades follow the combinator and "
+                             f"it would be ignored: set relation = \"off\" or remove the key")
         table = (self.table_openings, self.table_heads_m, self.table_angles_deg)
         if self.relation == "table":
             if any(v is None for v in table):

@@ -20,6 +20,11 @@ from simulate.components.registry import PENSTOCKS
 WAVE_SPEED_MIN_M_S = 20.0
 #: The largest ``penstock.reaches``.
 MAX_REACHES = 10000
+#: ``[penstock]`` keys that one model's run reads (its registry traits' ``reads``); ``lumped_alpha`` also sets the
+#: identification's linear reference of every elastic model (:mod:`simulate.identification.linear_reference`), so
+#: under another model it is kept and the run warns that it does not read it; ``zdomain_feedback`` is refused.
+MODEL_KEYS = ("lumped_alpha", "zdomain_feedback")
+KEYS_READ_OUTSIDE_THE_RUN = ("lumped_alpha",)
 
 
 @dataclass(frozen=True)
@@ -131,6 +136,24 @@ class PenstockConfig:
     def __post_init__(self):
         validate_parameters("penstock", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "penstock.segments"))
+        for key in self.unread_keys():
+            if key not in KEYS_READ_OUTSIDE_THE_RUN:
+                owners = [m for m in PENSTOCKS.names() if key in getattr(PENSTOCKS.traits(m), "reads", ())]
+                raise InputError(f"penstock.{key} = {getattr(self, key)!r} is read only by penstock.model = "
+                                 f"{' or '.join(owners)}; with model = {self.model!r} it would be ignored: set "
+                                 f"penstock.model or remove the key")
+
+    def unread_keys(self) -> tuple[str, ...]:
+        """The model keys (:data:`MODEL_KEYS`) set away from their default that this model's run does not read."""
+        default = {f.name: f.default for f in fields(self)}
+        changed = [k for k in MODEL_KEYS if getattr(self, k) != default[k]]
+        return tuple(k for k in changed if k not in PENSTOCKS.traits(self.model).reads) if changed else ()
+
+    def unread_key_warnings(self) -> list[str]:
+        """The run's warnings about keys set for another model that this one does not read."""
+        return [f"penstock.{key} = {getattr(self, key)!r} has no effect on this run: penstock.model = "
+                f"{self.model!r} does not read it (it sets the lumped model and the identification's linear "
+                f"reference)" for key in self.unread_keys()]
 
     @property
     def length_m(self) -> float:
@@ -162,4 +185,5 @@ class PenstockConfig:
         return min(s.travel_time_s for s in self.segments) / self.reaches
 
 
-__all__ = ["WAVE_SPEED_MIN_M_S", "MAX_REACHES", "SEGMENT_KEYS", "PenstockSegment", "PenstockConfig", "read_segments"]
+__all__ = ["WAVE_SPEED_MIN_M_S", "MAX_REACHES", "MODEL_KEYS", "SEGMENT_KEYS", "PenstockSegment", "PenstockConfig",
+           "read_segments"]
