@@ -9,11 +9,10 @@
   Python version wraps help.
 * ``docs/reference/plant-file.md``: every section and key of a plant TOML file, from the frozen config dataclasses
   (:mod:`simulate.config`, the scenario classes, the excitation and grid configs, the study sections of
-  :mod:`simulate.studies.cases`): type, required or default, and the allowed values as the validation itself states
-  them: a section whose keys are declared as data in the component's module (:mod:`simulate.components.parameters`;
-  the governor) shows its declarations (allowed values, unit, description), which its validation enforces; for the
-  others each numeric key of a shipped example plant is set to -1e300 and to 1e300 and the ``must be ...`` part of
-  the error is quoted, so the range shown is the one enforced.
+  :mod:`simulate.studies.cases`): type, required or default, and each key's declaration in its component's module
+  (:mod:`simulate.components.parameters`: allowed values worded as the error message words them, unit,
+  description), which the section's validation enforces (``tests/simulate/components/test_parameters.py`` violates
+  every declared bound through the plant file).
 
 ``tests/test_docs.py`` fails when either page differs from this script's output.
 """
@@ -25,7 +24,6 @@ import dataclasses
 import inspect
 import re
 import sys
-import tomllib
 import typing
 from pathlib import Path
 
@@ -198,83 +196,22 @@ def _default_text(f: dataclasses.Field) -> str:
     return "**required**"
 
 
-def _example(name: str) -> dict:
-    return tomllib.loads((REPO / "data_synthetic" / name).read_text(encoding="utf-8"))
-
-
-def _allowed(raw: dict, path: tuple, type_name: str) -> str:
-    """The allowed values of a key as its validation states them (probed on an example plant)."""
-    from hillchart.errors import InputError
-    from simulate.config import plant_from_dict
-    from simulate.studies.cases import Limits
-
-    if type_name not in ("number", "integer"):
-        return ""
-    found = []
-    for probe in (-1e300, 1e300):
-        trial = _deep_copy(raw)
-        target = trial
-        for part in path[:-1]:
-            target = target[part]
-        if isinstance(target, list):
-            target = target[0]
-        target[path[-1]] = probe if type_name == "number" else (-(10 ** 18) if probe < 0 else 10 ** 18)
-        try:
-            if path[0] == "limits":
-                Limits.from_dict(trial["limits"])
-            else:
-                plant_from_dict(trial, base_dir=REPO / "data_synthetic")
-        except InputError as exc:
-            match = re.search(r"must be (.*?)(?:, got |$)", str(exc))
-            if match and match.group(1) not in found:
-                found.append(match.group(1))
-    return "; ".join(found)
-
-
-def _deep_copy(value):
-    if isinstance(value, dict):
-        return {k: _deep_copy(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_deep_copy(v) for v in value]
-    return value
-
-
-def _section_table(cls, raw: dict | None, path: tuple[str, ...], skip=()) -> list[str]:
-    """The keys of a section; a class whose keys are declared (:mod:`simulate.components.parameters`) gets its
-    allowed values, units and descriptions from the declarations, the others the probed ranges."""
+def _section_table(cls, skip=()) -> list[str]:
+    """The keys of a section from their declarations (:mod:`simulate.components.parameters`), which its validation
+    enforces: type, default, allowed values, unit and description."""
     from simulate.components.parameters import declarations
 
-    hints = typing.get_type_hints(cls) if not isinstance(cls, str) else {}
+    hints = typing.get_type_hints(cls)
     declared = {d.name: d.parameter for d in declarations(cls)}
-    rows = ["| key | type | default | allowed (as checked) |", "|---|---|---|---|"]
-    if declared:
-        rows = ["| key | type | default | allowed | unit | description |", "|---|---|---|---|---|---|"]
+    rows = ["| key | type | default | allowed | unit | description |", "|---|---|---|---|---|---|"]
     for f in dataclasses.fields(cls):
         if f.name in skip:
             continue
-        type_name = _type_name(hints.get(f.name, f.type))
-        allowed = ""
-        if f.name in declared:
-            allowed = declared[f.name].allowed()
-        elif raw is not None and _has(raw, path) and type_name in ("number", "integer"):
-            allowed = _allowed(raw, path + (f.name,), type_name)
-        row = f"| `{f.name}` | {type_name} | {_default_text(f)} | {_cell(allowed)} |"
-        if declared:
-            spec = declared.get(f.name)
-            row += f" {_cell(spec.unit) if spec else ''} | {_cell(spec.description) if spec else ''} |"
-        rows.append(row)
+        spec = declared.get(f.name)  # every shipped key is declared (tests/simulate/components/test_parameters.py)
+        cells = (spec.allowed(), spec.unit, spec.description) if spec else ("", "", "")
+        rows.append(f"| `{f.name}` | {_type_name(hints.get(f.name, f.type))} | {_default_text(f)} | "
+                    + " | ".join(_cell(c) for c in cells) + " |")
     return rows
-
-
-def _has(raw: dict, path: tuple) -> bool:
-    target = raw
-    for part in path:
-        if isinstance(target, list):
-            target = target[0]
-        if not isinstance(target, dict) or part not in target:
-            return False
-        target = target[part]
-    return True
 
 
 def plant_file_page() -> str:
@@ -286,39 +223,35 @@ def plant_file_page() -> str:
     from simulate.scenarios import SCENARIO_CLASSES
     from simulate.studies.cases import Limits
 
-    base = _example("plant_hla339.toml")
-    grid = _example("plant_hla339_grid.toml")
-    surge = _example("plant_hla339_surge_tank.toml")
     lines = [HEADER, "# Plant file reference", "",
              "A plant file is TOML; units are in the key names. Generated from the configuration classes",
              "(`simulate.config` and the classes it names): an unknown key, a missing required key or a value",
              "outside the allowed range stops every command with exit code 2 and a message naming `section.key`,",
-             "the value and what is allowed. The *allowed* column quotes those messages (a blank cell: the key is",
-             "checked against other keys, as the section's text says). Keys marked optional may be left out.",
+             "the value and what is allowed. The tables are the keys' declarations, which the validation enforces",
+             "(a bound named by another key is that key's value; checks between keys are in each section's text).",
+             "Keys marked optional may be left out.",
              "Shipped examples: `data_synthetic/plant_hla339.toml` (the reference unit),",
              "`plant_hla339_grid.toml` (sub-transient generator, excitation and grid), `plant_hla339_surge_tank.toml`",
              "(surge tank), `plant_hla339_guarantee.toml` (limits and load cases), `plant_two_units.toml` (two",
              "units on one penstock that divides at a manifold) and `plant_bulb.toml` (a double-regulated bulb unit",
              "with a draft tube).", ""]
 
-    def section(title: str, cls, raw, path, skip=(), note: str = "") -> None:
+    def section(title: str, cls, skip=(), note: str = "") -> None:
         lines.extend([f"## `{title}`", "", _paragraphs(cls.__doc__)])
         if note:
             lines.extend([note, ""])
-        lines.extend(_section_table(cls, raw, path, skip))
+        lines.extend(_section_table(cls, skip))
         lines.append("")
 
-    section("[turbine]", config.TurbineConfig, base, ("turbine",))
-    stepped = _deep_copy(base)
-    stepped["turbine"]["step_up"] = {"method": "iec60193"}
-    section("[turbine.step_up]", StepUpConfig, stepped, ("turbine", "step_up"),
+    section("[turbine]", config.TurbineConfig)
+    section("[turbine.step_up]", StepUpConfig,
             note='`method` is one of: ' + ", ".join(f"`{m}`" for m in STEP_UP_METHODS) + ". On the command line: "
                  "`--set turbine.step_up=iec60193` (every default) or `--set 'turbine.step_up={model_head_m = 20}'`.")
-    section("[penstock]", config.PenstockConfig, base, ("penstock",), skip=("segments",),
+    section("[penstock]", config.PenstockConfig, skip=("segments",),
             note="`model` is one of: " + ", ".join(f"`{m}`" for m in config.PENSTOCK_MODELS) + ".")
-    section("[[penstock.segments]]", config.PenstockSegment, base, ("penstock", "segments"))
-    section("[generator]", config.GeneratorConfig, grid, ("generator",))
-    section("[governor]", config.GovernorConfig, base, ("governor",))
+    section("[[penstock.segments]]", config.PenstockSegment)
+    section("[generator]", config.GeneratorConfig)
+    section("[governor]", config.GovernorConfig)
     lines.extend(["## `[scenario]`", "", _paragraphs(config.ScenarioConfig.__doc__)])
     lines.extend(["Keys of each kind (besides `kind` and `t_end_s`); any other scenario key is an error:", "",
                   "| kind | keys | what happens |", "|---|---|---|"])
@@ -329,34 +262,30 @@ def plant_file_page() -> str:
         keys = ", ".join(f"`{k}`" for k in config.SCENARIO_KEYS[kind])
         lines.append(f"| `{kind}` | {keys} | {_cell(_rst_to_md(summary))} |")
     lines.append("")
-    t_end = f"{float(base['scenario']['t_end_s'])!r}"
-    lines.extend(row.replace(t_end, "t_end_s") for row in _section_table(config.ScenarioConfig, base, ("scenario",)))
+    lines.extend(_section_table(config.ScenarioConfig))
     lines.append("")
-    section("[solver]", config.SolverConfig, base, ("solver",),
+    section("[solver]", config.SolverConfig,
             note="`pressure_loop` is one of: " + ", ".join(f"`{m}`" for m in config.PRESSURE_LOOPS) + ".")
-    section("[surge_tank]", config.SurgeTankConfig, surge, ("surge_tank",))
-    bulb = _example("plant_bulb.toml")
+    section("[surge_tank]", config.SurgeTankConfig)
     from simulate.components.control.blade_servo import BladeServoConfig, CombinatorConfig
 
-    section("[combinator]", CombinatorConfig, bulb, ("combinator",),
+    section("[combinator]", CombinatorConfig,
             note="With three-input characteristics (a double-regulated unit; see "
                  "[Double-regulated units](../double-regulated.md)).")
-    section("[blade_servo]", BladeServoConfig, bulb, ("blade_servo",),
+    section("[blade_servo]", BladeServoConfig,
             note="With `combinator.relation` `cam`, `model` or `table`.")
-    section("[draft_tube]", config.DraftTubeConfig, bulb, ("draft_tube",), skip=("segments",),
+    section("[draft_tube]", config.DraftTubeConfig, skip=("segments",),
             note="`[[draft_tube.segments]]` take the keys of `[[penstock.segments]]` (without the elevations), "
                  "runner outlet first.")
-    section("[excitation]", ExcitationConfig, grid, ("excitation",),
+    section("[excitation]", ExcitationConfig,
             note='With `generator.model = "subtransient"` only.')
-    section("[grid]", GridConfig, grid, ("grid",), note='With `generator.model = "subtransient"` only.')
-    units = _example("plant_two_units.toml")
-    section("[[units]]", config.UnitConfig, units, ("units",), skip=("branch",) + config.UNIT_OVERRIDE_SECTIONS,
+    section("[grid]", GridConfig, note='With `generator.model = "subtransient"` only.')
+    section("[[units]]", config.UnitConfig, skip=("branch",) + config.UNIT_OVERRIDE_SECTIONS,
             note="Each unit's branch pipe is `[[units.branch]]`, an array of tables with the keys of "
                  "`[[penstock.segments]]`; `[units.turbine]`, `[units.generator]` and `[units.governor]` take the keys "
                  "of `[turbine]`, `[generator]` and `[governor]` (any subset). A plant with `[[units]]` is described "
                  "in [Several units on one waterway](../multi-unit.md).")
-    guarantee = _example("plant_hla339_guarantee.toml")
-    section("[limits]", Limits, guarantee, ("limits",),
+    section("[limits]", Limits,
             note="Read by `hillsim optimize-closure` and `hillsim report` "
                  "(see [Design studies](../design-studies.md)); the other commands read the same file and ignore "
                  "`[limits]` and `[[load_cases]]`, with one note on stderr.")

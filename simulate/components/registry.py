@@ -197,12 +197,17 @@ class ConduitTraits:
         The column is one lumped element, as the identification's linear model of the plant assumes.
     computes_branches : bool
         It computes a common conduit with branch pipes (a plant with ``[[units]]``).
+    reads : tuple of str
+        The ``[penstock]`` keys of one model that its run reads (``MODEL_KEYS`` of
+        :mod:`simulate.components.hydraulic.conduit` holds every model's): a key of another model is refused, or
+        where it has a use outside the run, warned about by the run.
     """
 
     grid_fixes_time_step: bool
     carries_waves: bool
     lumped_column: bool
     computes_branches: bool
+    reads: tuple[str, ...] = ()
 
 
 PENSTOCKS = Registry("penstock", "penstock.model", {
@@ -213,8 +218,10 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
 }, traits={
     "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True),
     "zdomain": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=False,
+                             reads=("zdomain_feedback",),
                              computes_branches=False),
     "lumped": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=True,
+                            reads=("lumped_alpha",),
                             computes_branches=False),
     "rigid": ConduitTraits(grid_fixes_time_step=False, carries_waves=False, lumped_column=True,
                            computes_branches=False),

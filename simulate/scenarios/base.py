@@ -10,7 +10,8 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_choice, check_float_list, check_number
+from hillchart.validation import check_choice, check_float_list
+from simulate.components.parameters import parameter, validate_parameters
 from simulate.components.schedules import GOVERNOR, PRESCRIBED  # noqa: F401  (the control modes, re-exported)
 
 
@@ -28,6 +29,9 @@ SCENARIO_KEYS = {
     "short-circuit": ("event_time_s",),
     "field-step": ("event_time_s", "field_step_pu"),
 }
+
+#: What a list key of the scenario takes.
+_NUMBERS = "a list of numbers (non-empty)"
 
 #: The scenario registry: TOML ``scenario.kind`` -> its config dataclass; each kind's class registers itself when it is
 #: defined (:mod:`simulate.scenarios` imports every kind).
@@ -52,20 +56,33 @@ class ScenarioConfig:
     event applies to (default: all); the others stay on the grid under their governors at constant load.
     """
 
-    kind: str
-    t_end_s: float
-    initial_power_mw: float | None = None
-    initial_opening: float | None = None
-    event_time_s: float = 1.0
-    closing_time_s: float | None = None
-    break_opening: float | None = None
-    break_time_s: float | None = None
-    load_step: float = 0.1
-    speed_steps: tuple[float, ...] | None = None
-    opening_steps: tuple[float, ...] | None = None
-    step_times_s: tuple[float, ...] | None = None
-    field_step_pu: float = 0.1
-    units: tuple[str, ...] | None = None
+    kind: str = parameter(unit="", choices=SCENARIO_KINDS, description="what happens")
+    t_end_s: float = parameter(unit="s", low=0.0, low_open=True, high=1e5, description="end of the run")
+    initial_power_mw: float | None = parameter(None, unit="MW", low=0.0, high=3000.0,
+                                               description="initial power (at most 1.5 x turbine.rated_power_mw)")
+    initial_opening: float | None = parameter(None, unit="stroke fraction", low=0.0, high=1.5,
+                                              description="initial stroke (within the governor's stroke limits)")
+    event_time_s: float = parameter(1.0, unit="s", low=0.0, high="t_end_s", high_open=True,
+                                    description="time of the event")
+    closing_time_s: float | None = parameter(None, unit="s", low=0.0, high=1000.0,
+                                             description="closure-law: time of a full stroke at the first rate")
+    break_opening: float | None = parameter(None, unit="stroke fraction", low=0.0, low_open=True, high=1.0,
+                                            description="closure-law: stroke below which the second rate holds")
+    break_time_s: float | None = parameter(None, unit="s", low=0.0, low_open=True, high=1000.0,
+                                           description="closure-law: time of a full stroke at the second rate")
+    load_step: float = parameter(0.1, unit="fraction of the initial load", low=-1.0, high=1.0,
+                                 description="load-step: the step of the load")
+    speed_steps: tuple[float, ...] | None = parameter(None, what=_NUMBERS, unit="pu speed", kind="array",
+                                                      description="frequency-steps: the speed-reference steps")
+    opening_steps: tuple[float, ...] | None = parameter(None, what=_NUMBERS, unit="stroke fraction", kind="array",
+                                                        description="opening-steps: the stroke steps")
+    step_times_s: tuple[float, ...] | None = parameter(None, what=_NUMBERS, unit="s", kind="array",
+                                                       description="the times of the steps, non-decreasing")
+    field_step_pu: float = parameter(0.1, unit="pu", low=-1.0, high=1.0,
+                                     description="field-step: the field-voltage step")
+    units: tuple[str, ...] | None = parameter(None, unit="", kind="array",
+                                              what="a non-empty list of unit names (the [[units]] names)",
+                                              description="the units the event applies to (default: all)")
 
     #: keys of this kind beyond ``kind`` and ``t_end_s`` (set by each kind's class)
     KEYS: ClassVar[tuple[str, ...]] = ()
@@ -83,10 +100,15 @@ class ScenarioConfig:
         return super().__new__(cls)
 
     def __post_init__(self):
-        check_choice("scenario.kind", self.kind, SCENARIO_KINDS)
+        event = self.event_time_s
+        if (isinstance(event, (int, float)) and not isinstance(event, bool) and math.isfinite(event)
+                and type(self.t_end_s) in (int, float) and 0.0 < self.t_end_s <= event):  # which bound, and why
+            raise InputError(f"scenario.event_time_s = {float(event)!r} s is not before scenario.t_end_s = "
+                             f"{float(self.t_end_s)!r} s: the run would end before its event; set scenario.t_end_s "
+                             f"beyond the event (e.g. {event + max(10.0, event):g}) or an earlier event_time_s")
+        validate_parameters("scenario", self)
         if SCENARIO_KEYS.get(self.kind) != self.KEYS:
             raise InputError(f"scenario.kind = {self.kind!r} does not match the scenario class {type(self).__name__}")
-        check_number("scenario.t_end_s", self.t_end_s, low=0.0, high=1e5, low_open=True)
         allowed = set(self.KEYS)
         for f in fields(self):
             if f.name in ("kind", "t_end_s", "units") or f.name in allowed:
@@ -95,28 +117,16 @@ class ScenarioConfig:
                 raise InputError(f"scenario.{f.name} is not used by scenario.kind = {self.kind!r}; "
                                  f"allowed keys: kind, t_end_s, {', '.join(self.KEYS)}")
         if self.units is not None:
-            if (not isinstance(self.units, tuple) or not self.units
-                    or not all(isinstance(u, str) and u for u in self.units)):
+            if not all(isinstance(u, str) and u for u in self.units):
                 raise InputError(f"scenario.units must be a non-empty list of unit names (the [[units]] names), "
                                  f"got {self.units!r}")
             if len(set(self.units)) != len(self.units):
                 raise InputError(f"scenario.units names a unit twice: {list(self.units)!r}")
-        event = self.event_time_s
-        if (isinstance(event, (int, float)) and not isinstance(event, bool) and math.isfinite(event)
-                and event >= self.t_end_s):  # the bound is the other key: say so
-            raise InputError(f"scenario.event_time_s = {float(event)!r} s is not before scenario.t_end_s = "
-                             f"{float(self.t_end_s)!r} s: the run would end before its event; set scenario.t_end_s "
-                             f"beyond the event (e.g. {event + max(10.0, event):g}) or an earlier event_time_s")
-        check_number("scenario.event_time_s", self.event_time_s, low=0.0, high=self.t_end_s, high_open=True)
         if "initial_power_mw" in allowed:
             if (self.initial_power_mw is None) == (self.initial_opening is None):
                 raise InputError(f"scenario kind {self.kind!r} needs exactly one of scenario.initial_power_mw or "
                                  f"scenario.initial_opening; got {self.initial_power_mw!r} and "
                                  f"{self.initial_opening!r}")
-            if self.initial_power_mw is not None:
-                check_number("scenario.initial_power_mw", self.initial_power_mw, low=0.0, high=3000.0)
-            if self.initial_opening is not None:
-                check_number("scenario.initial_opening", self.initial_opening, low=0.0, high=1.5)
         self.validate()
 
     def validate(self) -> None:

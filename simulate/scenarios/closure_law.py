@@ -9,7 +9,6 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_number
 from simulate.components.control.governor import closure_law
 from simulate.scenarios.base import ScenarioConfig, PRESCRIBED, Schedules, steady_schedules
 
@@ -24,13 +23,9 @@ class ClosureLaw(ScenarioConfig):
         if self.closing_time_s is None:
             raise InputError("scenario.closing_time_s is required for kind 'closure-law' (s, >= 0; "
                              "0 closes in one step)")
-        check_number("scenario.closing_time_s", self.closing_time_s, low=0.0, high=1000.0)
         if (self.break_opening is None) != (self.break_time_s is None):
             raise InputError("scenario.break_opening and scenario.break_time_s go together; got "
                              f"{self.break_opening!r} and {self.break_time_s!r}")
-        if self.break_opening is not None:
-            check_number("scenario.break_opening", self.break_opening, low=0.0, high=1.0, low_open=True)
-            check_number("scenario.break_time_s", self.break_time_s, low=0.0, high=1000.0, low_open=True)
 
     def schedules(self, plant, initial_stroke: float, initial_load_pu: float) -> Schedules:
         zero = np.array([0.0])

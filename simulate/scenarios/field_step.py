@@ -10,7 +10,6 @@ from typing import ClassVar
 
 import numpy as np
 
-from hillchart.validation import check_number
 from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 from simulate.scenarios.short_circuit import require_subtransient
 
@@ -19,9 +18,6 @@ from simulate.scenarios.short_circuit import require_subtransient
 class FieldStep(ScenarioConfig):
     KIND: ClassVar[str] = "field-step"
     KEYS: ClassVar[tuple[str, ...]] = ("event_time_s", "field_step_pu")
-
-    def validate(self) -> None:
-        check_number("scenario.field_step_pu", self.field_step_pu, low=-1.0, high=1.0)
 
     def initial_target(self) -> dict:
         return {"power_mw": 0.0}

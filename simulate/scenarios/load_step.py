@@ -9,7 +9,6 @@ from typing import ClassVar
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_number
 from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 
 
@@ -17,9 +16,6 @@ from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 class LoadStep(ScenarioConfig):
     KIND: ClassVar[str] = "load-step"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s", "load_step")
-
-    def validate(self) -> None:
-        check_number("scenario.load_step", self.load_step, low=-1.0, high=1.0)
 
     def check_plant(self, plant) -> None:
         grid = getattr(plant, "grid", None)

@@ -31,44 +31,32 @@ from pathlib import Path
 from typing import Any
 
 from hillchart.errors import InputError
+from simulate.components.parameters import parameter, read_section, validate_parameters
 from simulate.studies.batch import _EXCLUSIVE, CaseResult, check_key, check_value, variant_overrides
 from simulate.config import (STUDY_SECTIONS, PlantConfig, apply_overrides, plant_from_dict, read_plant_toml,
                              split_study_sections, to_dict)
-
-
-def _limit(key: str, value: Any, low: float, high: float) -> float | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or not (low < value <= high):
-        raise InputError(f"limits.{key} must be a number in ({low}, {high}], got {value!r}")
-    return float(value)
 
 
 @dataclass(frozen=True)
 class Limits:
     """Guarantee limits; None = not guaranteed. Fractions of the initial value, heads in m."""
 
-    max_speed_rise: float | None = None
-    max_head_rise: float | None = None
-    max_head_m: float | None = None
-    min_pressure_head_m: float | None = None
+    max_speed_rise: float | None = parameter(None, unit="fraction of the initial speed", low=0.0, low_open=True,
+                                             high=5.0, description="largest speed rise")
+    max_head_rise: float | None = parameter(None, unit="fraction of the initial head", low=0.0, low_open=True,
+                                            high=10.0, description="largest head rise at the turbine inlet")
+    max_head_m: float | None = parameter(None, unit="m", low=0.0, low_open=True, high=1e4,
+                                         description="largest head at the turbine inlet")
+    # -10.4 m: vacuum, water
+    min_pressure_head_m: float | None = parameter(None, unit="m", low=-10.4, low_open=True, high=1e4,
+                                                  description="smallest pressure head along the penstock")
 
     def __post_init__(self):
-        _limit("max_speed_rise", self.max_speed_rise, 0.0, 5.0)
-        _limit("max_head_rise", self.max_head_rise, 0.0, 10.0)
-        _limit("max_head_m", self.max_head_m, 0.0, 1e4)
-        _limit("min_pressure_head_m", self.min_pressure_head_m, -10.4, 1e4)  # -10.4 m: vacuum, water
+        validate_parameters("limits", self)
 
     @classmethod
     def from_dict(cls, raw: Any) -> "Limits":
-        if not isinstance(raw, dict):
-            raise InputError(f"[limits] must be a table of keys, got {raw!r}")
-        names = [f.name for f in fields(cls)]
-        unknown = sorted(set(raw) - set(names))
-        if unknown:
-            raise InputError(f"unknown key limits.{unknown[0]}; valid keys of [limits]: {', '.join(names)}")
-        return cls(**raw)
+        return read_section("limits", cls, raw)
 
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}

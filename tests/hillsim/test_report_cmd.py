@@ -266,7 +266,7 @@ def test_report_refuses_foreign_json(tmp_path, capsys):
     assert "is not a hillsim optimize-closure output" in capsys.readouterr().err
     plant = _plant(tmp_path, "[limits]\nmax_speed_rise = 9.0\n")
     assert main(["report", str(plant), "--out", str(tmp_path / "o")]) == 2
-    assert "limits.max_speed_rise must be a number in (0.0, 5.0], got 9.0" in capsys.readouterr().err
+    assert "limits.max_speed_rise must be in (0.0, 5.0], got 9.0" in capsys.readouterr().err
 
 
 def test_a_stepped_up_plant_reports_its_step_up(tmp_path):

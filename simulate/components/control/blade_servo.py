@@ -23,9 +23,9 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_choice, check_number
 from simulate.components.control.governor import build_governor, build_prescribed, governor_control_step
 from simulate.components.control.servo import servo_step
+from simulate.components.parameters import parameter, validate_parameters
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import GOVERNOR, piecewise_linear
 
@@ -43,29 +43,24 @@ class BladeServoConfig:
     convention); ``mode`` (module docstring), ``law_start_s`` and ``law_target_deg`` for ``mode = "law"``.
     """
 
-    servo_time_s: float
-    closing_time_s: float
-    opening_time_s: float
-    angle_min_deg: float
-    angle_max_deg: float
-    mode: str = "combinator"
-    law_start_s: float = 0.0
-    law_target_deg: float | None = None
+    servo_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=600.0,
+                                    description="time constant T_b of the blade servo")
+    closing_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=3600.0,
+                                      description="time of a full stroke towards the smaller angle")
+    opening_time_s: float = parameter(unit="s", low=0.0, low_open=True, high=3600.0,
+                                      description="time of a full stroke towards the larger angle")
+    angle_min_deg: float = parameter(unit="deg", low=-90.0, high=90.0, description="blade angle at zero stroke")
+    angle_max_deg: float = parameter(unit="deg", low=-90.0, high=90.0, description="blade angle at full stroke")
+    mode: str = parameter("combinator", unit="", choices=BLADE_MODES, description="what the blades follow")
+    law_start_s: float = parameter(0.0, unit="s", low=0.0, high=1e6, description="start of the blade law (mode law)")
+    law_target_deg: float | None = parameter(None, unit="deg", low="angle_min_deg", high="angle_max_deg",
+                                             description="the blade law's angle (mode law; default angle_min_deg)")
 
     def __post_init__(self):
-        check_number("blade_servo.servo_time_s", self.servo_time_s, low=0.0, high=600.0, low_open=True)
-        check_number("blade_servo.closing_time_s", self.closing_time_s, low=0.0, high=3600.0, low_open=True)
-        check_number("blade_servo.opening_time_s", self.opening_time_s, low=0.0, high=3600.0, low_open=True)
-        check_number("blade_servo.angle_min_deg", self.angle_min_deg, low=-90.0, high=90.0)
-        check_number("blade_servo.angle_max_deg", self.angle_max_deg, low=-90.0, high=90.0)
+        validate_parameters("blade_servo", self)
         if not self.angle_max_deg > self.angle_min_deg:
             raise InputError(f"blade_servo.angle_max_deg must be > blade_servo.angle_min_deg = "
                              f"{self.angle_min_deg!r}, got {self.angle_max_deg!r}")
-        check_choice("blade_servo.mode", self.mode, BLADE_MODES)
-        check_number("blade_servo.law_start_s", self.law_start_s, low=0.0, high=1e6)
-        if self.law_target_deg is not None:
-            check_number("blade_servo.law_target_deg", self.law_target_deg, low=self.angle_min_deg,
-                         high=self.angle_max_deg)
         law_keys = (("law_start_s", 0.0), ("law_target_deg", None))  # with their defaults
         given = [f"blade_servo.{key} = {getattr(self, key)!r}" for key, default in law_keys
                  if getattr(self, key) != default]
@@ -90,23 +85,28 @@ class CombinatorConfig:
     reads (m; default the net head of the initial steady state, held over the run).
     """
 
-    relation: str
-    opening_at_zero_stroke: float = 0.0
-    fixed_angle_deg: float | None = None
-    head_m: float | None = None
-    table_openings: tuple | None = None
-    table_heads_m: tuple | None = None
-    table_angles_deg: tuple | None = None
+    relation: str = parameter(unit="", choices=COMBINATOR_RELATIONS, description="what sets the blades")
+    opening_at_zero_stroke: float = parameter(0.0, unit="chart opening", low=-1e5, high=1e5,
+                                              description="the characteristics' opening at the closed vane")
+    fixed_angle_deg: float | None = parameter(None, unit="deg", low=-90.0, high=90.0,
+                                              description="the blades' angle with relation off")
+    head_m: float | None = parameter(None, unit="m", low=0.0, low_open=True, high=3000.0,
+                                     description="the head the combinator reads (default: the initial net head)")
+    table_openings: tuple | None = parameter(None, unit="chart opening", kind="array",
+                                             description="the cam's openings (relation table), increasing")
+    table_heads_m: tuple | None = parameter(None, unit="m", kind="array",
+                                            description="the cam's heads (relation table), increasing")
+    table_angles_deg: tuple | None = parameter(None, unit="deg", kind="array",
+                                               description="the cam's angles, one row per head (relation table)")
 
     def __post_init__(self):
-        check_choice("combinator.relation", self.relation, COMBINATOR_RELATIONS)
-        check_number("combinator.opening_at_zero_stroke", self.opening_at_zero_stroke, low=-1e5, high=1e5)
-        if self.fixed_angle_deg is not None:
-            check_number("combinator.fixed_angle_deg", self.fixed_angle_deg, low=-90.0, high=90.0)
+        validate_parameters("combinator", self)
         if self.relation == "off" and self.fixed_angle_deg is None:
             raise InputError("combinator.relation = \"off\" (blades fixed) needs combinator.fixed_angle_deg (deg)")
-        if self.head_m is not None:
-            check_number("combinator.head_m", self.head_m, low=0.0, high=3000.0, low_open=True)
+        if self.relation != "off" and self.fixed_angle_deg is not None:
+            raise InputError(f"combinator.fixed_angle_deg = {self.fixed_angle_deg!r} goes with relation = \"off\" "
+                             f"(blades fixed); with relation = {self.relation!r} the blades follow the combinator and "
+                             f"it would be ignored: set relation = \"off\" or remove the key")
         table = (self.table_openings, self.table_heads_m, self.table_angles_deg)
         if self.relation == "table":
             if any(v is None for v in table):

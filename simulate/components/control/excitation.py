@@ -29,6 +29,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.validation import check_number
+from simulate.components.parameters import parameter, validate_parameters
 
 #: Layout of the excitation parameter vector.
 EXC_PARAMS = ("kp", "ki", "filter_s", "field_min_pu", "field_max_pu", "voltage_setpoint_pu")
@@ -42,20 +43,15 @@ class ExcitationConfig:
     """``[excitation]``: ``kp`` (pu field per pu voltage), ``ki`` (1/s), ``filter_s`` T_f (s, 0 = none),
     ``field_min_pu`` < ``field_max_pu`` field-voltage limits, ``voltage_setpoint_pu`` V_set."""
 
-    kp: float
-    ki: float
-    filter_s: float
-    field_min_pu: float
-    field_max_pu: float
-    voltage_setpoint_pu: float
+    kp: float = parameter(unit="pu field/pu voltage", low=0.0, high=1000.0, description="proportional gain")
+    ki: float = parameter(unit="pu field/(pu voltage s)", low=0.0, high=1000.0, description="integral gain")
+    filter_s: float = parameter(unit="s", low=0.0, high=10.0, description="time constant T_f of the error filter")
+    field_min_pu: float = parameter(unit="pu", low=-20.0, high=20.0, description="lower field-voltage limit")
+    field_max_pu: float = parameter(unit="pu", low=-20.0, high=20.0, description="upper field-voltage limit")
+    voltage_setpoint_pu: float = parameter(unit="pu", low=0.5, high=1.5, description="terminal-voltage set point")
 
     def __post_init__(self):
-        check_number("excitation.kp", self.kp, low=0.0, high=1000.0)
-        check_number("excitation.ki", self.ki, low=0.0, high=1000.0)
-        check_number("excitation.filter_s", self.filter_s, low=0.0, high=10.0)
-        check_number("excitation.field_min_pu", self.field_min_pu, low=-20.0, high=20.0)
-        check_number("excitation.field_max_pu", self.field_max_pu, low=-20.0, high=20.0)
-        check_number("excitation.voltage_setpoint_pu", self.voltage_setpoint_pu, low=0.5, high=1.5)
+        validate_parameters("excitation", self)
         if self.kp == 0.0 and self.ki == 0.0:
             raise InputError("excitation.kp and excitation.ki are both 0: no voltage control (give kp > 0 or ki > 0)")
         if not self.field_min_pu < self.field_max_pu:

@@ -36,8 +36,7 @@ from __future__ import annotations
 
 import cmath
 import math
-import tomllib
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +45,7 @@ import numpy as np
 
 from hillchart.errors import InputError, NumericalError
 from hillchart.validation import check_number
+from simulate.components.parameters import parameter, read_section, read_toml, validate_parameters
 
 GRID_KINDS = ("island", "infinite-bus")
 LOAD_MODELS = ("impedance", "power")
@@ -79,27 +79,6 @@ ROTOR_KEYS = ("model", "inertia_time_s", "self_regulation")
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# validation
-# ----------------------------------------------------------------------------------------------------------------
-
-
-def build_section(section: str, cls, raw: Any, *, ignore: tuple[str, ...] = ()):
-    """An instance of the frozen dataclass ``cls`` from a TOML table (strict keys: unknown or missing keys raise
-    :class:`InputError` naming the key and the valid ones; keys in ``ignore`` belong to another component)."""
-    if not isinstance(raw, dict):
-        raise InputError(f"[{section}] must be a table of keys, got {raw!r}")
-    names = [f.name for f in fields(cls)]
-    unknown = sorted(set(raw) - set(names) - set(ignore))
-    if unknown:
-        raise InputError(f"unknown key {section}.{unknown[0]}; valid keys of [{section}]: {', '.join(names)}")
-    required = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING]
-    missing = [k for k in required if k not in raw]
-    if missing:
-        raise InputError(f"missing required key {section}.{missing[0]}; [{section}] needs {', '.join(required)}")
-    return cls(**{k: raw[k] for k in names if k in raw})
-
-
-# ----------------------------------------------------------------------------------------------------------------
 # configuration
 # ----------------------------------------------------------------------------------------------------------------
 
@@ -114,26 +93,25 @@ class SubtransientGeneratorConfig:
     Physical ordering is enforced: 0 < X''d < X'd < Xd, 0 < X''q < Xq, 0 < T''d0 < T'd0.
     """
 
-    xd: float
-    xd_t: float
-    xd_st: float
-    xq: float
-    xq_st: float
-    td0_t_s: float
-    td0_st_s: float
-    tq0_st_s: float
-    rated_mva: float
-    power_factor: float
-    ra: float = 0.0
+    xd: float = parameter(unit="pu", low=0.0, low_open=True, high=10.0, description="synchronous reactance X_d")
+    xd_t: float = parameter(unit="pu", low=0.0, low_open=True, high=10.0, description="transient reactance X'_d")
+    xd_st: float = parameter(unit="pu", low=0.0, low_open=True, high=10.0,
+                             description="sub-transient reactance X''_d")
+    xq: float = parameter(unit="pu", low=0.0, low_open=True, high=10.0, description="synchronous reactance X_q")
+    xq_st: float = parameter(unit="pu", low=0.0, low_open=True, high=10.0,
+                             description="sub-transient reactance X''_q")
+    td0_t_s: float = parameter(unit="s", low=0.0, low_open=True, high=100.0,
+                               description="open-circuit transient time constant T'_d0")
+    td0_st_s: float = parameter(unit="s", low=0.0, low_open=True, high=100.0,
+                                description="open-circuit sub-transient time constant T''_d0")
+    tq0_st_s: float = parameter(unit="s", low=0.0, low_open=True, high=100.0,
+                                description="open-circuit sub-transient time constant T''_q0")
+    rated_mva: float = parameter(unit="MVA", low=0.0, low_open=True, high=5000.0, description="the machine base")
+    power_factor: float = parameter(unit="1", low=0.0, low_open=True, high=1.0, description="rated power factor")
+    ra: float = parameter(0.0, unit="pu", low=0.0, high=0.1, description="stator resistance")
 
     def __post_init__(self):
-        for key in ("xd", "xd_t", "xd_st", "xq", "xq_st"):
-            check_number(f"generator.{key}", getattr(self, key), low=0.0, high=10.0, low_open=True)
-        for key in ("td0_t_s", "td0_st_s", "tq0_st_s"):
-            check_number(f"generator.{key}", getattr(self, key), low=0.0, high=100.0, low_open=True)
-        check_number("generator.ra", self.ra, low=0.0, high=0.1)
-        check_number("generator.rated_mva", self.rated_mva, low=0.0, high=5000.0, low_open=True)
-        check_number("generator.power_factor", self.power_factor, low=0.0, high=1.0, low_open=True)
+        validate_parameters("generator", self)
         for small, large in (("xd_st", "xd_t"), ("xd_t", "xd"), ("xq_st", "xq"), ("td0_st_s", "td0_t_s")):
             if not getattr(self, small) < getattr(self, large):
                 raise InputError(f"generator.{small} must be < generator.{large} = {getattr(self, large)!r} "
@@ -165,42 +143,36 @@ class GridConfig:
     Keys of the other kind are rejected.
     """
 
-    kind: str
-    frequency_hz: float = 50.0
-    load_model: str | None = None
-    load_power_factor: float | None = None
-    frequency_p: float | None = None
-    frequency_q: float | None = None
-    x_line_pu: float | None = None
-    bus_voltage_pu: float | None = None
+    kind: str = parameter(unit="", choices=GRID_KINDS, description="what the generator feeds")
+    frequency_hz: float = parameter(50.0, unit="Hz", low=1.0, high=1000.0, description="rated frequency f_n")
+    load_model: str | None = parameter(None, unit="", choices=LOAD_MODELS,
+                                       description="island load: impedance (default) or constant power")
+    load_power_factor: float | None = parameter(None, unit="1", low=0.0, low_open=True, high=1.0,
+                                                description="island load's power factor, lagging (default 1)")
+    frequency_p: float | None = parameter(None, unit="pu/pu", low=-10.0, high=10.0,
+                                          description="island load's active-power frequency dependence (default 0)")
+    frequency_q: float | None = parameter(None, unit="pu/pu", low=-10.0, high=10.0,
+                                          description="island load's reactive-power frequency dependence (default 0)")
+    x_line_pu: float | None = parameter(None, unit="pu", low=0.0, low_open=True, high=5.0,
+                                        description="infinite bus: line reactance, machine base")
+    bus_voltage_pu: float | None = parameter(None, unit="pu", low=0.5, high=1.5,
+                                             description="infinite bus: bus voltage")
 
     ISLAND_KEYS = ("load_model", "load_power_factor", "frequency_p", "frequency_q")
     BUS_KEYS = ("x_line_pu", "bus_voltage_pu")
 
     def __post_init__(self):
-        if self.kind not in GRID_KINDS:
-            raise InputError(f"grid.kind must be one of {', '.join(GRID_KINDS)}; got {self.kind!r}")
-        check_number("grid.frequency_hz", self.frequency_hz, low=1.0, high=1000.0)
+        validate_parameters("grid", self)
         own, other = (self.ISLAND_KEYS, self.BUS_KEYS) if self.kind == "island" else (self.BUS_KEYS,
                                                                                      self.ISLAND_KEYS)
         for key in other:
             if getattr(self, key) is not None:
                 raise InputError(f"grid.{key} is not used by grid.kind = {self.kind!r}; allowed keys: kind, "
                                  f"frequency_hz, {', '.join(own)}")
-        if self.kind == "island":
-            if self.load_model is not None and self.load_model not in LOAD_MODELS:
-                raise InputError(f"grid.load_model must be one of {', '.join(LOAD_MODELS)}; got {self.load_model!r}")
-            if self.load_power_factor is not None:
-                check_number("grid.load_power_factor", self.load_power_factor, low=0.0, high=1.0, low_open=True)
-            for key in ("frequency_p", "frequency_q"):
-                if getattr(self, key) is not None:
-                    check_number(f"grid.{key}", getattr(self, key), low=-10.0, high=10.0)
-        else:
+        if self.kind != "island":
             for key in self.BUS_KEYS:
                 if getattr(self, key) is None:
                     raise InputError(f"grid.{key} is required for grid.kind = 'infinite-bus'")
-            check_number("grid.x_line_pu", self.x_line_pu, low=0.0, high=5.0, low_open=True)
-            check_number("grid.bus_voltage_pu", self.bus_voltage_pu, low=0.5, high=1.5)
 
     # defaults of the island keys (None in the record means "not given")
     @property
@@ -246,10 +218,10 @@ def electrical_from_dict(raw: dict) -> ElectricalConfig:
     if isinstance(gen_raw, dict) and gen_raw.get("model", "subtransient") != "subtransient":
         raise InputError(f"generator.model must be \"subtransient\" for the sub-transient keys, got "
                          f"{gen_raw.get('model')!r} (allowed: swing, subtransient)")
-    generator = build_section("generator", SubtransientGeneratorConfig, gen_raw, ignore=ROTOR_KEYS)
-    excitation = build_section("excitation", ExcitationConfig, raw["excitation"])
+    generator = read_section("generator", SubtransientGeneratorConfig, gen_raw, ignore=ROTOR_KEYS)
+    excitation = read_section("excitation", ExcitationConfig, raw["excitation"])
     grid_raw = raw["grid"]
-    grid = build_section("grid", GridConfig, grid_raw)
+    grid = read_section("grid", GridConfig, grid_raw)
     return ElectricalConfig(generator=generator, excitation=excitation, grid=grid)
 
 
@@ -264,20 +236,7 @@ def load_electrical(path: str | Path) -> ElectricalConfig:
     >>> e.generator.xd, e.generator.td0_t_s, e.grid.kind
     (0.768, 7.88, 'island')
     """
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except UnicodeDecodeError as exc:
-        from hillchart.io.tabular import not_utf8_detail
-
-        raise InputError(f"{str(path)!r} is not UTF-8 text {not_utf8_detail(exc)}") from None
-    except OSError as exc:
-        raise InputError(f"cannot read {str(path)!r}: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{str(path)!r} is not valid TOML: {exc}") from None
-    except RecursionError:
-        raise InputError(f"{str(path)!r} is not a generator file: arrays or tables nested thousands of levels "
-                         "deep") from None
+    raw, _ = read_toml(path, "generator file")
     return electrical_from_dict(raw)
 
 

@@ -23,12 +23,15 @@ pressure head plus the user's margin (the water column would separate in the dra
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass, fields
 
 import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.hydraulic.conduit import PenstockConfig, read_segments
 from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
+from simulate.components.parameters import parameter, validate_parameters
 from simulate.components.registry import PENSTOCKS
 
 SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
@@ -94,7 +97,7 @@ def build_draft_tube(plant, steady, dt_s: float):
 
     from simulate.components.registry import CompiledPart, PartHooks
 
-    config = plant.draft_tube  # simulate.config.DraftTubeConfig
+    config = plant.draft_tube  # DraftTubeConfig
     mirrored = config.mirrored()
     fake_plant = SimpleNamespace(penstock=mirrored, turbine=plant.turbine)
     fake_steady = SimpleNamespace(flow_m3_s=-steady.flow_m3_s)
@@ -153,3 +156,50 @@ def time_scales(plant, schedules) -> list:
     t = plant.turbine
     return [TimeScale("draft tube water time (draft_tube segments, rated flow and head)",
                       config.mirrored().water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]
+
+
+#: The conduit models of a draft tube (the penstock models it runs mirrored).
+DRAFT_TUBE_MODELS = ("moc", "rigid")
+
+
+@dataclass(frozen=True)
+class DraftTubeConfig:
+    """``[draft_tube]``: the conduit from the runner outlet to the tailwater.
+
+    ``model`` ``"moc"`` or ``"rigid"``; ``[[draft_tube.segments]]`` with the penstock's segment keys
+    (``length_m``, ``diameter_m``, ``wave_speed_m_s``, ``darcy_friction``), runner outlet first;
+    ``atmospheric_pressure_head_m`` (m of water, 10.33 at sea level); ``runner_elevation_m`` the runner outlet above
+    the tailwater level (m, negative below it); ``vapour_pressure_head_m`` (m of water, 0.24 at 20 C);
+    ``vapour_margin_m``: warn when the outlet pressure head falls below vapour pressure head + this margin (m).
+    The component: :mod:`simulate.components.hydraulic.draft_tube`.
+    """
+
+    model: str = parameter(unit="", choices=DRAFT_TUBE_MODELS, description="the conduit model")
+    segments: tuple = parameter(unit="", kind="array", what="a non-empty array of tables [[draft_tube.segments]]",
+                                description="the pipes, runner outlet first")
+    atmospheric_pressure_head_m: float = parameter(10.33, unit="m", low=0.0, high=20.0,
+                                                   description="atmospheric pressure as a head of water")
+    runner_elevation_m: float = parameter(0.0, unit="m", low=-100.0, high=20.0,
+                                          description="runner outlet above the tailwater level")
+    vapour_pressure_head_m: float = parameter(0.24, unit="m", low=0.0, high=20.0,
+                                              description="vapour pressure as a head of water")
+    vapour_margin_m: float = parameter(2.0, unit="m", low=0.0, high=50.0,
+                                       description="warning margin above the vapour pressure head")
+
+    def __post_init__(self):
+        validate_parameters("draft_tube", self)
+        object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=False,
+                                                          first="runner outlet"))
+
+    def mirrored(self) -> PenstockConfig:
+        """The conduit as a :class:`simulate.components.hydraulic.conduit.PenstockConfig` from the tailwater to the
+        runner outlet (every key the two sections share is passed on; the mirrored pipe has no reservoir head and
+        one reach, the draft tube having none of its own)."""
+        shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig) if hasattr(self, f.name)}
+        return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1,
+                                 "segments": tuple(reversed(self.segments))})
+
+    @property
+    def friction_coefficient_s2_m5(self) -> float:
+        """K of the steady loss K Q|Q| from the runner outlet to the tailwater, s^2/m^5."""
+        return self.mirrored().friction_coefficient_s2_m5

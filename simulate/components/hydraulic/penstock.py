@@ -356,13 +356,14 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
                    "envelope": moc_envelope, "node_heads": moc_node_heads},
         params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
         hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
-                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment}),
+                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
+                        warnings_after=lambda signals: plant.penstock.unread_key_warnings()),
         n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s, grid))
 
 
 def _build_iir(model: str):
     def build(plant, steady, dt_s: float, upstream_head_m: float):
-        from simulate.components.registry import CompiledPart
+        from simulate.components.registry import CompiledPart, PartHooks
 
         pen, turbine = plant.penstock, plant.turbine
         tw = pen.water_time_s(turbine.rated_flow_m3_s, turbine.rated_head_m)
@@ -375,7 +376,8 @@ def _build_iir(model: str):
             kind="penstock", name=model,
             functions={"relation": iir_relation, "update": iir_update, "inlet_flow": iir_inlet_flow,
                        "envelope": iir_envelope, "node_heads": iir_node_heads},
-            params=(coef, scal), state=(hist,), n_nodes=2, node_x_m=node_positions_m(pen, model, dt_s))
+            params=(coef, scal), state=(hist,), n_nodes=2, node_x_m=node_positions_m(pen, model, dt_s),
+            hooks=PartHooks(warnings_after=lambda signals: pen.unread_key_warnings()))
     build.__name__ = f"build_{model}"
     return build
 

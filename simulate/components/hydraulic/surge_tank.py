@@ -1,6 +1,6 @@
 """Headrace tunnel and surge tank between the reservoir and the penstock (registry kind "upstream").
 
-Plant file: the optional ``[surge_tank]`` section (:class:`simulate.config.SurgeTankConfig`). Heads are piezometric
+Plant file: the optional ``[surge_tank]`` section (:class:`SurgeTankConfig`, below). Heads are piezometric
 above the tailwater datum, as everywhere in the simulator. With z the tank level, Q_t the tunnel flow (reservoir ->
 tank), Q_p the penstock inlet flow and Q_s = Q_t - Q_p the flow into the tank:
 
@@ -19,10 +19,14 @@ Timeseries columns: ``surge_level_m`` (z) and ``tunnel_flow_m3_s`` (Q_t).
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numba
 import numpy as np
 
 from hillchart.constants import G_M_S2
+from simulate.components.parameters import parameter, validate_parameters
 
 SIGNALS = ("surge_level_m", "tunnel_flow_m3_s")
 
@@ -115,3 +119,51 @@ def time_scales(plant, schedules) -> list:
     from simulate.components.timescale import TimeScale
 
     return [TimeScale(label, value, coupled=True) for label, value in plant.surge_tank.time_constants().items()]
+
+
+@dataclass(frozen=True)
+class SurgeTankConfig:
+    """Headrace tunnel (rigid water column, reservoir -> tank) and a simple throttled surge tank at the penstock inlet.
+
+    ``area_m2`` tank cross-section A_s; ``throttle_loss_coefficient`` R of the throttle loss R Q_s|Q_s| (s^2/m^5,
+    Q_s the flow into the tank; 0 allowed); ``tunnel_length_m`` L, ``tunnel_diameter_m`` D, ``tunnel_darcy_friction``
+    f (0 allowed); ``level_max_m`` (optional) overflow crest above the static level: reaching it is a warning;
+    ``level_min_m`` (optional, negative) tank bottom below the static level: reaching it is an error (air enters the
+    penstock).
+    """
+
+    area_m2: float = parameter(unit="m^2", low=0.0, low_open=True, high=1e5, description="tank cross-section A_s")
+    throttle_loss_coefficient: float = parameter(unit="s^2/m^5", low=0.0, high=1e4,
+                                                 description="R of the throttle loss R Q_s|Q_s|")
+    tunnel_length_m: float = parameter(unit="m", low=0.0, low_open=True, high=1e5, description="headrace length L")
+    tunnel_diameter_m: float = parameter(unit="m", low=0.0, low_open=True, high=30.0,
+                                         description="headrace diameter D")
+    tunnel_darcy_friction: float = parameter(unit="1", low=0.0, high=0.2,
+                                             description="headrace Darcy-Weisbach friction factor f")
+    level_max_m: float | None = parameter(None, unit="m", low=0.0, low_open=True, high=1e4,
+                                          description="overflow crest above the static level (a warning)")
+    level_min_m: float | None = parameter(None, unit="m", low=-1e4, high=0.0, high_open=True,
+                                          description="tank bottom below the static level (an error)")
+
+    def __post_init__(self):
+        validate_parameters("surge_tank", self)
+
+    @property
+    def tunnel_area_m2(self) -> float:
+        return math.pi * self.tunnel_diameter_m ** 2 / 4.0
+
+    @property
+    def steady_loss_coefficient_s2_m5(self) -> float:
+        """K_t = f L / (2 g D A_t^2) of the tunnel's steady loss K_t Q|Q| (the throttle passes no steady flow)."""
+        return self.tunnel_darcy_friction * self.tunnel_length_m / (2.0 * G_M_S2 * self.tunnel_diameter_m
+                                                                     * self.tunnel_area_m2 ** 2)
+
+    def time_constants(self) -> dict:
+        """Time constants the simulation step must resolve (see :mod:`simulate.loop.guards`)."""
+        return {"surge tank period 2 pi sqrt(L A_s / (g A_t)) (surge_tank.area_m2, tunnel_length_m, "
+                "tunnel_diameter_m)": self.period_s}
+
+    @property
+    def period_s(self) -> float:
+        """Mass-oscillation period 2 pi sqrt(L A_s / (g A_t)) of the frictionless tank, s."""
+        return 2.0 * math.pi * math.sqrt(self.tunnel_length_m * self.area_m2 / (G_M_S2 * self.tunnel_area_m2))

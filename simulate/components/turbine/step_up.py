@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.validation import check_choice, check_number
+from simulate.components.parameters import parameter, read_section, section_dict, validate_parameters
 
 #: Methods of ``turbine.step_up.method``.
 STEP_UP_METHODS = ("iec60193",)
@@ -60,43 +60,34 @@ class StepUpConfig:
     ``scalable_loss_share`` is V_ref (0.7 for radial machines in IEC 60193), ``reynolds_reference`` Re_ref.
     """
 
-    method: str = "iec60193"
-    model_diameter_m: float = 0.35
-    model_head_m: float = 30.0
-    model_efficiency_reference: float | None = None
-    kinematic_viscosity_m2_s: float = 1.0e-6
-    scalable_loss_share: float = 0.7
-    reynolds_reference: float = 7.0e6
+    method: str = parameter("iec60193", unit="", choices=STEP_UP_METHODS, description="the step-up formula")
+    model_diameter_m: float = parameter(0.35, unit="m", low=0.0, low_open=True, high=20.0,
+                                        description="the model's runner diameter")
+    model_head_m: float = parameter(30.0, unit="m", low=0.0, low_open=True, high=3000.0,
+                                    description="the model test's head")
+    model_efficiency_reference: float | None = parameter(
+        None, unit="1", low=0.3, high=1.0, high_open=True,
+        description="the model's best hydraulic efficiency (default: the characteristics' best)")
+    # water from about 0 C (1.79e-6) to 100 C (0.29e-6)
+    kinematic_viscosity_m2_s: float = parameter(1.0e-6, unit="m^2/s", low=2e-7, high=2e-6,
+                                                description="kinematic viscosity of the water")
+    scalable_loss_share: float = parameter(0.7, unit="1", low=0.0, low_open=True, high=1.0,
+                                           description="V_ref, the share of the losses that scale")
+    reynolds_reference: float = parameter(7.0e6, unit="1", low=1e5, high=1e9, description="Re_ref")
 
     def __post_init__(self):
-        check_choice("turbine.step_up.method", self.method, STEP_UP_METHODS)
-        check_number("turbine.step_up.model_diameter_m", self.model_diameter_m, low=0.0, high=20.0, low_open=True)
-        check_number("turbine.step_up.model_head_m", self.model_head_m, low=0.0, high=3000.0, low_open=True)
-        if self.model_efficiency_reference is not None:
-            check_number("turbine.step_up.model_efficiency_reference", self.model_efficiency_reference, low=0.3,
-                         high=1.0, high_open=True)
-        # water from about 0 C (1.79e-6) to 100 C (0.29e-6)
-        check_number("turbine.step_up.kinematic_viscosity_m2_s", self.kinematic_viscosity_m2_s, low=2e-7,
-                     high=2e-6)
-        check_number("turbine.step_up.scalable_loss_share", self.scalable_loss_share, low=0.0, high=1.0,
-                     low_open=True)
-        check_number("turbine.step_up.reynolds_reference", self.reynolds_reference, low=1e5, high=1e9)
+        validate_parameters("turbine.step_up", self)
 
     @classmethod
     def from_toml(cls, raw) -> "StepUpConfig":
         """From the ``[turbine.step_up]`` table (strict keys: an unknown key names the valid ones)."""
         if not isinstance(raw, dict):
             raise InputError(f"turbine.step_up must be a table such as {{method = \"iec60193\"}}, got {raw!r}")
-        names = [f for f in cls.__dataclass_fields__]
-        unknown = sorted(set(raw) - set(names))
-        if unknown:
-            raise InputError(f"unknown key turbine.step_up.{unknown[0]}; valid keys of [turbine.step_up]: "
-                             f"{', '.join(names)}")
-        return cls(**raw)
+        return read_section("turbine.step_up", cls, raw)
 
     def as_dict(self) -> dict:
         """The TOML table (keys left at None omitted)."""
-        return {name: getattr(self, name) for name in self.__dataclass_fields__ if getattr(self, name) is not None}
+        return section_dict(self)
 
 
 def reynolds_number(diameter_m, speed_rpm, kinematic_viscosity_m2_s):

@@ -204,7 +204,8 @@ def test_rigid_draft_tube_agrees_with_moc_on_a_slow_closure():
     ({"blade_servo.colsing_time_s": 3.0}, r"unknown key blade_servo\.colsing_time_s"),
     ({"draft_tube.model": "lumped"}, r"draft_tube\.model must be one of"),
     ({"draft_tube.segments": []}, r"draft_tube\.segments must be a non-empty"),
-    ({"draft_tube.segments": [{"length_m": 30.0}]}, r"draft_tube\.segments\[0\]: missing key diameter_m"),
+    ({"draft_tube.segments": [{"length_m": 30.0}]},
+     r"missing required key draft_tube\.segments\.diameter_m \(segment 0\)"),
 ])
 def test_bad_double_regulated_input_names_the_key(over, match):
     with pytest.raises(InputError, match=match):

@@ -1,7 +1,8 @@
-"""Bad-input tests generated from the control components' declared parameters (simulate.components.parameters):
-every bound of every declared key of [governor] is violated through the plant file, and the message must name the
-key, the value and what is allowed; the value on the bound (or just inside an open one) beside it is not refused
-for that reason."""
+"""Bad-input tests generated from the components' declared parameters (simulate.components.parameters): every bound
+of every declared key of every plant-file section is violated (and a wrong type given), and the message must name
+the key, the value and what is allowed; the value on the bound (or just inside an open one) beside it is not refused
+for that reason. [governor] goes through the plant file; the other sections through ``dataclasses.replace`` of the
+section as a shipped example plant has it (which validates like the file: the reader calls the same class)."""
 
 import dataclasses
 import re
@@ -21,11 +22,42 @@ DECLARED = (("governor", GovernorConfig), ("servo", DiscreteServoConfig), ("serv
             ("servo", BacklashConfig), ("servo", TwoStageConfig))
 
 
+def _shipped():
+    """{section: (config class, a valid instance from a shipped example plant)} of every plant-file section."""
+    from data_synthetic import PLANT_BULB, PLANT_HLA339, PLANT_HLA339_GRID, PLANT_TWO_UNITS
+    from simulate.components.electrical.generator import SubtransientGeneratorConfig
+    from simulate.components.turbine.step_up import StepUpConfig
+    from simulate.config import load_plant
+    from simulate.studies.cases import Limits
+
+    base, grid, bulb, units = (load_plant(p) for p in (PLANT_HLA339, PLANT_HLA339_GRID, PLANT_BULB, PLANT_TWO_UNITS))
+    surge = load_plant(PLANT_HLA339.parent / "plant_hla339_surge_tank.toml")
+    configs = {"turbine": base.turbine, "turbine.step_up": StepUpConfig(), "penstock": base.penstock,
+               "penstock.segments": base.penstock.segments[0], "generator": grid.generator,
+               "generator (machine)": grid.generator.subtransient, "scenario": base.scenario,
+               "scenario (closure-law)": load_plant(PLANT_HLA339, {"scenario.kind": "closure-law",
+                                                                   "scenario.closing_time_s": 8.0}).scenario,
+               "solver": base.solver, "surge_tank": surge.surge_tank, "draft_tube": bulb.draft_tube,
+               "blade_servo": bulb.blade_servo, "combinator": bulb.combinator, "excitation": grid.excitation,
+               "grid": grid.grid, "units": units.units[0], "limits": Limits(max_speed_rise=0.5)}
+    assert isinstance(configs["generator (machine)"], SubtransientGeneratorConfig)
+    return {name: (type(config), config) for name, config in configs.items()}
+
+
+SHIPPED = _shipped()
+#: The key prefix of each entry of SHIPPED (its section in the plant file).
+PREFIX = {name: name.split(" ")[0] for name in SHIPPED}
+
+
 def _cases():
     for section, cls in DECLARED:
         for declared in declarations(cls):
             for bad in declared.parameter.violations():
                 yield pytest.param(section, cls, declared, bad, id=f"{section}.{declared.name}={bad!r}")
+    for name, (cls, _) in SHIPPED.items():
+        for declared in declarations(cls):
+            for bad in declared.parameter.violations():
+                yield pytest.param(name, cls, declared, bad, id=f"{name}.{declared.name}={bad!r}")
 
 
 def _governor_plant(overrides):
@@ -40,6 +72,8 @@ def _make(section, cls, name, value):
     take), the servo's own config directly."""
     if section == "governor":
         return _governor_plant({name: value})
+    if section in SHIPPED:
+        return dataclasses.replace(SHIPPED[section][1], **{name: value})
     others = {d.name: _inside(d.parameter)[0] for d in declarations(cls) if d.required and d.name != name}
     return cls(**others, **{name: value})
 
@@ -48,6 +82,8 @@ def _inside(spec: Parameter):
     """Values on each closed bound and just inside each open one: allowed by the declaration."""
     if spec.options():
         return list(spec.options())
+    if spec.kind not in ("number", "integer"):
+        return []  # a text, an array or a table: its good values are the shipped plants'
     out = []
     for bound, is_open, sign in ((spec.low, spec.low_open, 1.0), (spec.high, spec.high_open, -1.0)):
         if bound is not None:
@@ -57,8 +93,8 @@ def _inside(spec: Parameter):
 
 @pytest.mark.parametrize("section,cls,declared,bad", list(_cases()))
 def test_every_declared_bound_is_enforced_with_a_message_naming_key_value_and_range(section, cls, declared, bad):
-    spec = declared.parameter
-    key = f"{section}.{declared.name}"
+    key = f"{PREFIX.get(section, section)}.{declared.name}"
+    spec = declared.parameter.resolved(SHIPPED[section][1]) if section in SHIPPED else declared.parameter
     with pytest.raises(InputError) as err:
         _make(section, cls, declared.name, bad)
     message = str(err.value)
@@ -83,6 +119,32 @@ def test_the_violations_straddle_each_bound():
     with pytest.raises(InputError, match=r"governor\.permanent_droop must be in \[0\.0, 0\.5\), got 0\.7"):
         narrower.check("governor.permanent_droop", 0.7)
     spec.check("governor.permanent_droop", 0.7)  # the declared range allows it
+
+
+@pytest.mark.parametrize("name", list(SHIPPED))
+def test_every_key_of_every_section_is_declared(name):
+    cls = SHIPPED[name][0]
+    assert [f.name for f in dataclasses.fields(cls)] == [d.name for d in declarations(cls)]
+    assert declarations(cls), name
+
+
+def test_an_undeclared_key_is_found():
+    """The check above can fail: a field added without ``parameter(...)`` is not among the declarations."""
+    from simulate.components.solver import SolverConfig
+
+    extended = dataclasses.make_dataclass("SolverConfig", [("new_key_s", float, dataclasses.field(default=1.0))],
+                                          bases=(SolverConfig,), frozen=True)
+    assert [f.name for f in dataclasses.fields(extended)] != [d.name for d in declarations(extended)]
+
+
+def test_a_bound_named_by_another_key_takes_its_value():
+    """scenario.event_time_s lies in [0, t_end_s): the message states the plant's t_end_s, the page the key."""
+    sc = SHIPPED["scenario"][1]
+    spec = next(d for d in declarations(type(sc)) if d.name == "event_time_s").parameter
+    assert spec.allowed() == "in [0.0, t_end_s)" and spec.resolved(sc).allowed() == "in [0.0, 60.0)"
+    with pytest.raises(InputError, match=r"scenario\.event_time_s must be in \[0\.0, 60\.0\), got -1\.0"):
+        dataclasses.replace(sc, event_time_s=-1.0)
+    assert dataclasses.replace(sc, event_time_s=59.0).event_time_s == 59.0
 
 
 def test_every_key_of_the_governor_section_is_declared():

@@ -162,10 +162,10 @@ def _study_with(tmp_path, extra: str):
 
 @pytest.mark.parametrize("extra,message", [
     ("[limits]\nmax_speed_rize = 0.5\n", "unknown key limits.max_speed_rize; valid keys of [limits]"),
-    ("[limits]\nmax_speed_rise = -0.5\n", "limits.max_speed_rise must be a number in (0.0, 5.0], got -0.5"),
+    ("[limits]\nmax_speed_rise = -0.5\n", "limits.max_speed_rise must be in (0.0, 5.0], got -0.5"),
     ("[limits]\nmax_head_m = true\n", "limits.max_head_m must be a number"),
     ("[limits]\nmax_head_rise = \"big\"\n", "limits.max_head_rise must be a number"),
-    ("[limits]\nmin_pressure_head_m = -20.0\n", "limits.min_pressure_head_m must be a number in (-10.4"),
+    ("[limits]\nmin_pressure_head_m = -20.0\n", "limits.min_pressure_head_m must be in (-10.4"),
     ("limits = 3\n", "[limits] must be a table"),
     ("load_cases = 3\n", "load_cases must be a non-empty array of tables"),
     ("[[load_cases]]\nscenario.initial_power_mw = 100.0\n", "load_cases[0].name must be a non-empty string"),
