@@ -584,12 +584,6 @@ class PlantConfig:
         if self.generator.model != "swing":
             raise InputError(f"generator.model = {self.generator.model!r}: a plant with [[units]] takes "
                              f"generator.model = \"swing\"")
-        double_regulated = [f"[{name}]" for name in ("draft_tube", "combinator", "blade_servo")
-                            if getattr(self, name) is not None]
-        if double_regulated:
-            raise InputError(f"{', '.join(double_regulated)}: a plant with [[units]] runs single-regulated units "
-                             f"discharging to the tailwater; simulate a double-regulated unit or a draft tube as a "
-                             f"plant of one unit (leave [[units]] out)")
         if self.solver.dt_s is not None:
             raise InputError(f"solver.dt_s = {self.solver.dt_s!r}: a plant with [[units]] steps on the grid of its "
                              f"pipes ((shortest travel time) / penstock.reaches); leave solver.dt_s out")
