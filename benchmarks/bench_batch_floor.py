@@ -37,7 +37,7 @@ import numpy as np
 
 from data_synthetic import PLANT_HLA339
 from simulate.config import load_characteristics, load_plant
-from simulate.loop import engine
+from simulate.loop import driver, engine
 from simulate.studies.batch import run_batch
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,20 +48,20 @@ _LOOP: dict = {}
 
 
 def capture_loop(plant, chars) -> dict:
-    """The compiled loop of ``plant`` and its arguments, taken from a run (the engine's chunk driver is wrapped
+    """The compiled loop of ``plant`` and its arguments, taken from a run (the driver's chunk runner is wrapped
     for that one run; the benchmark's only intrusion)."""
-    original = engine.run_in_chunks
+    original = driver.run_in_chunks
     captured = {}
 
     def grab(loop, args, n_steps, dt, n_sub, stride, progress=None):
         captured.update(loop=loop, args=copy.deepcopy(args), n_steps=n_steps, dt=dt, n_sub=n_sub, stride=stride)
         return original(loop, args, n_steps, dt, n_sub, stride, progress)
 
-    engine.run_in_chunks = grab
+    driver.run_in_chunks = grab
     try:
         result = engine.run_simulation(plant, characteristics=chars)
     finally:
-        engine.run_in_chunks = original
+        driver.run_in_chunks = original
     assert result.success
     return captured
 

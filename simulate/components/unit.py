@@ -78,7 +78,7 @@ class UnitConfig:
 
 def check_units(plant) -> None:
     """The ``[[units]]`` of ``plant`` (:class:`simulate.config.PlantConfig`) against the rest of the plant: names
-    unique, ``scenario.units`` known, a conduit that computes branches, single-regulated swing units, no fixed step;
+    unique, ``scenario.units`` known, a conduit that computes branches, swing units, no fixed step;
     a plant without units has no ``scenario.units``."""
     sc = plant.scenario
     if not plant.units:
@@ -104,12 +104,6 @@ def check_units(plant) -> None:
     if plant.generator.model != "swing":
         raise InputError(f"generator.model = {plant.generator.model!r}: a plant with [[units]] takes "
                          f"generator.model = \"swing\"")
-    double_regulated = [f"[{name}]" for name in ("draft_tube", "combinator", "blade_servo")
-                        if getattr(plant, name) is not None]
-    if double_regulated:
-        raise InputError(f"{', '.join(double_regulated)}: a plant with [[units]] runs single-regulated units "
-                         f"discharging to the tailwater; simulate a double-regulated unit or a draft tube as a "
-                         f"plant of one unit (leave [[units]] out)")
     if plant.solver.dt_s is not None:
         raise InputError(f"solver.dt_s = {plant.solver.dt_s!r}: a plant with [[units]] steps on the grid of its "
                          f"pipes ((shortest travel time) / penstock.reaches); leave solver.dt_s out")

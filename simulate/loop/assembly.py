@@ -1,8 +1,11 @@
-"""Assemble the time loop from compiled components, cached on disk.
+"""Assemble the time loop from compiled components, cached on disk: the machinery under the one loop template of
+:mod:`simulate.loop.generator` (the module header, the components' functions bound as globals, the turbine's
+templates, the compiled loop and its disk cache).
 
 numba caches a function on disk only if none of its arguments is a function (a dispatcher argument makes the
 function uncacheable: "dynamic globals"). So the components are not passed to the loop as arguments: for each
-combination of (characteristics kernel, pressure loop, penstock, upstream, control, shaft) this module writes a small
+combination of (characteristics kernel, pressure loop, and each unit's conduit, downstream, control and shaft with
+the plant's upstream part) this module writes a small
 Python module that imports the components' module-level numba functions as globals, pastes the kernel-dependent
 templates of :mod:`simulate.components.turbine.boundary` (the pressure loop and the turbine step, with the kernel bound
 as a global), and defines ``time_loop`` with ``numba.njit(cache=True, nogil=True, _nrt=False)``, the components' step
@@ -38,87 +41,7 @@ from simulate.components.signals import SHAFT_DEFAULTS, shaft_function
 from simulate.components.turbine import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
-TEMPLATE_VERSION = 8
-
-_LOOP = '''
-@_jit
-def time_loop(k0, k1, dt, n_sub, stride, ch, tb, tb_s, pen, pen_s, up, up_s, ctl, ctl_s, sh, sh_s, dn, dn_s,
-              out_speed, out_head, out_flow, out_torque, out_iter, out_controls, out_signals, env_max, env_min, diag,
-              sig):
-    """Steps k0 .. k1-1 (t = k dt). Every ``stride``-th step is stored in row (k + 1) // stride of the out arrays.
-    Control and shaft advance in ``n_sub`` sub-steps of dt / n_sub (the turbine torque held over the step); the
-    control reads the named signals ``sig`` (layout :data:`simulate.components.signals.SIGNALS`; net head and vane
-    stroke carried from the last step and sub-step, set at t = 0 by the caller; the loop fills those the control
-    reads).
-    Returns (status, k): status 0 and k1, or the turbine boundary's failure status and the failing step."""
-    h = dt / n_sub
-    torque = turbine_signals(tb_s)[2]
-    for k in range(k0, k1):
-        t = k * dt
-        t_next = (k + 1) * dt
-        for j in range(n_sub):
-            t_sub = t + j * h if j > 0 else t
-            t_sub_next = t + (j + 1) * h if j < n_sub - 1 else t_next
-            # 1. control: the control vector at t_sub_next from the signals at t_sub
-{fill}
-            controls = control_step(ctl, ctl_s, sig, t_sub, t_sub_next, h)
-{after_control}
-            # 2. shaft: speed at t_sub_next from the turbine torque at t
-            speed = shaft_step(sh, sh_s, torque, t_sub, h)
-        # 3. penstock: H = C_L + k Q at the turbine, with the upstream head of this step
-        upstream = upstream_head(up, up_s)
-        c_l, slope = penstock_relation(pen, pen_s, upstream)
-        # and H_out = C_M + B_M Q at the runner outlet (0 at the tailwater)
-        c_m, b_m = downstream_relation(dn, dn_s)
-        # 4. turbine boundary (pressure loop) on the net head H = (C_L - C_M) + (k - B_M) Q
-        status, iterations = turbine_step(tb, ch, tb_s, c_l - c_m, slope - b_m, speed, controls, diag)
-        if status != 0:
-            diag[0] = t_next
-            return status, k
-        head, flow, torque = turbine_signals(tb_s)
-{after_turbine}
-        outlet = c_m + b_m * flow
-        inlet = head + outlet
-        # 5. penstock, downstream and upstream updates
-        penstock_update(pen, pen_s, upstream, inlet, flow)
-        downstream_update(dn, dn_s, outlet, flow)
-        upstream_step(up, up_s, penstock_inlet_flow(pen, pen_s), dt)
-        penstock_envelope(pen, pen_s, upstream, inlet, env_max, env_min)
-        if (k + 1) % stride == 0:
-            row = (k + 1) // stride
-            out_speed[row] = speed
-            out_head[row] = head
-            out_flow[row] = flow
-            out_torque[row] = torque
-            out_iter[row] = iterations
-            for i in range(controls.size):
-                out_controls[row, i] = controls[i]
-{records}
-    return 0, k1
-'''
-
-#: role in the loop -> (kind, function role of that kind's component)
-_ROLES = {
-    "control_step": ("control", "step"),
-    "shaft_speed": ("shaft", "speed"),
-    "shaft_step": ("shaft", "step"),
-    "shaft_power": ("shaft", "power"),
-    "shaft_grid_frequency": ("shaft", "grid_frequency"),
-    "upstream_head": ("upstream", "head"),
-    "upstream_step": ("upstream", "step"),
-    "penstock_relation": ("penstock", "relation"),
-    "penstock_update": ("penstock", "update"),
-    "penstock_inlet_flow": ("penstock", "inlet_flow"),
-    "penstock_envelope": ("penstock", "envelope"),
-    "downstream_relation": ("downstream", "relation"),
-    "downstream_update": ("downstream", "update"),
-}
-#: kinds whose ``record`` function writes extra timeseries columns, in column order
-RECORDING_KINDS = ("upstream", "shaft", "control", "downstream")
-#: kind -> the loop's names of its params and state
-_ARGS = {"upstream": ("up", "up_s"), "shaft": ("sh", "sh_s"), "control": ("ctl", "ctl_s"),
-         "downstream": ("dn", "dn_s")}
-
+TEMPLATE_VERSION = 9
 
 def role_function(part, role: str):
     """The part's function ``role``; a shaft's optional signal functions (``power``, ``grid_frequency``) default to
@@ -246,35 +169,6 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
     return lines
 
 
-def loop_source(parts: dict, characteristics, pressure_loop: str, compiled: bool,
-                cache: bool = True, counted: bool = False) -> tuple[str, list[str]]:
-    """Text of the loop module for ``parts`` (kind -> CompiledPart) and the module names it imports; ``counted``:
-    the loop with reference counting (see :class:`CompiledLoop`)."""
-    lines = _header_lines(compiled, cache, counted)
-    modules = {"simulate.components.turbine.boundary", "simulate.components.signals"}
-    for alias, (kind, role) in _ROLES.items():
-        func = role_function(parts[kind], role)
-        lines.append(_import_line(func, alias, inline=True))
-        modules.update(_modules_of(func))
-    records = []
-    column = 0
-    for kind in RECORDING_KINDS:
-        part = parts[kind]
-        if part.signals:
-            func = part.functions["record"]
-            alias = f"{kind}_record"
-            lines.append(_import_line(func, alias, inline=True))
-            modules.add(func.__module__)
-            ps, ss = _ARGS[kind]
-            records.append(f"            {alias}({ps}, {ss}, out_signals[row, {column}:{column + len(part.signals)}])")
-            column += len(part.signals)
-    lines += _turbine_lines(characteristics, pressure_loop, modules)
-    fill = signal_lines(parts["control"].hooks.reads)
-    lines.append(_LOOP.replace("{records}", "\n".join(records)).replace("{fill}", fill[0])
-                 .replace("{after_control}", fill[1]).replace("{after_turbine}", fill[2]))
-    return "\n".join(lines) + "\n", sorted(modules)
-
-
 class CompiledLoop:
     """The compiled ``time_loop`` of a generated module, called as the function itself.
 
@@ -336,49 +230,9 @@ def _with_compiled_dependencies(modules: list[str]) -> set[str]:
 
 
 _LOADED: dict[str, types.ModuleType] = {}
-#: compiled ``time_loop`` by the identity of what its source is made of (:func:`_assembly_key`): a process running
-#: many cases of one structure writes and fingerprints the loop's text once (reading the templates' source with
-#: ``inspect`` costs about 7 ms a run, more than a shipped-plant case's loop)
-_ASSEMBLED: dict[tuple, object] = {}
-
-
-def _assembly_key(parts: dict, characteristics, pressure_loop: str) -> tuple:
-    """What :func:`loop_source` reads: the components' functions (by object), the recording columns, the
-    characteristics' kernels and the pressure loop. Template files do not change within a process."""
-    roles = tuple(role_function(parts[kind], role) for kind, role in _ROLES.values())
-    records = tuple((kind, parts[kind].functions["record"], len(parts[kind].signals))
-                    for kind in RECORDING_KINDS if parts[kind].signals)
-    return (roles, records, parts["control"].hooks.reads, characteristics.identity(), pressure_loop,
-            boundary.SOLVERS[pressure_loop])
-
-
 _ASSEMBLING = threading.RLock()
 #: :class:`CompiledLoop` by the fingerprint of its module (:func:`_fingerprint`)
 _COMPILED: dict[str, "CompiledLoop"] = {}
-
-
-def assemble(parts: dict, characteristics, pressure_loop: str, *, compiled: bool = True):
-    """The ``time_loop`` function for these parts (compiled and disk-cached, or plain Python). Thread-safe: runs
-    on several threads (:mod:`simulate.loop.parallel`) write and import a loop module once."""
-    key = _assembly_key(parts, characteristics, pressure_loop) if compiled else None
-    if key is not None and key in _ASSEMBLED:
-        return _ASSEMBLED[key]
-    with _ASSEMBLING:
-        return _assemble(parts, characteristics, pressure_loop, compiled, key)
-
-
-def _assemble(parts, characteristics, pressure_loop, compiled, key):
-    if key is not None and key in _ASSEMBLED:
-        return _ASSEMBLED[key]
-    if not compiled:
-        source, _ = loop_source(parts, characteristics, pressure_loop, compiled)
-        namespace = {"__name__": "hillsim_loop_python"}
-        exec(compile(source, "<hillsim loop>", "exec"), namespace)
-        namespace["kernel"] = characteristics.python_kernel()
-        return namespace["time_loop"]
-    _ASSEMBLED[key] = compiled_loop(lambda cache, counted: loop_source(
-        parts, characteristics, pressure_loop, True, cache=cache, counted=counted))
-    return _ASSEMBLED[key]
 
 
 def compiled_loop(make_source) -> CompiledLoop:

@@ -49,9 +49,10 @@ def test_single_unit_commands_refuse_a_plant_with_units(argv, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("characteristics", ["synthetic-bulb", "bulb/nets.json", "synthetic"])
-def test_three_input_characteristics_on_a_plant_with_units_are_refused(characteristics, tmp_path, capsys):
-    """Double-regulated (blade-angle) characteristics reached the single-regulated manifold loop, which called their
-    q11 with two arguments (a TypeError); beside them, two-input synthetic Francis characteristics run."""
+def test_three_input_characteristics_on_units_without_a_combinator_are_refused(characteristics, tmp_path, capsys):
+    """Double-regulated (blade-angle) characteristics on units without a [combinator] are refused naming the unit
+    and the missing section (the same refusal as a plant of one unit); beside them, two-input synthetic Francis
+    characteristics run."""
     out = tmp_path / "two"
     code = main(["run", str(PLANT_TWO_UNITS), "--out", str(out), "--no-plot", "--quiet", "--set",
                  f"turbine.characteristics={json.dumps(characteristics)}", "--set", "scenario.t_end_s=2.5"])
@@ -63,9 +64,8 @@ def test_three_input_characteristics_on_a_plant_with_units_are_refused(character
     assert code == 2 and not out.exists()
     assert err.strip().splitlines()[-1] == (
         f"hillsim run: error: unit 'U1': turbine.characteristics = '{characteristics}' has a blade angle (three "
-        f"inputs, a double-regulated turbine); a plant with [[units]] runs single-regulated units with two-input "
-        f"characteristics (\"ideal\", \"synthetic\" or nets with inputs n11, opening): simulate a double-regulated "
-        f"unit as a plant of one unit (leave [[units]] out)")
+        f"inputs): the plant needs a [combinator] section (relation = \"cam\", \"table\" or \"off\") and, unless "
+        f"the blades are fixed, a [blade_servo] section")
 
 
 def test_a_plant_with_units_written_for_the_workers_reads_back_equal():

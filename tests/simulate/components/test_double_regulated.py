@@ -302,7 +302,7 @@ def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch)
     from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.components.turbine.double_regulated import (DoubleRegulatedTurbine, nets_control_flow,
                                                               nets_control_torque)
-    from simulate.loop.assembly import loop_source
+    from simulate.loop.generator import loop_source
     from simulate.loop.engine import build_parts, initial_state, plant_characteristics
 
     # the improved loop (the plant file's Newton reads the whole kernel in its iterations)
@@ -318,7 +318,8 @@ def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch)
         assert nets_control_torque(cc.params, n11, controls) == pytest.approx(full[2], rel=1e-15)
     steady = initial_state(plant, view)
     parts, _ = build_parts(plant, steady, 0.01, 1, view)
-    source, _ = loop_source(parts, cc, "improved", True)
+    unit = {"conduit": parts["penstock"], **{kind: parts[kind] for kind in ("downstream", "control", "shaft")}}
+    source, _ = loop_source({"upstream": parts["upstream"]}, [unit], cc, "improved", True)
     assert "nets_control_flow as flow_kernel" in source and "q11 = flow_kernel(params, n11, opening)[0]" in source
     assert "nets_control_torque as torque_kernel" in source
     with_half = run_simulation(plant)

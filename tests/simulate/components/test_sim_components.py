@@ -9,7 +9,7 @@ import pytest
 
 from data_synthetic import PLANT_HLA339
 from hillchart.errors import InputError
-from simulate.loop import assembly
+from simulate.loop import assembly, generator
 from simulate.components.registry import CHARACTERISTICS, CONTROLS, PENSTOCKS, SHAFTS, UPSTREAM
 from simulate.config import load_characteristics, load_plant
 from simulate.loop.engine import run_simulation
@@ -52,7 +52,9 @@ def test_a_control_vector_kernel_runs_through_the_same_loop():
 
 
 def test_the_loop_template_names_no_model():
-    text = assembly._LOOP.lower()
+    text = " ".join([generator._HEAD, generator._STEP, generator._UNIT_SUBSTEP, generator._UNIT_TURBINE,
+                     generator._UNIT_RECORDS, generator._JUNCTION, generator._JUNCTION_AFTER,
+                     generator._JUNCTION_RECORDS, generator._SINGLE_AFTER]).lower()
     for word in ("moc", "zdomain", "lumped", "rigid", "governor", "prescribed", "rotor", "surge", "reservoir",
                  "nets", "ideal", "mode", "is_moc", "draft", "blade", "bulb"):
         assert word not in text, word

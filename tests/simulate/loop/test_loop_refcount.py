@@ -10,7 +10,7 @@ from numba.core.runtime import _nrt_python, rtsys
 
 from data_synthetic import PLANT_HLA339
 from simulate.config import load_plant
-from simulate.loop import assembly
+from simulate.loop import assembly, generator
 from simulate.loop.engine import run_simulation
 
 
@@ -80,5 +80,5 @@ def test_a_component_that_allocates_runs_in_the_counted_loop(register_penstock):
     # the same operations in the same order: equal to the bit
     for name in ("head_m", "speed_rpm", "flow_m3_s"):
         np.testing.assert_array_equal(getattr(user, name), getattr(built_in, name))
-    loops = {loop.counted for loop in assembly._ASSEMBLED.values() if isinstance(loop, assembly.CompiledLoop)}
+    loops = {loop.counted for loop in generator._ASSEMBLED.values() if isinstance(loop, assembly.CompiledLoop)}
     assert loops == {False, True}  # the allocating one fell back, the built-in ones did not
