@@ -13,7 +13,8 @@ turbine_power_mw    MW                           the turbine torque (held over t
 net_head_m          m                            the turbine's net head of the last step
 vane_stroke         fraction of the full stroke  control 0 (the guide vanes) after the last control sub-step
 grid_frequency_hz   Hz                           the shaft's ``grid_frequency(p, s)``: the island's frequency (the
-                                                 unit's, f_n n / n_r) or the infinite bus's (f_n); NaN for a shaft
+                                                 unit's, f_n n / n_r) or the infinite bus's (f_n (1 + x_bus), x_bus
+                                                 stepped by the scenario ``grid-frequency-step``); NaN for a shaft
                                                  without a grid (the swing rotor)
 =================== ============================ =============================================================
 

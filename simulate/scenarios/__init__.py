@@ -15,6 +15,8 @@
                      ``event_time_s``; speed and field voltage held (the standard short-circuit test).
 ``field-step``       sub-transient generator at open circuit and rated speed; the field voltage steps by
                      ``field_step_pu`` at ``event_time_s`` (speed held, no voltage control).
+``grid-frequency-step`` sub-transient generator on an infinite bus under its governor; the bus frequency steps by
+                     ``grid_frequency_steps`` (per unit, cumulative) at ``step_times_s``.
 """
 
 from simulate.scenarios.base import (  # noqa: F401  (the public names of the package)
@@ -27,6 +29,7 @@ from simulate.scenarios.load_step import LoadStep  # noqa: F401
 from simulate.scenarios.opening_steps import OpeningSteps  # noqa: F401
 from simulate.scenarios.short_circuit import ShortCircuit  # noqa: F401
 from simulate.scenarios.field_step import FieldStep  # noqa: F401
+from simulate.scenarios.grid_frequency_step import GridFrequencyStep  # noqa: F401
 
 if set(SCENARIO_CLASSES) != set(SCENARIO_KINDS):
     raise ImportError(f"scenario kinds without a class: {sorted(set(SCENARIO_KINDS) - set(SCENARIO_CLASSES))}")

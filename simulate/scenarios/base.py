@@ -4,7 +4,7 @@ kind), the schedules the time loop follows, and their common start."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import ClassVar
 
 import numpy as np
@@ -16,7 +16,7 @@ from simulate.components.schedules import GOVERNOR, PRESCRIBED  # noqa: F401  (t
 
 
 SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps", "short-circuit",
-                  "field-step")
+                  "field-step", "grid-frequency-step")
 
 #: Keys each scenario kind accepts beyond ``kind`` and ``t_end_s`` (required ones first in the docs).
 SCENARIO_KEYS = {
@@ -28,6 +28,7 @@ SCENARIO_KEYS = {
     "opening-steps": ("initial_power_mw", "initial_opening", "opening_steps", "step_times_s"),
     "short-circuit": ("event_time_s",),
     "field-step": ("event_time_s", "field_step_pu"),
+    "grid-frequency-step": ("initial_power_mw", "initial_opening", "grid_frequency_steps", "step_times_s"),
 }
 
 #: What a list key of the scenario takes.
@@ -52,8 +53,10 @@ class ScenarioConfig:
     ``initial_opening`` (stroke fraction) for the kinds that start on load; frequency-steps starts at no load.
     ``closing_time_s`` (closure-law): time of a full stroke at the first-stage rate; below ``break_opening`` the
     vanes move at the slower rate of a full stroke per ``break_time_s``. ``field_step_pu`` (field-step, default 0.1):
-    the field-voltage step, pu. ``units`` (any kind; a plant with ``[[units]]`` only): the names of the units the
-    event applies to (default: all); the others stay on the grid under their governors at constant load.
+    the field-voltage step, pu. ``grid_frequency_steps`` (grid-frequency-step, required with ``step_times_s``):
+    the steps of the infinite bus's frequency, per unit of ``grid.frequency_hz``, cumulative. ``units`` (any kind;
+    a plant with ``[[units]]`` only): the names of the units the event applies to (default: all); the others stay on
+    the grid under their governors at constant load.
     """
 
     kind: str = parameter(unit="", choices=SCENARIO_KINDS, description="what happens")
@@ -80,6 +83,9 @@ class ScenarioConfig:
                                                        description="the times of the steps, non-decreasing")
     field_step_pu: float = parameter(0.1, unit="pu", low=-1.0, high=1.0,
                                      description="field-step: the field-voltage step")
+    grid_frequency_steps: tuple[float, ...] | None = parameter(
+        None, what=_NUMBERS, unit="pu of grid.frequency_hz", kind="array",
+        description="grid-frequency-step: the steps of the infinite bus's frequency (cumulative)")
     units: tuple[str, ...] | None = parameter(None, unit="", kind="array",
                                               what="a non-empty list of unit names (the [[units]] names)",
                                               description="the units the event applies to (default: all)")
@@ -157,7 +163,9 @@ class Schedules:
     (``initial_load``/``initial_self_regulation`` before the first time).
     Electrical events (the sub-transient shaft reads them; the swing rotor has none): ``speed_held`` (the shaft
     stays at rated speed), ``fault_time_s`` (three-phase terminal fault from then on), ``field_held`` (no voltage
-    control: the field voltage stays at its steady value) plus ``field_step_pu`` from ``field_step_time_s``.
+    control: the field voltage stays at its steady value) plus ``field_step_pu`` from ``field_step_time_s``;
+    ``bus_frequency_times_s``/``bus_frequency_values``: the infinite bus's frequency deviation x_bus (per unit of
+    the rated frequency), piecewise constant (0 before the first time; none: the bus at rated frequency).
     """
 
     mode: int
@@ -175,6 +183,8 @@ class Schedules:
     field_held: bool = False
     field_step_time_s: float = float("inf")
     field_step_pu: float = 0.0
+    bus_frequency_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    bus_frequency_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def initial_target(scenario) -> dict:

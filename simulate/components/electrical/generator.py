@@ -10,7 +10,11 @@ infinite bus only; in an island it just integrates the frequency deviation)::
     T'd0  dE'q/dt  = v_f - E'q  - Id (Xd  - X'd)          eq. (10), first row  (v_f: field voltage, "v")
     T''d0 dE''q/dt = E'q - E''q - Id (X'd - X''d)         eq. (10), second row
     T''q0 dE''d/dt = -E''d      + Iq (Xq  - X''q)         eq. (10), third row
-    d delta/dt     = omega_b x                             (x: per-unit speed deviation, omega_b = 2 pi f_n)
+    d delta/dt     = omega_b (x - x_bus)                   (x: per-unit speed deviation, omega_b = 2 pi f_n)
+
+x_bus is the infinite bus's per-unit frequency deviation (0 at rated frequency; the scenario kind
+``grid-frequency-step`` steps it): delta is the machine's angle against the bus, which turns at omega_b (1 + x_bus).
+The line reactance and the machine's reactances stay those of rated frequency (as the stator equations below).
 
 Stator transients are neglected (the paper's third-order model) and the stator voltage equations use rated speed::
 
@@ -139,7 +143,8 @@ class GridConfig:
     stator at rated speed is the air-gap power in per unit, so frequency_p is directly the load's torque
     self-regulation (the swing model's e_g = 1 at the initial load is frequency_p = 1).
     ``kind = "infinite-bus"``: ``x_line_pu`` line reactance (machine base, > 0) to a bus of ``bus_voltage_pu`` at
-    rated frequency. ``frequency_hz``: rated frequency (omega_b = 2 pi f_n).
+    rated frequency (the scenario kind ``grid-frequency-step`` steps the bus's frequency). ``frequency_hz``: rated
+    frequency (omega_b = 2 pi f_n).
     Keys of the other kind are rejected.
     """
 
@@ -336,19 +341,22 @@ def network_solution(p, state, speed_dev, breaker, load_scale, fault, out):
 
 
 @numba.njit(cache=True)
-def generator_derivatives(p, state, field_voltage, speed_dev, i_d, i_q, deriv):
-    """d/dt of the state, paper 001 eq. (10) and d delta/dt = omega_b x; fills ``deriv`` (4,)."""
+def generator_derivatives(p, state, field_voltage, speed_dev, i_d, i_q, deriv, bus_speed_dev=0.0):
+    """d/dt of the state, paper 001 eq. (10) and d delta/dt = omega_b (x - x_bus); fills ``deriv`` (4,).
+
+    ``bus_speed_dev``: the infinite bus's per-unit frequency deviation x_bus (0: the bus at rated frequency)."""
     deriv[S_EQ_T] = (field_voltage - state[S_EQ_T] - i_d * (p[P_XD] - p[P_XD_T])) / p[P_TD0_T]  # eq. (10)
     deriv[S_EQ_ST] = (state[S_EQ_T] - state[S_EQ_ST] - i_d * (p[P_XD_T] - p[P_XD_ST])) / p[P_TD0_ST]  # eq. (10)
     deriv[S_ED_ST] = (-state[S_ED_ST] + i_q * (p[P_XQ] - p[P_XQ_ST])) / p[P_TQ0_ST]  # eq. (10)
-    deriv[S_DELTA] = p[P_OMEGA_B] * speed_dev
+    deriv[S_DELTA] = p[P_OMEGA_B] * (speed_dev - bus_speed_dev)  # the angle against the bus
 
 
 @numba.njit(cache=True)
-def generator_step(p, state, speed_dev, field_voltage, breaker, load_scale, fault, dt_s, work):
+def generator_step(p, state, speed_dev, field_voltage, breaker, load_scale, fault, dt_s, work, bus_speed_dev=0.0):
     """Advance ``state`` in place by ``dt_s`` (inputs held over the step); RK4 in equal sub-steps.
 
-    ``work`` is a scratch array of at least 28 floats (no allocation in the loop). Returns the status (0 ok).
+    ``work`` is a scratch array of at least 28 floats (no allocation in the loop); ``bus_speed_dev`` the infinite
+    bus's per-unit frequency deviation x_bus over the step (:func:`generator_derivatives`). Returns the status (0 ok).
     """
     n_sub = max(1, int(math.ceil(dt_s / p[P_SUBSTEP] - 1e-9)))
     h = dt_s / n_sub
@@ -359,25 +367,25 @@ def generator_step(p, state, speed_dev, field_voltage, breaker, load_scale, faul
         st = network_solution(p, state, speed_dev, breaker, load_scale, fault, out)
         if st != 0:
             return st
-        generator_derivatives(p, state, field_voltage, speed_dev, out[O_ID], out[O_IQ], k1)
+        generator_derivatives(p, state, field_voltage, speed_dev, out[O_ID], out[O_IQ], k1, bus_speed_dev)
         for i in range(4):
             tmp[i] = state[i] + 0.5 * h * k1[i]
         st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
         if st != 0:
             return st
-        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k2)
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k2, bus_speed_dev)
         for i in range(4):
             tmp[i] = state[i] + 0.5 * h * k2[i]
         st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
         if st != 0:
             return st
-        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k3)
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k3, bus_speed_dev)
         for i in range(4):
             tmp[i] = state[i] + h * k3[i]
         st = network_solution(p, tmp, speed_dev, breaker, load_scale, fault, out)
         if st != 0:
             return st
-        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k4)
+        generator_derivatives(p, tmp, field_voltage, speed_dev, out[O_ID], out[O_IQ], k4, bus_speed_dev)
         for i in range(4):
             state[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             if not math.isfinite(state[i]):

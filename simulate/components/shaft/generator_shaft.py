@@ -13,15 +13,17 @@ time loop runs it without naming it. Per loop step k -> k+1 (the order of
 3. rotor: ``x_k+1 = rotor_step(x_k, m_t_k, Te_k * rated_mva / P_r, 0, Ta, dt)`` (the swing equation with the
    generator's air-gap torque as its load; the load's frequency dependence is in the grid), or x held at 0;
 4. :func:`simulate.components.electrical.generator.generator_step` from t_k to t_k+1 at the NEW speed x_k+1
-   (semi-implicit: the angle integrates x_k+1, see the README).
+   (semi-implicit: the angle integrates x_k+1 - x_bus, see the README; x_bus the infinite bus's frequency
+   deviation of the scenario ``grid-frequency-step``, 0 otherwise).
 
 Steps 1-2 of step k+1 are done at the end of step k (same order, shifted), so the record of row k+1 shows the
 network at t_k+1 and the field voltage applied from t_k+1 on, the convention of the standalone drivers.
 
 The scenario's schedules become the network's inputs: the breaker is closed while the scenario's load is positive
 (a load rejection opens it; the no-load kinds run at open circuit), the island load is the schedule's load divided
-by the initial load, and the electrical events (terminal fault, held speed and field, field step) come from
-:class:`simulate.scenarios.Schedules`.
+by the initial load, and the electrical events (terminal fault, held speed and field, field step) and the infinite
+bus's frequency steps come from :class:`simulate.scenarios.Schedules`. An event inside a step (a load change, the
+fault, the field step, a bus frequency step) splits the generator's step at its time.
 """
 
 from __future__ import annotations
@@ -61,8 +63,9 @@ SHAFT_SCALARS = ("rated_speed_rpm", "rated_torque_nm", "inertia_time_s", "time_e
                  "steady_field_pu", "rated_frequency_hz", "infinite_bus")
 (C_NR, C_MR, C_TA, C_EPS, C_LOAD0, C_SPEED_HELD, C_FAULT_T, C_FIELD_HELD, C_FIELD_T, C_FIELD_STEP, C_FIELD0,
  C_FN, C_BUS) = range(len(SHAFT_SCALARS))
-#: Layout of the small state vector ``misc``: field voltage held over the coming step, failure status, its time.
-M_FIELD, M_STATUS, M_TIME = 0, 1, 2
+#: Layout of the small state vector ``misc``: field voltage held over the coming step, failure status, its time, the
+#: infinite bus's per-unit frequency deviation x_bus at the present time.
+M_FIELD, M_STATUS, M_TIME, M_XBUS = 0, 1, 2, 3
 
 
 @numba.njit(cache=True)
@@ -77,15 +80,24 @@ def _inputs(scal, load_times, load_values, t_s):
 
 
 @numba.njit(cache=True)
-def _event_within(scal, load_times, t_s, dt_s):
-    """The first electrical event (load change, fault, field step) strictly inside (t_s, t_s + dt_s), or
-    t_s + dt_s when there is none."""
+def _bus_deviation(scal, bus_times, bus_values, t_s):
+    """The infinite bus's per-unit frequency deviation x_bus from ``t_s`` on (0 before the first step)."""
+    return piecewise_constant(bus_times, bus_values, t_s + scal[C_EPS], 0.0)
+
+
+@numba.njit(cache=True)
+def _event_within(scal, load_times, bus_times, t_s, dt_s):
+    """The first electrical event (load change, fault, field step, bus frequency step) strictly inside
+    (t_s, t_s + dt_s), or t_s + dt_s when there is none."""
     eps = scal[C_EPS]
     first = t_s + dt_s
     for t_e in (scal[C_FAULT_T], scal[C_FIELD_T]):
         if t_s + eps < t_e < first - eps:
             first = t_e
     for t_e in load_times:
+        if t_s + eps < t_e < first - eps:
+            first = t_e
+    for t_e in bus_times:
         if t_s + eps < t_e < first - eps:
             first = t_e
     return first
@@ -122,10 +134,10 @@ def subtransient_electrical_power(p, s, t_s):
 
 @numba.njit(cache=True)
 def subtransient_grid_frequency(p, s):
-    """The grid's frequency, Hz: the island's is the unit's, f_n n / n_r; the infinite bus runs at f_n."""
+    """The grid's frequency, Hz: the island's is the unit's, f_n n / n_r; the infinite bus's f_n (1 + x_bus)."""
     scal = p[0]
     if scal[C_BUS] > 0.5:
-        return scal[C_FN]
+        return scal[C_FN] * (1.0 + s[5][M_XBUS])
     return scal[C_FN] * s[0][0] / scal[C_NR]
 
 
@@ -133,7 +145,7 @@ def subtransient_grid_frequency(p, s):
 def subtransient_shaft_step(p, s, turbine_torque_nm, t_s, dt_s):
     """Steps 3-4 of step k, then 1-2 of step k+1 (module docstring). A failure of the network or of the generator
     step stores its status and time and returns NaN (the run then stops; the engine reports the status)."""
-    scal, gp, ep, load_times, load_values = p
+    scal, gp, ep, load_times, load_values, bus_times, bus_values = p
     speed, gs, es, out, work, misc = s
     if misc[M_STATUS] != 0.0:
         return math.nan
@@ -145,17 +157,20 @@ def subtransient_shaft_step(p, s, turbine_torque_nm, t_s, dt_s):
         # the swing equation; its load is the air-gap torque on the turbine torque base
         x_next = rotor_step(x, turbine_torque_nm / scal[C_MR], out[O_TE] * gp[P_TORQUE_RATIO], 0.0, scal[C_TA], dt_s)
     breaker, scale, fault = _inputs(scal, load_times, load_values, t_s)
-    t_event = _event_within(scal, load_times, t_s, dt_s)
+    x_bus = _bus_deviation(scal, bus_times, bus_values, t_s)
+    t_event = _event_within(scal, load_times, bus_times, t_s, dt_s)
     if t_event < t_s + dt_s:  # an event inside the step: the fluxes meet it at its time (the step is split)
-        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, t_event - t_s, work)
+        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, t_event - t_s, work, x_bus)
         if status == 0:
             breaker, scale, fault = _inputs(scal, load_times, load_values, t_event)
+            x_bus = _bus_deviation(scal, bus_times, bus_values, t_event)
             field = misc[M_FIELD]
             if scal[C_FIELD_HELD] > 0.5 and t_event >= scal[C_FIELD_T] - scal[C_EPS]:
                 field = scal[C_FIELD0] + scal[C_FIELD_STEP]
-            status = generator_step(gp, gs, x_next, field, breaker, scale, fault, t_s + dt_s - t_event, work)
+            status = generator_step(gp, gs, x_next, field, breaker, scale, fault, t_s + dt_s - t_event, work, x_bus)
     else:
-        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, dt_s, work)  # eq. (10)
+        status = generator_step(gp, gs, x_next, misc[M_FIELD], breaker, scale, fault, dt_s, work, x_bus)  # eq. (10)
+    misc[M_XBUS] = _bus_deviation(scal, bus_times, bus_values, t_s + dt_s)
     if status == 0:
         status = _network_and_field(scal, gp, ep, load_times, load_values, gs, es, out, misc, x_next, t_s + dt_s,
                                     dt_s)
@@ -204,12 +219,13 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
                      1.0 if schedules.field_held else 0.0, schedules.field_step_time_s, schedules.field_step_pu,
                      arrays.field_voltage_pu, grid.frequency_hz, 1.0 if grid.kind == "infinite-bus" else 0.0])
     params = (scal, arrays.generator_params, arrays.excitation_params, schedules.load_times_s,
-              schedules.load_values)
-    misc = np.zeros(3)
+              schedules.load_values, schedules.bus_frequency_times_s, schedules.bus_frequency_values)
+    misc = np.zeros(4)
     state = (np.array([steady.speed_rpm]), arrays.generator_state, arrays.excitation_state, arrays.outputs,
              arrays.work, misc)
     python = lambda f: getattr(f, "py_func", f)  # noqa: E731  (one-off calls; plain functions with NUMBA_DISABLE_JIT)
-    status = python(_network_and_field)(scal, *params[1:], arrays.generator_state, arrays.excitation_state,
+    misc[M_XBUS] = python(_bus_deviation)(scal, *params[5:], 0.0)
+    status = python(_network_and_field)(scal, *params[1:5], arrays.generator_state, arrays.excitation_state,
                                         arrays.outputs, misc, 0.0, 0.0, dt_s)
     if status != 0:
         raise InputError(f"generator network at t = 0: {STATUS_TEXT[status]}")

@@ -8,7 +8,10 @@ and of the plant loop that runs it.
 * two-stage closing: a load rejection closes the vanes along the two-stage law of the closure-law scenario
   (:func:`simulate.components.control.governor.closure_law`), exactly;
 * rate limit (the ramp limiter, no lag): a closure runs at one full stroke per closing_time_s exactly, down to the
-  closed end; a command within one step's travel is reached in that step.
+  closed end; a command within one step's travel is reached in that step; in a plant's load rejection the vanes
+  close on that ramp to the closed end;
+* backlash in a plant's load rejection: the vanes are the first-order servo's stroke plus half the play, exactly,
+  and stop half the play short of the closed end.
 """
 
 import numpy as np
@@ -180,6 +183,52 @@ def test_a_load_rejection_closes_at_the_rate_limit_exactly_and_a_dead_time_shift
     window = free.time_s <= 10.0
     np.testing.assert_allclose(delayed.opening[n:][window[:-n]], free.opening[:-n][window[:-n]], rtol=0, atol=1e-9)
     assert np.max(np.abs(delayed.opening[window] - free.opening[window])) > 0.02  # not the same run
+
+
+@pytest.mark.slow
+def test_a_load_rejection_closes_on_the_rate_limit_servos_ramp_to_the_closed_end():
+    """The ramp limiter without lag: from the row of t = 2.04 s (the governor sees the rejection at 2.02 s) the
+    stroke falls by dt / closing_time_s every step while the command (the lower stroke limit) is more than one step
+    below it, and the last step lands on 0: y(t) = max(0, y0 - (t - 2.02) / closing_time_s)."""
+    from data_synthetic import PLANT_HLA339
+    from simulate.loop.engine import run_simulation
+
+    ramp = run_simulation(_load_without_lag(PLANT_HLA339, {**REJECTION, "governor.servo_model": "rate-limit"}))
+    dt, closing = 0.02, 12.0
+    y0 = ramp.opening[0]
+    expected = np.where(ramp.time_s <= 2.02, y0, np.maximum(0.0, y0 - (ramp.time_s - 2.02) / closing))
+    # 1e-12: the stroke is a sum of up to ~590 steps of dt / closing_time_s (rounding ~1e-16 each, measured 4e-17 per
+    # step), far below the 1.7e-3 of one step early or late
+    np.testing.assert_allclose(ramp.opening, expected, rtol=0, atol=1e-12)
+    closed = np.flatnonzero(ramp.opening == 0.0)
+    assert closed.size > 0 and ramp.time_s[closed[0]] == pytest.approx(2.02 + closing * y0, abs=dt)  # 13.76 s
+    steps = np.diff(ramp.opening)[(ramp.time_s[1:] > 2.03) & (ramp.opening[1:] > 0.0)]
+    assert steps.size > 500 and np.all(np.abs(steps + dt / closing) < 1e-15)
+    # beside it, the first-order servo with the same rate limit leaves the ramp near the closed end (its lag): at
+    # 13.76 s it is still 0.006 open
+    lagged = _run()
+    assert lagged.opening[closed[0]] > 5e-3
+
+
+@pytest.mark.slow
+def test_a_load_rejection_through_backlash_is_the_first_order_closure_plus_half_the_play():
+    """Backlash b = 0.02 after the first-order servo: the command sits at the lower stroke limit through the closure
+    (as in the runs above), so the piston follows the first-order run's stroke to the last bit and the vanes, dragged
+    closed, stay b/2 above it: y = min(y0, y_first_order + b/2), ending b/2 short of the closed end."""
+    free = _run()
+    loose = _run({"governor.servo_model": "backlash", "governor.servo_backlash": 0.02})
+    y0, half = free.opening[0], 0.01
+    window = free.time_s <= 10.0
+    expected = np.minimum(y0, free.opening + half)
+    # 1e-9 as for the dead time above: before the event the stiff governor sees rounding-level speed deviations
+    # (measured: equal to the last bit), against the 0.01 of the play
+    np.testing.assert_allclose(loose.opening[window], expected[window], rtol=0, atol=1e-9)
+    # the vanes wait while the piston takes up b/2 (0.01 at dt / closing_time_s a step: 6 steps, the sixth exactly
+    # at the edge of the play)
+    assert np.sum(loose.opening == y0) - np.sum(free.opening == y0) == 5
+    assert loose.opening[-1] == pytest.approx(free.opening[-1] + half, abs=1e-9) and loose.opening[-1] > half
+    # beside it, the vanes without play are off the closed form by the half play
+    assert np.max(np.abs(free.opening[window] - expected[window])) == pytest.approx(half, abs=1e-12)
 
 
 @pytest.mark.slow
