@@ -78,8 +78,10 @@ def time_scales(plant, schedules) -> list[TimeScale]:
 
 
 def event_times(schedules, t_end_s: float) -> list[float]:
-    """The scenario's event times inside (0, t_end): load changes, speed-reference steps, fault, field step."""
-    times = [*schedules.load_times_s, *schedules.ref_times_s, schedules.fault_time_s, schedules.field_step_time_s]
+    """The scenario's event times inside (0, t_end): load changes, speed-reference steps, fault, field step, the
+    infinite bus's frequency steps."""
+    times = [*schedules.load_times_s, *schedules.ref_times_s, schedules.fault_time_s, schedules.field_step_time_s,
+             *schedules.bus_frequency_times_s]
     return sorted({float(t) for t in times if math.isfinite(t) and 0.0 < t < t_end_s})
 
 

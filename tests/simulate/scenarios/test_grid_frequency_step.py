@@ -130,3 +130,21 @@ def test_the_unit_pulls_into_step_at_the_bus_frequency():
     # last bits
     still = run_simulation(bus_plant(**DROOP, **{"scenario.grid_frequency_steps": [0.0]}))
     assert np.max(np.abs(still.speed_rpm / still.rated_speed_rpm - 1.0)) < 1e-12
+
+
+def test_a_bus_step_is_an_event_the_chosen_time_step_lands_on():
+    """On a rigid penstock the solver chooses the step: a bus step at 1.234 s is one of the events it aligns to (a
+    whole number of steps up to it, to 1e-9 of a step), as a load step is; before the bus steps were events, the
+    chosen step had no reason to land on 1.234 s."""
+    from simulate.loop.timestep import event_times
+
+    plant = bus_plant(**{"penstock.model": "rigid", "scenario.step_times_s": [1.234],
+                         "scenario.t_end_s": 3.0})
+    run = run_simulation(plant)
+    dt = run.meta["dt_s"]
+    assert run.meta["aligned_event_times_s"] == [1.234]
+    assert abs(1.234 / dt - round(1.234 / dt)) < 1e-9
+    # the failing case: without the bus steps the scenario has no event inside the run
+    steady = initial_state(plant)
+    schedules = plant_schedules(plant, steady)
+    assert event_times(replace(schedules, bus_frequency_times_s=np.zeros(0)), 3.0) == []
