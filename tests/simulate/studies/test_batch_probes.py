@@ -14,6 +14,7 @@ import pytest
 from data_synthetic import PLANT_HLA339
 from simulate.config import load_characteristics, load_plant
 from simulate.loop.engine import run_simulation
+from simulate.loop.generator import UNIT_SERIES
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -40,12 +41,14 @@ def test_the_floor_benchmark_times_the_runs_own_loop():
     args = copy.deepcopy(captured["args"])
     status, k = captured["loop"](0, captured["n_steps"], captured["dt"], captured["n_sub"], captured["stride"], *args)
     assert (status, k) == (0, captured["n_steps"])
-    speed, head = args[13], args[14]  # out_speed, out_head (simulate.loop.assembly's time_loop arguments)
+    # out_units[row, unit, series] (simulate.loop.generator's time_loop arguments; series as UNIT_SERIES)
+    out_units = args[3]
+    speed, head = out_units[:, 0, UNIT_SERIES.index("speed_rpm")], out_units[:, 0, UNIT_SERIES.index("head_m")]
     # the same loop on the same arguments in one process: the same operations, so the same bits
     assert np.array_equal(speed, reference.speed_rpm) and np.array_equal(head, reference.head_m)
     assert speed.max() > speed[0] * 1.05  # a rejection ran, not a copy of the initial state
     # the captured arguments are the initial state, not the finished run's
-    assert np.all(captured["args"][13][1:] == 0.0)
+    assert np.all(captured["args"][3][1:] == 0.0)
 
 
 def test_the_stacked_grid_equals_moc_step_to_the_bit():
