@@ -33,6 +33,8 @@ import numpy as np
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
+from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
+from simulate.components.hydraulic.friction import steady_reach_loss as reach_friction_loss
 
 #: Largest relative change of a segment's wave speed accepted to fit a whole number of reaches.
 MAX_WAVE_SPEED_ADJUSTMENT = 0.05
@@ -120,7 +122,7 @@ def moc_turbine_relation(heads, flows, impedance, friction):
     """(C_L, k) of the C+ characteristic reaching the turbine node: H_P = C_P - B Q_P (B of the last reach)."""
     j = heads.size - 1
     b = impedance[j - 1]
-    c_p = heads[j - 1] + b * flows[j - 1] - friction[j - 1] * flows[j - 1] * abs(flows[j - 1])
+    c_p = heads[j - 1] + b * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
     return c_p, -b
 
 
@@ -129,7 +131,7 @@ def moc_inlet_characteristic(heads, flows, impedance, friction):
     """C_M of the C- characteristic reaching the inlet node (node 0) from node 1: H_P = C_M + B Q_P there (B of the
     first reach, Q_P the flow into the pipe)."""
     b0 = impedance[0]
-    return heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+    return heads[1] - b0 * flows[1] + reach_friction_loss(friction, flows, 0, 1)
 
 
 @numba.njit(cache=True)
@@ -148,13 +150,14 @@ def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m
     for j in range(1, n):
         bl = impedance[j - 1]
         br = impedance[j]
-        c_p = heads[j - 1] + bl * flows[j - 1] - friction[j - 1] * flows[j - 1] * abs(flows[j - 1])
-        c_m = heads[j + 1] - br * flows[j + 1] + friction[j] * flows[j + 1] * abs(flows[j + 1])
+        c_p = heads[j - 1] + bl * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
+        c_m = heads[j + 1] - br * flows[j + 1] + reach_friction_loss(friction, flows, j, j + 1)
         q = (c_p - c_m) / (bl + br)
         new_flows[j] = q
         new_heads[j] = c_p - bl * q
     new_heads[n] = turbine_head_m
     new_flows[n] = turbine_flow_m3_s
+    reach_friction_advance(friction, flows, new_flows)
 
 
 # ---------------------------------------------------------------------------------------------------------------
