@@ -346,22 +346,27 @@ def node_positions_m(penstock, model: str, dt_s: float, grid: MocGrid | None = N
 
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
-    """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes),
-    [current])."""
-    from simulate.components.registry import CompiledPart, PartHooks
+    """Compiled MOC penstock: params (B per reach, the friction model's arrays), state (heads (2, nodes), flows
+    (2, nodes), [current]). The friction model is ``penstock.friction_model``
+    (:data:`simulate.components.registry.FRICTION`, :mod:`simulate.components.hydraulic.friction`), bound into the
+    relation and the update (the steady model's arrays are R per reach)."""
+    from simulate.components.registry import FRICTION, CompiledPart, PartHooks
 
-    grid = build_moc_grid(plant.penstock, dt_s)
+    pen = plant.penstock
+    grid = build_moc_grid(pen, dt_s)
+    friction = FRICTION.builder(pen.friction_model)(pen, grid, steady.flow_m3_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
     state = (np.vstack((heads, heads)), np.vstack((flows, flows)), np.zeros(1, dtype=np.int64))
     return CompiledPart(
         kind="penstock", name="moc",
-        functions={"relation": moc_relation, "update": moc_update, "inlet_flow": moc_inlet_flow,
-                   "envelope": moc_envelope, "node_heads": moc_node_heads},
-        params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
+        functions={"relation": friction.bind(moc_relation), "update": friction.bind(moc_update),
+                   "inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads},
+        params=(grid.impedance_s_m2, friction.arrays), state=state,
         hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
-                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
-                        warnings_after=lambda signals: plant.penstock.unread_key_warnings()),
-        n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s, grid))
+                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment,
+                                 **friction.summary},
+                        warnings_after=lambda signals: pen.unread_key_warnings()),
+        n_nodes=heads.size, node_x_m=node_positions_m(pen, "moc", dt_s, grid))
 
 
 def _build_iir(model: str):
