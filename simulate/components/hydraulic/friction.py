@@ -83,31 +83,37 @@ def build_steady_friction(penstock, grid, flow_m3_s: float) -> CompiledFriction:
 
 def with_friction(func: Callable, functions: dict[str, Callable]) -> Callable:
     """``func`` with its calls of the friction seam (:data:`SEAM`, the names in ``functions``) going to
-    ``functions``, through every compiled function of its module that it calls and that reaches the seam: a
+    ``functions``, through every function of its own module that it calls and that reaches the seam: a
     :class:`simulate.components.registry.Bound` (nested), or ``func`` itself where every name already refers to
-    the given function (the default model: the loop's text is then the same as without a friction model)."""
+    the given function (the default model: the loop's text is then the same as without a friction model). Compiled
+    or not (``NUMBA_DISABLE_JIT``)."""
     names = []
-    py_func = func.py_func
+    py_func = getattr(func, "py_func", func)
     for name in py_func.__code__.co_names:
         target = py_func.__globals__.get(name)
         if name in functions:
             if target is not functions[name]:
                 names.append((name, functions[name]))
-        elif isinstance(target, numba.core.registry.CPUDispatcher) and _reaches_seam(target):
+        elif _same_module_function(target, func) and _reaches_seam(target, {func}):
             bound = with_friction(target, functions)
             if bound is not target:
                 names.append((name, bound))
     return Bound(func, tuple(names)) if names else func
 
 
-def _reaches_seam(func) -> bool:
-    """Whether the compiled function ``func`` calls the friction seam, itself or through functions it calls."""
-    py_func = func.py_func
+def _same_module_function(target, func) -> bool:
+    return callable(target) and hasattr(getattr(target, "py_func", target), "__code__") \
+        and getattr(target, "__module__", None) == func.__module__
+
+
+def _reaches_seam(func, seen: set) -> bool:
+    """Whether ``func`` calls the friction seam, itself or through functions of its module that it calls."""
+    py_func = getattr(func, "py_func", func)
     for name in py_func.__code__.co_names:
         if name in SEAM:
             return True
         target = py_func.__globals__.get(name)
-        if isinstance(target, numba.core.registry.CPUDispatcher) and target is not func and _reaches_seam(target):
+        if _same_module_function(target, func) and target not in seen and _reaches_seam(target, seen | {func}):
             return True
     return False
 
