@@ -11,6 +11,9 @@ kind       TOML key                      functions (p = params tuple, s = state 
 penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); update(p, s, H_up, H, Q);
                                          inlet_flow(p, s) -> Q; envelope(p, s, H_up, H, env_max, env_min);
                                          node_heads(p, s, H_up, H, out)
+friction   ``penstock.friction_model``   reach_friction_loss(friction, flows, reach, node) -> m;
+                                         reach_friction_advance(friction, flows, new_flows) (bound into the MOC
+                                         penstock's functions, :mod:`simulate.components.hydraulic.friction`)
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
                                          (optional: the component's extra timeseries columns)
 control    scenario's control            step(p, s, signals, t, t_next, dt) -> controls (fractions of stroke;
@@ -216,7 +219,8 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
     "lumped": "simulate.components.hydraulic.penstock:build_lumped",
     "rigid": "simulate.components.hydraulic.penstock:build_rigid",
 }, traits={
-    "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True),
+    "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True,
+                         reads=("friction_model",)),
     "zdomain": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=False,
                              reads=("zdomain_feedback",),
                              computes_branches=False),
@@ -225,6 +229,13 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
                             computes_branches=False),
     "rigid": ConduitTraits(grid_fixes_time_step=False, carries_waves=False, lumped_column=True,
                            computes_branches=False),
+})
+#: The wall friction of the method of characteristics (the first entry is the default; builders
+#: ``build(penstock, grid, flow_m3_s) -> simulate.components.hydraulic.friction.CompiledFriction``, a model's own
+#: ``[penstock]`` keys its module's ``PENSTOCK_KEYS``).
+FRICTION = Registry("friction", "penstock.friction_model", {
+    "steady": "simulate.components.hydraulic.friction:build_steady_friction",
+    "brunone": "simulate.components.hydraulic.brunone:build_brunone_friction",
 })
 UPSTREAM = Registry("upstream", "upstream", {
     "reservoir": "simulate.components.hydraulic.reservoir:build_reservoir",

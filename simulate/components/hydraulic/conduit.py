@@ -12,8 +12,9 @@ from typing import Any
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
-from simulate.components.parameters import parameter, validate_parameters
-from simulate.components.registry import PENSTOCKS
+from simulate.components.hydraulic.brunone import BrunoneConfig
+from simulate.components.parameters import borrowed, parameter, validate_parameters
+from simulate.components.registry import FRICTION, PENSTOCKS
 
 #: The slowest pressure wave in water: a bubbly air-water mixture at atmospheric pressure has its minimum sound
 #: speed (Wood's equation, half air by volume) at about 24 m/s; water conduits lie at about 100-1500 m/s.
@@ -23,7 +24,7 @@ MAX_REACHES = 10000
 #: ``[penstock]`` keys that one model's run reads (its registry traits' ``reads``); ``lumped_alpha`` also sets the
 #: identification's linear reference of every elastic model (:mod:`simulate.identification.linear_reference`), so
 #: under another model it is kept and the run warns that it does not read it; ``zdomain_feedback`` is refused.
-MODEL_KEYS = ("lumped_alpha", "zdomain_feedback")
+MODEL_KEYS = ("lumped_alpha", "zdomain_feedback", "friction_model")
 KEYS_READ_OUTSIDE_THE_RUN = ("lumped_alpha",)
 
 
@@ -118,6 +119,10 @@ class PenstockConfig:
     travel time divided by ``reaches`` (Courant number 1). ``lumped_alpha`` is alpha in the lumped model
     h = -Tw s / (1 + alpha Te^2 s^2) q (default 4/pi^2 puts its resonance on the pipe's first mode, pi a / (2 L)).
     ``zdomain_feedback`` is F of eq. (17) of the BP hill-chart paper (default 0: lossless characteristic line).
+    ``friction_model`` is the wall friction of the method of characteristics
+    (:data:`simulate.components.registry.FRICTION`: ``"steady"``, the Darcy-Weisbach loss, or ``"brunone"``, the
+    unsteady friction of :mod:`simulate.components.hydraulic.brunone` with its keys ``brunone_k3`` and
+    ``brunone_viscosity_m2_s``; a friction model's keys are refused under another).
     """
 
     model: str = parameter(unit="", choices=PENSTOCKS, description="the penstock model")
@@ -132,10 +137,24 @@ class PenstockConfig:
                                     description="alpha of the lumped model's second-order term")
     zdomain_feedback: float = parameter(0.0, unit="1", low=0.0, high=100.0,
                                         description="F of the z-domain model's friction feedback")
+    friction_model: str = parameter("steady", unit="", choices=FRICTION,
+                                    description="the wall friction of the method of characteristics")
+    brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
+    brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
 
     def __post_init__(self):
         validate_parameters("penstock", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "penstock.segments"))
+        own = FRICTION.attribute(self.friction_model, "PENSTOCK_KEYS", ())
+        for key in friction_keys():
+            if getattr(self, key) is not None and key not in own:
+                owners = [m for m in FRICTION.names() if key in FRICTION.attribute(m, "PENSTOCK_KEYS", ())]
+                raise InputError(f"penstock.{key} is a key of penstock.friction_model = {' or '.join(owners)!r}; "
+                                 f"with friction_model = {self.friction_model!r} it would be ignored: set "
+                                 f"friction_model or remove the key")
+        check = FRICTION.attribute(self.friction_model, "check_penstock")
+        if check is not None:
+            check(self)
         for key in self.unread_keys():
             if key not in KEYS_READ_OUTSIDE_THE_RUN:
                 owners = [m for m in PENSTOCKS.names() if key in getattr(PENSTOCKS.traits(m), "reads", ())]
@@ -183,6 +202,11 @@ class PenstockConfig:
     def moc_time_step_s(self) -> float:
         """Shortest segment travel time / reaches, s (the default time step of every model)."""
         return min(s.travel_time_s for s in self.segments) / self.reaches
+
+
+def friction_keys() -> tuple[str, ...]:
+    """The ``[penstock]`` keys of every friction model (each its module's ``PENSTOCK_KEYS``)."""
+    return tuple(k for name in FRICTION.names() for k in FRICTION.attribute(name, "PENSTOCK_KEYS", ()))
 
 
 __all__ = ["WAVE_SPEED_MIN_M_S", "MAX_REACHES", "MODEL_KEYS", "SEGMENT_KEYS", "PenstockSegment", "PenstockConfig",

@@ -33,6 +33,8 @@ import numpy as np
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
+from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
+from simulate.components.hydraulic.friction import steady_reach_loss as reach_friction_loss
 
 #: Largest relative change of a segment's wave speed accepted to fit a whole number of reaches.
 MAX_WAVE_SPEED_ADJUSTMENT = 0.05
@@ -120,7 +122,7 @@ def moc_turbine_relation(heads, flows, impedance, friction):
     """(C_L, k) of the C+ characteristic reaching the turbine node: H_P = C_P - B Q_P (B of the last reach)."""
     j = heads.size - 1
     b = impedance[j - 1]
-    c_p = heads[j - 1] + b * flows[j - 1] - friction[j - 1] * flows[j - 1] * abs(flows[j - 1])
+    c_p = heads[j - 1] + b * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
     return c_p, -b
 
 
@@ -129,7 +131,7 @@ def moc_inlet_characteristic(heads, flows, impedance, friction):
     """C_M of the C- characteristic reaching the inlet node (node 0) from node 1: H_P = C_M + B Q_P there (B of the
     first reach, Q_P the flow into the pipe)."""
     b0 = impedance[0]
-    return heads[1] - b0 * flows[1] + friction[0] * flows[1] * abs(flows[1])
+    return heads[1] - b0 * flows[1] + reach_friction_loss(friction, flows, 0, 1)
 
 
 @numba.njit(cache=True)
@@ -148,13 +150,14 @@ def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m
     for j in range(1, n):
         bl = impedance[j - 1]
         br = impedance[j]
-        c_p = heads[j - 1] + bl * flows[j - 1] - friction[j - 1] * flows[j - 1] * abs(flows[j - 1])
-        c_m = heads[j + 1] - br * flows[j + 1] + friction[j] * flows[j + 1] * abs(flows[j + 1])
+        c_p = heads[j - 1] + bl * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
+        c_m = heads[j + 1] - br * flows[j + 1] + reach_friction_loss(friction, flows, j, j + 1)
         q = (c_p - c_m) / (bl + br)
         new_flows[j] = q
         new_heads[j] = c_p - bl * q
     new_heads[n] = turbine_head_m
     new_flows[n] = turbine_flow_m3_s
+    reach_friction_advance(friction, flows, new_flows)
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -343,22 +346,27 @@ def node_positions_m(penstock, model: str, dt_s: float, grid: MocGrid | None = N
 
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
-    """Compiled MOC penstock: params (B per reach, R per reach), state (heads (2, nodes), flows (2, nodes),
-    [current])."""
-    from simulate.components.registry import CompiledPart, PartHooks
+    """Compiled MOC penstock: params (B per reach, the friction model's arrays), state (heads (2, nodes), flows
+    (2, nodes), [current]). The friction model is ``penstock.friction_model``
+    (:data:`simulate.components.registry.FRICTION`, :mod:`simulate.components.hydraulic.friction`), bound into the
+    relation and the update (the steady model's arrays are R per reach)."""
+    from simulate.components.registry import FRICTION, CompiledPart, PartHooks
 
-    grid = build_moc_grid(plant.penstock, dt_s)
+    pen = plant.penstock
+    grid = build_moc_grid(pen, dt_s)
+    friction = FRICTION.builder(pen.friction_model)(pen, grid, steady.flow_m3_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
     state = (np.vstack((heads, heads)), np.vstack((flows, flows)), np.zeros(1, dtype=np.int64))
     return CompiledPart(
         kind="penstock", name="moc",
-        functions={"relation": moc_relation, "update": moc_update, "inlet_flow": moc_inlet_flow,
-                   "envelope": moc_envelope, "node_heads": moc_node_heads},
-        params=(grid.impedance_s_m2, grid.friction_s2_m5), state=state,
+        functions={"relation": friction.bind(moc_relation), "update": friction.bind(moc_update),
+                   "inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads},
+        params=(grid.impedance_s_m2, friction.arrays), state=state,
         hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
-                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment},
-                        warnings_after=lambda signals: plant.penstock.unread_key_warnings()),
-        n_nodes=heads.size, node_x_m=node_positions_m(plant.penstock, "moc", dt_s, grid))
+                                 "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment,
+                                 **friction.summary},
+                        warnings_after=lambda signals: pen.unread_key_warnings()),
+        n_nodes=heads.size, node_x_m=node_positions_m(pen, "moc", dt_s, grid))
 
 
 def _build_iir(model: str):

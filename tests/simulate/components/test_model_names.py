@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from simulate.components.registry import CHARACTERISTICS, GOVERNORS, PENSTOCKS, SERVOS
+from simulate.components.registry import CHARACTERISTICS, FRICTION, GOVERNORS, PENSTOCKS, SERVOS
 
 REPO = Path(__file__).resolve().parents[3]
 #: the registries whose names may be compared only in their own modules
-CHECKED = (SERVOS, PENSTOCKS, CHARACTERISTICS, GOVERNORS)
+CHECKED = (SERVOS, PENSTOCKS, CHARACTERISTICS, GOVERNORS, FRICTION)
 
 
 def _owner_files(registry) -> dict[str, set[str]]:
