@@ -118,6 +118,9 @@ class GovernorConfig:
       ``servo_time_s``, which every other servo requires).
 
     A scenario that prescribes the vane stroke (no governor in control) refuses a servo other than the default.
+
+    The keys after ``servo_model`` are the modes' and servos' own, each declared in the module of the mode or servo
+    that owns it (its ``OWN_KEYS``): a mode or servo registered later brings its keys into the section.
     """
 
     mode: str = parameter("speed", unit="", choices=GOVERNORS, description="what the governor controls")

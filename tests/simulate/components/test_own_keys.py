@@ -248,3 +248,37 @@ def test_the_compiled_loop_runs_the_registered_mode_and_servo(user_components):
     for name in ("opening", "speed_rpm", "head_m"):
         a, b = getattr(compiled, name), getattr(plain, name)
         assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b)), name
+
+
+CLASH = '''
+from dataclasses import dataclass
+
+from simulate.components.control.servo import build_first_order as build
+from simulate.components.parameters import own_keys, parameter
+
+
+@dataclass(frozen=True)
+class ClashConfig:
+    time_s: float = parameter(unit="s", low=0.0, high=1.0, description="a key named like the section's own")
+    dead_band: float = parameter(unit="stroke fraction", low=0.0, high=0.5, description="another dead band")
+
+
+OWN_KEYS = own_keys(ClashConfig, {names}, prefix="servo_")
+'''
+
+
+@pytest.mark.parametrize("names,other", [('"time_s"', r"\[governor\] itself"),
+                                         ('"dead_band"', r"governor\.servo_model = 'dead-band'")])
+def test_a_key_declared_twice_is_the_components_error(user_components, tmp_path, names, other):
+    """A component's key named like a key of the section, or like another component's key with another declaration,
+    is refused when the section is read (a TypeError: the components' error, not the plant file's); the same plant
+    reads without that registration (the test above)."""
+    (tmp_path / "user_clash_servo.py").write_text(CLASH.format(names=names), encoding="utf-8")
+    SERVOS.register("clash", "user_clash_servo:build")
+    try:
+        key = "servo_" + names.strip('"')
+        with pytest.raises(TypeError, match=rf"^governor\.{key} is declared by governor\.servo_model = 'clash' and "
+                                            rf"by {other}: a component's own key needs a name of its own"):
+            _plant({})
+    finally:
+        sys.modules.pop("user_clash_servo", None)
