@@ -199,19 +199,29 @@ def _default_text(f: dataclasses.Field) -> str:
 def _section_table(cls, skip=()) -> list[str]:
     """The keys of a section from their declarations (:mod:`simulate.components.parameters`), which its validation
     enforces: type, default, allowed values, unit and description."""
-    from simulate.components.parameters import declarations
+    from simulate.components.parameters import component_declarations, declarations, section_fields
 
     hints = typing.get_type_hints(cls)
     declared = {d.name: d.parameter for d in declarations(cls)}
     rows = ["| key | type | default | allowed | unit | description |", "|---|---|---|---|---|---|"]
-    for f in dataclasses.fields(cls):
+    for f in section_fields(cls):
         if f.name in skip:
             continue
         spec = declared.get(f.name)  # every shipped key is declared (tests/simulate/components/test_parameters.py)
         cells = (spec.allowed(), spec.unit, spec.description) if spec else ("", "", "")
         rows.append(f"| `{f.name}` | {_type_name(hints.get(f.name, f.type))} | {_default_text(f)} | "
                     + " | ".join(_cell(c) for c in cells) + " |")
+    for d in component_declarations(cls):  # the keys the section's components declare (a governor mode's, a servo's)
+        spec = d.parameter
+        kind = "string" if spec.options() else _type_name(_KIND_TYPES.get(spec.kind, spec.kind))
+        rows.append(f"| `{d.name}` | {kind} | optional | "
+                    + " | ".join(_cell(c) for c in (spec.allowed(), spec.unit, spec.description)) + " |")
     return rows
+
+
+#: The type of a component's key by its declared kind (simulate.components.parameters.KINDS).
+_KIND_TYPES = {"number": "float", "integer": "int", "boolean": "bool", "text": "str", "array": "array",
+               "table": "table"}
 
 
 def plant_file_page() -> str:

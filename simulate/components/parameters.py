@@ -40,6 +40,8 @@ from hillchart.validation import check_choice, check_int, check_number, interval
 
 #: The metadata key of a declared field.
 METADATA_KEY = "parameter"
+#: The metadata key that marks the field holding a section's component keys (:func:`component_store`).
+STORE_MARK = "component_store"
 #: What a declared value may be (:attr:`Parameter.kind`).
 KINDS = ("number", "integer", "boolean", "text", "array", "table")
 
@@ -187,9 +189,87 @@ class Declared:
 
 def declarations(cls) -> tuple[Declared, ...]:
     """The declared keys of the config class (or instance) ``cls``, in field order (fields without a declaration
-    are left out)."""
+    are left out), then the keys its components declare (:func:`component_declarations`)."""
     return tuple(Declared(f.name, f.default, f.metadata[METADATA_KEY]) for f in dataclasses.fields(cls)
-                 if METADATA_KEY in f.metadata)
+                 if METADATA_KEY in f.metadata) + component_declarations(cls)
+
+
+def own_keys(cls, *names: str, prefix: str = "") -> tuple[Declared, ...]:
+    """The keys ``names`` (all by default) of the config class ``cls`` as the component that owns them declares them
+    in a section another class reads (a governor mode's or a servo's own keys of ``[governor]``, its module's
+    ``OWN_KEYS``): named ``prefix + name`` there, each optional (default ``None``: the component requires what it
+    needs), with ``cls``'s unit, bounds and description.
+
+    Examples
+    --------
+    >>> from simulate.components.control.dead_time import DeadTimeConfig
+    >>> [(d.name, d.default, d.parameter.allowed()) for d in own_keys(DeadTimeConfig, prefix="servo_")]
+    [('servo_dead_time_s', None, 'in (0.0, 10.0]')]
+    """
+    declared = {d.name: d.parameter for d in declarations(cls)}
+    unknown = [name for name in names if name not in declared]
+    if unknown:
+        raise TypeError(f"{cls.__name__} declares no key {unknown[0]!r}; its keys: {', '.join(declared)}")
+    return tuple(Declared(prefix + name, None, declared[name]) for name in names or declared)
+
+
+def component_store() -> Any:
+    """The field of a section's config class that holds the values of the keys its components declare
+    (:func:`with_component_keys`): ``((key, value), ...)`` sorted by key, the keys left out absent. It is not a key of
+    the section (:func:`section_fields` leaves it out)."""
+    return dataclasses.field(default=(), metadata={STORE_MARK: True})
+
+
+def component_declarations(cls) -> tuple[Declared, ...]:
+    """The keys of ``cls``'s section that its components declare (its ``component_declarations()``, read at the
+    time of the call, so a component registered later is included); none for a class without components."""
+    method = getattr(cls, "component_declarations", None)
+    return tuple(method()) if method is not None else ()
+
+
+def section_fields(cls) -> tuple[dataclasses.Field, ...]:
+    """The fields of the config class ``cls`` that are keys of its section (all but a :func:`component_store`)."""
+    return tuple(f for f in dataclasses.fields(cls) if not f.metadata.get(STORE_MARK))
+
+
+def section_keys(cls) -> tuple[str, ...]:
+    """The keys of ``cls``'s section: its fields' (:func:`section_fields`), then its components'."""
+    return tuple(f.name for f in section_fields(cls)) + tuple(d.name for d in component_declarations(cls))
+
+
+def with_component_keys(cls):
+    """Class decorator (over ``@dataclass``) for a section whose keys are in part declared by its components: the
+    class method ``component_declarations()`` returns them (:class:`Declared`, default ``None``) and one field is
+    the :func:`component_store`. Then ``cls(**keys)`` (so :func:`dataclasses.replace` and :func:`read_section`)
+    accepts them beside the fields (``None``: left out), ``config.key`` reads one (``None`` when left out), and
+    :func:`declarations` lists them, so :func:`validate_parameters`, :func:`read_section`, :func:`section_dict`, the
+    reference page and the generated tests take them with no list kept by hand."""
+    store = next(f.name for f in dataclasses.fields(cls) if f.metadata.get(STORE_MARK))
+    fields = {f.name for f in dataclasses.fields(cls)}
+    fields_init = cls.__init__
+
+    def __init__(self, **keys):
+        components = {d.name for d in cls.component_declarations()}
+        values = dict(keys.pop(store, ()))
+        for name in [k for k in keys if k not in fields]:
+            if name not in components:
+                raise TypeError(f"{cls.__name__}.__init__() got an unexpected keyword argument {name!r}")
+            value = keys.pop(name)
+            if value is None:
+                values.pop(name, None)
+            else:
+                values[name] = value
+        fields_init(self, **keys, **{store: tuple(sorted(values.items()))})
+
+    def __getattr__(self, name: str):
+        values = self.__dict__.get(store)
+        if values is not None and not name.startswith("__") and name in {d.name for d in cls.component_declarations()}:
+            return dict(values).get(name)
+        raise AttributeError(f"{cls.__name__!r} object has no attribute {name!r}")
+
+    __init__.__doc__ = fields_init.__doc__
+    cls.__init__, cls.__getattr__ = __init__, __getattr__
+    return cls
 
 
 def validate_parameters(section: str, config) -> None:
@@ -220,7 +300,7 @@ area_m2, throttle_loss_coefficient, tunnel_length_m, tunnel_diameter_m, tunnel_d
     """
     if not isinstance(raw, dict):
         raise InputError(f"[{section}] must be a table of keys, got {raw!r}")
-    names = [f.name for f in dataclasses.fields(cls)]
+    names = list(section_keys(cls))
     unknown = sorted(set(raw) - set(names) - set(ignore))
     if unknown:
         raise InputError(f"unknown key {section}.{unknown[0]}; valid keys of [{section}]: {', '.join(names)}")
@@ -267,7 +347,7 @@ def section_dict(config, *, skip_defaults: bool = False) -> dict[str, Any]:
     {'length_m': 400.0, 'diameter_m': 2.0, 'wave_speed_m_s': 1000.0, 'darcy_friction': 0.01}
     """
     out = {}
-    for f in dataclasses.fields(config):
+    for f in (*section_fields(config), *component_declarations(config)):
         value = getattr(config, f.name)
         if value is None or (skip_defaults and f.default is not MISSING and value == f.default):
             continue
@@ -283,5 +363,6 @@ def _toml_value(value: Any) -> Any:
     return value
 
 
-__all__ = ["KINDS", "Parameter", "Declared", "parameter", "borrowed", "declarations", "validate_parameters",
+__all__ = ["KINDS", "Parameter", "Declared", "parameter", "borrowed", "declarations", "own_keys", "component_store",
+           "component_declarations", "section_fields", "section_keys", "with_component_keys", "validate_parameters",
            "read_section", "read_toml", "section_dict"]

@@ -253,7 +253,8 @@ DOWNSTREAM = Registry("downstream", "downstream", {
     "draft_tube": "simulate.components.hydraulic.draft_tube:build_draft_tube",
 })
 #: The governor's control law (the first entry is the default; builders ``build(plant, steady, dt_s, schedules) ->
-#: CompiledPart``, each mode's keys of ``[governor]`` its module's ``GOVERNOR_KEYS``).
+#: CompiledPart``; the keys of ``[governor]`` each mode reads: its module's ``OWN_KEYS``, declared there, and the shared
+#: ones its ``GOVERNOR_KEYS`` names).
 GOVERNORS = Registry("governor", "governor.mode", {
     "speed": "simulate.components.control.governor:build_speed_governor",
     "power": "simulate.components.control.power_governor:build_power_governor",
@@ -261,7 +262,8 @@ GOVERNORS = Registry("governor", "governor.mode", {
     "dashpot": "simulate.components.control.dashpot_governor:build_dashpot_governor",
 })
 #: The servo between a governor and the guide vanes (the first entry is the default;
-#: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``).
+#: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``; its own keys of
+#: ``[governor]``: its module's ``OWN_KEYS``).
 SERVOS = Registry("servo", "governor.servo_model", {
     "first-order": "simulate.components.control.servo:build_first_order",
     "discrete": "simulate.components.control.discrete_servo:build_discrete_servo",

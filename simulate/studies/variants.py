@@ -19,6 +19,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.parameters import component_declarations, section_fields
 from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, PlantConfig, SCENARIO_KEYS,
                              ScenarioConfig, SolverConfig, TurbineConfig, load_characteristics)
 
@@ -40,16 +41,27 @@ _SECTION_CLASSES = {"turbine": TurbineConfig, "penstock": PenstockConfig, "gener
 OPTIONAL_SECTIONS = ("surge_tank", "draft_tube", "blade_servo", "combinator", "excitation", "grid")
 
 
-@functools.cache
 def _section_keys(section: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(numeric keys as ``section.key``, every key name) of a plant section; an optional section's class is
-    imported here, when a key of it is first varied (some cost a quarter of a second of start-up)."""
+    """(numeric keys as ``section.key``, every key name) of a plant section: its fields' and the numeric keys its
+    components declare (a governor mode's or a servo's own keys, read from the registries at the time of the call)."""
+    cls, numeric, names = _field_keys(section)
+    declared = component_declarations(cls)
+    numeric += tuple(f"{section}.{d.name}" for d in declared
+                     if d.parameter.kind in ("number", "integer") and not d.parameter.options())
+    return numeric, names + tuple(d.name for d in declared)
+
+
+@functools.cache
+def _field_keys(section: str) -> tuple[type, tuple[str, ...], tuple[str, ...]]:
+    """(config class, numeric fields as ``section.key``, every field's name) of a plant section; an optional
+    section's class is imported here, when a key of it is first varied (some cost a quarter of a second of
+    start-up)."""
     from simulate.config import _section_class
 
     cls = _SECTION_CLASSES.get(section) or _section_class(section)
-    numeric = tuple(f"{section}.{f.name}" for f in fields(cls)
+    numeric = tuple(f"{section}.{f.name}" for f in section_fields(cls)
                     if str(f.type).replace(" ", "") in ("float", "int", "float|None", "int|None"))
-    return numeric, tuple(f.name for f in fields(cls))
+    return cls, numeric, tuple(f.name for f in section_fields(cls))
 
 
 def numeric_keys() -> dict[str, tuple[str, ...]]:
@@ -112,13 +124,12 @@ def check_key(plant: PlantConfig, key: Any, *, choices: bool = False) -> str:
     return key
 
 
-@functools.cache
 def integer_keys(section: str) -> tuple[str, ...]:
     """The keys of a plant section that take an integer (``penstock.reaches``, ``solver.max_iterations``, ...)."""
-    from simulate.config import _section_class
-
-    cls = _SECTION_CLASSES.get(section) or _section_class(section)
-    return tuple(f"{section}.{f.name}" for f in fields(cls) if str(f.type).replace(" ", "") in ("int", "int|None"))
+    cls, numeric, _ = _field_keys(section)
+    hints = {f.name: str(f.type).replace(" ", "") for f in fields(cls)}
+    return tuple(key for key in numeric if hints[key.split(".")[1]] in ("int", "int|None")) + tuple(
+        f"{section}.{d.name}" for d in component_declarations(cls) if d.parameter.kind == "integer")
 
 
 def check_value(key: str, value: Any) -> float:

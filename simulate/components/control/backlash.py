@@ -23,10 +23,8 @@ import numpy as np
 
 from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
-from simulate.components.parameters import parameter, validate_parameters
+from simulate.components.parameters import own_keys, parameter, validate_parameters
 
-#: Keys of ``[governor]`` this servo reads besides the first-order servo's.
-GOVERNOR_KEYS = ("servo_backlash",)
 #: Index of b/2 in the parameter vector (after the first-order servo's five entries).
 _HALF_PLAY = 5
 
@@ -41,6 +39,12 @@ class BacklashConfig:
 
     def __post_init__(self):
         validate_parameters("servo", self)
+
+
+#: Its own keys of ``[governor]``, ``servo_`` and a key of :class:`BacklashConfig` (refused under another servo),
+#: and so the keys of ``[governor]`` it reads besides the first-order servo's.
+OWN_KEYS = own_keys(BacklashConfig, prefix="servo_")
+GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 
 
 def check_governor(governor) -> None:
@@ -86,5 +90,5 @@ def time_scales(plant, schedules) -> list:
     return first_order_time_scales(plant, schedules)
 
 
-__all__ = ["GOVERNOR_KEYS", "BacklashConfig", "check_governor", "backlash", "backlash_servo_step",
+__all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "BacklashConfig", "check_governor", "backlash", "backlash_servo_step",
            "build_backlash_servo", "time_scales"]

@@ -26,7 +26,7 @@ import numba
 import numpy as np
 
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.parameters import parameter
+from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import piecewise_constant
 from simulate.components.signals import signal_indices
@@ -46,8 +46,10 @@ class DashpotConfig:
                                          description="main servo integration time T_g of mode dashpot")
 
 
-#: The ``[governor]`` keys this mode reads (all required).
-GOVERNOR_KEYS = ("permanent_droop", "transient_droop", "dashpot_time_s", "pilot_servo_time_s", "gate_servo_time_s")
+#: Its own keys of ``[governor]`` (refused under another mode), and the keys it reads (all required): the
+#: permanent droop, which the PID modes read too, and its own.
+OWN_KEYS = own_keys(DashpotConfig)
+GOVERNOR_KEYS = ("permanent_droop",) + tuple(d.name for d in OWN_KEYS)
 REQUIRED_KEYS = GOVERNOR_KEYS
 #: The named signals it reads (:data:`simulate.components.signals.SIGNALS`).
 READS = ("speed_rpm",)
@@ -109,5 +111,5 @@ def mode_time_scales(plant) -> list:
             TimeScale("governor.dashpot_time_s", gov.dashpot_time_s)]
 
 
-__all__ = ["DashpotConfig", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "DASHPOT_PARAMS", "dashpot_control_step",
-           "dashpot_parameters", "build_dashpot_governor", "mode_time_scales"]
+__all__ = ["DashpotConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "DASHPOT_PARAMS",
+           "dashpot_control_step", "dashpot_parameters", "build_dashpot_governor", "mode_time_scales"]

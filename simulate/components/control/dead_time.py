@@ -21,10 +21,7 @@ import numpy as np
 from hillchart.errors import InputError
 from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
-from simulate.components.parameters import parameter, validate_parameters
-
-#: Keys of ``[governor]`` this servo reads besides the first-order servo's.
-GOVERNOR_KEYS = ("servo_dead_time_s",)
+from simulate.components.parameters import own_keys, parameter, validate_parameters
 
 
 @dataclass(frozen=True)
@@ -37,6 +34,12 @@ class DeadTimeConfig:
 
     def __post_init__(self):
         validate_parameters("servo", self)
+
+
+#: Its own keys of ``[governor]``, ``servo_`` and a key of :class:`DeadTimeConfig` (refused under another servo),
+#: and so the keys of ``[governor]`` it reads besides the first-order servo's.
+OWN_KEYS = own_keys(DeadTimeConfig, prefix="servo_")
+GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 
 
 def check_governor(governor) -> None:
@@ -91,5 +94,5 @@ def time_scales(plant, schedules) -> list:
     return first_order_time_scales(plant, schedules)
 
 
-__all__ = ["GOVERNOR_KEYS", "DeadTimeConfig", "check_governor", "delay_steps", "dead_time_servo_step",
+__all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "DeadTimeConfig", "check_governor", "delay_steps", "dead_time_servo_step",
            "build_dead_time_servo", "time_scales"]

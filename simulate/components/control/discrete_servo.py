@@ -23,14 +23,12 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.control.servo import Servo
-from simulate.components.parameters import parameter, validate_parameters
+from simulate.components.parameters import own_keys, parameter, validate_parameters
 
 #: Layout of the parameter vector (``close_step``/``open_step``: the largest stroke change per sample).
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
 #: Layout of the state vector: the last two outputs and the time left to the next sample (s).
 SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
-#: Keys of ``[governor]`` this servo reads besides the common ones (``governor.servo_model = "discrete"``).
-GOVERNOR_KEYS = ("servo_b0", "servo_a1", "servo_a2", "servo_sample_time_s")
 
 
 @dataclass(frozen=True)
@@ -76,6 +74,12 @@ class DiscreteServoConfig:
     def transfer_function(self) -> tuple[np.ndarray, np.ndarray]:
         """``(num, den)`` in powers of z (highest first) for :class:`scipy.signal.dlti`: b0 z^2 / (z^2 - a1 z - a2)."""
         return np.array([self.b0, 0.0, 0.0]), np.array([1.0, -self.a1, -self.a2])
+
+
+#: Its own keys of ``[governor]``, ``servo_`` and a key of :class:`DiscreteServoConfig` (refused under another servo),
+#: and so the keys of ``[governor]`` it reads besides the first-order servo's.
+OWN_KEYS = own_keys(DiscreteServoConfig, "b0", "a1", "a2", "sample_time_s", prefix="servo_")
+GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 
 
 def discrete_servo_parameters(config: DiscreteServoConfig) -> np.ndarray:
@@ -161,6 +165,6 @@ def build_discrete_servo(governor, initial_stroke: float, dt_s: float):
                           "servo_sample_time_s": config.sample_time_s})
 
 
-__all__ = ["GOVERNOR_KEYS", "servo_config", "check_governor", "build_discrete_servo", "discrete_servo_component_step",
-           "DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE", "discrete_servo_parameters", "initial_servo_state",
-           "check_servo_step", "discrete_servo_step"]
+__all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "servo_config", "check_governor", "build_discrete_servo",
+           "discrete_servo_component_step", "DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE",
+           "discrete_servo_parameters", "initial_servo_state", "check_servo_step", "discrete_servo_step"]

@@ -22,26 +22,58 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.control.backlash import BacklashConfig
-from simulate.components.control.dashpot_governor import DashpotConfig
-from simulate.components.control.dead_time import DeadTimeConfig
-from simulate.components.control.discrete_servo import DiscreteServoConfig
-from simulate.components.control.opening_governor import OpeningModeConfig
 from simulate.components.control.pid import (  # noqa: F401  (the PID's parts, re-exported)
     GOVERNOR_PARAMS, PID_KEYS, governor_parameters, governor_step, pid_time_scales)
-from simulate.components.control.power_governor import PowerModeConfig
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.control.two_stage import TwoStageConfig
-from simulate.components.parameters import borrowed, declarations, parameter, validate_parameters
-from simulate.components.registry import GOVERNORS, SERVOS, Bound, CompiledPart, PartHooks
+from simulate.components.parameters import (Declared, component_store, parameter, section_fields,
+                                            validate_parameters, with_component_keys)
+from simulate.components.registry import GOVERNORS, SERVOS, Bound, CompiledPart, PartHooks, Registry
 from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
 from simulate.components.signals import signal_indices
 
 
-def _owners(registry, key: str) -> str:
-    return " or ".join(repr(n) for n in registry.names() if key in registry.attribute(n, "GOVERNOR_KEYS", ()))
+def own_keys_of(registry: Registry, name: str) -> tuple[Declared, ...]:
+    """The ``[governor]`` keys component ``name`` of ``registry`` (a mode or a servo) declares as its own: its
+    module's ``OWN_KEYS`` (:func:`simulate.components.parameters.own_keys`)."""
+    return tuple(registry.attribute(name, "OWN_KEYS", ()))
 
 
+def keys_read(registry: Registry, name: str) -> tuple[str, ...]:
+    """The ``[governor]`` keys component ``name`` of ``registry`` reads beside the section's common ones: those its
+    module's ``GOVERNOR_KEYS`` names (the PID's, shared by several modes) and its own (:func:`own_keys_of`); the
+    section refuses them under another mode or servo."""
+    shared = tuple(registry.attribute(name, "GOVERNOR_KEYS", ()))
+    return shared + tuple(d.name for d in own_keys_of(registry, name) if d.name not in shared)
+
+
+def _owners(registry: Registry, key: str) -> str:
+    return " or ".join(repr(n) for n in registry.names() if key in keys_read(registry, n))
+
+
+#: The component keys of each state of the registries ({(modes, servos) with their modules: declarations}).
+_COMPONENT_KEYS: dict[tuple, tuple[Declared, ...]] = {}
+
+
+def _component_keys(field_names: set[str]) -> tuple[Declared, ...]:
+    """Every registered mode's own keys, then every servo's (cached per state of the registries); a key declared
+    twice, differently, or named as a field of the section is the components' error (:class:`TypeError`)."""
+    state = tuple((r.kind, n, r.module(n)) for r in (GOVERNORS, SERVOS) for n in r.names())
+    if state not in _COMPONENT_KEYS:
+        found: dict[str, tuple[Declared, str]] = {}
+        for registry in (GOVERNORS, SERVOS):
+            for name in registry.names():
+                owner = f"{registry.key} = {name!r}"
+                for declared in own_keys_of(registry, name):
+                    first = found.setdefault(declared.name, (declared, owner))
+                    if declared.name in field_names or first[0] != declared:
+                        other = "[governor] itself" if declared.name in field_names else first[1]
+                        raise TypeError(f"governor.{declared.name} is declared by {owner} and by {other}: a "
+                                        f"component's own key needs a name of its own")
+        _COMPONENT_KEYS[state] = tuple(declared for declared, _ in found.values())
+    return _COMPONENT_KEYS[state]
+
+
+@with_component_keys
 @dataclass(frozen=True, kw_only=True)
 class GovernorConfig:
     """The governor: its control law (``mode``), the servo behind it and the stroke limits.
@@ -86,6 +118,9 @@ class GovernorConfig:
       ``servo_time_s``, which every other servo requires).
 
     A scenario that prescribes the vane stroke (no governor in control) refuses a servo other than the default.
+
+    The keys after ``servo_model`` are the modes' and servos' own, each declared in the module of the mode or servo
+    that owns it (its ``OWN_KEYS``): a mode or servo registered later brings its keys into the section.
     """
 
     mode: str = parameter("speed", unit="", choices=GOVERNORS, description="what the governor controls")
@@ -112,33 +147,18 @@ class GovernorConfig:
     stroke_min: float = parameter(0.0, unit="stroke fraction", low=0.0, high=1.0, description="lower stroke limit")
     stroke_max: float = parameter(1.0, unit="stroke fraction", low=0.0, low_open=True, high=1.5,
                                   description="upper stroke limit")
-    power_reference_mw: float | None = borrowed(PowerModeConfig, "power_reference_mw")
-    opening_reference: float | None = borrowed(OpeningModeConfig, "opening_reference")
-    transient_droop: float | None = borrowed(DashpotConfig, "transient_droop")
-    dashpot_time_s: float | None = borrowed(DashpotConfig, "dashpot_time_s")
-    pilot_servo_time_s: float | None = borrowed(DashpotConfig, "pilot_servo_time_s")
-    gate_servo_time_s: float | None = borrowed(DashpotConfig, "gate_servo_time_s")
     servo_model: str = parameter("first-order", unit="", choices=SERVOS,
                                  description="the servo between the governor and the guide vanes")
-    servo_b0: float | None = borrowed(DiscreteServoConfig, "b0")
-    servo_a1: float | None = borrowed(DiscreteServoConfig, "a1")
-    servo_a2: float | None = borrowed(DiscreteServoConfig, "a2")
-    servo_sample_time_s: float | None = borrowed(DiscreteServoConfig, "sample_time_s")
-    servo_dead_time_s: float | None = borrowed(DeadTimeConfig, "dead_time_s")
-    servo_backlash: float | None = borrowed(BacklashConfig, "backlash")
-    servo_break_stroke: float | None = borrowed(TwoStageConfig, "break_stroke")
-    servo_break_closing_time_s: float | None = borrowed(TwoStageConfig, "break_closing_time_s")
+    #: The values of the registered modes' and servos' own keys (:meth:`component_declarations`), read as
+    #: attributes (``governor.servo_dead_time_s``; ``None`` when left out).
+    component_keys: tuple = component_store()
 
     def __post_init__(self):
         validate_parameters("governor", self)
         if self.stroke_min >= self.stroke_max:
             raise InputError(f"governor.stroke_min must be < governor.stroke_max = {self.stroke_max!r}, "
                              f"got {self.stroke_min!r}")
-        own = GOVERNORS.attribute(self.mode, "GOVERNOR_KEYS", ())
-        for key in self.mode_keys():
-            if getattr(self, key) is not None and key not in own:
-                raise InputError(f"governor.{key} is a key of governor.mode = {_owners(GOVERNORS, key)}; with "
-                                 f"mode = {self.mode!r} it would be ignored: set governor.mode or remove the key")
+        self._refuse_keys_of_others(GOVERNORS, self.mode, self.mode_keys())
         missing = [f"governor.{k}" for k in GOVERNORS.attribute(self.mode, "REQUIRED_KEYS", ())
                    if getattr(self, k) is None]
         if missing:
@@ -146,13 +166,7 @@ class GovernorConfig:
         check = GOVERNORS.attribute(self.mode, "check_governor")
         if check is not None:
             check(self)
-        own = SERVOS.attribute(self.servo_model, "GOVERNOR_KEYS", ())
-        for key in self.servo_keys():
-            if getattr(self, key) is not None and key not in own:
-                owners = [name for name in SERVOS.names() if key in SERVOS.attribute(name, "GOVERNOR_KEYS", ())]
-                raise InputError(f"governor.{key} is a key of governor.servo_model = {' or '.join(owners)!r}; "
-                                 f"with servo_model = {self.servo_model!r} it would be ignored: set servo_model "
-                                 f"or remove the key")
+        self._refuse_keys_of_others(SERVOS, self.servo_model, self.servo_keys())
         if SERVOS.attribute(self.servo_model, "LAG", True) != (self.servo_time_s is not None):
             raise InputError(f"governor.servo_model = \"{self.servo_model}\" needs governor.servo_time_s (its time "
                              f"constant T_y)" if self.servo_time_s is None else
@@ -162,17 +176,36 @@ class GovernorConfig:
         if check is not None:
             check(self)
 
+    def _refuse_keys_of_others(self, registry: Registry, chosen: str, keys: tuple[str, ...]) -> None:
+        """:class:`InputError` for a key of ``keys`` that is set but not read by the ``chosen`` component of
+        ``registry`` (the mode or the servo), naming the components that read it."""
+        reads = keys_read(registry, chosen)
+        field = registry.key.split(".")[1]
+        for key in keys:
+            if getattr(self, key) is not None and key not in reads:
+                raise InputError(f"governor.{key} is a key of {registry.key} = {_owners(registry, key)}; with "
+                                 f"{field} = {chosen!r} it would be ignored: set {registry.key} or remove the key")
+
+    @classmethod
+    def component_declarations(cls) -> tuple[Declared, ...]:
+        """The keys the registered modes and servos declare as their own (each module's ``OWN_KEYS``): the modes'
+        in registry order, then the servos'; read from the registries at the time of the call, so a component
+        registered later brings its keys. Optional in the section; a key of one mode (servo) is refused under
+        another, and the one that owns it requires what it needs."""
+        return _component_keys({f.name for f in section_fields(cls)})
+
     @classmethod
     def servo_keys(cls) -> tuple[str, ...]:
-        """The optional ``servo_*`` keys: each belongs to one servo model (its module's ``GOVERNOR_KEYS``)."""
-        return tuple(d.name for d in declarations(cls) if d.name.startswith("servo_") and d.default is None
-                     and d.name != "servo_time_s")
+        """The servos' own keys (each belongs to one servo model, its module's ``OWN_KEYS``)."""
+        return tuple(d.name for name in SERVOS.names() for d in own_keys_of(SERVOS, name))
 
     @classmethod
     def mode_keys(cls) -> tuple[str, ...]:
-        """The optional keys of the modes (the PID's gains, each mode's own): each is read by the modes whose
-        module's ``GOVERNOR_KEYS`` name it, refused under the others."""
-        return tuple(d.name for d in declarations(cls) if not d.name.startswith("servo_") and d.default is None)
+        """The optional keys of the modes: the PID's gains and droop (fields of the section, read by the modes whose
+        module's ``GOVERNOR_KEYS`` name them) and each mode's own (its module's ``OWN_KEYS``); refused under a mode
+        that does not read them."""
+        shared = tuple(f.name for f in section_fields(cls) if f.default is None and f.name != "servo_time_s")
+        return shared + tuple(d.name for name in GOVERNORS.names() for d in own_keys_of(GOVERNORS, name))
 
 
 #: The ``[governor]`` keys the ``speed`` mode reads (all required).

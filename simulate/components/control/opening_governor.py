@@ -18,7 +18,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.parameters import parameter
+from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 
 
@@ -31,8 +31,10 @@ class OpeningModeConfig:
                                                             "stroke)")
 
 
-#: The ``[governor]`` keys this mode reads (none required: the reference defaults to the initial stroke).
-GOVERNOR_KEYS = ("opening_reference",)
+#: Its own key of ``[governor]`` (refused under another mode), the keys it reads (none required: the reference
+#: defaults to the initial stroke).
+OWN_KEYS = own_keys(OpeningModeConfig)
+GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 REQUIRED_KEYS: tuple[str, ...] = ()
 #: The named signals it reads: none (the stroke it holds is its own control vector's).
 READS: tuple[str, ...] = ()
@@ -73,5 +75,5 @@ def build_opening_governor(plant, steady, dt_s: float, schedules):
                         state=(servo.state, np.array([steady.stroke])), hooks=PartHooks(summary=summary, reads=READS))
 
 
-__all__ = ["OpeningModeConfig", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "check_governor", "opening_control_step",
-           "build_opening_governor"]
+__all__ = ["OpeningModeConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "check_governor",
+           "opening_control_step", "build_opening_governor"]

@@ -22,7 +22,7 @@ import numpy as np
 
 from simulate.components.control.pid import PID_KEYS, governor_parameters, pid_step, pid_time_scales
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.parameters import parameter
+from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import piecewise_constant
 from simulate.components.signals import signal_indices
@@ -37,8 +37,9 @@ class PowerModeConfig:
                                                              "initial electrical power)")
 
 
-#: The ``[governor]`` keys this mode reads, and those of them it requires.
-GOVERNOR_KEYS = PID_KEYS + ("power_reference_mw",)
+#: Its own key of ``[governor]`` (refused under another mode), and the keys it reads, and those it requires.
+OWN_KEYS = own_keys(PowerModeConfig)
+GOVERNOR_KEYS = PID_KEYS + tuple(d.name for d in OWN_KEYS)
 REQUIRED_KEYS = PID_KEYS
 #: The named signals it reads (:data:`simulate.components.signals.SIGNALS`).
 READS = ("speed_rpm", "electrical_power_mw")
@@ -81,5 +82,5 @@ def mode_time_scales(plant) -> list:
     return pid_time_scales(plant)
 
 
-__all__ = ["PowerModeConfig", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "power_control_step",
+__all__ = ["PowerModeConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "power_control_step",
            "build_power_governor", "mode_time_scales"]

@@ -5,7 +5,8 @@ A servo component offers one compiled function ``step(sp, ss, command, stroke, d
 stroke at the end of a step of ``dt_s`` s, from the governor's stroke command and the stroke at its start (fractions
 of the full stroke), with its parameter vector ``sp`` and its state vector ``ss`` (updated in place). Its builder
 ``build(governor, initial_stroke, dt_s) -> Servo`` takes the ``[governor]`` section; the keys a servo reads beyond the
-first-order ones are its module's ``GOVERNOR_KEYS`` (the section refuses them under another ``servo_model``), and its
+first-order ones are its own, declared in its module (``OWN_KEYS``, :func:`simulate.components.parameters.own_keys`:
+registering the servo brings them into ``[governor]``, which refuses them under another ``servo_model``), and its
 time scales its module's ``time_scales(plant, schedules)``. The governor's control step calls the servo its builder
 bound (:class:`simulate.components.registry.Bound`), so a new servo is one module and one line in
 :data:`simulate.components.registry.SERVOS`.

@@ -23,10 +23,8 @@ import numpy as np
 
 from simulate.components.control.servo import Servo, first_order_parameters, lag_step, require_keys
 from simulate.components.control.servo import time_scales as first_order_time_scales
-from simulate.components.parameters import parameter, validate_parameters
+from simulate.components.parameters import own_keys, parameter, validate_parameters
 
-#: Keys of ``[governor]`` this servo reads besides the first-order servo's.
-GOVERNOR_KEYS = ("servo_break_stroke", "servo_break_closing_time_s")
 _BREAK, _SLOW_CLOSE = 5, 6
 
 
@@ -44,6 +42,12 @@ class TwoStageConfig:
 
     def __post_init__(self):
         validate_parameters("servo", self)
+
+
+#: Its own keys of ``[governor]``, ``servo_`` and a key of :class:`TwoStageConfig` (refused under another servo),
+#: and so the keys of ``[governor]`` it reads besides the first-order servo's.
+OWN_KEYS = own_keys(TwoStageConfig, prefix="servo_")
+GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 
 
 def check_governor(governor) -> None:
@@ -88,5 +92,5 @@ def time_scales(plant, schedules) -> list:
     return first_order_time_scales(plant, schedules)
 
 
-__all__ = ["GOVERNOR_KEYS", "TwoStageConfig", "check_governor", "two_stage_servo_step", "build_two_stage_servo",
-           "time_scales"]
+__all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "TwoStageConfig", "check_governor", "two_stage_servo_step",
+           "build_two_stage_servo", "time_scales"]
