@@ -249,9 +249,10 @@ def with_component_keys(cls):
     fields_init = cls.__init__
 
     def __init__(self, **keys):
-        components = {d.name for d in cls.component_declarations()}
         values = dict(keys.pop(store, ()))
-        for name in [k for k in keys if k not in fields]:
+        others = [k for k in keys if k not in fields]
+        components = {d.name for d in cls.component_declarations()} if others else set()
+        for name in others:
             if name not in components:
                 raise TypeError(f"{cls.__name__}.__init__() got an unexpected keyword argument {name!r}")
             value = keys.pop(name)
@@ -263,8 +264,12 @@ def with_component_keys(cls):
 
     def __getattr__(self, name: str):
         values = self.__dict__.get(store)
-        if values is not None and not name.startswith("__") and name in {d.name for d in cls.component_declarations()}:
-            return dict(values).get(name)
+        if values is not None and not name.startswith("__"):
+            for key, value in values:
+                if key == name:
+                    return value
+            if any(d.name == name for d in cls.component_declarations()):
+                return None
         raise AttributeError(f"{cls.__name__!r} object has no attribute {name!r}")
 
     __init__.__doc__ = fields_init.__doc__

@@ -140,6 +140,11 @@ class Registry:
     def names(self) -> tuple[str, ...]:
         return tuple(self._entries)
 
+    def targets(self) -> tuple[tuple[str, str], ...]:
+        """``(name, "module:builder")`` of each entry, in order: what changes when a component is registered (a
+        cache of what the components declare is keyed by it)."""
+        return tuple(self._entries.items())
+
     def builder(self, name: str) -> Callable:
         if name not in self._entries:
             raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")

@@ -50,14 +50,14 @@ def _owners(registry: Registry, key: str) -> str:
     return " or ".join(repr(n) for n in registry.names() if key in keys_read(registry, n))
 
 
-#: The component keys of each state of the registries ({(modes, servos) with their modules: declarations}).
+#: The component keys of each state of the registries ({(modes' targets, servos' targets): declarations}).
 _COMPONENT_KEYS: dict[tuple, tuple[Declared, ...]] = {}
 
 
 def _component_keys(field_names: set[str]) -> tuple[Declared, ...]:
     """Every registered mode's own keys, then every servo's (cached per state of the registries); a key declared
     twice, differently, or named as a field of the section is the components' error (:class:`TypeError`)."""
-    state = tuple((r.kind, n, r.module(n)) for r in (GOVERNORS, SERVOS) for n in r.names())
+    state = (GOVERNORS.targets(), SERVOS.targets())
     if state not in _COMPONENT_KEYS:
         found: dict[str, tuple[Declared, str]] = {}
         for registry in (GOVERNORS, SERVOS):
@@ -192,7 +192,7 @@ class GovernorConfig:
         in registry order, then the servos'; read from the registries at the time of the call, so a component
         registered later brings its keys. Optional in the section; a key of one mode (servo) is refused under
         another, and the one that owns it requires what it needs."""
-        return _component_keys({f.name for f in section_fields(cls)})
+        return _component_keys(_FIELD_NAMES)
 
     @classmethod
     def servo_keys(cls) -> tuple[str, ...]:
@@ -208,6 +208,8 @@ class GovernorConfig:
         return shared + tuple(d.name for name in GOVERNORS.names() for d in own_keys_of(GOVERNORS, name))
 
 
+#: The keys of ``[governor]`` that are fields of :class:`GovernorConfig` (no component may declare one).
+_FIELD_NAMES = frozenset(f.name for f in section_fields(GovernorConfig))
 #: The ``[governor]`` keys the ``speed`` mode reads (all required).
 GOVERNOR_KEYS = PID_KEYS
 REQUIRED_KEYS = PID_KEYS
