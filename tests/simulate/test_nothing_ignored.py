@@ -66,9 +66,7 @@ CONDITIONS = {("solver", "fallback"): {"solver.max_iterations": 1},
               # the overflow crest lies above the static level, which the tank's level passes after tens of seconds
               ("surge_tank", "level_max_m"): {"scenario.t_end_s": 150.0}}
 #: Keys the run does not read, not fixed here: (plant, section, key) -> why.
-KNOWN = {("grid", "generator", "power_factor"): "the plant's run takes the rated active power from "
-                                                "turbine.rated_power_mw; the machine's rated_mva x power_factor is "
-                                                "read by no step"}
+KNOWN: dict = {}
 PROFILE_KEYS = ("elevation_start_m", "elevation_end_m")
 
 

@@ -213,7 +213,7 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
     arrays = compile_electrical(electrical, turbine_power_mw=max(load0, 0.0) * t.rated_power_mw,
                                 turbine_rated_power_mw=t.rated_power_mw, breaker_closed=load0 > 0.0)
     grid = electrical.grid
-    warnings = electromechanical_step_check(plant, arrays, dt_s, schedules)
+    warnings = electromechanical_step_check(plant, arrays, dt_s, schedules) + rating_check(plant, schedules)
     scal = np.array([t.rated_speed_rpm, t.rated_torque_nm, plant.generator.inertia_time_s, 1e-9 * dt_s, load0,
                      1.0 if schedules.speed_held else 0.0, schedules.fault_time_s,
                      1.0 if schedules.field_held else 0.0, schedules.field_step_time_s, schedules.field_step_pu,
@@ -269,6 +269,22 @@ def build_subtransient(plant, steady, dt_s: float, schedules):
                         hooks=PartHooks(summary=summary, initial_signals=tuple(first), failure=failure,
                                         error_after=error_after, summary_after=summary_after,
                                         warnings_after=lambda signals: list(warnings)))
+
+
+def rating_check(plant, schedules) -> list[str]:
+    """A warning when the scenario loads the generator above its rated active power, ``rated_mva x power_factor``
+    (MW): the largest of the initial load and the scheduled loads, as fractions of ``turbine.rated_power_mw``. The
+    run goes on (a machine may carry more for a while); the warning names the keys to check."""
+    gen = plant.generator.subtransient
+    rated_active_mw = gen.rated_mva * gen.power_factor
+    loads = [float(schedules.initial_load), *np.asarray(schedules.load_values, dtype=float).tolist()]
+    largest_mw = max(loads) * plant.turbine.rated_power_mw
+    if largest_mw <= rated_active_mw * (1.0 + 1e-9):
+        return []
+    return [f"the scenario loads the generator with {largest_mw:.4g} MW, above its rated active power "
+            f"generator.rated_mva x generator.power_factor = {gen.rated_mva:g} x {gen.power_factor:g} = "
+            f"{rated_active_mw:.4g} MW: check the machine's rating against turbine.rated_power_mw = "
+            f"{plant.turbine.rated_power_mw:g} MW and the scenario's load"]
 
 
 #: omega_n dt of the electromechanical mode above which the run is refused / warned (the rotor-angle pair is

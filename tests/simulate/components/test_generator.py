@@ -496,3 +496,24 @@ def test_compiled_equals_pure_python_with_numba_disabled(tmp_path):
     # same operations in the same order; LLVM may contract a multiply-add (1 ulp): 1e-12
     np.testing.assert_allclose(np.load(tmp_path / "compiled.npy"), np.load(tmp_path / "python.npy"),
                                rtol=1e-12, atol=1e-12)
+
+
+def test_a_load_above_the_machines_rated_active_power_is_warned_about():
+    """``rated_mva x power_factor`` is the machine's rated active power: the shipped grid plant (250 MVA x 0.9 =
+    225 MW, the turbine's rated power) through its load step to 198 MW draws no warning, nor does power factor 0.8
+    (200 MW, just above); power factor 0.75 (187.5 MW) does, naming both keys. Only the warnings differ: the run
+    itself does not read the power factor."""
+    from simulate.components.shaft.generator_shaft import rating_check
+    from simulate.config import load_plant
+    from simulate.loop.prepare import initial_state, plant_schedules
+
+    plant = load_plant(ir.files("data_synthetic") / "plant_hla339_grid.toml")
+    schedules = plant_schedules(plant, initial_state(plant))
+    assert rating_check(plant, schedules) == []
+    assert rating_check(plant.with_overrides({"generator.power_factor": 0.8}), schedules) == []
+    low = plant.with_overrides({"generator.power_factor": 0.75})
+    (text,) = rating_check(low, schedules)
+    load_mw = float(max(schedules.initial_load, *schedules.load_values)) * plant.turbine.rated_power_mw
+    assert 187.5 < load_mw < 200.0  # the largest load lies between the two ratings: the check can go either way
+    assert "generator.rated_mva x generator.power_factor = 250 x 0.75 = 187.5 MW" in text
+    assert f"{load_mw:.4g} MW" in text
