@@ -76,6 +76,18 @@ def unit_torque_from_efficiency(q11, n11, efficiency):
     return RHO_WATER_KG_M3 * G_M_S2 * q11 * np.asarray(efficiency, dtype=float) / (n11 * RPM_TO_RAD_S)
 
 
+def unit_speed(speed_rpm, head_m, runner_diameter_m):
+    """``N11 = n D1 / sqrt(H)`` (r/min) of a speed (r/min) at a net head (m, > 0) for runner diameter D1 (m): the
+    model law of every paper (eq. (23) of paper 004, eq. (2) of paper 003); arrays broadcast.
+
+    Examples
+    --------
+    >>> round(float(unit_speed(200.0, 176.0, 4.5)), 6)
+    67.840053
+    """
+    return np.asarray(speed_rpm, dtype=float) * float(runner_diameter_m) / np.sqrt(np.asarray(head_m, dtype=float))
+
+
 def unit_quantities(speed_rpm, flow_m3_s, head_m, runner_diameter_m):
     """``(N11, Q11)`` of a plant operating point by the model law: ``N11 = n D1 / sqrt(H)`` (r/min),
     ``Q11 = Q / (D1^2 sqrt(H))`` (m^3/s); arrays broadcast.
@@ -94,7 +106,7 @@ def unit_quantities(speed_rpm, flow_m3_s, head_m, runner_diameter_m):
     """
     sqrt_h = np.sqrt(np.asarray(head_m, dtype=float))
     d1 = float(runner_diameter_m)
-    return np.asarray(speed_rpm, dtype=float) * d1 / sqrt_h, np.asarray(flow_m3_s, dtype=float) / (d1 * d1 * sqrt_h)
+    return unit_speed(speed_rpm, head_m, d1), np.asarray(flow_m3_s, dtype=float) / (d1 * d1 * sqrt_h)
 
 
 def efficiency_from_unit_torque(q11, n11, m11):

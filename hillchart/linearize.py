@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.characteristics import unit_speed
 
 #: Names of the six coefficients, in the order used everywhere in hillsim.
 COEFFICIENT_NAMES = ("ex", "ey", "eh", "eqx", "eqy", "eqh")
@@ -203,7 +204,7 @@ def six_coefficients_at(
     for name, value in (("speed_rpm", speed_rpm), ("head_m", head_m), ("runner_diameter_m", runner_diameter_m)):
         if not np.isscalar(value) or not np.isfinite(value) or value <= 0:
             raise InputError(f"{name} must be a finite scalar > 0, got {value!r}")
-    n11 = float(speed_rpm) * float(runner_diameter_m) / np.sqrt(float(head_m))  # N11 = n D1 / sqrt(H)
+    n11 = float(unit_speed(float(speed_rpm), float(head_m), float(runner_diameter_m)))
     return six_coefficients(characteristics, n11=n11, opening=opening)
 
 

@@ -37,7 +37,8 @@ LAYERS = {
         ("hillchart.nets",),
         ("hillchart.extension",),
         ("hillchart.synthetic", "hillchart.io"),
-        ("hillchart.linearize", "hillchart.characteristics", "hillchart.validation"),
+        ("hillchart.linearize", "hillchart.validation"),
+        ("hillchart.characteristics",),  # the model law and the characteristics protocol, read by the linearization
         ("hillchart.errors", "hillchart.constants", "hillchart.lazy", "hillchart.cache"),
     ],
 }

@@ -17,6 +17,7 @@ from hillchart.fccm.net import FCCMWeights
 from hillchart.fccm.plots import _figure
 from hillchart.nets.weights import ensemble_blocks
 from hillchart.validation import check_finite
+from hillchart.characteristics import unit_speed
 
 
 def _net_block(weights: FCCMWeights, output: str) -> dict:
@@ -157,7 +158,7 @@ class DoubleRegulatedNets:
 
         cam = on_cam_relation(self.efficiency, openings, heads_m, speed_rpm=speed_rpm,
                               runner_diameter_m=runner_diameter_m, **kwargs)
-        n11 = speed_rpm * runner_diameter_m / np.sqrt(cam["head_m"])
+        n11 = unit_speed(speed_rpm, cam["head_m"], runner_diameter_m)
         lo, hi = self.flow.x_min, self.flow.x_max
         outside = (n11 < lo[0]) | (n11 > hi[0])
         outside = outside | bool(np.any((cam["opening"] < lo[1]) | (cam["opening"] > hi[1])))
@@ -264,7 +265,7 @@ def on_cam_relation(efficiency, openings, heads_m, *, speed_rpm: float, runner_d
     if np.any(heads <= 0):
         raise InputError(f"heads_m must be > 0, got {heads.tolist()}")
     phi = np.arange(blade_range[0], blade_range[1] + 1e-9, step_deg)
-    n11 = speed_rpm * runner_diameter_m / np.sqrt(heads)  # eq. (2), paper 003
+    n11 = unit_speed(speed_rpm, heads, runner_diameter_m)  # eq. (2), paper 003
     eta = np.asarray(efficiency(n11[:, None, None], openings[None, :, None], phi[None, None, :]), dtype=float)
     finite = np.isfinite(eta)
     flowing = finite.any(axis=2)  # (nh, na): some blade angle passes water at this opening and head

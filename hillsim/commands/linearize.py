@@ -16,6 +16,7 @@ import numpy as np
 from hillchart.errors import InputError
 from hillsim import progress
 from hillsim.commands import add_set_option, load_command_plant
+from hillchart.characteristics import unit_speed
 
 
 
@@ -231,7 +232,7 @@ def _run_eight(args, characteristics, label, opening_unit) -> int:
         for name, value in (("--speed-rpm", args.speed_rpm), ("--head-m", args.head_m), ("--d1-m", args.d1_m)):
             if not (np.isfinite(value) and value > 0):
                 raise InputError(f"{name} must be > 0, got {value}")
-        n11 = args.speed_rpm * args.d1_m / np.sqrt(args.head_m)  # model law N11 = n D1 / sqrt(H)
+        n11 = float(unit_speed(args.speed_rpm, args.head_m, args.d1_m))
     coeffs = eight_coefficients(characteristics, n11=n11, opening=args.opening, blade_angle=args.blade_angle)
     record = coeffs.to_dict()
     warnings = []

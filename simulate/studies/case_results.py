@@ -19,6 +19,7 @@ from typing import Callable
 import numpy as np
 
 from hillchart.errors import HillsimError
+from hillchart.characteristics import unit_speed
 from simulate.config import PlantConfig
 from simulate.results.result import unit_series
 from simulate.studies.variants import STRUCTURE_CHOICE_KEYS, variant_overrides
@@ -156,7 +157,7 @@ def case_from_result(index: int, values: dict, plant: PlantConfig, result, domai
     summary = result.summary()
     # N11 and opening over every unit of the plant (its plant-level figures are the worst over the units)
     units = unit_series(result, plant)
-    n11 = np.concatenate([s["speed_rpm"] * d / np.sqrt(np.maximum(s["head_m"], 1e-12)) for _, s, d in units])
+    n11 = np.concatenate([unit_speed(s["speed_rpm"], np.maximum(s["head_m"], 1e-12), d) for _, s, d in units])
     opening_chart = np.concatenate([s["opening_chart"] for _, s, _ in units])
     beyond = None
     if domain is not None:

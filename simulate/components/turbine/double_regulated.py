@@ -37,6 +37,7 @@ from hillchart.constants import G_M_S2, RHO_WATER_KG_M3, RPM_TO_RAD_S
 from hillchart.errors import InputError
 from hillchart.fccm.double_regulated import blended_point, blended_value, net3_point
 from hillchart.synthetic.bulb import unit_point
+from hillchart.characteristics import unit_speed
 
 #: Opening points of a cam computed from the characteristics, and head points (fractions of the rated head).
 CAM_OPENINGS = 61
@@ -228,7 +229,7 @@ def cam_from_characteristics(inner, *, opening_at_zero_stroke: float, opening_ma
     # a coarse scan finds the hump, a golden-section search on the scan step around it the optimum
     cam = on_cam_relation(efficiency, openings, heads, speed_rpm=speed_rpm, runner_diameter_m=runner_diameter_m,
                           blade_range=tuple(blade_range_deg), step_deg=CAM_SCAN_STEP_DEG)
-    n11 = np.broadcast_to((speed_rpm * runner_diameter_m / np.sqrt(heads))[:, None], cam["blade_angle"].shape)
+    n11 = np.broadcast_to(unit_speed(speed_rpm, heads, runner_diameter_m)[:, None], cam["blade_angle"].shape)
     a = np.broadcast_to(openings[None, :], n11.shape)
     low = np.clip(cam["blade_angle"] - CAM_SCAN_STEP_DEG, blade_range_deg[0], blade_range_deg[1])
     high = np.clip(cam["blade_angle"] + CAM_SCAN_STEP_DEG, blade_range_deg[0], blade_range_deg[1])
