@@ -29,6 +29,9 @@ shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_
                                          record(p, s, out), power(p, s, t) -> electrical power MW,
                                          grid_frequency(p, s) -> Hz (optional: the signals they fill are NaN
                                          without them)
+turbine    the characteristics' kind     step(p, s, C_L, k, speed_rpm, controls, diag) -> (status, iterations);
+           (``CharacteristicKind.        signals(p, s) -> (H, Q, torque) (the unit's turbine boundary; the
+           boundary``)                   pressure loop's step is a :class:`LoopTemplate`)
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, downstream ``build(plant, steady,
@@ -38,8 +41,10 @@ A component registered with :meth:`Registry.register` (from any package, at any 
 accepted by the plant file and built like the shipped ones. The turbine characteristics are a kind of their own
 (``CHARACTERISTICS``: entries are :class:`simulate.components.turbine.kinds.CharacteristicKind` objects, which load
 themselves from a registry word or claim a nets.json by its content); the turbine component
-(:mod:`simulate.components.turbine.component`) owns them, and their compiled form
-(:func:`simulate.components.turbine.evaluation.compile_characteristics`) writes how the loop evaluates them.
+(:mod:`simulate.components.turbine.component`) owns them and builds each unit's turbine boundary with the builder
+their kind names (``build(inputs) -> CompiledPart``, :func:`simulate.components.turbine.component.
+build_turbine_part`), and their compiled form (:func:`simulate.components.turbine.evaluation.
+compile_characteristics`) writes how the loop evaluates them.
 """
 
 from __future__ import annotations

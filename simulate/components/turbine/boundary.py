@@ -32,8 +32,11 @@ cached on disk. ``opening`` is passed through to the kernel unchanged: a scalar 
 the vector of controls (chart units) inside the loop, where ``kernel(params, n11, controls)`` returns
 ``(q11, dq11_dn11, m11, dm11_dn11)`` (the solvers read only the first two).
 
-:func:`turbine_step` is the turbine boundary of the loop (a template too: it calls the globals ``pressure_loop`` and
-``kernel``), with :func:`turbine_parameters` its parameter arrays and :func:`turbine_signals` its state accessor.
+:func:`build_pressure_loop` builds the turbine boundary of every shipped kind of characteristics as a unit's part
+(kind ``"turbine"``, :attr:`simulate.components.turbine.kinds.CharacteristicKind.boundary`): its step
+:func:`turbine_step` is a template too (a :class:`simulate.components.registry.LoopTemplate`: it calls the globals
+``pressure_loop``, ``newton_loop`` and ``torque_kernel`` of the loop module), with :func:`turbine_parameters` and
+:func:`turbine_state` its arrays and :func:`turbine_signals` its state accessor.
 """
 
 from __future__ import annotations
