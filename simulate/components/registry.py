@@ -29,6 +29,9 @@ shaft      ``generator.model``           speed(p, s) -> rpm; step(p, s, turbine_
                                          record(p, s, out), power(p, s, t) -> electrical power MW,
                                          grid_frequency(p, s) -> Hz (optional: the signals they fill are NaN
                                          without them)
+turbine    the characteristics' kind     step(p, s, C_L, k, speed_rpm, controls, diag) -> (status, iterations);
+           (``CharacteristicKind.        signals(p, s) -> (H, Q, torque) (the unit's turbine boundary; the
+           boundary``)                   pressure loop's step is a :class:`LoopTemplate`)
 ========== ============================= ==================================================================
 
 Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, downstream ``build(plant, steady,
@@ -38,8 +41,10 @@ A component registered with :meth:`Registry.register` (from any package, at any 
 accepted by the plant file and built like the shipped ones. The turbine characteristics are a kind of their own
 (``CHARACTERISTICS``: entries are :class:`simulate.components.turbine.kinds.CharacteristicKind` objects, which load
 themselves from a registry word or claim a nets.json by its content); the turbine component
-(:mod:`simulate.components.turbine.component`) owns them, and their compiled form
-(:func:`simulate.components.turbine.evaluation.compile_characteristics`) writes how the loop evaluates them.
+(:mod:`simulate.components.turbine.component`) owns them and builds each unit's turbine boundary with the builder
+their kind names (``build(inputs) -> CompiledPart``, :func:`simulate.components.turbine.component.
+build_turbine_part`), and their compiled form (:func:`simulate.components.turbine.evaluation.
+compile_characteristics`) writes how the loop evaluates them.
 """
 
 from __future__ import annotations
@@ -64,7 +69,11 @@ class PartHooks:
     why the part failed first when the loop stopped ("" when it did not). A control part: ``n_controls`` the length
     of its control vector (1: the guide vanes; 2 with the runner blades) and ``initial_controls`` its value at t = 0
     (default: the steady stroke); ``reads`` the named signals its step reads
-    (:data:`simulate.components.signals.SIGNALS`; the engine refuses a plant whose shaft does not fill one).
+    (:data:`simulate.components.signals.SIGNALS`; the engine refuses a plant whose shaft does not fill one). A
+    turbine boundary: ``step_failure(status, diag, conduit) -> (what, details)``, what its step's status > 0 means
+    (``"pressure loop 'newton' failed (no convergence)"``) and the values it left in ``diag[1:7]``, for the message
+    ``"<what> at t = ... s (step ...): <details>"`` (``conduit``: ``"penstock"`` or ``"branch"``, the pipe whose
+    relation H = C_L + k Q it was given).
     """
 
     summary: dict = field(default_factory=dict)
@@ -77,6 +86,7 @@ class PartHooks:
     warnings_after: Callable[[dict], list] | None = None
     error_after: Callable[[Any, dict], str] | None = None
     failure: Callable[[], str] | None = None
+    step_failure: Callable[[int, Any, str], tuple[str, str]] | None = None
 
     def figures_after(self, time_s, signals: dict) -> dict:
         return {} if self.summary_after is None else dict(self.summary_after(time_s, signals))
@@ -128,6 +138,24 @@ class Bound:
         for _, f in self.names:
             out += f.modules if isinstance(f, Bound) else [f.__module__]
         return tuple(out)
+
+
+@dataclass(frozen=True)
+class LoopTemplate:
+    """A component function pasted into the assembled loop module from its source, once for every unit that names
+    it, so that the globals it calls are the module's own: the characteristics' kernels (``kernel``,
+    ``flow_kernel``, ``torque_kernel``, :meth:`simulate.components.turbine.evaluation.CompiledCharacteristics.
+    loop_lines`) and the pressure loop the plant's ``solver.pressure_loop`` chose (``pressure_loop``,
+    ``newton_loop``), written once per module. How the pressure-loop boundary
+    (:func:`simulate.components.turbine.boundary.turbine_step`) calls the characteristics every unit shares.
+    ``func``: a module-level Python function (not compiled; the module compiles it)."""
+
+    func: Callable
+
+    @property
+    def modules(self) -> tuple[str, ...]:
+        """The module whose source is pasted."""
+        return (self.func.__module__,)
 
 
 class Registry:

@@ -4,13 +4,14 @@ templates, the compiled loop and its disk cache).
 
 numba caches a function on disk only if none of its arguments is a function (a dispatcher argument makes the
 function uncacheable: "dynamic globals"). So the components are not passed to the loop as arguments: for each
-combination of (characteristics kernel, pressure loop, and each unit's conduit, downstream, control and shaft with
-the plant's upstream part) this module writes a small
-Python module that imports the components' module-level numba functions as globals, pastes the kernel-dependent
-templates of :mod:`simulate.components.turbine.boundary` (the pressure loop and the turbine step, with the kernel bound
-as a global), and defines ``time_loop`` with ``numba.njit(cache=True, nogil=True, _nrt=False)``, the components' step
-functions inlined into it (see :func:`_header_lines` for why, and :class:`CompiledLoop` for a component that needs
-numba's reference counting). The module's file name is a hash of
+combination of (characteristics kernel, pressure loop, and each unit's conduit, downstream, control, shaft and
+turbine boundary with the plant's upstream part) this module writes a small Python module that imports the
+components' module-level numba functions as globals, pastes the kernel-dependent templates of
+:mod:`simulate.components.turbine.boundary` (the pressure loop, with the kernel bound as a global, and the
+pressure-loop boundary's step, a :class:`~simulate.components.registry.LoopTemplate`), and defines ``time_loop`` with
+``numba.njit(cache=True, nogil=True, _nrt=False)``, the components' step functions inlined into it (see
+:func:`_header_lines` for why, and :class:`CompiledLoop` for a component that needs numba's reference counting).
+The module's file name is a hash of
 its own text and of the source files of every module it imports (numba's cache checks only the file that defines the
 function, so a change in a component's source must produce a new file), so a second run of the same combination
 loads the compiled loop from numba's cache instead of compiling it.
@@ -36,7 +37,7 @@ from pathlib import Path
 
 import numba
 
-from simulate.components.registry import Bound
+from simulate.components.registry import Bound, LoopTemplate
 from simulate.components.signals import SHAFT_DEFAULTS, shaft_function
 from simulate.components.turbine import boundary
 
@@ -84,7 +85,10 @@ def _template(func, drop_first: bool) -> str:
 def _import_line(func, alias: str, *, inline: bool = False) -> str:
     """The line that binds ``func`` as the loop global ``alias``; ``inline``: a component's function, compiled
     into the loop from its source (see :func:`_header_lines`). A :class:`simulate.components.registry.Bound`
-    function is compiled from its source with the named globals rebound (``_bind``)."""
+    function is compiled from its source with the named globals rebound (``_bind``); a
+    :class:`simulate.components.registry.LoopTemplate` is the function :func:`_turbine_lines` pasted by its name."""
+    if isinstance(func, LoopTemplate):
+        return f"{alias} = {func.func.__name__}"
     if isinstance(func, Bound):
         lines = [_import_line(func.func, f"_{alias}_unbound")]
         names = []
@@ -108,7 +112,7 @@ def _import_line(func, alias: str, *, inline: bool = False) -> str:
 
 def _modules_of(func) -> tuple[str, ...]:
     """The modules a component's function is made of (a bound one: its own and those of the functions bound)."""
-    return func.modules if isinstance(func, Bound) else (func.__module__,)
+    return func.modules if isinstance(func, (Bound, LoopTemplate)) else (func.__module__,)
 
 
 def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[str]:
@@ -116,7 +120,6 @@ def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[st
              "from simulate.components.turbine.boundary import OK, NO_POSITIVE_HEAD, NAN, NOT_CONVERGED, "
              "quadratic_flow",
              "from simulate.components.turbine.boundary import ROUNDOFF_TOLERANCE, FALLBACK_DAMPING",
-             "from simulate.components.turbine.boundary import turbine_signals",
              "from simulate.components.signals import SPEED_RPM, ELECTRICAL_POWER_MW, TURBINE_POWER_MW, NET_HEAD_M, "
              "VANE_STROKE, GRID_FREQUENCY_HZ, RPM_NM_TO_MW"]
     if compiled and not counted:
@@ -149,10 +152,13 @@ def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[st
     return lines
 
 
-def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[str]:
+def _turbine_lines(characteristics, pressure_loop: str, templates, modules: set) -> list[str]:
     """The characteristics' kernels as the globals ``kernel``, ``flow_kernel`` and ``torque_kernel`` (their compiled
     form writes them: :meth:`simulate.components.turbine.evaluation.CompiledCharacteristics.loop_lines`), the
-    pressure-loop templates and the turbine step (adds the modules they import to ``modules``)."""
+    pressure-loop templates as ``pressure_loop`` and ``newton_loop``, and the source of each
+    :class:`simulate.components.registry.LoopTemplate` of ``templates`` (the pressure-loop boundary's
+    :func:`simulate.components.turbine.boundary.turbine_step`), which calls them; adds the modules they import to
+    ``modules``."""
     lines = characteristics.loop_lines(_import_line, modules)
     solver = boundary.SOLVERS[pressure_loop]
     solver_source = _template(getattr(solver, "py_func", solver), drop_first=True)  # plain with NUMBA_DISABLE_JIT
@@ -165,7 +171,14 @@ def _turbine_lines(characteristics, pressure_loop: str, modules: set) -> list[st
     newton = boundary.SOLVERS["newton"]  # the turbine step's last fallback
     newton_source = _template(getattr(newton, "py_func", newton), drop_first=True)
     lines.append(newton_source.replace(f"def {newton.__name__}(", "def newton_loop("))
-    lines.append(_template(boundary.turbine_step, drop_first=False))
+    pasted = {}
+    for template in templates:
+        name = template.func.__name__
+        if pasted.setdefault(name, template.func) is not template.func:
+            raise TypeError(f"two loop templates named {name!r} ({pasted[name].__module__} and "
+                            f"{template.func.__module__}): a template is pasted by its name")
+        lines.append(_template(template.func, drop_first=False))
+        modules.update(template.modules)
     return lines
 
 

@@ -1,10 +1,12 @@
 """What the single-unit loop (:mod:`simulate.loop.engine`) and the loop of several units
-(:mod:`simulate.loop.multi_unit`) share: the turbine boundary's limits, the advice of a failed pressure loop, the
-chunking of the compiled loop and the steady loss upstream of the penstock."""
+(:mod:`simulate.loop.multi_unit`) share: the turbine boundary's limits, the advice of a failed pressure loop (its
+text is the boundary's, :mod:`simulate.components.turbine.boundary`), the chunking of the compiled loop and the
+steady loss upstream of the penstock."""
 
 from __future__ import annotations
 
-from simulate.components.turbine.boundary import FALLBACK_DAMPING
+from simulate.components.turbine.boundary import (  # noqa: F401  (the pressure loop's advice, re-exported)
+    FAILURE_ADVICE, SEPARATION_ADVICE, SEPARATION_FRACTION, _failure_advice)
 
 #: Lowest head (fraction of rated) the pressure loop accepts; below it the column would separate.
 HEAD_FLOOR_FRACTION = 1e-4
@@ -13,28 +15,6 @@ HEAD_FLOOR_FRACTION = 1e-4
 #: with N11); with dQ/dH < 0 that "leak" is a negative resistance that pumps the water hammer in a shut penstock.
 #: The servo approaches its end stop exponentially, so "shut" is 1e-6 of the stroke, not exactly 0.
 CLOSED_STROKE = 1e-6
-
-#: What a failed pressure loop's message tells the user to change.
-FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
-                  "or a looser solver.tolerance")
-#: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
-SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
-                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
-                     "penstock's size")
-SEPARATION_FRACTION = 0.05
-
-
-def _failure_advice(status: int, solver, c_l_m: float, rated_head_m: float) -> str:
-    """The end of a pressure-loop failure message: what was tried and what to change."""
-    from simulate.components.turbine.boundary import NAN, NO_POSITIVE_HEAD, NOT_CONVERGED
-
-    tried = ""
-    if status in (NOT_CONVERGED, NAN):
-        tried = (f"; the step was retried with relaxation {FALLBACK_DAMPING * solver.relaxation:g} and by Newton"
-                 if solver.fallback else "; solver.fallback = false")
-    if status == NO_POSITIVE_HEAD or c_l_m < SEPARATION_FRACTION * rated_head_m:
-        return f"{tried}): {SEPARATION_ADVICE}"
-    return f"{tried}): {FAILURE_ADVICE}"
 
 #: Wall time of work per call into the compiled loop; Ctrl-C is honoured between calls.
 CHUNK_WALL_S = 0.25

@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hillchart.errors import InputError, NumericalError
-from simulate.components.turbine.boundary import FALLBACK_DAMPING, STATUS_TEXT, turbine_parameters, turbine_state
-from simulate.components.turbine.component import characteristics_of
+from simulate.components.turbine.boundary import FALLBACK_DAMPING
+from simulate.components.turbine.component import BoundaryInputs, build_turbine_part, plant_turbine
 from simulate.config import PlantConfig
-from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, _failure_advice, run_in_chunks, step_count
+from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, run_in_chunks, step_count
 from simulate.loop.generator import MANIFOLD_SERIES, UNIT_SERIES, assemble, signal_columns
-from simulate.loop.prepare import (_memo, initial_state, plant_characteristics, plant_schedules, unit_characteristics,
-                                   unit_schedules, units_initial_state)
+from simulate.loop.prepare import (_memo, initial_state, plant_characteristics, plant_schedules, unit_schedules,
+                                   unit_turbines, units_initial_state)
 from simulate.results.result import SimulationResult, unit_figures, worst_over_units
 from simulate.scenarios import GOVERNOR
 
@@ -34,14 +34,16 @@ from simulate.scenarios import GOVERNOR
 @dataclass
 class _Unit:
     """What the driver holds for one unit: its name (None for a plant of one unit), its single-unit view of the
-    plant, characteristics (as the unit uses them) and their compiled form, trusted domain, steady state,
-    schedules, time-step plan and, once built, its parts (``conduit``, ``downstream``, ``control``, ``shaft``)."""
+    plant, characteristics (as the unit uses them) and their compiled form, trusted domain, the characteristics'
+    kind (its registry word; None for the caller's object), steady state, schedules, time-step plan and, once built,
+    its parts (``conduit``, ``downstream``, ``control``, ``shaft``, ``turbine``)."""
 
     name: str | None
     view: PlantConfig
     chars: object
     compiled: object
     domain: object
+    kind: str | None = None
     steady: object = None
     schedules: object = None
     plan: object = None
@@ -57,22 +59,23 @@ class _Unit:
 
 
 def _characteristics(plant: PlantConfig, characteristics) -> list:
-    """The units (name, view, characteristics, compiled characteristics, domain) of ``plant``."""
+    """The units (name, view, characteristics, compiled characteristics, domain, kind) of ``plant``."""
     from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.loop.domain import plant_domain
 
     if plant.units:
         named = [(unit.name, plant.unit_plant(unit)) for unit in plant.units]
-        chars = unit_characteristics(plant, characteristics)
+        chars, kinds = zip(*unit_turbines(plant, characteristics))
     else:
         named = [(None, plant)]
-        chars = [plant_characteristics(plant, characteristics_of(plant, characteristics))]
+        turbine = plant_turbine(plant, characteristics)
+        chars, kinds = [plant_characteristics(plant, turbine.characteristics)], [turbine.kind]
     units = []
-    for (name, view), c in zip(named, chars):
+    for (name, view), c, kind in zip(named, chars, kinds):
         compiled = _memo(c, ("compiled",), lambda c=c: compile_characteristics(c))
         domain = _memo(c, ("domain", view.turbine.characteristics, str(plant.base_dir)),
                        lambda view=view, c=c: plant_domain(view, c))
-        units.append(_Unit(name, view, c, compiled, domain))
+        units.append(_Unit(name, view, c, compiled, domain, kind))
     first = units[0]
     for unit in units[1:]:  # the generated loop binds one kernel for every unit
         if type(unit.compiled) is not type(first.compiled) or unit.compiled.kernel is not first.compiled.kernel:
@@ -81,6 +84,15 @@ def _characteristics(plant: PlantConfig, characteristics) -> list:
                              f"({first.view.turbine.characteristics!r}); the units of one plant share one kind "
                              f"(ideal, synthetic or nets, each unit with its own rated values or nets file)")
     return units
+
+
+def _step_failure(turbine, status: int, diag, conduit: str) -> tuple[str, str]:
+    """``(what, details)`` of a turbine boundary ``turbine`` (a unit's part) whose step returned ``status`` > 0: its
+    own words (:attr:`simulate.components.registry.PartHooks.step_failure`), else the status and ``diag[1:7]``."""
+    if turbine.hooks.step_failure is not None:
+        return turbine.hooks.step_failure(status, diag, conduit)
+    return (f"turbine boundary {turbine.name!r} failed (status {status})",
+            f"what its step left in diag[1:7]: {', '.join(f'{v:.6g}' for v in diag[1:7])}")
 
 
 def _unit_parts(unit: _Unit, conduit, dt_s: float, sub_dt_s: float) -> dict:
@@ -172,14 +184,14 @@ def run_plant(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
                 raise InputError(f"{str(exc).replace('segment ', 'units.branch segment ', 1)} (unit "
                                  f"{unit.name!r})") from None
         unit.parts = parts = _unit_parts(unit, conduit, dt, sub_dt)
-        n_controls = parts["control"].hooks.n_controls
         turbine, st = unit.view.turbine, unit.steady
-        tp = turbine_parameters(turbine, plant.solver, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
-                                closed_stroke=CLOSED_STROKE,
-                                control_scales=[turbine.opening_max] + [1.0] * (n_controls - 1))
-        ts = turbine_state(st.head_m, st.flow_m3_s, st.torque_nm, n_controls)
+        parts["turbine"] = build_turbine_part(unit.kind, BoundaryInputs(
+            turbine=turbine, solver=plant.solver, characteristics=unit.chars, compiled=unit.compiled, steady=st,
+            n_controls=parts["control"].hooks.n_controls, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
+            closed_stroke=CLOSED_STROKE))
         check_provided(parts["control"], parts["shaft"], unit.prefix())
-        unit_args.append((tp, ts, unit.compiled.params, conduit.params, conduit.state, parts["downstream"].params,
+        unit_args.append((parts["turbine"].params, parts["turbine"].state, conduit.params, conduit.state,
+                          parts["downstream"].params,
                           parts["downstream"].state, parts["control"].params, parts["control"].state,
                           parts["shaft"].params, parts["shaft"].state,
                           initial_signals(parts["control"], parts["shaft"], st.head_m, st.torque_nm)))
@@ -252,19 +264,13 @@ def run_plant(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
         failed_step = int(k_done)
         n_rows = failed_step // stride + 1
         unit = units[int(diag[8])]
-        turbine = unit.view.turbine
-        message = (f"{unit.prefix()}pressure loop '{plant.solver.pressure_loop}' failed ({STATUS_TEXT[int(status)]}) "
-                   f"at t = {diag[0]:.6g} s (step {failed_step + 1}): speed {diag[1]:.6g} r/min, opening "
-                   f"{diag[2]:.6g} (chart units), head guess {diag[3]:.6g} m, {'branch' if several else 'penstock'} "
-                   f"relation H = {diag[4]:.6g} + ({diag[5]:.6g}) Q, last head residual {diag[6]:.3g} m (tolerance "
-                   f"{unit_args[int(diag[8])][0][0][2]:.3g} m, {plant.solver.max_iterations} iterations, relaxation "
-                   f"{plant.solver.relaxation}" + _failure_advice(int(status), plant.solver, diag[4],
-                                                                    turbine.rated_head_m))
+        what, details = _step_failure(unit.parts["turbine"], int(status), diag, "branch" if several else "penstock")
+        message = f"{unit.prefix()}{what} at t = {diag[0]:.6g} s (step {failed_step + 1}): {details}"
         parts = [(None, p) for p in common.values()] + [(None, p) for p in unit.parts.values()]
         for _, part in parts:  # a component that failed first (e.g. the generator's network) says why
             why = part.hooks.failure_reason()
             if why:
-                message = f"{unit.prefix()}{why} (the pressure loop then stopped: {STATUS_TEXT[int(status)]})"
+                message = f"{unit.prefix()}{why} (then the turbine boundary stopped: {what})"
                 break
         if raise_on_failure:
             raise NumericalError(message)

@@ -9,7 +9,8 @@ Per step k -> k+1 (t = k dt), for every unit (the steps in full: :mod:`simulate.
 2. shaft: the speed at t_{k+1} from the turbine torque and the load at t_k (explicit Euler);
 3. penstock (or branch): the linear relation H = C_L + k Q at the turbine, with the upstream (or manifold) head of
    this step, and the downstream part's H_out = C_M + B_M Q at the runner outlet;
-4. turbine boundary: (H, Q) at n_{k+1} and the controls by the chosen pressure loop; turbine torque M11 D1^3 H;
+4. turbine boundary: (H, Q) at n_{k+1} and the controls by the boundary the characteristics' kind chose (the
+   chosen pressure loop for the shipped kinds); turbine torque M11 D1^3 H;
 5. penstock, downstream and upstream (reservoir or surge tank) updates; the head envelope at every computing node.
 
 The loop runs in chunks of about :data:`CHUNK_WALL_S` of work, so Ctrl-C is honoured between chunks (the compiled

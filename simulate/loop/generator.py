@@ -15,7 +15,8 @@ penstock is the common conduit and each unit's conduit its branch (method of cha
    (:func:`simulate.components.hydraulic.junction.manifold_solve`): the manifold head and the common flow;
 3. every unit: its conduit's relation H_in = C_L + k Q at the turbine (from the upstream head, or the manifold head),
    its downstream part's H_out = C_M + B_M Q at the runner outlet (0 at the tailwater), the turbine boundary on the
-   net head H = (C_L - C_M) + (k - B_M) Q (the pressure loop), then the unit's conduit and downstream updates;
+   net head H = (C_L - C_M) + (k - B_M) Q (the unit's ``turbine`` part, the boundary its characteristics' kind
+   chose: the pressure loop of the shipped kinds), then the unit's conduit and downstream updates;
 4. the common conduit's update (several units), the upstream part; the head envelope of the plant's penstock.
 
 With the method of characteristics at Courant number 1 the manifold and the turbines at t_{k+1} depend only on the
@@ -23,19 +24,22 @@ pipes' state at t_k, so the junction and the units are solved one after the othe
 
 The units are unrolled in the generated text (``u0_...``, ``u1_...``): each unit's components may differ (a governor
 on one, a prescribed law on another) and numba sees plain calls. Every unit shares the characteristics kernel (its
-parameters are the unit's own). The templates below name no model: the roles are bound to each unit's components.
+parameters are the unit's own, in its turbine part's params), pasted once per module with the pressure loop. The
+templates below name no model and no turbine function: the roles are bound to each unit's components, its turbine
+boundary included (``u0_turbine_step``, ``u0_turbine_signals``).
 """
 
 from __future__ import annotations
 
 import threading
 
+from simulate.components.registry import LoopTemplate
 from simulate.components.turbine import boundary
 from simulate.loop.assembly import (_header_lines, _import_line, _modules_of, _turbine_lines, compiled_loop,
                                     role_function, signal_lines)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
-TEMPLATE_VERSION = 1
+TEMPLATE_VERSION = 2
 
 #: Per-unit series in ``out_units[row, unit, :]``, then the unit's control vector (``controls[0]``: the vane stroke).
 UNIT_SERIES = ("speed_rpm", "head_m", "flow_m3_s", "torque_nm")
@@ -81,13 +85,13 @@ _UNIT_SUBSTEP = '''{fill}
 #: One unit's conduit, downstream part and turbine boundary ({head}: the head at the conduit's upstream end).
 _UNIT_TURBINE = '''        c_l{i}, slope{i} = u{i}_conduit_relation(cd{i}, cd{i}_s, {head})
         c_m{i}, b_m{i} = u{i}_downstream_relation(dn{i}, dn{i}_s)
-        status, it{i} = turbine_step(tb{i}, ch{i}, tb{i}_s, c_l{i} - c_m{i}, slope{i} - b_m{i}, speed{i}, controls{i},
-                                     diag)
+        status, it{i} = u{i}_turbine_step(tb{i}, tb{i}_s, c_l{i} - c_m{i}, slope{i} - b_m{i}, speed{i}, controls{i},
+                                          diag)
         if status != 0:
             diag[0] = t_next
             diag[8] = {i}
             return status, k
-        head{i}, flow{i}, torque{i} = turbine_signals(tb{i}_s)
+        head{i}, flow{i}, torque{i} = u{i}_turbine_signals(tb{i}, tb{i}_s)
 {after_turbine}
         outlet{i} = c_m{i} + b_m{i} * flow{i}
         inlet{i} = head{i} + outlet{i}
@@ -130,6 +134,8 @@ UNIT_ROLES = {
     "conduit_inlet_flow": ("conduit", "inlet_flow"),
     "downstream_relation": ("downstream", "relation"),
     "downstream_update": ("downstream", "update"),
+    "turbine_step": ("turbine", "step"),
+    "turbine_signals": ("turbine", "signals"),
 }
 #: alias -> (key of the common parts, function role); the penstock's only with several units (the common conduit)
 COMMON_ROLES = {
@@ -150,6 +156,17 @@ def _common_roles(several: bool) -> dict:
     return COMMON_ROLES if several else {a: r for a, r in COMMON_ROLES.items() if r[0] == "upstream"}
 
 
+def _templates(units: list[dict], several: bool) -> list:
+    """The distinct :class:`simulate.components.registry.LoopTemplate` functions the units' parts name, in order."""
+    found = []
+    for parts in units:
+        for kind, role in _unit_roles(several).values():
+            func = role_function(parts[kind], role)
+            if isinstance(func, LoopTemplate) and func not in found:
+                found.append(func)
+    return found
+
+
 def loop_source(common: dict, units: list[dict], characteristics, pressure_loop: str, compiled: bool,
                 cache: bool = True, counted: bool = False) -> tuple[str, list[str]]:
     """Text of the loop module and the module names it imports.
@@ -157,8 +174,9 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
     ``common``: the plant's ``upstream`` part and, for a plant with ``[[units]]``, its ``penstock`` (the common
     conduit, which branches at the manifold junction: present for a plant with ``[[units]]`` of any number);
     ``units``: one dict of parts per unit (``conduit``: the unit's pipe, the plant's penstock for a plant of one unit,
-    else its branch; ``downstream``, ``control``, ``shaft``); ``characteristics``: their compiled form (one kernel
-    for every unit); ``counted``: the loop with reference counting (see :class:`simulate.loop.assembly.CompiledLoop`).
+    else its branch; ``downstream``, ``control``, ``shaft``, ``turbine``: its boundary); ``characteristics``: their
+    compiled form (one kernel for every unit, pasted once); ``counted``: the loop with reference counting (see
+    :class:`simulate.loop.assembly.CompiledLoop`).
     """
     from simulate.components.hydraulic import junction
 
@@ -174,6 +192,9 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
                             ("conduit_outlet_flow", junction.moc_outlet_flow),
                             ("conduit_outlet_head", junction.moc_outlet_head)):
             lines.append(_import_line(func, alias, inline=True))
+    # the characteristics' kernels and the pressure loop, once for every unit, with the functions a unit's part
+    # asks to be pasted beside them (the pressure-loop boundary's step)
+    lines += _turbine_lines(characteristics, pressure_loop, _templates(units, several), modules)
     for alias, (kind, role) in _common_roles(several).items():
         func = common[kind].functions[role]
         lines.append(_import_line(func, alias, inline=True))
@@ -198,9 +219,9 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
             func = role_function(parts[kind], role)
             lines.append(_import_line(func, f"u{i}_{alias}", inline=True))
             modules.update(_modules_of(func))
-        unpack.append(f"    tb{i}, tb{i}_s, ch{i}, cd{i}, cd{i}_s, dn{i}, dn{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, "
+        unpack.append(f"    tb{i}, tb{i}_s, cd{i}, cd{i}_s, dn{i}, dn{i}_s, ctl{i}, ctl{i}_s, sh{i}, sh{i}_s, "
                       f"sig{i} = units[{i}]")
-        init.append(f"    torque{i} = turbine_signals(tb{i}_s)[2]")
+        init.append(f"    torque{i} = u{i}_turbine_signals(tb{i}, tb{i}_s)[2]")
         fill, after_control, after_turbine = signal_lines(parts["control"].hooks.reads, i)
         substep.append(_UNIT_SUBSTEP.format(i=i, fill=fill, after_control=after_control))
         if several:
@@ -217,7 +238,6 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
     if several:
         unpack.append("    man_c, man_b, man_q = man")
         records = _JUNCTION_RECORDS.splitlines() + records
-    lines += _turbine_lines(characteristics, pressure_loop, modules)
     head = _HEAD.replace("{n}", str(len(units))).replace(
         "{junction_args}", ", pen, pen_s, man, out_manifold" if several else "")
     body = head + "\n".join(unpack + init) + "\n"

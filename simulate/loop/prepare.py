@@ -9,7 +9,7 @@ import threading
 import weakref
 
 from hillchart.errors import InputError
-from simulate.components.turbine.component import characteristics_of, load_characteristics
+from simulate.components.turbine.component import characteristics_of, load_turbine
 from simulate.config import PlantConfig
 from simulate.loop.common import upstream_friction_s2_m5
 from simulate.loop.steady import ManifoldSteadyState, SteadyState, manifold_steady_state, steady_state
@@ -144,15 +144,21 @@ def unit_characteristics(plant: PlantConfig, characteristics=None) -> list:
     """The characteristics of every unit as the unit uses them (``characteristics`` for all when given, else each
     unit's ``turbine.characteristics``; three-input ones seen through the plant's combinator, see
     :func:`plant_characteristics`). Units with the same turbine section share one object."""
+    return [chars for chars, _ in unit_turbines(plant, characteristics)]
+
+
+def unit_turbines(plant: PlantConfig, characteristics=None) -> list[tuple]:
+    """``(characteristics as the unit uses them, kind)`` of every unit (:func:`unit_characteristics`); ``kind``:
+    the registry word of the characteristics' kind (None for the caller's ``characteristics``)."""
     loaded: dict = {}
     out = []
     for unit in plant.units:
         key = (id(characteristics), unit.turbine)
         if key not in loaded:
-            raw = characteristics if characteristics is not None else load_characteristics(unit.turbine,
-                                                                                              plant.base_dir)
+            own = load_turbine(unit.turbine, plant.base_dir) if characteristics is None else None
+            raw = characteristics if own is None else own.characteristics
             try:
-                loaded[key] = plant_characteristics(plant.unit_plant(unit), raw)
+                loaded[key] = (plant_characteristics(plant.unit_plant(unit), raw), None if own is None else own.kind)
             except InputError as exc:
                 raise InputError(f"unit {unit.name!r}: {exc}") from None
         out.append(loaded[key])

@@ -32,8 +32,11 @@ cached on disk. ``opening`` is passed through to the kernel unchanged: a scalar 
 the vector of controls (chart units) inside the loop, where ``kernel(params, n11, controls)`` returns
 ``(q11, dq11_dn11, m11, dm11_dn11)`` (the solvers read only the first two).
 
-:func:`turbine_step` is the turbine boundary of the loop (a template too: it calls the globals ``pressure_loop`` and
-``kernel``), with :func:`turbine_parameters` its parameter arrays and :func:`turbine_signals` its state accessor.
+:func:`build_pressure_loop` builds the turbine boundary of every shipped kind of characteristics as a unit's part
+(kind ``"turbine"``, :attr:`simulate.components.turbine.kinds.CharacteristicKind.boundary`): its step
+:func:`turbine_step` is a template too (a :class:`simulate.components.registry.LoopTemplate`: it calls the globals
+``pressure_loop``, ``newton_loop`` and ``torque_kernel`` of the loop module), with :func:`turbine_parameters` and
+:func:`turbine_state` its arrays and :func:`turbine_signals` its state accessor.
 """
 
 from __future__ import annotations
@@ -164,13 +167,34 @@ ROUNDOFF_TOLERANCE = 64 * 2.220446049250313e-16
 FALLBACK_DAMPING = 0.5
 
 
+#: What a failed pressure loop's message tells the user to change.
+FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
+                  "or a looser solver.tolerance")
+#: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
+SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
+                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
+                     "penstock's size")
+SEPARATION_FRACTION = 0.05
+
+
+def _failure_advice(status: int, solver, c_l_m: float, rated_head_m: float) -> str:
+    """The end of a pressure-loop failure message: what was tried and what to change."""
+    tried = ""
+    if status in (NOT_CONVERGED, NAN):
+        tried = (f"; the step was retried with relaxation {FALLBACK_DAMPING * solver.relaxation:g} and by Newton"
+                 if solver.fallback else "; solver.fallback = false")
+    if status == NO_POSITIVE_HEAD or c_l_m < SEPARATION_FRACTION * rated_head_m:
+        return f"{tried}): {SEPARATION_ADVICE}"
+    return f"{tried}): {FAILURE_ADVICE}"
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # The turbine boundary as a component of the time loop
 # ---------------------------------------------------------------------------------------------------------------
 def turbine_parameters(turbine, solver, *, head_floor_m: float, closed_stroke: float, control_scales):
     """``(scalars, control_scales)`` for :func:`turbine_step`: scalars = [D1 m, head floor m, head tolerance m,
-    closed stroke, max iterations, relaxation]; ``control_scales`` converts each control (fraction of its stroke)
-    into the characteristics' unit (the guide vane: ``opening_max``)."""
+    closed stroke, max iterations, relaxation, fallback (1 or 0)]; ``control_scales`` converts each control
+    (fraction of its stroke) into the characteristics' unit (the guide vane: ``opening_max``)."""
     import numpy as np
 
     scalars = np.array([turbine.runner_diameter_m, head_floor_m, solver.tolerance * turbine.rated_head_m,
@@ -186,15 +210,45 @@ def turbine_state(head_m: float, flow_m3_s: float, torque_nm: float, n_controls:
     return np.array([head_m, flow_m3_s, torque_nm]), np.zeros(n_controls)
 
 
+def build_pressure_loop(inputs):
+    """The turbine boundary of section 4 of the BP hill-chart paper as a unit's part (kind ``"turbine"``): every
+    step the pressure loop ``solver.pressure_loop`` chose (:func:`turbine_step`, pasted into the loop module with
+    the characteristics' kernels, :class:`simulate.components.registry.LoopTemplate`). ``inputs``: the unit's
+    :class:`simulate.components.turbine.component.BoundaryInputs`; the part's params are
+    ``(scalars, control_scales, characteristics' params)`` (:func:`turbine_parameters`), its state
+    ``(signals, controls_chart)`` (:func:`turbine_state`), from the steady state."""
+    from simulate.components.registry import CompiledPart, LoopTemplate, PartHooks
+
+    turbine, solver, n = inputs.turbine, inputs.solver, inputs.n_controls
+    scalars, scales = turbine_parameters(turbine, solver, head_floor_m=inputs.head_floor_m,
+                                         closed_stroke=inputs.closed_stroke,
+                                         control_scales=[turbine.opening_max] + [1.0] * (n - 1))
+    st = inputs.steady
+
+    def step_failure(status: int, diag, conduit: str) -> tuple[str, str]:
+        what = f"pressure loop '{solver.pressure_loop}' failed ({STATUS_TEXT[status]})"
+        details = (f"speed {diag[1]:.6g} r/min, opening {diag[2]:.6g} (chart units), head guess {diag[3]:.6g} m, "
+                   f"{conduit} relation H = {diag[4]:.6g} + ({diag[5]:.6g}) Q, last head residual {diag[6]:.3g} m "
+                   f"(tolerance {scalars[2]:.3g} m, {solver.max_iterations} iterations, relaxation "
+                   f"{solver.relaxation}" + _failure_advice(status, solver, diag[4], turbine.rated_head_m))
+        return what, details
+
+    return CompiledPart(kind="turbine", name="pressure_loop",
+                        functions={"step": LoopTemplate(turbine_step), "signals": turbine_signals},
+                        params=(scalars, scales, inputs.compiled.params),
+                        state=turbine_state(st.head_m, st.flow_m3_s, st.torque_nm, n),
+                        hooks=PartHooks(step_failure=step_failure))
+
+
 @numba.njit(cache=True)
-def turbine_signals(state):
+def turbine_signals(params, state):
     """(head m, flow m^3/s, torque N*m) after the last :func:`turbine_step`."""
     signals = state[0]
     return signals[0], signals[1], signals[2]
 
 
 # a template: it calls the globals torque_kernel, pressure_loop and newton_loop of the assembled loop module
-def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):
+def turbine_step(tp, ts, c_l, slope, speed_rpm, controls, diag):
     """Solve the turbine boundary at ``speed_rpm`` and ``controls`` (fractions of stroke; control 0 the guide vane)
     against the penstock relation H = C_L + k Q; store head, flow and torque M11 D1^3 H in ``ts``.
 
@@ -206,7 +260,7 @@ def turbine_step(tp, cp, ts, c_l, slope, speed_rpm, controls, diag):
     ``(status, iterations)``; on failure ``diag[1:7]`` = speed, opening (chart units), head guess, C_L, k,
     residual.
     """
-    scalars, scales = tp
+    scalars, scales, cp = tp
     signals, chart = ts
     d1, floor, tol, closed = scalars[0], scalars[1], scalars[2], scalars[3]
     max_iterations, relaxation = int(scalars[4]), scalars[5]

@@ -5,17 +5,24 @@ function that takes a plant and an optional characteristics object asks :func:`c
 the caller's object when one is given (an ensemble member, a user's own turbine: it overrides the plant's) and
 otherwise the plant's own, loaded at the first call and kept for that plant object while its nets.json is unchanged
 (a run reads the file once, and a steady state, a run and a step check of one plant read it once together).
+
+The component also builds each unit's turbine boundary, the part of kind ``"turbine"`` the loop calls by role
+(:func:`build_turbine_part`), with the builder the characteristics' kind names
+(:attr:`simulate.components.turbine.kinds.CharacteristicKind.boundary`).
 """
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import threading
 import weakref
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from simulate.components.turbine.kinds import file_stamp, load_kind
+from simulate.components.registry import Bound, CompiledPart, LoopTemplate
+from simulate.components.turbine.kinds import CharacteristicKind, file_stamp, kind_of, load_kind
 
 
 @dataclass(frozen=True)
@@ -114,3 +121,90 @@ def characteristics_of(plant, characteristics=None):
     """The characteristics a run of ``plant`` uses: ``characteristics`` when given, else the plant's own
     (:func:`plant_turbine`)."""
     return plant_turbine(plant, characteristics).characteristics
+
+
+#: A turbine boundary's functions by role and the arguments the loop passes them, in order (k: m per m^3/s).
+BOUNDARY_ROLES = {"step": ("p", "s", "c_l_m", "k", "speed_rpm", "controls", "diag"), "signals": ("p", "s")}
+
+
+@dataclass(frozen=True)
+class BoundaryInputs:
+    """What a turbine boundary's builder (:attr:`simulate.components.turbine.kinds.CharacteristicKind.boundary`) is
+    given for one unit.
+
+    Attributes
+    ----------
+    turbine : simulate.config.TurbineConfig
+        The unit's turbine section (rated values, runner diameter D1 m, ``opening_max``).
+    solver : simulate.config.SolverConfig
+        The plant's solver section (the pressure loop, its tolerance, iterations, relaxation, fallback).
+    characteristics : object
+        The characteristics as the unit uses them.
+    compiled : simulate.components.turbine.evaluation.CompiledCharacteristics
+        Their compiled form (``compiled.params``: the kernels' parameters).
+    steady : simulate.loop.steady.SteadyState
+        The unit's verified steady state (head m, flow m^3/s, torque N*m, stroke at t = 0).
+    n_controls : int
+        The length of the unit's control vector (1: the guide vanes; 2 with the runner blades).
+    head_floor_m : float
+        The lowest head the boundary may accept, m.
+    closed_stroke : float
+        The stroke (fraction) at or below which the guide vanes are shut.
+    """
+
+    turbine: Any
+    solver: Any
+    characteristics: Any
+    compiled: Any
+    steady: Any
+    n_controls: int
+    head_floor_m: float
+    closed_stroke: float
+
+
+def _boundary_builder(kind: str | None):
+    """The boundary builder of the registered kind ``kind`` (the pressure loop for the caller's own object,
+    ``kind=None``)."""
+    target = CharacteristicKind.boundary if kind is None else kind_of(kind).boundary
+    module, _, name = str(target).partition(":")
+    builder = getattr(importlib.import_module(module), name, None) if name else None
+    if not callable(builder):
+        raise TypeError(f"turbine.characteristics kind {kind!r}: its boundary {target!r} names no function; give "
+                        f"\"module:function\" of a builder build(inputs) -> CompiledPart")
+    return builder
+
+
+def check_boundary(part, who: str) -> None:
+    """Refuse, before anything is compiled, a turbine boundary ``part`` that is not a :class:`CompiledPart` of kind
+    ``"turbine"`` or whose functions do not take the loop's arguments (:data:`BOUNDARY_ROLES`); ``who`` names it in
+    the message."""
+    if not isinstance(part, CompiledPart) or part.kind != "turbine":
+        got = f"a part of kind {part.kind!r}" if isinstance(part, CompiledPart) else type(part).__name__
+        raise TypeError(f"{who}: its boundary builder must return a CompiledPart of kind 'turbine', got {got}")
+    for role, arguments in BOUNDARY_ROLES.items():
+        wanted = f"{role}({', '.join(arguments)})"
+        func = part.functions.get(role)
+        if func is None:
+            raise TypeError(f"{who}: its boundary {part.name!r} has no {role!r} function; the loop calls {wanted}")
+        plain = func.func if isinstance(func, (Bound, LoopTemplate)) else func
+        plain = getattr(plain, "py_func", plain)
+        try:
+            parameters = list(inspect.signature(plain).parameters.values())
+        except (TypeError, ValueError):
+            raise TypeError(f"{who}: its boundary {part.name!r} {role!r} function {plain!r} is not a Python "
+                            f"function; the loop calls {wanted}") from None
+        positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+        if len(parameters) != len(arguments) or any(p.kind not in positional for p in parameters):
+            name = f"{getattr(plain, '__module__', '?')}.{getattr(plain, '__qualname__', plain)}"
+            raise TypeError(f"{who}: its boundary {part.name!r} {role!r} function {name}"
+                            f"({', '.join(str(p) for p in parameters)}) takes {len(parameters)} parameter(s); the "
+                            f"loop calls {wanted}")
+
+
+def build_turbine_part(kind: str | None, inputs: BoundaryInputs) -> CompiledPart:
+    """A unit's turbine boundary, the part of kind ``"turbine"`` the loop calls by role (``step``, ``signals``),
+    built by the boundary the characteristics' kind ``kind`` names (the registry word; None for the caller's own
+    object: the pressure loop) and checked (:func:`check_boundary`)."""
+    part = _boundary_builder(kind)(inputs)
+    check_boundary(part, "the caller's characteristics" if kind is None else f"turbine.characteristics kind {kind!r}")
+    return part

@@ -12,6 +12,12 @@ How the loop evaluates the characteristics a kind returns is their compiled form
 (:mod:`simulate.components.turbine.evaluation`), chosen by what the object offers; a kind whose kernel needs its own
 loop lines gives its characteristics a ``compiled_characteristics()`` method.
 
+The kind also chooses the turbine boundary its characteristics are solved with every step,
+:attr:`CharacteristicKind.boundary`: the builder of the unit's part of kind ``"turbine"``
+(:func:`simulate.components.turbine.component.build_turbine_part`). The kinds that ship use the pressure loop of the
+BP hill-chart paper on Q11(N11, a) (:func:`simulate.components.turbine.boundary.build_pressure_loop`); a kind whose
+boundary is solved otherwise (a four-quadrant pump-turbine on the Suter angle, a valve in closed form) names its own.
+
 A kind added from outside the package is one module with a :class:`CharacteristicKind` object and one line,
 ``CHARACTERISTICS.register("my-turbine", "my_package.my_turbine:KIND")``.
 """
@@ -43,12 +49,20 @@ class CharacteristicKind:
         The characteristics' name in a command's output (a word kind).
     opening_unit : str
         The unit of the opening its characteristics take (a word kind; a file kind's object carries its own).
+    boundary : str
+        ``"module:function"`` of the builder of its turbine boundary, ``build(inputs) -> CompiledPart`` (kind
+        ``"turbine"``; ``inputs``: a :class:`simulate.components.turbine.component.BoundaryInputs`), whose
+        functions by role the loop calls: ``step(p, s, c_l_m, k_s_m2, speed_rpm, controls, diag) -> (status,
+        iterations)`` solves head, flow and torque against H = C_L + k Q (k in m per m^3/s; status 0 when it
+        converged), ``signals(p, s) -> (head m, flow m^3/s, torque N*m)`` of the last step. Default: the pressure
+        loop (:func:`simulate.components.turbine.boundary.build_pressure_loop`).
     """
 
     by_word: bool = False
     description: str = ""
     label: str = ""
     opening_unit: str = "chart units"
+    boundary: str = "simulate.components.turbine.boundary:build_pressure_loop"
 
     def load(self, turbine, *, key: str = "turbine.characteristics"):
         """The characteristics of a word kind, from the plant's turbine section ``turbine`` (a

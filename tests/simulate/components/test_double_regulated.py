@@ -302,6 +302,8 @@ def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch)
     from simulate.components.turbine.evaluation import compile_characteristics
     from simulate.components.turbine.double_regulated import (DoubleRegulatedTurbine, nets_control_flow,
                                                               nets_control_torque)
+    from simulate.components.turbine.boundary import build_pressure_loop
+    from simulate.components.turbine.component import BoundaryInputs
     from simulate.loop.generator import loop_source
     from simulate.loop.engine import build_parts, initial_state, plant_characteristics
 
@@ -319,6 +321,9 @@ def test_pressure_loop_reads_the_flow_half_and_the_run_is_unchanged(monkeypatch)
     steady = initial_state(plant, view)
     parts, _ = build_parts(plant, steady, 0.01, 1, view)
     unit = {"conduit": parts["penstock"], **{kind: parts[kind] for kind in ("downstream", "control", "shaft")}}
+    unit["turbine"] = build_pressure_loop(BoundaryInputs(
+        turbine=plant.turbine, solver=plant.solver, characteristics=view, compiled=cc, steady=steady, n_controls=2,
+        head_floor_m=1e-4 * plant.turbine.rated_head_m, closed_stroke=1e-6))
     source, _ = loop_source({"upstream": parts["upstream"]}, [unit], cc, "improved", True)
     assert "nets_control_flow as flow_kernel" in source and "q11 = flow_kernel(params, n11, opening)[0]" in source
     assert "nets_control_torque as torque_kernel" in source

@@ -184,3 +184,47 @@ def test_an_object_may_bring_its_own_compiled_form():
         compile_characteristics(own)
     with pytest.raises(NotImplementedError, match="must define loop_lines"):
         CompiledCharacteristics(None, ()).loop_lines(None, set())
+
+
+def test_the_loop_template_names_no_turbine_function():
+    """The template calls the turbine boundary by role (``u{i}_turbine_step``) and pastes no turbine function by
+    name; the generated text of a plant binds the roles to the pressure loop's step (pasted) and signals (imported).
+    The failing case: the call the template made before the boundary was a part is found by the same search."""
+    import re
+
+    from simulate.loop import generator
+
+    bare = re.compile(r"(?<![\w}])turbine_(step|signals)\(")
+    for template in (generator._HEAD, generator._STEP, generator._UNIT_SUBSTEP, generator._UNIT_TURBINE):
+        assert not bare.search(template)
+    assert bare.search("        status, it{i} = turbine_step(tb{i}, ch{i}, tb{i}_s, c_l{i} - c_m{i}, ...)")
+    assert generator.UNIT_ROLES["turbine_step"] == ("turbine", "step")
+    assert generator.UNIT_ROLES["turbine_signals"] == ("turbine", "signals")
+
+
+def test_a_boundary_part_that_breaks_the_contract_is_refused():
+    """check_boundary: a part of another kind, a part without ``signals``, a ``signals`` with three parameters; the
+    pressure loop's own part passes."""
+    from simulate.components.registry import CompiledPart
+    from simulate.components.turbine.boundary import build_pressure_loop, turbine_signals
+    from simulate.components.turbine.component import BoundaryInputs, check_boundary
+
+    plant = load_plant(PLANT_HLA339, {"turbine.characteristics": "ideal"})
+    chars = characteristics_of(plant)
+    good = build_pressure_loop(BoundaryInputs(turbine=plant.turbine, solver=plant.solver, characteristics=chars,
+                                              compiled=compile_characteristics(chars), steady=initial_state(plant),
+                                              n_controls=1, head_floor_m=0.0178, closed_stroke=1e-6))
+    check_boundary(good, "kind 'ideal'")  # passes
+    with pytest.raises(TypeError, match="kind 'x': its boundary builder must return a CompiledPart of kind "
+                                        "'turbine', got a part of kind 'shaft'"):
+        check_boundary(CompiledPart("shaft", "swing", {}, (), ()), "kind 'x'")
+    with pytest.raises(TypeError, match=r"kind 'x': its boundary 'v' has no 'signals' function; the loop calls "
+                                        r"signals\(p, s\)"):
+        check_boundary(CompiledPart("turbine", "v", {"step": good.functions["step"]}, (), ()), "kind 'x'")
+
+    def signals(p, s, extra):
+        return turbine_signals(p, s)
+
+    with pytest.raises(TypeError, match=r"kind 'x': its boundary 'v' 'signals' function .*signals\(p, s, extra\) "
+                                        r"takes 3 parameter\(s\); the loop calls signals\(p, s\)"):
+        check_boundary(CompiledPart("turbine", "v", {**good.functions, "signals": signals}, (), ()), "kind 'x'")
