@@ -261,22 +261,18 @@ def curve_errors(nets: SuterNets, exact: dict) -> dict:
     return out
 
 
-def pump_turbine_test_samples(turbine=None, *, openings_mm=tuple(np.arange(5.0, 28.0, 2.0)), directions: int = 97,
-                              phase: float = 0.31, constants: SuterConstants = PUMP_TURBINE_CONSTANTS,
-                              rated: dict | None = None) -> dict:
+def pump_turbine_test_samples(rated: dict, turbine=None, *, openings_mm=tuple(np.arange(5.0, 28.0, 2.0)),
+                              directions: int = 97, phase: float = 0.31,
+                              constants: SuterConstants = PUMP_TURBINE_CONSTANTS) -> dict:
     """Exact improved curves of the synthetic pump-turbine on a grid the shipped table does not hold: the openings
     between its lines (5, 7, ..., 27 mm), ``directions`` directions of (N11, Q11) offset by ``phase`` of a step,
-    inside the table's window. ``rated`` defaults to the shipped table's rated point."""
+    inside the table's window. ``rated``: the table's rated point (``{"n11_rpm", "q11_m3_s", "m11_nm"}``, as the
+    shipped nets record it in ``training["rated"]``)."""
     from hillchart.synthetic.pump_turbine import (TABLE_N11_LIMIT_RPM, TABLE_Q11_LIMIT_M3_S,
                                                   SyntheticPumpTurbine)
     from hillchart.four_quadrant.suter import suter_transform
 
     turbine = turbine or SyntheticPumpTurbine()
-    if rated is None:
-        from data_synthetic import PUMP_TURBINE_DIR
-        from hillchart.four_quadrant.table import load_complete_characteristics
-
-        rated = load_complete_characteristics(PUMP_TURBINE_DIR).rated
     theta = -math.pi + (np.arange(directions) + phase) * 2.0 * math.pi / directions
     parts = []
     for a in openings_mm:
