@@ -10,6 +10,10 @@ FRANCIS_DIR = Path(__file__).resolve().parent / "francis"
 #: Folder of the shipped synthetic bulb nets (three inputs: n11, guide-vane angle, blade angle); regenerate with
 #: ``python -c "from hillchart.fccm.double_regulated import write_bulb_nets; write_bulb_nets('data_synthetic/bulb')"``.
 BULB_DIR = Path(__file__).resolve().parent / "bulb"
+#: Folder of the synthetic pump-turbine (hillchart.synthetic.pump_turbine): its complete-characteristics table
+#: (table.csv, table.toml) and its Suter-curve nets (nets.json); regenerate with
+#: ``python -m hillchart.four_quadrant.nets data_synthetic/pump_turbine``.
+PUMP_TURBINE_DIR = Path(__file__).resolve().parent / "pump_turbine"
 #: The double-regulated example plant: a low-head run-of-river plant with the synthetic bulb and a draft tube.
 PLANT_BULB = Path(__file__).resolve().parent / "plant_bulb.toml"
 #: The shipped example plant.

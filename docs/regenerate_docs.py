@@ -532,6 +532,8 @@ FIGURES = {
     "generator.png": _command_figure(["benchmarks/bench_generator.py", "--figures", "{out}"], "generator.png"),
     "two_units.png": _command_figure(["-m", "hillsim.cli", "run", "data_synthetic/plant_two_units.toml", "--out",
                                       "{out}/two", "--quiet"], "two/transient.png"),
+    "pump_turbine.png": _command_figure(["-m", "hillchart.four_quadrant.plots", "data_synthetic/pump_turbine", "{out}"],
+                                         "pump_turbine.png"),
 }
 
 

@@ -33,6 +33,7 @@ LAYERS = {
         ("simulate.components", "simulate.results", "simulate.linear"),
     ],
     "hillchart": [
+        ("hillchart.four_quadrant",),
         ("hillchart.generalization", "hillchart.fccm"),
         ("hillchart.nets",),
         ("hillchart.extension",),
