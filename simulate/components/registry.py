@@ -50,6 +50,7 @@ from typing import Any, Callable
 
 
 from hillchart.errors import InputError
+from simulate.components.contract import contract_of
 
 
 @dataclass(frozen=True)
@@ -151,15 +152,29 @@ class Registry:
         module, func = self._entries[name].split(":")
         return getattr(importlib.import_module(module), func)
 
+    def contract(self, name: str):
+        """What component ``name`` declares in its builder's module
+        (:class:`simulate.components.contract.Contract`): its ``STATES``, its time scales and its linear
+        counterpart, read without the caller importing the model's module."""
+        module, builder = self._target(name)
+        return contract_of(f"{self.key} = {name!r}", importlib.import_module(module), builder)
+
     def time_scales(self, name: str, plant, schedules) -> list:
-        """The :class:`simulate.components.timescale.TimeScale` list of component ``name``: the
-        ``time_scales(plant, schedules)`` function of its builder's module (none when the module has no such
-        function)."""
+        """The :class:`simulate.components.timescale.TimeScale` list of component ``name`` (its module's
+        ``time_scales(plant, schedules)``; none where it declares ``TIME_SCALES = ()``; :class:`TypeError` where it
+        declares neither)."""
+        return self.contract(name).scales(plant, schedules)
+
+    def linear_counterpart(self, name: str, plant, steady):
+        """The :class:`simulate.components.contract.LinearBlock` of component ``name`` at the steady state
+        ``steady`` (:class:`InputError` for a component without one)."""
+        return self.contract(name).linear(plant, steady)
+
+    def _target(self, name: str) -> tuple[str, str]:
         if name not in self._entries:
             raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
-        module = importlib.import_module(self._entries[name].split(":")[0])
-        func = getattr(module, "time_scales", None)
-        return [] if func is None else list(func(plant, schedules))
+        module, func = self._entries[name].split(":")
+        return module, func
 
     def module(self, name: str) -> str:
         """The name of the module that holds component ``name``'s builder."""
@@ -261,7 +276,7 @@ DOWNSTREAM = Registry("downstream", "downstream", {
 #: CompiledPart``; the keys of ``[governor]`` each mode reads: its module's ``OWN_KEYS``, declared there, and the shared
 #: ones its ``GOVERNOR_KEYS`` names).
 GOVERNORS = Registry("governor", "governor.mode", {
-    "speed": "simulate.components.control.governor:build_speed_governor",
+    "speed": "simulate.components.control.speed_governor:build_speed_governor",
     "power": "simulate.components.control.power_governor:build_power_governor",
     "opening": "simulate.components.control.opening_governor:build_opening_governor",
     "dashpot": "simulate.components.control.dashpot_governor:build_dashpot_governor",

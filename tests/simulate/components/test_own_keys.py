@@ -48,6 +48,7 @@ class ProportionalConfig:
 OWN_KEYS = own_keys(ProportionalConfig)
 REQUIRED_KEYS = ("proportional_gain",)
 READS = ("speed_rpm",)
+TIME_SCALES = ()  # a proportional law has no time constant of its own
 vane_servo = first_order_servo_step
 
 
