@@ -280,6 +280,7 @@ GOVERNORS = Registry("governor", "governor.mode", {
     "power": "simulate.components.control.power_governor:build_power_governor",
     "opening": "simulate.components.control.opening_governor:build_opening_governor",
     "dashpot": "simulate.components.control.dashpot_governor:build_dashpot_governor",
+    "level": "simulate.components.control.level_governor:build_level_governor",
 })
 #: The servo between a governor and the guide vanes (the first entry is the default;
 #: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``; its own keys of

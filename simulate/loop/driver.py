@@ -178,11 +178,11 @@ def run_plant(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
                                 closed_stroke=CLOSED_STROKE,
                                 control_scales=[turbine.opening_max] + [1.0] * (n_controls - 1))
         ts = turbine_state(st.head_m, st.flow_m3_s, st.torque_nm, n_controls)
-        check_provided(parts["control"], parts["shaft"], unit.prefix())
+        check_provided(parts["control"], parts["shaft"], unit.prefix(), upstream=upstream)
         unit_args.append((tp, ts, unit.compiled.params, conduit.params, conduit.state, parts["downstream"].params,
                           parts["downstream"].state, parts["control"].params, parts["control"].state,
                           parts["shaft"].params, parts["shaft"].state,
-                          initial_signals(parts["control"], parts["shaft"], st.head_m, st.torque_nm)))
+                          initial_signals(parts["control"], parts["shaft"], st.head_m, st.torque_nm, upstream)))
     unit_parts = [u.parts for u in units]
 
     # the output arrays, row 0 from the steady state

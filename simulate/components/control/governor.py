@@ -91,7 +91,11 @@ class GovernorConfig:
       the servo, speed not controlled (:mod:`simulate.components.control.opening_governor`);
     * ``"dashpot"``: OpenHPL's transient-droop governor, ``permanent_droop``, ``transient_droop``,
       ``dashpot_time_s``, ``pilot_servo_time_s``, ``gate_servo_time_s``
-      (:mod:`simulate.components.control.dashpot_governor`).
+      (:mod:`simulate.components.control.dashpot_governor`);
+    * ``"level"``: the headwater level controller of a run-of-river plant, a PI on the upstream level (the signal
+      ``upstream_level_m``: the surge tank's, else the reservoir's) to ``level_setpoint_m`` (default the initial
+      level), gains ``level_kp`` (stroke/m) and ``level_ki`` (stroke/(m s))
+      (:mod:`simulate.components.control.level_governor`).
 
     Every mode drives the vanes through the servo: ``servo_time_s`` T_y (required by every servo but
     ``rate-limit``); ``closing_time_s`` and ``opening_time_s``: time for a full stroke at the rate limit;

@@ -25,6 +25,7 @@ REPO = Path(__file__).resolve().parents[3]
 REGISTRIES = {r.kind: r for r in (PENSTOCKS, FRICTION, UPSTREAM, CONTROLS, DOWNSTREAM, GOVERNORS, SERVOS, SHAFTS)}
 ENTRIES_ALL = [(kind, name) for kind, registry in REGISTRIES.items() for name in registry.names()]
 SHIPPED = sorted((REPO / "data_synthetic").glob("plant*.toml"))
+SHIPPED_SURGE_TANK = REPO / "data_synthetic" / "plant_hla339_surge_tank.toml"
 PID = ("kp", "ki", "kd", "derivative_filter_s")
 #: Variants of the reference plant that build the components the shipped plants leave out (ideal turbine: cheap).
 RIGID = {"turbine.characteristics": "ideal", "penstock.model": "rigid", "solver.dt_s": 0.01}
@@ -45,6 +46,7 @@ VARIANTS = {
     "rate-limit": ({**RIGID, "governor.servo_model": "rate-limit"}, ("servo_time_s",)),
     "prescribed": ({**RIGID, "scenario.kind": "closure-law", "scenario.closing_time_s": 12.0}, ()),
 }
+LEVEL = {**RIGID, "governor.mode": "level", "governor.level_kp": 1.0, "governor.level_ki": 0.2}
 BULB_PRESCRIBED = {"scenario.kind": "closure-law", "scenario.closing_time_s": 12.0}
 
 
@@ -187,10 +189,12 @@ COVERS = {
     "hla339 dead-time": {("servo", "dead-time")}, "hla339 backlash": {("servo", "backlash")},
     "hla339 two-stage": {("servo", "two-stage")}, "hla339 rate-limit": {("servo", "rate-limit")},
     "hla339 prescribed": {("control", "prescribed")}, "bulb prescribed": {("control", "prescribed_blades")},
+    "surge tank level": {("governor", "level")},
 }
 CASES = ([(path.name, path, {}, ()) for path in SHIPPED]
          + [(f"hla339 {name}", PLANT_HLA339, overrides, drop) for name, (overrides, drop) in VARIANTS.items()]
-         + [("bulb prescribed", PLANT_BULB, BULB_PRESCRIBED, ())])
+         + [("bulb prescribed", PLANT_BULB, BULB_PRESCRIBED, ()),
+            ("surge tank level", SHIPPED_SURGE_TANK, LEVEL, PID + ("permanent_droop",))])
 
 
 @pytest.mark.parametrize("label, path, overrides, drop", CASES, ids=[c[0] for c in CASES])
