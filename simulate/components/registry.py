@@ -15,7 +15,8 @@ friction   ``penstock.friction_model``   reach_friction_loss(friction, flows, re
                                          reach_friction_advance(friction, flows, new_flows) (bound into the MOC
                                          penstock's functions, :mod:`simulate.components.hydraulic.friction`)
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
-                                         (optional: the component's extra timeseries columns)
+                                         (optional: the component's extra timeseries columns); level(p, s) -> m
+                                         (optional: the named signal upstream_level_m)
 control    scenario's control            step(p, s, signals, t, t_next, dt) -> controls (fractions of stroke;
            (``_blades`` with             ``signals``: the named signals at t, :mod:`simulate.components.signals`);
            ``[combinator]``)             record(p, s, out) (optional); a step may be a :class:`Bound` function
@@ -35,7 +36,9 @@ Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, d
 dt_s)``, control/shaft ``build(plant, steady, dt_s, schedules)`` (the blade controls also take the plant's
 characteristics view, ``characteristics=``), each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
 A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
-accepted by the plant file and built like the shipped ones. The turbine characteristics are a kind of their own
+accepted by the plant file and built like the shipped ones. Each component's module declares its contract as data
+(its ``STATES``, its time scales, its linear counterpart: :mod:`simulate.components.contract`), read through
+:meth:`Registry.contract`. The turbine characteristics are a kind of their own
 (``CHARACTERISTICS``: entries are :class:`simulate.components.turbine.kinds.CharacteristicKind` objects, which load
 themselves from a registry word or claim a nets.json by its content); the turbine component
 (:mod:`simulate.components.turbine.component`) owns them, and their compiled form
