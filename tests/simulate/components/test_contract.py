@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from data_synthetic import PLANT_BULB, PLANT_HLA339
-from simulate.components.contract import (ENTRIES, LEVELS_BY_NODE, SCALAR, UNDECLARED, StateArray, contract_of,
-                                          state_mismatches)
+from simulate.components.contract import (ENTRIES, LEVELS_BY_NODE, SCALAR, UNDECLARED, StateArray, StatesOf,
+                                          contract_of, state_mismatches)
 from simulate.components.registry import (CONTROLS, DOWNSTREAM, FRICTION, GOVERNORS, PENSTOCKS, SERVOS, SHAFTS,
                                           UPSTREAM, Registry)
 from simulate.config import apply_overrides, load_plant, plant_from_dict, read_plant_toml
@@ -124,7 +124,8 @@ def test_every_registered_component_declares_states_time_scales_and_linear_count
     contract = REGISTRIES[kind].contract(name)
     assert contract.missing() == ()
     states = contract.states
-    assert isinstance(states, tuple) and all(isinstance(s, StateArray) for s in states) or hasattr(states, "kind")
+    assert isinstance(states, StatesOf) or (isinstance(states, tuple)
+                                            and all(isinstance(s, StateArray) for s in states))
     assert contract.time_scales is None or callable(contract.time_scales)
     assert contract.linear_counterpart is None or callable(contract.linear_counterpart)
 
