@@ -15,7 +15,8 @@ friction   ``penstock.friction_model``   reach_friction_loss(friction, flows, re
                                          reach_friction_advance(friction, flows, new_flows) (bound into the MOC
                                          penstock's functions, :mod:`simulate.components.hydraulic.friction`)
 upstream   ``[surge_tank]`` present?     head(p, s) -> H_up; step(p, s, Q_inlet, dt); record(p, s, out)
-                                         (optional: the component's extra timeseries columns)
+                                         (optional: the component's extra timeseries columns); level(p, s) -> m
+                                         (optional: the named signal upstream_level_m)
 control    scenario's control            step(p, s, signals, t, t_next, dt) -> controls (fractions of stroke;
            (``_blades`` with             ``signals``: the named signals at t, :mod:`simulate.components.signals`);
            ``[combinator]``)             record(p, s, out) (optional); a step may be a :class:`Bound` function
@@ -38,7 +39,9 @@ Builders: penstock/upstream ``build(plant, steady, dt_s[, upstream_head_m])``, d
 dt_s)``, control/shaft ``build(plant, steady, dt_s, schedules)`` (the blade controls also take the plant's
 characteristics view, ``characteristics=``), each returning a :class:`CompiledPart` with its typed :class:`PartHooks`.
 A component registered with :meth:`Registry.register` (from any package, at any time before the plant is read) is
-accepted by the plant file and built like the shipped ones. The turbine characteristics are a kind of their own
+accepted by the plant file and built like the shipped ones. Each component's module declares its contract as data
+(its ``STATES``, its time scales, its linear counterpart: :mod:`simulate.components.contract`), read through
+:meth:`Registry.contract`. The turbine characteristics are a kind of their own
 (``CHARACTERISTICS``: entries are :class:`simulate.components.turbine.kinds.CharacteristicKind` objects, which load
 themselves from a registry word or claim a nets.json by its content); the turbine component
 (:mod:`simulate.components.turbine.component`) owns them and builds each unit's turbine boundary with the builder
@@ -55,6 +58,7 @@ from typing import Any, Callable
 
 
 from hillchart.errors import InputError
+from simulate.components.contract import contract_of
 
 
 @dataclass(frozen=True)
@@ -179,15 +183,29 @@ class Registry:
         module, func = self._entries[name].split(":")
         return getattr(importlib.import_module(module), func)
 
+    def contract(self, name: str):
+        """What component ``name`` declares in its builder's module
+        (:class:`simulate.components.contract.Contract`): its ``STATES``, its time scales and its linear
+        counterpart, read without the caller importing the model's module."""
+        module, builder = self._target(name)
+        return contract_of(f"{self.key} = {name!r}", importlib.import_module(module), builder)
+
     def time_scales(self, name: str, plant, schedules) -> list:
-        """The :class:`simulate.components.timescale.TimeScale` list of component ``name``: the
-        ``time_scales(plant, schedules)`` function of its builder's module (none when the module has no such
-        function)."""
+        """The :class:`simulate.components.timescale.TimeScale` list of component ``name`` (its module's
+        ``time_scales(plant, schedules)``; none where it declares ``TIME_SCALES = ()``; :class:`TypeError` where it
+        declares neither)."""
+        return self.contract(name).scales(plant, schedules)
+
+    def linear_counterpart(self, name: str, plant, steady):
+        """The :class:`simulate.components.contract.LinearBlock` of component ``name`` at the steady state
+        ``steady`` (:class:`InputError` for a component without one)."""
+        return self.contract(name).linear(plant, steady)
+
+    def _target(self, name: str) -> tuple[str, str]:
         if name not in self._entries:
             raise InputError(f"{self.key} must be one of {', '.join(self._entries)}; got {name!r}")
-        module = importlib.import_module(self._entries[name].split(":")[0])
-        func = getattr(module, "time_scales", None)
-        return [] if func is None else list(func(plant, schedules))
+        module, func = self._entries[name].split(":")
+        return module, func
 
     def module(self, name: str) -> str:
         """The name of the module that holds component ``name``'s builder."""
@@ -289,10 +307,11 @@ DOWNSTREAM = Registry("downstream", "downstream", {
 #: CompiledPart``; the keys of ``[governor]`` each mode reads: its module's ``OWN_KEYS``, declared there, and the shared
 #: ones its ``GOVERNOR_KEYS`` names).
 GOVERNORS = Registry("governor", "governor.mode", {
-    "speed": "simulate.components.control.governor:build_speed_governor",
+    "speed": "simulate.components.control.speed_governor:build_speed_governor",
     "power": "simulate.components.control.power_governor:build_power_governor",
     "opening": "simulate.components.control.opening_governor:build_opening_governor",
     "dashpot": "simulate.components.control.dashpot_governor:build_dashpot_governor",
+    "level": "simulate.components.control.level_governor:build_level_governor",
 })
 #: The servo between a governor and the guide vanes (the first entry is the default;
 #: builders ``build(governor, initial_stroke, dt_s) -> simulate.components.control.servo.Servo``; its own keys of

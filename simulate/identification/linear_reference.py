@@ -5,9 +5,12 @@
 plant's initial operating point, as JSON-ready numbers (``hillsim linearize --plant``, the demo's
 ``linearization.json``).
 
-The simulator's per-unit rotor ``Ta dx/dt = (M - M_g)/M_r - e_g x`` (torque base M_r = P_r/omega_r) becomes paper
-000's ``J dx/dt = m - m_L`` with ``J = Ta M_r / M0`` and grid damping ``e_g M_r / M0``; the water time at O is
-``Tw = sum L_i/(g A_i) Q0/H0`` and the linearized friction slope ``r_f = 2 K Q0^2 / H0``.
+The linear plant is composed from the components' declared linear counterparts
+(:meth:`simulate.components.registry.Registry.contract`): the penstock model's block (the water time Tw, the friction
+slope r_f and, with waves, Te and alpha: :mod:`simulate.components.hydraulic.penstock`) and the shaft's (the rotor's
+J and e_g in paper 000's increments: :mod:`simulate.components.shaft.rotor`); their numbers are the keyword arguments
+of :meth:`simulate.linear.models.LinearPlant.from_coefficients`. The plant's upstream and downstream levels are
+constant in that model (a surge tank declares its linearized block, which the model does not take).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from dataclasses import dataclass
 
 from hillchart.errors import InputError
 from hillchart.linearize import six_coefficients
-from simulate.components.registry import PENSTOCKS
+from simulate.components.registry import PENSTOCKS, SHAFTS, shaft_section
 from simulate.identification.results import CoefficientSet, optional
 from simulate.linear.models import LinearPlant
 
@@ -38,23 +41,20 @@ def linear_reference(plant, characteristics, steady, *, penstock_model: str | No
     """
     from simulate.loop.engine import plant_characteristics
 
-    turbine, pen, gen = plant.turbine, plant.penstock, plant.generator
-    model = penstock_model or pen.model
+    turbine = plant.turbine
     n11 = steady.speed_rpm * turbine.runner_diameter_m / math.sqrt(steady.head_m)  # N11 = n D1 / sqrt(H)
     # as the plant sees them: a double-regulated unit's on its cam (the blades follow the vanes), over the plant's
     # opening, so the coefficients are those of the unit its governor moves
     coeffs = six_coefficients(plant_characteristics(plant, characteristics), n11=n11, opening=steady.opening_chart)
-    torque_ratio = turbine.rated_torque_nm / steady.torque_nm  # M_r / M0
-    linear = LinearPlant.from_coefficients(
-        coeffs,
-        water_time_s=pen.inertance_s2_m2 * steady.flow_m3_s / steady.head_m,  # Tw = L Q0 / (g A H0), eq. (9)
-        inertia_time_s=gen.inertia_time_s * torque_ratio * steady.speed_rpm / turbine.rated_speed_rpm,
-        self_regulation=(plant.rotor_self_regulation(steady.torque_nm / turbine.rated_torque_nm) * torque_ratio
-                         * steady.speed_rpm / turbine.rated_speed_rpm),
-        wave_time_s=pen.travel_time_s if PENSTOCKS.traits(model).carries_waves else 0.0,
-        alpha=pen.lumped_alpha,
-        friction_slope=2.0 * pen.friction_coefficient_s2_m5 * steady.flow_m3_s**2 / steady.head_m,
-    )
+    blocks = (PENSTOCKS.linear_counterpart(penstock_model or plant.penstock.model, plant, steady),
+              SHAFTS.linear_counterpart(shaft_section(plant)[0], plant, steady))
+    parameters = {}
+    for block in blocks:
+        for name, value in block.values.items():
+            if name in parameters:
+                raise TypeError(f"{name} of the linear plant is given by two components' blocks ({block.equation})")
+            parameters[name] = value
+    linear = LinearPlant.from_coefficients(coeffs, **parameters)
     return coeffs, linear
 
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import numba
 
 from simulate.components.registry import Bound, LoopTemplate
-from simulate.components.signals import SHAFT_DEFAULTS, shaft_function
+from simulate.components.signals import SHAFT_DEFAULTS, shaft_function, upstream_function
 from simulate.components.turbine import boundary
 
 #: Bump when the loop template changes shape (part of every generated file's hash).
@@ -52,6 +52,15 @@ def role_function(part, role: str):
     return part.functions[role]
 
 
+def level_function(upstream, units: list[dict]):
+    """The upstream part's ``level`` function when a unit's control reads ``upstream_level_m`` (its NaN default for a
+    part without one, which :func:`simulate.components.signals.check_provided` refuses before the run); None when no
+    control reads it: the loop then neither imports nor calls it."""
+    if any("upstream_level_m" in parts["control"].hooks.reads for parts in units):
+        return upstream_function(upstream, "level")
+    return None
+
+
 def signal_lines(reads, unit: int | None = None) -> tuple[str, str, str]:
     """The loop's lines that fill the named signals the control ``reads``
     (:data:`simulate.components.signals.SIGNALS`): before the control step, after it (the vane stroke) and after the
@@ -61,7 +70,7 @@ def signal_lines(reads, unit: int | None = None) -> tuple[str, str, str]:
     sh = f"sh{n}, sh{n}_s"
     fills = {"speed_rpm": f"speed_now{n}", "electrical_power_mw": f"{f}shaft_power({sh}, t_sub)",
              "turbine_power_mw": f"torque{n} * speed_now{n} * RPM_NM_TO_MW",
-             "grid_frequency_hz": f"{f}shaft_grid_frequency({sh})"}
+             "grid_frequency_hz": f"{f}shaft_grid_frequency({sh})", "upstream_level_m": "upstream_level(up, up_s)"}
     sub, step = " " * 12, " " * 8
     before = [f"{sub}speed_now{n} = {f}shaft_speed({sh})"]
     before += [f"{sub}sig{n}[{name.upper()}] = {value}" for name, value in fills.items() if name in reads]
@@ -121,7 +130,7 @@ def _header_lines(compiled: bool, cache: bool, counted: bool = False) -> list[st
              "quadratic_flow",
              "from simulate.components.turbine.boundary import ROUNDOFF_TOLERANCE, FALLBACK_DAMPING",
              "from simulate.components.signals import SPEED_RPM, ELECTRICAL_POWER_MW, TURBINE_POWER_MW, NET_HEAD_M, "
-             "VANE_STROKE, GRID_FREQUENCY_HZ, RPM_NM_TO_MW"]
+             "VANE_STROKE, GRID_FREQUENCY_HZ, UPSTREAM_LEVEL_M, RPM_NM_TO_MW"]
     if compiled and not counted:
         # The templates (pressure loop, turbine step) and the components' step functions are inlined into
         # time_loop at numba-IR level, and the whole is compiled without reference counting (_nrt=False): every

@@ -189,12 +189,12 @@ def run_plant(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
             turbine=turbine, solver=plant.solver, characteristics=unit.chars, compiled=unit.compiled, steady=st,
             n_controls=parts["control"].hooks.n_controls, head_floor_m=HEAD_FLOOR_FRACTION * turbine.rated_head_m,
             closed_stroke=CLOSED_STROKE))
-        check_provided(parts["control"], parts["shaft"], unit.prefix())
+        check_provided(parts["control"], parts["shaft"], unit.prefix(), upstream=upstream)
         unit_args.append((parts["turbine"].params, parts["turbine"].state, conduit.params, conduit.state,
                           parts["downstream"].params,
                           parts["downstream"].state, parts["control"].params, parts["control"].state,
                           parts["shaft"].params, parts["shaft"].state,
-                          initial_signals(parts["control"], parts["shaft"], st.head_m, st.torque_nm)))
+                          initial_signals(parts["control"], parts["shaft"], st.head_m, st.torque_nm, upstream)))
     unit_parts = [u.parts for u in units]
 
     # the output arrays, row 0 from the steady state

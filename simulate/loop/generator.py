@@ -36,7 +36,7 @@ import threading
 from simulate.components.registry import LoopTemplate
 from simulate.components.turbine import boundary
 from simulate.loop.assembly import (_header_lines, _import_line, _modules_of, _turbine_lines, compiled_loop,
-                                    role_function, signal_lines)
+                                    level_function, role_function, signal_lines)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
 TEMPLATE_VERSION = 2
@@ -199,6 +199,10 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
         func = common[kind].functions[role]
         lines.append(_import_line(func, alias, inline=True))
         modules.update(_modules_of(func))
+    level = level_function(common["upstream"], units)
+    if level is not None:  # the named signal upstream_level_m, only where a control reads it
+        lines.append(_import_line(level, "upstream_level", inline=True))
+        modules.update(_modules_of(level))
     records, column = [], 0
 
     def record(part, alias: str, args: str) -> None:
@@ -276,7 +280,7 @@ def _assembly_key(common: dict, units: list[dict], characteristics, pressure_loo
         return (part.functions["record"], len(part.signals)) if part.signals else None
 
     key = [tuple(common[kind].functions[role] for kind, role in _common_roles(several).values()),
-           recorded(common["upstream"])]
+           recorded(common["upstream"]), level_function(common["upstream"], units)]
     for parts in units:
         key.append((tuple(role_function(parts[kind], role) for kind, role in _unit_roles(several).values()),
                     tuple(recorded(parts[kind]) for kind in UNIT_RECORDING_KINDS), parts["control"].hooks.reads))

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from simulate.components.contract import SCALAR, StateArray
 from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import own_keys, parameter, validate_parameters
@@ -85,10 +86,16 @@ def build_backlash_servo(governor, initial_stroke: float, dt_s: float) -> Servo:
                  summary={"servo_model": "backlash", "servo_backlash": governor.servo_backlash})
 
 
+#: Its state: the piston's stroke (the vanes follow it through the play).
+STATES = (StateArray("piston", "stroke fraction", "the stroke of the servo's piston, before the play", SCALAR),)
+#: None: the play is not linear (no motion for a small signal inside it, the lag outside).
+LINEAR_COUNTERPART = None
+
+
 def time_scales(plant, schedules) -> list:
     """The first-order servo's."""
     return first_order_time_scales(plant, schedules)
 
 
 __all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "BacklashConfig", "check_governor", "backlash", "backlash_servo_step",
-           "build_backlash_servo", "time_scales"]
+           "build_backlash_servo", "STATES", "LINEAR_COUNTERPART", "time_scales"]

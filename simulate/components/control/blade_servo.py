@@ -23,7 +23,9 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.control.governor import build_governor, build_prescribed, governor_control_step
+from simulate.components.contract import ENTRIES, PART, StateArray
+from simulate.components.control.governor import build_governor, build_prescribed
+from simulate.components.control.speed_governor import governor_control_step
 from simulate.components.control.servo import servo_step
 from simulate.components.parameters import parameter, validate_parameters
 from simulate.components.registry import Bound, CompiledPart, PartHooks
@@ -190,6 +192,15 @@ def blade_record(p, s, out):
 
 
 SIGNALS = ("blade_angle_deg", "blade_angle_cam_deg")
+#: Its state: the vane component's (its control vector widened to [vanes, blades]) and the cam's angle.
+CAM = StateArray("cam", "deg", "the cam's blade angle at the vane opening of the last step", ENTRIES,
+                 entries=("cam_angle_deg",))
+STATES = {"build_governor_blades": (StateArray("vanes", "", "the governor's state", PART, kind="control",
+                                               component="governor"), CAM),
+          "build_prescribed_blades": (StateArray("vanes", "", "the prescribed law's state", PART, kind="control",
+                                                 component="prescribed"), CAM)}
+#: None: the linear model of the plant is single-regulated (the blades on the cam are in its six coefficients).
+LINEAR_COUNTERPART = None
 
 
 def blade_parameters(plant, turbine_view, initial_blade_stroke: float, dt_s: float) -> np.ndarray:

@@ -25,7 +25,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from simulate.components.contract import ENTRIES, LinearBlock, StateArray
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
+from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE
 from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import piecewise_constant
@@ -59,6 +61,10 @@ DASHPOT_PARAMS = ("rated_speed_rpm", "time_eps_s", "permanent_droop", "transient
 (_N_R, _EPS, _BP, _DELTA, _Y0, _DASHPOT_DECAY, _PILOT_DECAY, _GATE_GAIN, _Y_MIN, _Y_MAX) = range(len(DASHPOT_PARAMS))
 #: Layout of its state vector: dashpot x_r, pilot servo u, main servo's integrator Y.
 _XR, _U, _Y = 0, 1, 2
+#: Its state: the dashpot's, the pilot servo's and the integrator's, the servo's, the control vector.
+STATES = (StateArray("dashpot", "pu speed; pu speed; stroke", "the dashpot x_r, the pilot servo u, the main servo's "
+                     "integrator Y", ENTRIES, entries=("dashpot", "pilot_servo", "integrator")),
+          SERVO_STATE, CONTROLS)
 #: The servo its step calls (bound by the builder, :class:`simulate.components.registry.Bound`).
 vane_servo = first_order_servo_step
 
@@ -101,7 +107,7 @@ def build_dashpot_governor(plant, steady, dt_s: float, schedules):
                         hooks=PartHooks(summary={**servo.summary, "governor_mode": "dashpot"}, reads=READS))
 
 
-def mode_time_scales(plant) -> list:
+def time_scales(plant, schedules) -> list:
     """The pilot servo's T_p and the dashpot's T_r (sub-stepped within the MOC step, see
     :mod:`simulate.loop.timestep`)."""
     from simulate.components.timescale import TimeScale
@@ -111,5 +117,19 @@ def mode_time_scales(plant) -> list:
             TimeScale("governor.dashpot_time_s", gov.dashpot_time_s)]
 
 
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """The module docstring's equations without their limits (OpenHPL's transient-droop governor): the numbers of
+    the droops and the three time constants."""
+    gov = plant.governor
+    values = {"permanent_droop": gov.permanent_droop, "transient_droop": gov.transient_droop,
+              "dashpot_time_s": gov.dashpot_time_s, "pilot_servo_time_s": gov.pilot_servo_time_s,
+              "gate_servo_time_s": gov.gate_servo_time_s}
+    units = {"permanent_droop": "pu speed/stroke", "transient_droop": "pu speed/stroke", "dashpot_time_s": "s",
+             "pilot_servo_time_s": "s", "gate_servo_time_s": "s"}
+    return LinearBlock("e = x_ref - x - b_p (y - y0) - (delta y - x_r), T_r x_r' + x_r = delta y, T_p u' + u = e, "
+                       "Y' = u / T_g (OpenHPL Controllers/Governor)", values, units)
+
+
 __all__ = ["DashpotConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "DASHPOT_PARAMS",
-           "dashpot_control_step", "dashpot_parameters", "build_dashpot_governor", "mode_time_scales"]
+           "dashpot_control_step", "dashpot_parameters", "build_dashpot_governor", "STATES", "time_scales",
+           "linear_counterpart"]

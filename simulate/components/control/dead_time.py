@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.contract import DELAY_LINE, LinearBlock, StateArray
 from simulate.components.control.servo import Servo, first_order_parameters, require_keys, servo_step
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import own_keys, parameter, validate_parameters
@@ -89,10 +90,23 @@ def build_dead_time_servo(governor, initial_stroke: float, dt_s: float) -> Servo
                  summary={"servo_model": "dead-time", "servo_dead_time_steps": n})
 
 
+#: Its state: the ring buffer of the module docstring.
+STATES = (StateArray("delay", "slot; stroke fraction", "the next slot, then the commands of the last n steps",
+                     DELAY_LINE, entries=("slot",)),)
+
+
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """exp(-T_d s) / (1 + T_y s): the first-order servo behind the dead time, without the limits."""
+    gov = plant.governor
+    return LinearBlock("T_y y'(t) = u(t - T_d) - y(t)", {"servo_time_s": gov.servo_time_s,
+                                                        "servo_dead_time_s": gov.servo_dead_time_s},
+                       {"servo_time_s": "s", "servo_dead_time_s": "s"})
+
+
 def time_scales(plant, schedules) -> list:
     """The first-order servo's (the dead time is held exactly by the buffer, whatever the step)."""
     return first_order_time_scales(plant, schedules)
 
 
 __all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "DeadTimeConfig", "check_governor", "delay_steps", "dead_time_servo_step",
-           "build_dead_time_servo", "time_scales"]
+           "build_dead_time_servo", "STATES", "linear_counterpart", "time_scales"]

@@ -22,6 +22,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.contract import ENTRIES, LinearBlock, StateArray
 from simulate.components.control.servo import Servo
 from simulate.components.parameters import own_keys, parameter, validate_parameters
 
@@ -29,6 +30,10 @@ from simulate.components.parameters import own_keys, parameter, validate_paramet
 SERVO_PARAMS = ("b0", "a1", "a2", "sample_time_s", "stroke_min", "stroke_max", "close_step", "open_step")
 #: Layout of the state vector: the last two outputs and the time left to the next sample (s).
 SERVO_STATE = ("u_km1", "u_km2", "time_to_sample_s")
+STATES = (StateArray("servo", "stroke fraction; stroke fraction; s", "the last two outputs of eq. (37) and the time "
+                     "left to the next sample", ENTRIES, entries=SERVO_STATE),)
+#: None: a sampled device, exact at its sample time, which the step divides (:func:`check_servo_step`).
+TIME_SCALES = ()
 
 
 @dataclass(frozen=True)
@@ -165,6 +170,16 @@ def build_discrete_servo(governor, initial_stroke: float, dt_s: float):
                           "servo_sample_time_s": config.sample_time_s})
 
 
-__all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "servo_config", "check_governor", "build_discrete_servo",
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """Eq. (37) itself (linear; its rate and stroke limits dropped): b0, a1, a2 at the sample time tau."""
+    config = servo_config(plant.governor)
+    return LinearBlock("u(k) = a1 u(k-1) + a2 u(k-2) + b0 u_s(k) every tau (paper 000 eq. (37))",
+                       {"servo_b0": config.b0, "servo_a1": config.a1, "servo_a2": config.a2,
+                        "servo_sample_time_s": config.sample_time_s},
+                       {"servo_b0": "1", "servo_a1": "1", "servo_a2": "1", "servo_sample_time_s": "s"})
+
+
+__all__ = ["STATES", "TIME_SCALES", "linear_counterpart", "OWN_KEYS", "GOVERNOR_KEYS", "servo_config", "check_governor",
+           "build_discrete_servo",
            "discrete_servo_component_step", "DiscreteServoConfig", "SERVO_PARAMS", "SERVO_STATE",
            "discrete_servo_parameters", "initial_servo_state", "check_servo_step", "discrete_servo_step"]

@@ -1,10 +1,10 @@
 """The governor (``[governor]``: :class:`GovernorConfig`) and prescribed guide-vane laws, registry kind "control".
 
 What the governor controls is its mode, ``governor.mode`` (:data:`simulate.components.registry.GOVERNORS`, one
-module each): ``speed`` (the default, here: paper 000 sections 2.5-2.7's parallel PID on the per-unit speed error with
-the permanent droop on the servo stroke), ``power`` (the droop on the electrical power,
-:mod:`simulate.components.control.power_governor`), ``opening`` (the stroke follows an opening reference,
-:mod:`simulate.components.control.opening_governor`) and ``dashpot`` (OpenHPL's transient-droop governor,
+module each): ``speed`` (the default: paper 000 sections 2.5-2.7's parallel PID on the per-unit speed error with the
+permanent droop on the servo stroke, :mod:`simulate.components.control.speed_governor`), ``power`` (the droop on the
+electrical power, :mod:`simulate.components.control.power_governor`), ``opening`` (the stroke follows an opening
+reference, :mod:`simulate.components.control.opening_governor`) and ``dashpot`` (OpenHPL's transient-droop governor,
 :mod:`simulate.components.control.dashpot_governor`). The servo between the governor and the vanes is a component of
 its own (``governor.servo_model``, :data:`simulate.components.registry.SERVOS`; the first-order one in
 :mod:`simulate.components.control.servo`). A mode's step reads the named signals
@@ -22,14 +22,14 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.contract import StatesOf
 from simulate.components.control.pid import (  # noqa: F401  (the PID's parts, re-exported)
     GOVERNOR_PARAMS, PID_KEYS, governor_parameters, governor_step, pid_time_scales)
-from simulate.components.control.servo import build_vane_servo, first_order_servo_step
+from simulate.components.control.speed_governor import CONTROLS
 from simulate.components.parameters import (Declared, component_store, parameter, section_fields,
                                             validate_parameters, with_component_keys)
-from simulate.components.registry import GOVERNORS, SERVOS, Bound, CompiledPart, PartHooks, Registry
-from simulate.components.schedules import GOVERNOR, piecewise_constant, piecewise_linear
-from simulate.components.signals import signal_indices
+from simulate.components.registry import GOVERNORS, SERVOS, CompiledPart, Registry
+from simulate.components.schedules import GOVERNOR, piecewise_linear
 
 
 def own_keys_of(registry: Registry, name: str) -> tuple[Declared, ...]:
@@ -91,7 +91,11 @@ class GovernorConfig:
       the servo, speed not controlled (:mod:`simulate.components.control.opening_governor`);
     * ``"dashpot"``: OpenHPL's transient-droop governor, ``permanent_droop``, ``transient_droop``,
       ``dashpot_time_s``, ``pilot_servo_time_s``, ``gate_servo_time_s``
-      (:mod:`simulate.components.control.dashpot_governor`).
+      (:mod:`simulate.components.control.dashpot_governor`);
+    * ``"level"``: the headwater level controller of a run-of-river plant, a PI on the upstream level (the signal
+      ``upstream_level_m``: the surge tank's, else the reservoir's) to ``level_setpoint_m`` (default the initial
+      level), gains ``level_kp`` (stroke/m) and ``level_ki`` (stroke/(m s))
+      (:mod:`simulate.components.control.level_governor`).
 
     Every mode drives the vanes through the servo: ``servo_time_s`` T_y (required by every servo but
     ``rate-limit``); ``closing_time_s`` and ``opening_time_s``: time for a full stroke at the rate limit;
@@ -210,11 +214,6 @@ class GovernorConfig:
 
 #: The keys of ``[governor]`` that are fields of :class:`GovernorConfig` (no component may declare one).
 _FIELD_NAMES = frozenset(f.name for f in section_fields(GovernorConfig))
-#: The ``[governor]`` keys the ``speed`` mode reads (all required).
-GOVERNOR_KEYS = PID_KEYS
-REQUIRED_KEYS = PID_KEYS
-
-
 def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, break_opening: float | None = None,
                 break_time_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Breakpoints (times s, strokes) of a linear or two-stage closure from ``initial_stroke`` to 0.
@@ -252,24 +251,6 @@ def closure_law(initial_stroke: float, start_s: float, closing_time_s: float, br
 # A control component owns the control vector (fractions of each control's full stroke; control 0 the guide vane)
 # and offers  step(p, s, signals, t_s, t_next_s, dt_s) -> controls  (the vector at t_next, an array of its state;
 # ``signals``: the named signals at t_s, simulate.components.signals).
-#: The servo the governor's step calls: its builder binds the plant's (:class:`Bound`); this default, the first-order
-#: servo, serves a call of the step outside the assembled loop.
-vane_servo = first_order_servo_step
-
-
-@numba.njit(cache=True)
-def governor_control_step(p, s, sig, t_s, t_next_s, dt_s):
-    """Governor PID on the speed at t (the signal ``speed_rpm``), then the guide-vane servo (``vane_servo``):
-    controls at t_next."""
-    gov, ref_times, ref_values, scal, servo, reads = p
-    state, servo_state, controls = s
-    x = sig[reads[0]] / scal[0] - 1.0
-    x_ref = piecewise_constant(ref_times, ref_values, t_s + scal[1], 0.0)
-    command = governor_step(gov, state, x, x_ref, controls[0], dt_s)
-    controls[0] = vane_servo(servo, servo_state, command, controls[0], dt_s)
-    return controls
-
-
 @numba.njit(cache=True)
 def prescribed_control_step(p, s, sig, t_s, t_next_s, dt_s):
     """The prescribed stroke law at t_next (piecewise linear; reads no signal)."""
@@ -283,29 +264,6 @@ def build_governor(plant, steady, dt_s: float, schedules):
     """The governor of ``governor.mode`` (:data:`simulate.components.registry.GOVERNORS`) with the servo
     ``governor.servo_model`` names, on the guide vane."""
     return GOVERNORS.builder(plant.governor.mode)(plant, steady, dt_s, schedules)
-
-
-#: What the speed mode reads (names of :data:`simulate.components.signals.SIGNALS`).
-READS = ("speed_rpm",)
-
-
-def build_speed_governor(plant, steady, dt_s: float, schedules):
-    """Mode ``speed``: the PID on the speed with the droop on the stroke, then the servo; the speed reference
-    follows the scenario's schedule."""
-    servo = build_vane_servo(plant, steady.stroke, dt_s)
-    scal = np.array([plant.turbine.rated_speed_rpm, 1e-9 * dt_s])
-    params = (governor_parameters(plant.governor, steady.stroke), schedules.ref_times_s, schedules.ref_values, scal,
-              servo.params, signal_indices(READS, "governor.mode = 'speed'"))
-    state = (np.zeros(3), servo.state, np.array([steady.stroke]))
-    return CompiledPart(kind="control", name="governor",
-                        functions={"step": Bound(governor_control_step, (("vane_servo", servo.step),))},
-                        params=params, state=state, signals=(),
-                        hooks=PartHooks(summary=dict(servo.summary), reads=READS))
-
-
-def mode_time_scales(plant) -> list:
-    """The speed mode's: the PID's (:func:`simulate.components.control.pid.pid_time_scales`)."""
-    return pid_time_scales(plant)
 
 
 def refuse_servo_without_governor(plant, what: str) -> None:
@@ -327,11 +285,21 @@ def build_prescribed(plant, steady, dt_s: float, schedules):
 
 
 def time_scales(plant, schedules) -> list:
-    """The governor's servo and its mode's time scales (the mode module's ``mode_time_scales(plant)``) while it is
-    in control (a prescribed law has none); sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
+    """The governor's servo and its mode's time scales (each declared by its module,
+    :meth:`simulate.components.registry.Registry.contract`) while it is in control (a prescribed law has none);
+    sub-stepped within the MOC step (see :mod:`simulate.loop.timestep`)."""
     gov = plant.governor
     if schedules.mode != GOVERNOR:
         return []
-    out = SERVOS.time_scales(gov.servo_model, plant, schedules)
-    mode = GOVERNORS.attribute(gov.mode, "mode_time_scales")
-    return out + ([] if mode is None else list(mode(plant)))
+    return SERVOS.time_scales(gov.servo_model, plant, schedules) + GOVERNORS.time_scales(gov.mode, plant, schedules)
+
+
+def mode_counterpart(plant, steady):
+    """The governor's linear counterpart: its mode's (:class:`InputError` for a mode without one)."""
+    return GOVERNORS.linear_counterpart(plant.governor.mode, plant, steady)
+
+
+#: The prescribed law's state: the control vector it sets (the governor's is its mode's part).
+STATES = {"build_governor": StatesOf("governor", "governor.mode"), "build_prescribed": (CONTROLS,)}
+#: The governor's is its mode's; a prescribed law is an input of the linear model, not a block of it.
+LINEAR_COUNTERPART = {"build_governor": mode_counterpart, "build_prescribed": None}

@@ -18,6 +18,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
+from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE
 from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 
@@ -38,6 +39,12 @@ GOVERNOR_KEYS = tuple(d.name for d in OWN_KEYS)
 REQUIRED_KEYS: tuple[str, ...] = ()
 #: The named signals it reads: none (the stroke it holds is its own control vector's).
 READS: tuple[str, ...] = ()
+#: Its state: the servo's, the control vector.
+STATES = (SERVO_STATE, CONTROLS)
+#: None of its own: the command is the constant reference (the servo's are the servo's).
+TIME_SCALES = ()
+#: None: the command is a constant reference, no feedback to linearize (the speed is not controlled).
+LINEAR_COUNTERPART = None
 #: The servo its step calls (bound by the builder, :class:`simulate.components.registry.Bound`).
 vane_servo = first_order_servo_step
 
@@ -76,4 +83,5 @@ def build_opening_governor(plant, steady, dt_s: float, schedules):
 
 
 __all__ = ["OpeningModeConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "check_governor",
+           "STATES", "TIME_SCALES", "LINEAR_COUNTERPART",
            "opening_control_step", "build_opening_governor"]

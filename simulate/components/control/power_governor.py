@@ -21,7 +21,9 @@ import numba
 import numpy as np
 
 from simulate.components.control.pid import PID_KEYS, governor_parameters, pid_step, pid_time_scales
+from simulate.components.contract import LinearBlock
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
+from simulate.components.control.speed_governor import CONTROLS, PID_STATE, SERVO_STATE, pid_block
 from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.schedules import piecewise_constant
@@ -43,6 +45,8 @@ GOVERNOR_KEYS = PID_KEYS + tuple(d.name for d in OWN_KEYS)
 REQUIRED_KEYS = PID_KEYS
 #: The named signals it reads (:data:`simulate.components.signals.SIGNALS`).
 READS = ("speed_rpm", "electrical_power_mw")
+#: Its state: the PID's, the servo's, the control vector.
+STATES = (PID_STATE, SERVO_STATE, CONTROLS)
 #: Layout of its scalars: rated speed (r/min), time epsilon (s), rated power (MW), P_ref (per unit).
 _N_R, _EPS, _P_R, _P_REF = range(4)
 #: The servo its step calls (bound by the builder, :class:`simulate.components.registry.Bound`).
@@ -77,10 +81,16 @@ def build_power_governor(plant, steady, dt_s: float, schedules):
                         params=params, state=state, hooks=PartHooks(summary=summary, reads=READS))
 
 
-def mode_time_scales(plant) -> list:
+def time_scales(plant, schedules) -> list:
     """The PID's (:func:`simulate.components.control.pid.pid_time_scales`)."""
     return pid_time_scales(plant)
 
 
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """The PID with the droop on the electrical power (the module docstring's equation)."""
+    return pid_block(plant.governor, "u = kp e + ki/s e + kd s/(1 + T_f s) e, e = x_ref - x - b_p (P - P_ref)",
+                     "pu speed/pu power")
+
+
 __all__ = ["PowerModeConfig", "OWN_KEYS", "GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "power_control_step",
-           "build_power_governor", "mode_time_scales"]
+           "build_power_governor", "STATES", "time_scales", "linear_counterpart"]

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from simulate.components.control.servo import Servo, first_order_servo_step
+from simulate.components.contract import LinearBlock
+from simulate.components.control.servo import NO_STATE, Servo, first_order_servo_step
 
 #: Keys of ``[governor]`` this servo reads besides the common ones (none).
 GOVERNOR_KEYS: tuple[str, ...] = ()
 #: It has no lag: ``governor.servo_time_s`` is not read (and refused).
 LAG = False
+STATES = (NO_STATE,)
 
 
 def rate_limit_parameters(governor, dt_s: float) -> np.ndarray:
@@ -48,4 +50,10 @@ def time_scales(plant, schedules) -> list:
     return []
 
 
-__all__ = ["GOVERNOR_KEYS", "LAG", "rate_limit_parameters", "build_rate_limit_servo", "time_scales"]
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """y = u: a signal slower than the rate limits passes unchanged (the small signal of a linear model)."""
+    return LinearBlock("y = u (within the rate limits)")
+
+
+__all__ = ["STATES", "linear_counterpart", "GOVERNOR_KEYS", "LAG", "rate_limit_parameters", "build_rate_limit_servo",
+           "time_scales"]

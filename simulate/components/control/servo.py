@@ -26,6 +26,7 @@ from typing import Callable
 import numba
 import numpy as np
 
+from simulate.components.contract import SCALAR, LinearBlock, StateArray
 from simulate.components.registry import SERVOS
 
 #: Layout of the first-order servo's parameter vector (``decay`` = exp(-dt / T_y); ``close_step``/``open_step``:
@@ -33,6 +34,9 @@ from simulate.components.registry import SERVOS
 SERVO_PARAMS = ("stroke_min", "stroke_max", "decay", "close_step", "open_step")
 #: Keys of ``[governor]`` this servo reads besides the common ones (none: it is the common one).
 GOVERNOR_KEYS: tuple[str, ...] = ()
+#: A servo without a state of its own (the stroke it moves is the control vector's): one unused value.
+NO_STATE = StateArray("unused", "", "none: the servo keeps no state of its own (one unused value)", SCALAR)
+STATES = (NO_STATE,)
 
 
 def require_keys(governor, model: str, keys, what: str) -> None:
@@ -123,5 +127,17 @@ def time_scales(plant, schedules) -> list:
     return [TimeScale("governor.servo_time_s", plant.governor.servo_time_s)]
 
 
-__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "require_keys", "Servo", "first_order_parameters", "servo_step", "lag_step",
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """T_y y' = u - y without its rate and stroke limits (the module docstring's equation)."""
+    return first_order_block(plant.governor)
+
+
+def first_order_block(governor) -> LinearBlock:
+    """The first-order servo's :class:`LinearBlock` (T_y of the ``[governor]`` section)."""
+    return LinearBlock("T_y y' = u - y (the first-order servo without its limits)",
+                       {"servo_time_s": governor.servo_time_s}, {"servo_time_s": "s"})
+
+
+__all__ = ["SERVO_PARAMS", "GOVERNOR_KEYS", "NO_STATE", "STATES", "linear_counterpart", "first_order_block",
+           "require_keys", "Servo", "first_order_parameters", "servo_step", "lag_step",
            "first_order_servo_step", "build_first_order", "build_vane_servo", "time_scales"]

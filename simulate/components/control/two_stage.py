@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from simulate.components.control.servo import Servo, first_order_parameters, lag_step, require_keys
+from simulate.components.control.servo import NO_STATE, Servo, first_order_block, first_order_parameters, lag_step, \
+    require_keys
 from simulate.components.control.servo import time_scales as first_order_time_scales
 from simulate.components.parameters import own_keys, parameter, validate_parameters
 
@@ -87,10 +88,18 @@ def build_two_stage_servo(governor, initial_stroke: float, dt_s: float) -> Servo
                  summary={"servo_model": "two-stage", "servo_break_stroke": governor.servo_break_stroke})
 
 
+STATES = (NO_STATE,)
+
+
+def linear_counterpart(plant, steady):
+    """The first-order servo's (the stages differ in the closing rate limit only, which a linear block drops)."""
+    return first_order_block(plant.governor)
+
+
 def time_scales(plant, schedules) -> list:
     """The first-order servo's."""
     return first_order_time_scales(plant, schedules)
 
 
 __all__ = ["OWN_KEYS", "GOVERNOR_KEYS", "TwoStageConfig", "check_governor", "two_stage_servo_step",
-           "build_two_stage_servo", "time_scales"]
+           "build_two_stage_servo", "STATES", "linear_counterpart", "time_scales"]

@@ -48,9 +48,16 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.contract import PER_NODE, StateArray
 from simulate.components.hydraulic.friction import CompiledFriction
 from simulate.components.parameters import parameter, validate_parameters
 
+#: Its memory (the last array of its ``arrays``): the change of every node's flow over the last step, (B4).
+STATES = (StateArray("flow_change", "m^3/s", "the change of each node's flow over the last step", PER_NODE),)
+#: None: explicit on the MOC grid, whose step the penstock sets.
+TIME_SCALES = ()
+#: None: the unsteady term vanishes at a steady state; the linear model of the plant keeps the steady slope only.
+LINEAR_COUNTERPART = None
 #: The ``[penstock]`` keys of this model (refused under another friction model).
 PENSTOCK_KEYS = ("brunone_k3", "brunone_viscosity_m2_s")
 #: Kinematic viscosity of water at 20 C, m^2/s (the Reynolds number of (B3) when none is given).

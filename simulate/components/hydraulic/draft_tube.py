@@ -31,10 +31,17 @@ import numpy as np
 from hillchart.errors import InputError
 from simulate.components.hydraulic.conduit import PenstockConfig, read_segments
 from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
+from simulate.components.contract import PART, SCALAR, LinearBlock, StateArray
 from simulate.components.parameters import parameter, validate_parameters
 from simulate.components.registry import PENSTOCKS
 
 SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
+#: The tailwater keeps no state (one unused value); the draft tube the state of its conduit (a penstock model's, run
+#: mirrored) and the outlet head of the last step.
+STATES = {"build_tailwater": (StateArray("unused", "", "none: a constant level (one unused value)", SCALAR),),
+          "build_draft_tube": (StateArray("conduit", "", "the state of the conduit, a penstock model run mirrored",
+                                          PART, kind="penstock", chosen_by="draft_tube.model"),
+                               StateArray("outlet_head", "m", "the runner-outlet head of the last step", SCALAR))}
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -156,6 +163,15 @@ def time_scales(plant, schedules) -> list:
     t = plant.turbine
     return [TimeScale("draft tube water time (draft_tube segments, rated flow and head)",
                       config.mirrored().water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]
+
+
+def tailwater_counterpart(plant, steady) -> LinearBlock:
+    """h_out = 0: the constant tailwater the linear model of the plant assumes."""
+    return LinearBlock("h_out = 0 (a constant level)")
+
+
+#: The draft tube has none: the linear model of the plant (paper 000's) has no column below the runner.
+LINEAR_COUNTERPART = {"build_tailwater": tailwater_counterpart, "build_draft_tube": None}
 
 
 #: The conduit models of a draft tube (the penstock models it runs mirrored).

@@ -38,6 +38,11 @@ import numba
 
 from simulate.components.registry import Bound
 
+#: The steady loss has no memory; its time scales are the MOC grid's, on which it is exact; its linearization is the
+#: penstock's friction slope r_f = 2 K Q0^2 / H0 (the penstock's linear block), not a block of its own.
+STATES: tuple = ()
+TIME_SCALES = ()
+LINEAR_COUNTERPART = None
 #: The names by which the MOC functions call the friction model.
 SEAM = ("reach_friction_loss", "reach_friction_advance")
 #: The steady model computes the junction's branches (:func:`simulate.components.hydraulic.junction.moc_inlet_relation`

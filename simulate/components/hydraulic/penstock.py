@@ -33,6 +33,7 @@ import numpy as np
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
+from simulate.components.contract import ENTRIES, LEVELS_BY_NODE, SCALAR, LinearBlock, StateArray
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import steady_reach_loss as reach_friction_loss
 
@@ -406,3 +407,50 @@ def time_scales(plant, schedules) -> list:
     t = plant.turbine
     return [TimeScale("penstock water time Tw (lengths, diameters, rated flow and head)",
                       plant.penstock.water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# What the models declare (simulate.components.contract): their states and their linear counterparts, by builder
+# ---------------------------------------------------------------------------------------------------------------
+#: The method of characteristics: heads and flows at every node on two time levels, and which level is current.
+MOC_STATES = (StateArray("heads", "m", "the piezometric head at every node, the current and the next level",
+                         LEVELS_BY_NODE),
+              StateArray("flows", "m^3/s", "the flow at every node, the current and the next level", LEVELS_BY_NODE),
+              StateArray("current", "1", "the index (0 or 1) of the current level", SCALAR))
+#: The difference equations (zdomain, lumped, rigid): ``hist`` of :func:`iir_turbine_relation`.
+IIR_STATES = (StateArray("history", "pu flow; pu flow; pu head; pu head; m^3/s", "the per-unit flow and head of the "
+                         "last two steps and the last flow", ENTRIES,
+                         entries=("q_km1", "q_km2", "h_km1", "h_km2", "flow_prev_m3_s")),)
+STATES = {"build_moc": MOC_STATES, "build_zdomain": IIR_STATES, "build_lumped": IIR_STATES,
+          "build_rigid": IIR_STATES}
+
+#: The units of the numbers of a penstock's linear block.
+_UNITS = {"water_time_s": "s", "wave_time_s": "s", "alpha": "1", "friction_slope": "pu head/pu flow"}
+
+
+def _column(plant, steady) -> dict:
+    """Tw = L Q0 / (g A H0) (paper 000 eq. (9); L / (g A) summed over the segments) and the linearized friction
+    slope r_f = 2 K Q0^2 / H0 at the steady state."""
+    pen = plant.penstock
+    return {"water_time_s": pen.inertance_s2_m2 * steady.flow_m3_s / steady.head_m,
+            "friction_slope": 2.0 * pen.friction_coefficient_s2_m5 * steady.flow_m3_s**2 / steady.head_m}
+
+
+def rigid_counterpart(plant, steady) -> LinearBlock:
+    """The inelastic column: h = -Tw dq/dt - r_f q (paper 000 eq. (9), the friction as
+    :meth:`simulate.linear.models.LinearPlant.effective_coefficients` adds it)."""
+    values = {**_column(plant, steady), "wave_time_s": 0.0}
+    return LinearBlock("h = -Tw dq/dt - r_f q (paper 000 eq. (9))", values, {k: _UNITS[k] for k in values})
+
+
+def elastic_counterpart(plant, steady) -> LinearBlock:
+    """The lumped elastic column every model with waves is compared with: h = -Tw s / (1 + alpha Te^2 s^2) q - r_f q
+    (paper 000 eqs. (15)-(18)) with Te = sum L / a and the section's ``lumped_alpha``."""
+    pen = plant.penstock
+    values = {**_column(plant, steady), "wave_time_s": pen.travel_time_s, "alpha": pen.lumped_alpha}
+    return LinearBlock("h = -Tw s / (1 + alpha Te^2 s^2) q - r_f q (paper 000 eqs. (15)-(18))", values,
+                       {k: _UNITS[k] for k in values})
+
+
+LINEAR_COUNTERPART = {"build_moc": elastic_counterpart, "build_zdomain": elastic_counterpart,
+                      "build_lumped": elastic_counterpart, "build_rigid": rigid_counterpart}

@@ -14,7 +14,14 @@ flow): for the frictionless tank it keeps the oscillation's energy bounded with 
 omega dt / 2 (1e-4 at dt = 0.02 s and a 200 s period). The penstock sees H_j of the previous step (explicit coupling:
 the mass oscillation is 3-4 orders slower than the step).
 
-Timeseries columns: ``surge_level_m`` (z) and ``tunnel_flow_m3_s`` (Q_t).
+Timeseries columns: ``surge_level_m`` (z) and ``tunnel_flow_m3_s`` (Q_t); the named signal ``upstream_level_m``
+(:mod:`simulate.components.signals`) is z.
+
+Linearized about the steady flow Q0 and the turbine's head H0 (per unit: q = dQ/Q0, h = dz/H0; the throttle's loss
+R Q_s|Q_s| has no slope at Q_s = 0), the equations are the block of :func:`linear_counterpart`::
+
+    T_wt dq_t/dt = -h_z - r_t q_t,   T_s dh_z/dt = q_t - q_p,   h_j = h_z
+    T_wt = L Q0 / (g A_t H0),  T_s = A_s H0 / Q0,  r_t = 2 K_t Q0^2 / H0
 """
 
 from __future__ import annotations
@@ -26,9 +33,13 @@ import numba
 import numpy as np
 
 from hillchart.constants import G_M_S2
+from simulate.components.contract import ENTRIES, LinearBlock, StateArray
 from simulate.components.parameters import parameter, validate_parameters
 
 SIGNALS = ("surge_level_m", "tunnel_flow_m3_s")
+#: Its state: the tank level z (m above tailwater), the tunnel flow Q_t and the flow into the tank Q_s of the last step.
+STATES = (StateArray("tank", "m; m^3/s; m^3/s", "the tank level z, the tunnel flow Q_t, the flow into the tank Q_s",
+                     ENTRIES, entries=("level_m", "tunnel_flow_m3_s", "tank_flow_m3_s")),)
 
 
 @numba.njit(cache=True)
@@ -38,6 +49,12 @@ def surge_tank_head(p, s):
     state = s[0]
     q_s = state[2]
     return state[0] + scal[1] * q_s * abs(q_s)
+
+
+@numba.njit(cache=True)
+def surge_tank_level(p, s):
+    """The tank level z, m above tailwater (the datum of the heads)."""
+    return s[0][0]
 
 
 @numba.njit(cache=True)
@@ -107,7 +124,8 @@ def build_surge_tank(plant, steady, dt_s: float):
 
     return CompiledPart(
         kind="upstream", name="surge_tank",
-        functions={"head": surge_tank_head, "step": surge_tank_step, "record": surge_tank_record},
+        functions={"head": surge_tank_head, "step": surge_tank_step, "record": surge_tank_record,
+                   "level": surge_tank_level},
         params=(scal,), state=(state,), signals=SIGNALS,
         hooks=PartHooks(initial_head_m=z0, initial_signals=(z0, q0), warnings_after=warnings_after,
                         error_after=error_after, summary_after=summary_after,
@@ -119,6 +137,18 @@ def time_scales(plant, schedules) -> list:
     from simulate.components.timescale import TimeScale
 
     return [TimeScale(label, value, coupled=True) for label, value in plant.surge_tank.time_constants().items()]
+
+
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """The mass-oscillation equations linearized at the steady state (module docstring): the tunnel's water time,
+    the tank's filling time and the tunnel's friction slope, per unit of the turbine's steady flow and head."""
+    tank, q0, h0 = plant.surge_tank, steady.flow_m3_s, steady.head_m
+    values = {"tunnel_water_time_s": tank.tunnel_length_m * q0 / (G_M_S2 * tank.tunnel_area_m2 * h0),
+              "tank_filling_time_s": tank.area_m2 * h0 / q0,
+              "tunnel_friction_slope": 2.0 * tank.steady_loss_coefficient_s2_m5 * q0 ** 2 / h0}
+    return LinearBlock("T_wt dq_t/dt = -h_z - r_t q_t, T_s dh_z/dt = q_t - q_p (the linearized mass oscillation)",
+                       values, {"tunnel_water_time_s": "s", "tank_filling_time_s": "s",
+                                "tunnel_friction_slope": "pu head/pu flow"})
 
 
 @dataclass(frozen=True)

@@ -33,8 +33,11 @@ import math
 import numba
 import numpy as np
 
-from simulate.components.control.excitation import excitation_step
+from simulate.components.contract import ENTRIES, StateArray
+from simulate.components.control.excitation import EXC_STATE, excitation_step
 from simulate.components.electrical.generator import (
+    GEN_OUTPUTS,
+    GEN_STATE,
     O_ID,
     O_IQ,
     O_PE,
@@ -50,7 +53,8 @@ from simulate.components.electrical.generator import (
 )
 from simulate.components.electrical.standalone import RUN_COLUMNS
 from simulate.components.schedules import piecewise_constant
-from simulate.components.shaft.rotor import rotor_step
+from simulate.components.shaft.rotor import SPEED, rotor_step
+from simulate.components.shaft.rotor import linear_counterpart  # noqa: F401  (the swing equation's, the island's e_g)
 from simulate.components.signals import RPM_NM_TO_MW
 
 #: The extra timeseries columns (the standalone drivers' :data:`simulate.components.electrical.standalone.RUN_COLUMNS`
@@ -66,6 +70,22 @@ SHAFT_SCALARS = ("rated_speed_rpm", "rated_torque_nm", "inertia_time_s", "time_e
 #: Layout of the small state vector ``misc``: field voltage held over the coming step, failure status, its time, the
 #: infinite bus's per-unit frequency deviation x_bus at the present time.
 M_FIELD, M_STATUS, M_TIME, M_XBUS = 0, 1, 2, 3
+#: The layout of the scratch array of :func:`simulate.components.electrical.generator.generator_step`: the outputs,
+#: the four Runge-Kutta stages and a temporary state.
+WORK = (tuple(f"output_{name}" for name in GEN_OUTPUTS)
+        + tuple(f"k{i}_{name}" for i in range(1, 5) for name in GEN_STATE) + tuple(f"tmp_{name}" for name in GEN_STATE))
+#: Its state: the speed, the machine's and the excitation's states, the network's outputs, the scratch array, misc.
+STATES = (SPEED,
+          StateArray("generator", "pu; pu; pu; rad", "the machine's fluxes and rotor angle (eq. (10))", ENTRIES,
+                     entries=GEN_STATE),
+          StateArray("excitation", "pu; pu", "the excitation's filtered error and integral", ENTRIES,
+                     entries=EXC_STATE),
+          StateArray("outputs", "pu", "the network's solution of the last step", ENTRIES, entries=GEN_OUTPUTS),
+          StateArray("work", "pu", "scratch of the Runge-Kutta step (no allocation in the loop)", ENTRIES,
+                     entries=WORK),
+          StateArray("misc", "pu; 1; s; pu", "the field voltage held over the step, the failure status, its time, "
+                     "the infinite bus's frequency deviation", ENTRIES,
+                     entries=("field_voltage_pu", "status", "failure_time_s", "bus_speed_deviation")))
 
 
 @numba.njit(cache=True)

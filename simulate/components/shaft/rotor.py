@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import numba
 
+from simulate.components.contract import SCALAR, LinearBlock, StateArray
 from simulate.components.schedules import piecewise_constant
 from simulate.components.signals import RPM_NM_TO_MW
+
+
+#: Its state: the shaft speed.
+SPEED = StateArray("speed", "r/min", "the shaft speed", SCALAR)
+STATES = (SPEED,)
 
 
 @numba.njit(cache=True)
@@ -78,3 +84,19 @@ def time_scales(plant, schedules) -> list:
     from simulate.components.timescale import TimeScale
 
     return [TimeScale("generator.inertia_time_s (Ta)", plant.generator.inertia_time_s, coupled=True)]
+
+
+def linear_counterpart(plant, steady) -> LinearBlock:
+    """The swing equation about the steady state in paper 000's increments (x = dn/n0, m = dM/M0): the per-unit
+    rotor ``Ta d(n/n_r)/dt = (M - M_g)/M_r - e_g (n/n_r - 1)`` becomes ``J dx/dt = m - e x - m_g0`` (eqs. (8),
+    (13)) with J = Ta (M_r/M0) (n0/n_r) and e = e_g (M_r/M0) (n0/n_r); e_g of the load at the steady torque
+    (:meth:`simulate.config.PlantConfig.rotor_self_regulation`: the swing rotor's ``self_regulation``, the island's
+    frequency dependence of the sub-transient machine)."""
+    turbine = plant.turbine
+    torque_ratio = turbine.rated_torque_nm / steady.torque_nm  # M_r / M0
+    values = {"inertia_time_s": plant.generator.inertia_time_s * torque_ratio * steady.speed_rpm
+              / turbine.rated_speed_rpm,
+              "self_regulation": (plant.rotor_self_regulation(steady.torque_nm / turbine.rated_torque_nm)
+                                  * torque_ratio * steady.speed_rpm / turbine.rated_speed_rpm)}
+    return LinearBlock("J dx/dt = m - e x - m_g0 (paper 000 eqs. (8), (13))", values,
+                       {"inertia_time_s": "s", "self_regulation": "pu torque/pu speed"})

@@ -58,7 +58,8 @@ def test_a_key_of_one_mode_is_refused_under_another_and_a_mode_asks_for_its_keys
     with pytest.raises(InputError, match=r"governor\.opening_reference must be in \[governor\.stroke_min, "
                                          r"governor\.stroke_max\] = \[0\.0, 0\.9\], got 0\.95"):
         GovernorConfig(**COMMON, mode="opening", opening_reference=0.95, stroke_max=0.9)
-    with pytest.raises(InputError, match=r"governor\.mode must be one of speed, power, opening, dashpot; got 'pid'"):
+    with pytest.raises(InputError, match=r"governor\.mode must be one of speed, power, opening, dashpot, level; got "
+                                         r"'pid'"):
         GovernorConfig(**COMMON, **pid, mode="pid")
     # every optional key of the section belongs to a mode or a servo (none is accepted and read by nobody)
     owned = {k for name in GOVERNORS.names() for k in GOVERNORS.attribute(name, "GOVERNOR_KEYS", ())}

@@ -48,6 +48,7 @@ class ProportionalConfig:
 OWN_KEYS = own_keys(ProportionalConfig)
 REQUIRED_KEYS = ("proportional_gain",)
 READS = ("speed_rpm",)
+TIME_SCALES = ()  # a proportional law has no time constant of its own
 vane_servo = first_order_servo_step
 
 
@@ -149,7 +150,7 @@ def test_the_keys_of_a_registered_mode_and_servo_join_the_governor_section(user_
     assert (plant.governor.proportional_gain, plant.governor.servo_dead_band) == (3.0, 0.01)
     # declared after the shipped modes' keys (the mode) and after the shipped servos' (the servo)
     names = [d.name for d in declarations(GovernorConfig)]
-    assert names.index("proportional_gain") == names.index("gate_servo_time_s") + 1
+    assert names.index("proportional_gain") == names.index("level_ki") + 1
     assert names[-1] == "servo_dead_band"
     # written and read back (the writer and the reader take the keys from the declarations), and overridden
     raw = to_dict(plant)

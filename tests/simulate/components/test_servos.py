@@ -355,6 +355,12 @@ def step(sp, ss, command, stroke, dt_s):
 def build(governor, initial_stroke, dt_s):
     slow = replace(governor, servo_time_s=2.0 * governor.servo_time_s)
     return Servo(step, first_order_parameters(slow, dt_s), np.zeros(1), summary={"servo_model": "user-slow"})
+
+
+def time_scales(plant, schedules):
+    from simulate.components.timescale import TimeScale
+
+    return [TimeScale("user servo 2 T_y", 2.0 * plant.governor.servo_time_s)]
 '''
 
 
