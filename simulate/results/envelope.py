@@ -33,8 +33,9 @@ def vapour_gauge_head_m(penstock) -> float:
 
 
 def separation_modelled(result) -> bool:
-    """Whether the run's penstock modelled the separation (the method of characteristics with the DVCM)."""
-    return result.plant.penstock.model == "moc" and result.meta.get("column_separation_model") == "dvcm"
+    """Whether the run's penstock modelled the separation (the method of characteristics with the DVCM: its run
+    says so in the meta)."""
+    return result.meta.get("column_separation_model") == "dvcm"
 
 
 def envelope_table(result) -> dict[str, np.ndarray]:

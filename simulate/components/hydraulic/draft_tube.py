@@ -199,7 +199,7 @@ class DraftTubeConfig:
         atmospheric pressure and vapour pressure set its outlet-pressure warning)."""
         shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig)
                   if hasattr(self, f.name) and f.name not in DVCM_KEYS}
-        if self.model == "moc":  # the key of the method of characteristics only
+        if "column_separation" in PENSTOCKS.traits(self.model).reads:  # a key of the models that read it only
             shared["column_separation"] = "off"
         return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1,
                                  "segments": tuple(reversed(self.segments))})

@@ -207,19 +207,47 @@ def dvcm_outlet_cavity(c_p, b, q_out_old, q_in_old, volume, vapour_head_m, dt_s,
 
 
 @numba.njit(cache=True)
-def moc_step_dvcm(heads, flows, inflows, track, impedance, friction, vapour, scal, reservoir_head_m, outlet_head_m,
-                  outlet_flow_m3_s, outlet_cavity, step, new_heads, new_flows, new_inflows):
+def moc_liquid_below_vapour(heads, flows, impedance, friction, vapour, reservoir_head_m, new_heads, new_flows):
+    """The liquid step of the inlet and the interior nodes (:func:`moc_step`'s equations, eq. (C2) of
+    :mod:`simulate.components.hydraulic.cavitation`) where no cavity is open; returns whether a node fell below its
+    vapour head (then :func:`moc_step_dvcm` redoes the step with cavities)."""
+    n = heads.size - 1
+    c_m = moc_inlet_characteristic(heads, flows, impedance, friction)
+    new_heads[0] = reservoir_head_m
+    new_flows[0] = (reservoir_head_m - c_m) / impedance[0]
+    low = False
+    for j in range(1, n):
+        bl = impedance[j - 1]
+        br = impedance[j]
+        c_p = moc_cplus(heads, flows, impedance, friction, j)
+        c_m = moc_cminus(heads, flows, impedance, friction, j)
+        q = (c_p - c_m) / (bl + br)
+        h = c_p - bl * q
+        new_flows[j] = q
+        new_heads[j] = h
+        low |= h < vapour[j]
+    return low
+
+
+@numba.njit(cache=True)
+def moc_step_dvcm(heads, flows, inflows, track, totals, impedance, friction, vapour, scal, reservoir_head_m,
+                  outlet_head_m, outlet_flow_m3_s, step, new_heads, new_flows, new_inflows):
     """One MOC step with the discrete vapour cavity model (eqs. (C2)-(C5) of
     :mod:`simulate.components.hydraulic.cavitation`): like :func:`moc_step`, with ``inflows`` the flows at the
-    reaches' downstream ends (``flows`` at their upstream ends; the two differ only at a cavity), ``vapour`` the
-    vapour head per node (m), ``scal`` = [dt (s), psi], ``track`` the cavity volumes and figures
-    (:func:`dvcm_record`; row 0 updated in place), ``step`` the number of the new level (t = step dt).
-    ``outlet_cavity``: the downstream end's relation held the vapour head (:func:`dvcm_outlet_cavity`). Returns the
-    total cavity volume, m^3."""
+    reaches' downstream ends (``flows`` at their upstream ends; the two differ only at a cavity, and ``inflows`` is
+    kept only while a cavity is open), ``vapour`` the vapour head per node (m), ``scal`` = [dt (s), psi], ``track``
+    the cavity volumes and figures (:func:`dvcm_record`; row 0 updated in place), ``totals`` = [total cavity volume
+    (m^3), 1 when the downstream end's relation held the vapour head (:func:`dvcm_outlet_cavity`), nodes with an open
+    cavity], ``step`` the number of the new level (t = step dt). :func:`moc_dvcm_update` calls it only where a
+    cavity is open or a head fell below the vapour head; otherwise the step is :func:`moc_step`'s, to the last bit."""
     n = heads.size - 1
+    outlet_cavity = totals[1] == 1.0
+    active = totals[2] > 0.0
+    old_in = inflows if active else flows  # without an open cavity the flows at both ends of a reach are one
     dt_s, psi = scal[0], scal[1]
     total = 0.0
-    c_m = moc_inlet_characteristic(heads, inflows, impedance, friction)
+    count = 0
+    c_m = moc_inlet_characteristic(heads, old_in, impedance, friction)
     new_heads[0] = reservoir_head_m
     new_flows[0] = (reservoir_head_m - c_m) / impedance[0]
     new_inflows[0] = new_flows[0]
@@ -227,7 +255,7 @@ def moc_step_dvcm(heads, flows, inflows, track, impedance, friction, vapour, sca
         bl = impedance[j - 1]
         br = impedance[j]
         c_p = moc_cplus(heads, flows, impedance, friction, j)
-        c_m = moc_cminus(heads, inflows, impedance, friction, j)
+        c_m = moc_cminus(heads, old_in, impedance, friction, j)
         volume = track[0, j]
         if volume <= 0.0:
             q = (c_p - c_m) / (bl + br)  # eq. (C2)
@@ -239,7 +267,7 @@ def moc_step_dvcm(heads, flows, inflows, track, impedance, friction, vapour, sca
                 continue
         q_in = (c_p - vapour[j]) / bl  # eq. (C3)
         q_out = (vapour[j] - c_m) / br
-        v = dvcm_volume(volume, q_out, q_in, flows[j], inflows[j], dt_s, psi)
+        v = dvcm_volume(volume, q_out, q_in, flows[j], old_in[j], dt_s, psi)  # eq. (C4)
         if v <= 0.0:  # eq. (C5): collapse, the node is liquid again
             dvcm_record(track, j, 0.0, volume, step)
             q = (c_p - c_m) / (bl + br)  # eq. (C2)
@@ -248,6 +276,7 @@ def moc_step_dvcm(heads, flows, inflows, track, impedance, friction, vapour, sca
             new_heads[j] = c_p - bl * q
             continue
         total += dvcm_record(track, j, v, volume, step)
+        count += 1
         new_heads[j] = vapour[j]
         new_flows[j] = q_out
         new_inflows[j] = q_in
@@ -257,20 +286,23 @@ def moc_step_dvcm(heads, flows, inflows, track, impedance, friction, vapour, sca
     volume = track[0, n]
     new_flows[n] = outlet_flow_m3_s
     q_in = (c_p - vapour[n]) / b  # eq. (C3), C+
+    cavity = False
     if outlet_cavity or outlet_head_m < vapour[n]:
-        v = dvcm_volume(volume, outlet_flow_m3_s, q_in, flows[n], inflows[n], dt_s, psi)  # eq. (C4)
+        v = dvcm_volume(volume, outlet_flow_m3_s, q_in, flows[n], old_in[n], dt_s, psi)  # eq. (C4)
         if v > 0.0:
             total += dvcm_record(track, n, v, volume, step)
+            count += 1
             new_heads[n] = vapour[n]
             new_inflows[n] = q_in
-            reach_friction_advance(friction, flows, new_flows)
-            return total
-    if volume > 0.0:
-        dvcm_record(track, n, 0.0, volume, step)  # eq. (C5)
-    new_heads[n] = outlet_head_m if not outlet_cavity else c_p - b * outlet_flow_m3_s
-    new_inflows[n] = outlet_flow_m3_s
+            cavity = True
+    if not cavity:
+        if volume > 0.0:
+            dvcm_record(track, n, 0.0, volume, step)  # eq. (C5)
+        new_heads[n] = outlet_head_m if not outlet_cavity else c_p - b * outlet_flow_m3_s
+        new_inflows[n] = outlet_flow_m3_s
     reach_friction_advance(friction, flows, new_flows)
-    return total
+    totals[0] = total
+    totals[2] = count
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -378,8 +410,9 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
 #   envelope(p, s, upstream_head_m, head_m, env_max, env_min)   fold this step's node heads into the envelope
 #   node_heads(p, s, upstream_head_m, head_m, out)    the piezometric head at every computing node, m
 # The MOC state: (heads (2, nodes), flows (2, nodes), [current level, steps done], inflows (2, nodes), track
-# (7, nodes), [total cavity volume, 1 while the relation holds the outlet at the vapour head]); ``flows`` at the
-# reaches' upstream ends, ``inflows`` at their downstream ends (the same array object without column separation);
+# (7, nodes), [total cavity volume, 1 while the relation holds the outlet at the vapour head, open cavities]);
+# ``flows`` at the reaches' upstream ends, ``inflows`` at their downstream ends (kept while a cavity is open; the
+# same array object without column separation);
 # track rows: 0 cavity volume (m^3), 1 its largest, 2 the step of the largest, 3 the step of the lowest head, 4 the
 # lowest head (m), 5 cavities formed, 6 the step of the first.
 # Params: (B per reach, the friction model's arrays, vapour head per node (m), [dt (s), psi]).
@@ -399,37 +432,43 @@ def moc_update(p, s, upstream_head_m, head_m, flow_m3_s):
 
 
 @numba.njit(cache=True)
-def moc_dvcm_outlet(p, s):
-    """(C_P, B, cavity) at the downstream end for this step (:func:`dvcm_outlet_cavity`)."""
+def moc_dvcm_relation(p, s, upstream_head_m):
+    """The relation at the downstream end: the C+ line, or H = H_v (k = 0) while a cavity holds the node
+    (:func:`dvcm_outlet_cavity`; its decision is kept in ``s[5][1]`` for the update)."""
     c = s[2][0]
-    flows, inflows = s[1][c], s[3][c]
+    flows = s[1][c]
     n = flows.size - 1
     c_p, k = moc_turbine_relation(s[0][c], flows, p[0], p[1])
-    cavity = dvcm_outlet_cavity(c_p, -k, flows[n], inflows[n], s[4][0, n], p[2][n], p[3][0], p[3][1])
-    return c_p, k, cavity
-
-
-@numba.njit(cache=True)
-def moc_dvcm_relation(p, s, upstream_head_m):
-    """The relation at the downstream end: the C+ line, or H = H_v (k = 0) while a cavity holds the node."""
-    c_p, k, cavity = moc_dvcm_outlet(p, s)
-    if cavity:
-        s[5][1] = 1.0  # for the run's failure message, should the boundary find no solution at the vapour head
-        return p[2][p[2].size - 1], 0.0
+    vapour = p[2][n]
+    if s[5][2] == 0.0 and c_p + k * flows[n] >= vapour:  # no cavity open, and the C+ line stays above H_v
+        return c_p, k
+    inflows = s[3][c] if s[5][2] > 0.0 else flows  # kept only while a cavity is open
+    if dvcm_outlet_cavity(c_p, -k, flows[n], inflows[n], s[4][0, n], vapour, p[3][0], p[3][1]):
+        s[5][1] = 1.0  # for the update, and for the failure message should the boundary find no solution
+        return vapour, 0.0
     return c_p, k
 
 
 @numba.njit(cache=True)
 def moc_dvcm_update(p, s, upstream_head_m, head_m, flow_m3_s):
-    heads, flows, cur, inflows, track, total = s
+    heads, flows, cur, inflows, track, totals = s
     c = cur[0]
-    cavity = moc_dvcm_outlet(p, s)[2]
     step = cur[1] + 1
-    total[0] = moc_step_dvcm(heads[c], flows[c], inflows[c], track, p[0], p[1], p[2], p[3], upstream_head_m, head_m,
-                             flow_m3_s, cavity, float(step), heads[1 - c], flows[1 - c], inflows[1 - c])
+    vapour = p[2]
+    n = vapour.size - 1
+    liquid = totals[2] == 0.0 and totals[1] != 1.0 and head_m >= vapour[n]  # no cavity open, none at the outlet
+    if liquid and not moc_liquid_below_vapour(heads[c], flows[c], p[0], p[1], vapour, upstream_head_m,
+                                              heads[1 - c], flows[1 - c]):
+        heads[1 - c][n] = head_m  # the liquid step, as moc_step
+        flows[1 - c][n] = flow_m3_s
+        reach_friction_advance(p[1], flows[c], flows[1 - c])
+        totals[0] = 0.0
+    else:
+        moc_step_dvcm(heads[c], flows[c], inflows[c], track, totals, p[0], p[1], vapour, p[3], upstream_head_m,
+                      head_m, flow_m3_s, float(step), heads[1 - c], flows[1 - c], inflows[1 - c])
     cur[0] = 1 - c
     cur[1] = step
-    total[1] = 0.0
+    totals[1] = 0.0
 
 
 @numba.njit(cache=True)
@@ -455,17 +494,23 @@ def moc_node_heads(p, s, upstream_head_m, head_m, out):
 
 @numba.njit(cache=True)
 def moc_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
-    """Fold the node heads into the envelope; the step and value of every node's lowest head go to the track."""
+    """Fold the node heads into the envelope; the step and value of every node's lowest head go to the track (in a
+    second pass, taken only on a step that lowers the envelope: the first stays a loop the compiler vectorises)."""
     heads = s[0][s[2][0]]
-    track = s[4]
+    lower = False
     for j in range(heads.size):
         h = heads[j]
         if h > env_max[j]:
             env_max[j] = h
-        if h < env_min[j]:
-            env_min[j] = h
-            track[3, j] = s[2][1]
-            track[4, j] = h
+        lower |= h < env_min[j]
+    if lower:
+        track = s[4]
+        for j in range(heads.size):
+            h = heads[j]
+            if h < env_min[j]:
+                env_min[j] = h
+                track[3, j] = s[2][1]
+                track[4, j] = h
 
 
 @numba.njit(cache=True)
@@ -532,7 +577,7 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
     track = np.zeros((7, heads.size))
     track[4] = heads
     state = (np.vstack((heads, heads)), flows2, np.zeros(2, dtype=np.int64),
-             flows2.copy() if dvcm else flows2, track, np.zeros(2))
+             flows2.copy() if dvcm else flows2, track, np.zeros(3))
     params = (grid.impedance_s_m2, friction.arrays, cavitation.node_vapour_heads_m(pen, x, settings),
               np.array([dt_s, settings.cavity_weighting]))
     if dvcm:
