@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from simulate.components.hydraulic.cavitation import axis_elevations_m, vapour_settings
 from simulate.results.figures import save_png
 
 #: Vapour pressure of water at 20 degC as a gauge head at sea level: (2.34 kPa - 101.325 kPa) / (rho g), m (the
@@ -22,14 +21,14 @@ VAPOUR_PRESSURE_HEAD_M = (2.34e3 - 101.325e3) / (1000.0 * 9.81)
 
 def node_elevations_m(penstock, x_m: np.ndarray) -> np.ndarray | None:
     """Elevation of the pipe axis at ``x_m`` (distance from the inlet) from the segments' profile, or None
-    (:func:`simulate.components.hydraulic.cavitation.axis_elevations_m`)."""
-    return axis_elevations_m(penstock, x_m)
+    (the penstock config's ``axis_elevations_m``)."""
+    return penstock.axis_elevations_m(x_m)
 
 
 def vapour_gauge_head_m(penstock) -> float:
     """The vapour pressure as a gauge head at the plant's water temperature and atmospheric pressure
     (``penstock.water_temperature_c``, ``penstock.atmospheric_pressure_head_m``; 20 degC and 10.33 m by default), m."""
-    return vapour_settings(penstock).gauge_vapour_head_m
+    return penstock.vapour_gauge_head_m
 
 
 def separation_modelled(result) -> bool:

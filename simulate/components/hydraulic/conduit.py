@@ -13,7 +13,8 @@ from typing import Any
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
 from simulate.components.hydraulic.brunone import BrunoneConfig
-from simulate.components.hydraulic.cavitation import COLUMN_SEPARATION_MODELS, ColumnSeparationConfig
+from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, ColumnSeparationConfig,
+                                                      axis_elevations_m, vapour_settings)
 from simulate.components.hydraulic.cavitation import check_penstock as check_column_separation
 from simulate.components.parameters import borrowed, parameter, validate_parameters
 from simulate.components.registry import FRICTION, PENSTOCKS
@@ -190,6 +191,17 @@ class PenstockConfig:
     @property
     def length_m(self) -> float:
         return sum(s.length_m for s in self.segments)
+
+    def axis_elevations_m(self, x_m):
+        """The pipe axis above the tailwater datum at ``x_m`` (m from the inlet), or None without a profile
+        (:func:`simulate.components.hydraulic.cavitation.axis_elevations_m`)."""
+        return axis_elevations_m(self, x_m)
+
+    @property
+    def vapour_gauge_head_m(self) -> float:
+        """The vapour pressure as a gauge head at ``water_temperature_c`` and ``atmospheric_pressure_head_m`` (their
+        defaults where not given), m."""
+        return vapour_settings(self).gauge_vapour_head_m
 
     @property
     def travel_time_s(self) -> float:
