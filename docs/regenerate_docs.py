@@ -530,6 +530,8 @@ FIGURES = {
                                           "eq14_load_step.png"),
     "bulb_rejection.png": _demo_figure("bulb_rejection/transient.png"),
     "generator.png": _command_figure(["benchmarks/bench_generator.py", "--figures", "{out}"], "generator.png"),
+    "column_separation.png": _command_figure(["benchmarks/bench_column_separation.py", "--figures", "{out}"],
+                                             "column_separation.png"),
     "two_units.png": _command_figure(["-m", "hillsim.cli", "run", "data_synthetic/plant_two_units.toml", "--out",
                                       "{out}/two", "--quiet"], "two/transient.png"),
     "pump_turbine.png": _command_figure(["-m", "hillchart.four_quadrant.plots", "data_synthetic/pump_turbine", "{out}"],

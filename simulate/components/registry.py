@@ -271,7 +271,8 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
     "rigid": "simulate.components.hydraulic.penstock:build_rigid",
 }, traits={
     "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True,
-                         reads=("friction_model",)),
+                         reads=("friction_model", "column_separation", "water_temperature_c",
+                                "atmospheric_pressure_head_m", "cavity_weighting")),
     "zdomain": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=False,
                              reads=("zdomain_feedback",),
                              computes_branches=False),

@@ -47,7 +47,7 @@ UNIT_SERIES = ("speed_rpm", "head_m", "flow_m3_s", "torque_nm")
 MANIFOLD_SERIES = ("manifold_head_m", "manifold_flow_m3_s", "conduit_outlet_flow_m3_s", "conduit_outlet_head_m")
 #: The parts of a unit whose ``record`` function writes extra timeseries columns, in column order (after the
 #: upstream part's columns).
-UNIT_RECORDING_KINDS = ("shaft", "control", "downstream")
+UNIT_RECORDING_KINDS = ("shaft", "control", "downstream", "conduit")
 
 _HEAD = '''
 @_jit
@@ -233,7 +233,7 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
         turbines.append(_UNIT_TURBINE.format(i=i, head=names["up"], after_turbine=after_turbine))
         records.append(_UNIT_RECORDS.format(i=i))
         for kind in UNIT_RECORDING_KINDS:
-            abbreviation = {"shaft": "sh", "control": "ctl", "downstream": "dn"}[kind]
+            abbreviation = {"shaft": "sh", "control": "ctl", "downstream": "dn", "conduit": "cd"}[kind]
             record(parts[kind], f"u{i}_{kind}_record", f"{abbreviation}{i}, {abbreviation}{i}_s")
         if several:
             base = len(MANIFOLD_SERIES) + 2 * i

@@ -1,7 +1,9 @@
 """Head envelope along the penstock: max and min piezometric head at every computing node,
 and, with a penstock profile (``[[penstock.segments]] elevation_start_m/elevation_end_m``, m above the tailwater
-datum of the heads), the pressure head H - z, its minimum and where, and a column-separation warning when the
-minimum falls below the vapour pressure.
+datum of the heads), the pressure head H - z, its minimum and where, and whether the water column separated: with the
+discrete vapour cavity model (``penstock.column_separation = "dvcm"``, the method of characteristics) the penstock
+reports its cavities itself (:mod:`simulate.components.hydraulic.cavitation`); otherwise a warning says the minimum
+fell below the vapour pressure, which the model does not represent.
 """
 
 from __future__ import annotations
@@ -12,21 +14,27 @@ import numpy as np
 
 from simulate.results.figures import save_png
 
-#: Vapour pressure of water at 20 degC as a gauge head: (2.34 kPa - 101.325 kPa) / (rho g), m.
+#: Vapour pressure of water at 20 degC as a gauge head at sea level: (2.34 kPa - 101.325 kPa) / (rho g), m (the
+#: plant's own value comes from its water temperature and atmospheric pressure, :func:`vapour_gauge_head_m`).
 VAPOUR_PRESSURE_HEAD_M = (2.34e3 - 101.325e3) / (1000.0 * 9.81)
 
 
 def node_elevations_m(penstock, x_m: np.ndarray) -> np.ndarray | None:
-    """Elevation of the pipe axis at ``x_m`` (distance from the inlet) from the segments' profile, or None."""
-    segs = penstock.segments
-    if any(s.elevation_start_m is None for s in segs):
-        return None
-    xs, zs = [0.0], [segs[0].elevation_start_m]
-    for s in segs:
-        xs.append(xs[-1] + s.length_m)
-        zs.append(s.elevation_end_m)
-    # within segment i the axis is linear from elevation_start to elevation_end (continuity checked by the config)
-    return np.interp(np.asarray(x_m, float), np.array(xs), np.array(zs))
+    """Elevation of the pipe axis at ``x_m`` (distance from the inlet) from the segments' profile, or None
+    (the penstock config's ``axis_elevations_m``)."""
+    return penstock.axis_elevations_m(x_m)
+
+
+def vapour_gauge_head_m(penstock) -> float:
+    """The vapour pressure as a gauge head at the plant's water temperature and atmospheric pressure
+    (``penstock.water_temperature_c``, ``penstock.atmospheric_pressure_head_m``; 20 degC and 10.33 m by default), m."""
+    return penstock.vapour_gauge_head_m
+
+
+def separation_modelled(result) -> bool:
+    """Whether the run's penstock modelled the separation (the method of characteristics with the DVCM: its run
+    says so in the meta)."""
+    return result.meta.get("column_separation_model") == "dvcm"
 
 
 def envelope_table(result) -> dict[str, np.ndarray]:
@@ -54,16 +62,25 @@ def envelope_summary(result) -> dict:
         j = int(np.argmin(table["pressure_head_min_m"]))
         out["min_pressure_head_m"] = float(table["pressure_head_min_m"][j])
         out["min_pressure_head_x_m"] = float(table["x_m"][j])
-        out["column_separation"] = bool(table["pressure_head_min_m"][j] < VAPOUR_PRESSURE_HEAD_M)
+        if separation_modelled(result):  # the heads stop at the vapour head: the cavities say it
+            out["column_separation"] = bool(result.meta.get("cavity_nodes", 0) > 0)
+        else:
+            vapour = vapour_gauge_head_m(result.plant.penstock)
+            out["column_separation"] = bool(table["pressure_head_min_m"][j] < vapour)
+            if out["column_separation"]:
+                out["vapour_gauge_head_m"] = vapour
     return out
 
 
 def envelope_warnings(summary: dict) -> list[str]:
-    if summary.get("column_separation"):
+    """The warning of a minimum below the vapour pressure where the model did not represent the separation
+    (``vapour_gauge_head_m`` in the summary); the discrete vapour cavity model warns of its cavities itself."""
+    if summary.get("column_separation") and "vapour_gauge_head_m" in summary:
         return [f"the minimum pressure head {summary['min_pressure_head_m']:.3g} m at x = "
                 f"{summary['min_pressure_head_x_m']:.4g} m is below the vapour pressure "
-                f"({VAPOUR_PRESSURE_HEAD_M:.3g} m gauge): the water column would separate there, which the model does "
-                f"not represent"]
+                f"({summary['vapour_gauge_head_m']:.3g} m gauge): the water column would separate there, which the "
+                f"model does not represent (penstock.column_separation = \"dvcm\" with penstock.model = \"moc\" "
+                f"does)"]
     return []
 
 
@@ -89,7 +106,7 @@ def plot_envelope(result, path=None):
     ax.plot(table["x_m"], table["head_min_m"], "-o", ms=3, label="min head")
     if "elevation_m" in table:
         ax.plot(table["x_m"], table["elevation_m"], "k-", lw=1.5, label="pipe axis")
-        ax.plot(table["x_m"], table["elevation_m"] + VAPOUR_PRESSURE_HEAD_M, "r--", lw=1,
+        ax.plot(table["x_m"], table["elevation_m"] + vapour_gauge_head_m(result.plant.penstock), "r--", lw=1,
                 label="vapour pressure")
     ax.set_xlabel("distance from the penstock inlet (m)")
     ax.set_ylabel("piezometric head above tailwater (m)")

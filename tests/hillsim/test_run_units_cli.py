@@ -21,7 +21,9 @@ def test_run_on_a_two_unit_plant_writes_every_unit(tmp_path, capsys):
     with open(out / "timeseries.csv", newline="") as fh:
         rows = list(csv.reader(fh))
     header = rows[0]
-    expected = (list(CSV_COLUMNS) + ["manifold_head_m", "manifold_flow_m3_s"]
+    expected = (list(CSV_COLUMNS)  # then each branch's cavity volumes (the discrete vapour cavity model's columns)
+                + [f"{u}.{c}" for u in ("U1", "U2") for c in ("cavity_volume_m3", "outlet_cavity_volume_m3")]
+                + ["manifold_head_m", "manifold_flow_m3_s"]
                 + [f"{u}.{c}" for u in ("U1", "U2") for c in UNIT_COLUMNS])
     assert header == expected
     data = np.array(rows[1:], dtype=float)

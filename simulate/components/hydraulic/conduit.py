@@ -13,6 +13,9 @@ from typing import Any
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
 from simulate.components.hydraulic.brunone import BrunoneConfig
+from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, ColumnSeparationConfig,
+                                                      axis_elevations_m, vapour_settings)
+from simulate.components.hydraulic.cavitation import check_penstock as check_column_separation
 from simulate.components.parameters import borrowed, parameter, validate_parameters
 from simulate.components.registry import FRICTION, PENSTOCKS
 
@@ -24,7 +27,8 @@ MAX_REACHES = 10000
 #: ``[penstock]`` keys that one model's run reads (its registry traits' ``reads``); ``lumped_alpha`` also sets the
 #: identification's linear reference of every elastic model (:mod:`simulate.identification.linear_reference`), so
 #: under another model it is kept and the run warns that it does not read it; ``zdomain_feedback`` is refused.
-MODEL_KEYS = ("lumped_alpha", "zdomain_feedback", "friction_model")
+MODEL_KEYS = ("lumped_alpha", "zdomain_feedback", "friction_model", "column_separation", "water_temperature_c",
+              "atmospheric_pressure_head_m", "cavity_weighting")
 KEYS_READ_OUTSIDE_THE_RUN = ("lumped_alpha",)
 
 
@@ -122,7 +126,10 @@ class PenstockConfig:
     ``friction_model`` is the wall friction of the method of characteristics
     (:data:`simulate.components.registry.FRICTION`: ``"steady"``, the Darcy-Weisbach loss, or ``"brunone"``, the
     unsteady friction of :mod:`simulate.components.hydraulic.brunone` with its keys ``brunone_k3`` and
-    ``brunone_viscosity_m2_s``; a friction model's keys are refused under another).
+    ``brunone_viscosity_m2_s``; a friction model's keys are refused under another). ``column_separation`` is what the
+    method of characteristics does where the head falls to the vapour head
+    (:mod:`simulate.components.hydraulic.cavitation`: ``"dvcm"``, the discrete vapour cavity model, with
+    ``water_temperature_c``, ``atmospheric_pressure_head_m`` and ``cavity_weighting``; ``"off"``: nothing).
     """
 
     model: str = parameter(unit="", choices=PENSTOCKS, description="the penstock model")
@@ -141,6 +148,12 @@ class PenstockConfig:
                                     description="the wall friction of the method of characteristics")
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
+    column_separation: str = parameter("dvcm", unit="", choices=COLUMN_SEPARATION_MODELS,
+                                       description="water-column separation in the method of characteristics: the "
+                                                   "discrete vapour cavity model, or off")
+    water_temperature_c: float | None = borrowed(ColumnSeparationConfig, "water_temperature_c")
+    atmospheric_pressure_head_m: float | None = borrowed(ColumnSeparationConfig, "atmospheric_pressure_head_m")
+    cavity_weighting: float | None = borrowed(ColumnSeparationConfig, "cavity_weighting")
 
     def __post_init__(self):
         validate_parameters("penstock", self)
@@ -155,6 +168,7 @@ class PenstockConfig:
         check = FRICTION.attribute(self.friction_model, "check_penstock")
         if check is not None:
             check(self)
+        check_column_separation(self)
         for key in self.unread_keys():
             if key not in KEYS_READ_OUTSIDE_THE_RUN:
                 owners = [m for m in PENSTOCKS.names() if key in getattr(PENSTOCKS.traits(m), "reads", ())]
@@ -177,6 +191,17 @@ class PenstockConfig:
     @property
     def length_m(self) -> float:
         return sum(s.length_m for s in self.segments)
+
+    def axis_elevations_m(self, x_m):
+        """The pipe axis above the tailwater datum at ``x_m`` (m from the inlet), or None without a profile
+        (:func:`simulate.components.hydraulic.cavitation.axis_elevations_m`)."""
+        return axis_elevations_m(self, x_m)
+
+    @property
+    def vapour_gauge_head_m(self) -> float:
+        """The vapour pressure as a gauge head at ``water_temperature_c`` and ``atmospheric_pressure_head_m`` (their
+        defaults where not given), m."""
+        return vapour_settings(self).gauge_vapour_head_m
 
     @property
     def travel_time_s(self) -> float:

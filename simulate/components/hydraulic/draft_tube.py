@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from simulate.components.hydraulic.cavitation import DVCM_KEYS
 from simulate.components.hydraulic.conduit import PenstockConfig, read_segments
 from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
 from simulate.components.contract import PART, SCALAR, LinearBlock, StateArray
@@ -210,8 +211,12 @@ class DraftTubeConfig:
     def mirrored(self) -> PenstockConfig:
         """The conduit as a :class:`simulate.components.hydraulic.conduit.PenstockConfig` from the tailwater to the
         runner outlet (every key the two sections share is passed on; the mirrored pipe has no reservoir head and
-        one reach, the draft tube having none of its own)."""
-        shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig) if hasattr(self, f.name)}
+        one reach, the draft tube having none of its own; without column separation: the draft tube's own
+        atmospheric pressure and vapour pressure set its outlet-pressure warning)."""
+        shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig)
+                  if hasattr(self, f.name) and f.name not in DVCM_KEYS}
+        if "column_separation" in PENSTOCKS.traits(self.model).reads:  # a key of the models that read it only
+            shared["column_separation"] = "off"
         return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1,
                                  "segments": tuple(reversed(self.segments))})
 

@@ -52,10 +52,12 @@ def manifold_solve(c_l, k, c_m, b, flows):
 #   inlet_head(p, s) -> H               its head at the manifold after the update
 @numba.njit(cache=True)
 def moc_inlet_relation(p, s):
-    """(C_M, B) of the C- line at the inlet of a MOC pipe for this step: H = C_M + B Q (Q into the pipe)."""
-    heads, flows, cur = s
-    c = cur[0]
-    return moc_inlet_characteristic(heads[c], flows[c], p[0], p[1]), p[0][0]
+    """(C_M, B) of the C- line at the inlet of a MOC pipe for this step: H = C_M + B Q (Q into the pipe; the flows
+    at the reaches' downstream ends, ``s[3]``, which differ from ``s[1]`` only while a vapour cavity is open,
+    ``s[5][2] > 0``)."""
+    c = s[2][0]
+    flows = s[3][c] if s[5][2] > 0.0 else s[1][c]
+    return moc_inlet_characteristic(s[0][c], flows, p[0], p[1]), p[0][0]
 
 
 @numba.njit(cache=True)

@@ -119,20 +119,33 @@ def moc_steady_state(grid: MocGrid, reservoir_head_m: float, flow_m3_s: float) -
 
 
 @numba.njit(cache=True)
+def moc_cplus(heads, flows, impedance, friction, j):
+    """C_P of the C+ characteristic reaching node ``j`` from node j-1: H_P = C_P - B Q_P (B of reach j-1; ``flows``
+    the flows at the reaches' upstream ends)."""
+    b = impedance[j - 1]
+    return heads[j - 1] + b * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
+
+
+@numba.njit(cache=True)
+def moc_cminus(heads, flows, impedance, friction, j):
+    """C_M of the C- characteristic reaching node ``j`` from node j+1: H_P = C_M + B Q_P (B of reach j; ``flows``
+    the flows at the reaches' downstream ends: the same as at their upstream ends where no cavity divides a node)."""
+    b = impedance[j]
+    return heads[j + 1] - b * flows[j + 1] + reach_friction_loss(friction, flows, j, j + 1)
+
+
+@numba.njit(cache=True)
 def moc_turbine_relation(heads, flows, impedance, friction):
     """(C_L, k) of the C+ characteristic reaching the turbine node: H_P = C_P - B Q_P (B of the last reach)."""
     j = heads.size - 1
-    b = impedance[j - 1]
-    c_p = heads[j - 1] + b * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
-    return c_p, -b
+    return moc_cplus(heads, flows, impedance, friction, j), -impedance[j - 1]
 
 
 @numba.njit(cache=True)
 def moc_inlet_characteristic(heads, flows, impedance, friction):
     """C_M of the C- characteristic reaching the inlet node (node 0) from node 1: H_P = C_M + B Q_P there (B of the
     first reach, Q_P the flow into the pipe)."""
-    b0 = impedance[0]
-    return heads[1] - b0 * flows[1] + reach_friction_loss(friction, flows, 0, 1)
+    return moc_cminus(heads, flows, impedance, friction, 0)
 
 
 @numba.njit(cache=True)
@@ -151,14 +164,146 @@ def moc_step(heads, flows, impedance, friction, reservoir_head_m, turbine_head_m
     for j in range(1, n):
         bl = impedance[j - 1]
         br = impedance[j]
-        c_p = heads[j - 1] + bl * flows[j - 1] - reach_friction_loss(friction, flows, j - 1, j - 1)
-        c_m = heads[j + 1] - br * flows[j + 1] + reach_friction_loss(friction, flows, j, j + 1)
+        c_p = moc_cplus(heads, flows, impedance, friction, j)
+        c_m = moc_cminus(heads, flows, impedance, friction, j)
         q = (c_p - c_m) / (bl + br)
         new_flows[j] = q
         new_heads[j] = c_p - bl * q
     new_heads[n] = turbine_head_m
     new_flows[n] = turbine_flow_m3_s
     reach_friction_advance(friction, flows, new_flows)
+
+
+@numba.njit(cache=True)
+def dvcm_volume(volume, q_out, q_in, q_out_old, q_in_old, dt_s, psi):
+    """The cavity volume after a step, m^3: eq. (C4) of :mod:`simulate.components.hydraulic.cavitation`."""
+    return volume + dt_s * (psi * (q_out - q_in) + (1.0 - psi) * (q_out_old - q_in_old))  # eq. (C4)
+
+
+@numba.njit(cache=True)
+def dvcm_record(track, j, volume, old_volume, step):
+    """Keep node ``j``'s cavity volume and its figures in ``track`` (rows: 0 volume m^3, 1 largest volume, 2 step
+    of the largest, 5 cavities formed, 6 step of the first); returns the volume."""
+    track[0, j] = volume
+    if volume > track[1, j]:
+        track[1, j] = volume
+        track[2, j] = step
+    if old_volume <= 0.0 and volume > 0.0:
+        if track[5, j] == 0.0:
+            track[6, j] = step
+        track[5, j] += 1.0
+    return volume
+
+
+@numba.njit(cache=True)
+def dvcm_outlet_cavity(c_p, b, q_out_old, q_in_old, volume, vapour_head_m, dt_s, psi):
+    """Whether the downstream-end node (the turbine or valve) is a cavity this step, decided before its boundary is
+    solved from the last step's boundary flow ``q_out_old``: a cavity that (C4) keeps open, or a liquid node whose C+
+    line at that flow would fall below the vapour head (eqs. (C3)-(C5) of
+    :mod:`simulate.components.hydraulic.cavitation`). A wrong guess is corrected by the update (one step late)."""
+    if volume > 0.0:
+        q_in = (c_p - vapour_head_m) / b  # eq. (C3), C+
+        return dvcm_volume(volume, q_out_old, q_in, q_out_old, q_in_old, dt_s, psi) > 0.0
+    return c_p - b * q_out_old < vapour_head_m
+
+
+@numba.njit(cache=True)
+def moc_liquid_below_vapour(heads, flows, impedance, friction, vapour, reservoir_head_m, new_heads, new_flows):
+    """The liquid step of the inlet and the interior nodes (:func:`moc_step`'s equations, eq. (C2) of
+    :mod:`simulate.components.hydraulic.cavitation`) where no cavity is open; returns whether a node fell below its
+    vapour head (then :func:`moc_step_dvcm` redoes the step with cavities)."""
+    n = heads.size - 1
+    c_m = moc_inlet_characteristic(heads, flows, impedance, friction)
+    new_heads[0] = reservoir_head_m
+    new_flows[0] = (reservoir_head_m - c_m) / impedance[0]
+    low = False
+    for j in range(1, n):
+        bl = impedance[j - 1]
+        br = impedance[j]
+        c_p = moc_cplus(heads, flows, impedance, friction, j)
+        c_m = moc_cminus(heads, flows, impedance, friction, j)
+        q = (c_p - c_m) / (bl + br)
+        h = c_p - bl * q
+        new_flows[j] = q
+        new_heads[j] = h
+        low |= h < vapour[j]
+    return low
+
+
+@numba.njit(cache=True)
+def moc_step_dvcm(heads, flows, inflows, track, totals, impedance, friction, vapour, scal, reservoir_head_m,
+                  outlet_head_m, outlet_flow_m3_s, step, new_heads, new_flows, new_inflows):
+    """One MOC step with the discrete vapour cavity model (eqs. (C2)-(C5) of
+    :mod:`simulate.components.hydraulic.cavitation`): like :func:`moc_step`, with ``inflows`` the flows at the
+    reaches' downstream ends (``flows`` at their upstream ends; the two differ only at a cavity, and ``inflows`` is
+    kept only while a cavity is open), ``vapour`` the vapour head per node (m), ``scal`` = [dt (s), psi], ``track``
+    the cavity volumes and figures (:func:`dvcm_record`; row 0 updated in place), ``totals`` = [total cavity volume
+    (m^3), 1 when the downstream end's relation held the vapour head (:func:`dvcm_outlet_cavity`), nodes with an open
+    cavity], ``step`` the number of the new level (t = step dt). :func:`moc_dvcm_update` calls it only where a
+    cavity is open or a head fell below the vapour head; otherwise the step is :func:`moc_step`'s, to the last bit."""
+    n = heads.size - 1
+    outlet_cavity = totals[1] == 1.0
+    active = totals[2] > 0.0
+    old_in = inflows if active else flows  # without an open cavity the flows at both ends of a reach are one
+    dt_s, psi = scal[0], scal[1]
+    total = 0.0
+    count = 0
+    c_m = moc_inlet_characteristic(heads, old_in, impedance, friction)
+    new_heads[0] = reservoir_head_m
+    new_flows[0] = (reservoir_head_m - c_m) / impedance[0]
+    new_inflows[0] = new_flows[0]
+    for j in range(1, n):
+        bl = impedance[j - 1]
+        br = impedance[j]
+        c_p = moc_cplus(heads, flows, impedance, friction, j)
+        c_m = moc_cminus(heads, old_in, impedance, friction, j)
+        volume = track[0, j]
+        if volume <= 0.0:
+            q = (c_p - c_m) / (bl + br)  # eq. (C2)
+            h = c_p - bl * q
+            if h >= vapour[j]:
+                new_flows[j] = q
+                new_inflows[j] = q
+                new_heads[j] = h
+                continue
+        q_in = (c_p - vapour[j]) / bl  # eq. (C3)
+        q_out = (vapour[j] - c_m) / br
+        v = dvcm_volume(volume, q_out, q_in, flows[j], old_in[j], dt_s, psi)  # eq. (C4)
+        if v <= 0.0:  # eq. (C5): collapse, the node is liquid again
+            dvcm_record(track, j, 0.0, volume, step)
+            q = (c_p - c_m) / (bl + br)  # eq. (C2)
+            new_flows[j] = q
+            new_inflows[j] = q
+            new_heads[j] = c_p - bl * q
+            continue
+        total += dvcm_record(track, j, v, volume, step)
+        count += 1
+        new_heads[j] = vapour[j]
+        new_flows[j] = q_out
+        new_inflows[j] = q_in
+    # the downstream end: the boundary's flow leaves the node, C+ brings the pipe's
+    c_p = moc_cplus(heads, flows, impedance, friction, n)
+    b = impedance[n - 1]
+    volume = track[0, n]
+    new_flows[n] = outlet_flow_m3_s
+    q_in = (c_p - vapour[n]) / b  # eq. (C3), C+
+    cavity = False
+    if outlet_cavity or outlet_head_m < vapour[n]:
+        v = dvcm_volume(volume, outlet_flow_m3_s, q_in, flows[n], old_in[n], dt_s, psi)  # eq. (C4)
+        if v > 0.0:
+            total += dvcm_record(track, n, v, volume, step)
+            count += 1
+            new_heads[n] = vapour[n]
+            new_inflows[n] = q_in
+            cavity = True
+    if not cavity:
+        if volume > 0.0:
+            dvcm_record(track, n, 0.0, volume, step)  # eq. (C5)
+        new_heads[n] = outlet_head_m if not outlet_cavity else c_p - b * outlet_flow_m3_s
+        new_inflows[n] = outlet_flow_m3_s
+    reach_friction_advance(friction, flows, new_flows)
+    totals[0] = total
+    totals[2] = count
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -265,19 +410,75 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
 #   inlet_flow(p, s) -> Q                              flow at the upstream end after the update, m^3/s
 #   envelope(p, s, upstream_head_m, head_m, env_max, env_min)   fold this step's node heads into the envelope
 #   node_heads(p, s, upstream_head_m, head_m, out)    the piezometric head at every computing node, m
+# The MOC state: (heads (2, nodes), flows (2, nodes), [current level, steps done], inflows (2, nodes), track
+# (7, nodes), [total cavity volume, 1 while the relation holds the outlet at the vapour head, open cavities]);
+# ``flows`` at the reaches' upstream ends, ``inflows`` at their downstream ends (kept while a cavity is open; the
+# same array object without column separation);
+# track rows: 0 cavity volume (m^3), 1 its largest, 2 the step of the largest, 3 the step of the lowest head, 4 the
+# lowest head (m), 5 cavities formed, 6 the step of the first.
+# Params: (B per reach, the friction model's arrays, vapour head per node (m), [dt (s), psi]).
 @numba.njit(cache=True)
 def moc_relation(p, s, upstream_head_m):
-    heads, flows, cur = s
-    c = cur[0]
-    return moc_turbine_relation(heads[c], flows[c], p[0], p[1])
+    c = s[2][0]
+    return moc_turbine_relation(s[0][c], s[1][c], p[0], p[1])
 
 
 @numba.njit(cache=True)
 def moc_update(p, s, upstream_head_m, head_m, flow_m3_s):
-    heads, flows, cur = s
+    heads, flows, cur = s[0], s[1], s[2]
     c = cur[0]
     moc_step(heads[c], flows[c], p[0], p[1], upstream_head_m, head_m, flow_m3_s, heads[1 - c], flows[1 - c])
     cur[0] = 1 - c
+    cur[1] += 1
+
+
+@numba.njit(cache=True)
+def moc_dvcm_relation(p, s, upstream_head_m):
+    """The relation at the downstream end: the C+ line, or H = H_v (k = 0) while a cavity holds the node
+    (:func:`dvcm_outlet_cavity`; its decision is kept in ``s[5][1]`` for the update)."""
+    c = s[2][0]
+    flows = s[1][c]
+    n = flows.size - 1
+    c_p, k = moc_turbine_relation(s[0][c], flows, p[0], p[1])
+    vapour = p[2][n]
+    if s[5][2] == 0.0 and c_p + k * flows[n] >= vapour:  # no cavity open, and the C+ line stays above H_v
+        return c_p, k
+    inflows = s[3][c] if s[5][2] > 0.0 else flows  # kept only while a cavity is open
+    if dvcm_outlet_cavity(c_p, -k, flows[n], inflows[n], s[4][0, n], vapour, p[3][0], p[3][1]):
+        s[5][1] = 1.0  # for the update, and for the failure message should the boundary find no solution
+        return vapour, 0.0
+    return c_p, k
+
+
+@numba.njit(cache=True)
+def moc_dvcm_update(p, s, upstream_head_m, head_m, flow_m3_s):
+    heads, flows, cur, inflows, track, totals = s
+    c = cur[0]
+    step = cur[1] + 1
+    vapour = p[2]
+    n = vapour.size - 1
+    liquid = totals[2] == 0.0 and totals[1] != 1.0 and head_m >= vapour[n]  # no cavity open, none at the outlet
+    if liquid and not moc_liquid_below_vapour(heads[c], flows[c], p[0], p[1], vapour, upstream_head_m,
+                                              heads[1 - c], flows[1 - c]):
+        heads[1 - c][n] = head_m  # the liquid step, as moc_step
+        flows[1 - c][n] = flow_m3_s
+        reach_friction_advance(p[1], flows[c], flows[1 - c])
+        totals[0] = 0.0
+    else:
+        moc_step_dvcm(heads[c], flows[c], inflows[c], track, totals, p[0], p[1], vapour, p[3], upstream_head_m,
+                      head_m, flow_m3_s, float(step), heads[1 - c], flows[1 - c], inflows[1 - c])
+    cur[0] = 1 - c
+    cur[1] = step
+    totals[1] = 0.0
+
+
+@numba.njit(cache=True)
+def moc_dvcm_record(p, s, out):
+    """Columns ``cavity_volume_m3`` (all the conduit's cavities) and ``outlet_cavity_volume_m3`` (at the turbine or
+    valve)."""
+    track = s[4]
+    out[0] = s[5][0]
+    out[1] = track[0, track.shape[1] - 1]
 
 
 @numba.njit(cache=True)
@@ -294,13 +495,23 @@ def moc_node_heads(p, s, upstream_head_m, head_m, out):
 
 @numba.njit(cache=True)
 def moc_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
+    """Fold the node heads into the envelope; the step and value of every node's lowest head go to the track (in a
+    second pass, taken only on a step that lowers the envelope: the first stays a loop the compiler vectorises)."""
     heads = s[0][s[2][0]]
+    lower = False
     for j in range(heads.size):
         h = heads[j]
         if h > env_max[j]:
             env_max[j] = h
-        if h < env_min[j]:
-            env_min[j] = h
+        lower |= h < env_min[j]
+    if lower:
+        track = s[4]
+        for j in range(heads.size):
+            h = heads[j]
+            if h < env_min[j]:
+                env_min[j] = h
+                track[3, j] = s[2][1]
+                track[4, j] = h
 
 
 @numba.njit(cache=True)
@@ -347,27 +558,47 @@ def node_positions_m(penstock, model: str, dt_s: float, grid: MocGrid | None = N
 
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
-    """Compiled MOC penstock: params (B per reach, the friction model's arrays), state (heads (2, nodes), flows
-    (2, nodes), [current]). The friction model is ``penstock.friction_model``
+    """Compiled MOC penstock: params (B per reach, the friction model's arrays, the vapour head per node, [dt, psi]),
+    state (see the comment above :func:`moc_relation`). The friction model is ``penstock.friction_model``
     (:data:`simulate.components.registry.FRICTION`, :mod:`simulate.components.hydraulic.friction`), bound into the
-    relation and the update (the steady model's arrays are R per reach)."""
+    relation and the update (the steady model's arrays are R per reach); with ``penstock.column_separation = "dvcm"``
+    the relation, the update and the recorded cavity volumes are the discrete vapour cavity model's
+    (:mod:`simulate.components.hydraulic.cavitation`)."""
+    from simulate.components.hydraulic import cavitation
     from simulate.components.registry import FRICTION, CompiledPart, PartHooks
 
     pen = plant.penstock
     grid = build_moc_grid(pen, dt_s)
     friction = FRICTION.builder(pen.friction_model)(pen, grid, steady.flow_m3_s)
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
-    state = (np.vstack((heads, heads)), np.vstack((flows, flows)), np.zeros(1, dtype=np.int64))
+    x = node_positions_m(pen, "moc", dt_s, grid)
+    settings = cavitation.vapour_settings(pen)
+    dvcm = settings.model == "dvcm"
+    flows2 = np.vstack((flows, flows))
+    track = np.zeros((7, heads.size))
+    track[4] = heads
+    state = (np.vstack((heads, heads)), flows2, np.zeros(2, dtype=np.int64),
+             flows2.copy() if dvcm else flows2, track, np.zeros(3))
+    params = (grid.impedance_s_m2, friction.arrays, cavitation.node_vapour_heads_m(pen, x, settings),
+              np.array([dt_s, settings.cavity_weighting]))
+    if dvcm:
+        functions = {"relation": friction.bind(moc_dvcm_relation), "update": friction.bind(moc_dvcm_update),
+                     "record": moc_dvcm_record}
+    else:
+        functions = {"relation": friction.bind(moc_relation), "update": friction.bind(moc_update)}
+    functions.update({"inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads})
+    record = cavitation.CavityRecord(pen, x, dt_s, settings, track, state[5], params[2])
     return CompiledPart(
-        kind="penstock", name="moc",
-        functions={"relation": friction.bind(moc_relation), "update": friction.bind(moc_update),
-                   "inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads},
-        params=(grid.impedance_s_m2, friction.arrays), state=state,
+        kind="penstock", name="moc", functions=functions, params=params, state=state,
+        signals=cavitation.SIGNALS if dvcm else (),
         hooks=PartHooks(summary={"moc_reaches": int(sum(grid.reaches_per_segment)),
                                  "moc_max_wave_speed_adjustment": grid.max_wave_speed_adjustment,
-                                 **friction.summary},
-                        warnings_after=lambda signals: pen.unread_key_warnings()),
-        n_nodes=heads.size, node_x_m=node_positions_m(pen, "moc", dt_s, grid))
+                                 **friction.summary, **record.settings_summary()},
+                        initial_signals=(0.0, 0.0) if dvcm else (),
+                        summary_after=record.figures,
+                        warnings_after=lambda signals: pen.unread_key_warnings() + record.warnings(),
+                        failure=record.failure),
+        n_nodes=heads.size, node_x_m=x)
 
 
 def _build_iir(model: str):

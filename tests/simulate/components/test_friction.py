@@ -174,7 +174,8 @@ def test_brunone_is_refused_in_a_plant_with_units():
 
 def test_the_steady_model_leaves_the_moc_functions_unbound_and_brunone_binds_them():
     """The default model adds nothing to the loop's text (bit-identical, no slower); another is bound through every
-    MOC function that reaches the friction seam (relation -> turbine relation; update -> step -> inlet line)."""
+    MOC function that reaches the friction seam (relation -> turbine relation; update -> step -> inlet line -> C-
+    line; the column-separation update -> its step -> C+ line)."""
     from simulate.components.hydraulic import penstock
     from simulate.components.hydraulic.brunone import brunone_advance as advance
 
@@ -190,7 +191,13 @@ def test_the_steady_model_leaves_the_moc_functions_unbound_and_brunone_binds_the
     assert isinstance(update, Bound)
     (name, step), = update.names
     assert name == "moc_step" and dict(step.names)["reach_friction_advance"] is advance
-    assert dict(dict(step.names)["moc_inlet_characteristic"].names)["reach_friction_loss"] is brunone_reach_loss
+    inlet = dict(step.names)["moc_inlet_characteristic"]
+    assert dict(dict(inlet.names)["moc_cminus"].names)["reach_friction_loss"] is brunone_reach_loss
+    # the column-separation update reaches the seam through the same C+ and C- lines and the same advance
+    dvcm = dict(part.bind(penstock.moc_dvcm_update).names)
+    step = dict(dict(dvcm["moc_step_dvcm"].names))
+    assert step["reach_friction_advance"] is advance
+    assert dict(step["moc_cplus"].names)["reach_friction_loss"] is brunone_reach_loss
     assert "simulate.components.hydraulic.brunone" in update.modules
 
 

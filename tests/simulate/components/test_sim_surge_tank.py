@@ -99,9 +99,11 @@ def test_example_plant_with_a_surge_tank_through_the_cli(tmp_path, capsys):
     assert main(["run", str(SURGE_PLANT), "--out", str(out), "--no-plot", "--set", "scenario.t_end_s=150"]) == 0
     with open(out / "timeseries.csv", encoding="utf-8") as fh:
         header = next(csv.reader(fh))
-    assert header[-2:] == ["surge_level_m", "tunnel_flow_m3_s"]
+    # the tank's columns, then the MOC penstock's cavity volumes
+    assert header[-4:] == ["surge_level_m", "tunnel_flow_m3_s", "cavity_volume_m3", "outlet_cavity_volume_m3"]
     data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1)
-    z, q_t = data[:, -2], data[:, -1]
+    z, q_t = data[:, -4], data[:, -3]
+    assert np.all(data[:, -2:] == 0.0)  # no cavity on this plant
     assert q_t[0] == pytest.approx(data[0, 3], rel=1e-9)  # tunnel flow = turbine flow at the steady start
     assert z.max() - z[0] > 5.0  # the load rejection drives an up-surge
     summary = json.loads((out / "summary.json").read_text())

@@ -24,6 +24,8 @@ from simulate.loop.engine import run_simulation
 IDEAL = {"turbine.characteristics": "ideal"}
 COLUMNS = ("terminal_voltage_pu", "current_d_pu", "current_q_pu", "field_voltage_pu", "electrical_power_pu",
            "eq_t_pu", "eq_st_pu", "ed_st_pu", "frequency_hz")
+#: The MOC penstock's columns with column separation (the default), after the generator's.
+CAVITY = ("cavity_volume_m3", "outlet_cavity_volume_m3")
 
 
 def grid_plant(**overrides):
@@ -179,7 +181,8 @@ def test_opening_step_on_an_infinite_bus_returns_to_synchronous_speed_with_power
 def test_extra_columns_only_with_the_subtransient_generator(tmp_path):
     r = run_simulation(grid_plant(**{"scenario.t_end_s": 2.0, "scenario.event_time_s": 1.0}))
     header = r.to_csv(tmp_path / "a.csv").read_text().splitlines()[0].split(",")
-    assert tuple(header[-len(COLUMNS):]) == COLUMNS
+    # the generator's columns, then the penstock's cavity volumes (the last recording part of a unit)
+    assert tuple(header[-len(COLUMNS) - len(CAVITY):]) == COLUMNS + CAVITY
     swing = run_simulation(swing_plant(**{"scenario.t_end_s": 3.0}))
     assert not set(COLUMNS) & set(swing.to_csv(tmp_path / "b.csv").read_text().splitlines()[0].split(","))
     # row 0 is the verified steady state (not zeros): 1 pu, the steady field, 50 Hz
@@ -338,7 +341,7 @@ def test_surge_tank_and_generator_columns_side_by_side():
     raw["turbine"]["characteristics"] = "ideal"
     raw["scenario"].update(t_end_s=3.0, event_time_s=2.0)
     r = run_simulation(plant_from_dict(raw, base_dir=Path(PLANT_HLA339).parent))
-    assert list(r.signals) == ["surge_level_m", "tunnel_flow_m3_s", *COLUMNS]
+    assert list(r.signals) == ["surge_level_m", "tunnel_flow_m3_s", *COLUMNS, *CAVITY]
     for name, values in r.signals.items():  # undisturbed until 2 s: rows 0 and 1 agree to the steady residual
         assert values[1] == pytest.approx(values[0], rel=1e-9, abs=1e-9), name
     assert r.summary()["frequency_event_time_s"] == 2.0

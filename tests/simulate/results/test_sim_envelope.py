@@ -50,9 +50,10 @@ def test_moc_envelope_has_every_node_and_is_ordered(rejection):
     assert np.all(np.diff(rejection.envelope_max_m) >= -1e-9)
 
 
-def _profile_plant(axis_drop_m):
+def _profile_plant(axis_drop_m, **penstock):
     """Shipped plant with a profile: the pipe axis at the inlet ``axis_drop_m`` below the reservoir level."""
     raw = to_dict(load_plant(PLANT_HLA339))
+    raw["penstock"].update(penstock)
     top = raw["penstock"]["static_head_m"] - axis_drop_m
     segs = raw["penstock"]["segments"]
     segs[0].update(elevation_start_m=top, elevation_end_m=top - 5.0)
@@ -67,16 +68,26 @@ def test_pressure_head_and_column_separation_warning(nets):
     table_x = deep["min_pressure_head_x_m"]
     assert 0.0 <= table_x <= 500.0
     # pipe axis 2 m below the reservoir level, then nearly level: the down-surge of the load rejection (about 30 m of
-    # head at the turbine, less upstream) takes the pressure head below the vapour pressure near the inlet
+    # head at the turbine, less upstream) takes the pressure head to the vapour pressure near the inlet, where the
+    # discrete vapour cavity model (the default) holds it at the vapour head and reports the cavities
     shallow = run_simulation(_profile_plant(2.0), characteristics=nets)
     s = shallow.summary()
-    assert s["min_pressure_head_m"] < VAPOUR_PRESSURE_HEAD_M
-    assert s["column_separation"] is True
-    assert any("vapour pressure" in w for w in s["warnings"])
+    vapour = s["vapour_pressure_head_m"] - s["atmospheric_pressure_head_m"]
+    assert s["min_pressure_head_m"] == pytest.approx(vapour, abs=1e-9)
+    assert s["column_separation"] is True and s["cavity_nodes"] >= 1
+    assert 0.0 < s["max_cavity_x_m"] <= 500.0
+    assert any("vapour cavity formed" in w for w in s["warnings"])
+    assert not any("does not represent" in w for w in s["warnings"])
     table = envelope_table(shallow)
     assert set(table) == {"x_m", "head_max_m", "head_min_m", "elevation_m", "pressure_head_max_m",
                           "pressure_head_min_m"}
     np.testing.assert_array_equal(table["pressure_head_min_m"], table["head_min_m"] - table["elevation_m"])
+    # the failing case: without column separation the head goes on below the vapour pressure, and the warning says
+    # the model does not represent it
+    off = run_simulation(_profile_plant(2.0, column_separation="off"), characteristics=nets).summary()
+    assert off["min_pressure_head_m"] < VAPOUR_PRESSURE_HEAD_M - 1.0
+    assert off["column_separation"] is True
+    assert any("which the model does not represent" in w for w in off["warnings"])
 
 
 def test_profile_garbage_names_the_segment():

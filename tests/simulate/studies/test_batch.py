@@ -348,7 +348,8 @@ def test_keys_of_the_plants_optional_sections_vary_like_any_other():
     # surges less (measured on the 20 s run: 22.5 m against 3.7 m above the static level)
     single = run_simulation(load_plant(surge_plant, {"scenario.t_end_s": 20.0, **areas[0]}))
     assert small.components == single.component_figures and set(small.components) == {
-        "surge_level_max_m", "t_surge_level_max_s", "surge_level_min_m", "t_surge_level_min_s"}
+        "surge_level_max_m", "t_surge_level_max_s", "surge_level_min_m", "t_surge_level_min_s",
+        "max_cavity_volume_m3", "cavity_nodes", "t_envelope_min_head_s"}  # the last three: the MOC penstock's
     rise = batch.column("surge_level_max_m") - tank.penstock.static_head_m
     assert rise[0] > rise[1] > 0.0
     bulb = run_batch(load_plant(PLANT_BULB, {"scenario.t_end_s": 8.0}), [{"blade_servo.servo_time_s": 0.5},
@@ -376,11 +377,13 @@ def test_the_components_figures_are_columns_of_results_csv(tmp_path):
     batch = run_batch(plant, [{"governor.closing_time_s": 6.0}, {"governor.closing_time_s": -1.0}],
                       mechanism="serial")
     assert [c.status for c in batch.cases] == ["ok", "error"]
-    assert batch.component_figures == ("min_outlet_pressure_head_m", "t_min_outlet_pressure_s",
+    # the MOC penstock's figures (its cavities), then the draft tube's
+    assert batch.component_figures == ("max_cavity_volume_m3", "cavity_nodes", "t_envelope_min_head_s",
+                                       "min_outlet_pressure_head_m", "t_min_outlet_pressure_s",
                                        "min_draft_tube_head_m")
     batch.to_csv(tmp_path / "results.csv")
     rows = list(csv.DictReader((tmp_path / "results.csv").open()))
     single = run_simulation(plant.with_overrides({"governor.closing_time_s": 6.0})).summary()
     assert float(rows[0]["min_outlet_pressure_head_m"]) == single["min_outlet_pressure_head_m"]  # repr: exact
     assert rows[1]["min_outlet_pressure_head_m"] == ""
-    assert list(rows[0])[-3:] == list(batch.component_figures)
+    assert list(rows[0])[-6:] == list(batch.component_figures)
