@@ -17,6 +17,7 @@ rule              shape of the array
 ``entries``       ``(len(entries),)``: one value per named entry (:attr:`StateArray.entries`)
 ``per node``      ``(n,)``: one value per computing node of the part's grid
 ``levels x node`` ``(2, n)``: the current and the next time level, one value per computing node
+``entries x node`` ``(len(entries), n)``: the named entries, one row each, one value per computing node
 ``per control``   ``(n_controls,)``: one value per control of the control vector (1: the guide vanes; 2 with the
                   runner blades)
 ``delay line``    ``(len(entries) + m,)``, m >= 1: the named entries, then one value per step of a delay (m set at
@@ -39,10 +40,10 @@ import numpy as np
 
 from hillchart.errors import InputError
 
-SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, PER_CONTROL, DELAY_LINE, PART = (
-    "scalar", "entries", "per node", "levels x node", "per control", "delay line", "part")
+SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, PER_CONTROL, DELAY_LINE, PART = (
+    "scalar", "entries", "per node", "levels x node", "entries x node", "per control", "delay line", "part")
 #: The shape rules (module docstring).
-SHAPES = (SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, PER_CONTROL, DELAY_LINE, PART)
+SHAPES = (SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, PER_CONTROL, DELAY_LINE, PART)
 #: Registry kinds whose components' state is one array, not a tuple.
 ARRAY_KINDS = ("servo",)
 
@@ -69,8 +70,9 @@ class StateArray:
     def __post_init__(self):
         if self.shape not in SHAPES:
             raise TypeError(f"state array {self.name!r}: shape must be one of {', '.join(SHAPES)}, got {self.shape!r}")
-        if (self.shape in (ENTRIES,)) != bool(self.entries) and self.shape != DELAY_LINE:
-            raise TypeError(f"state array {self.name!r}: entries go with the shape {ENTRIES!r} (and {DELAY_LINE!r})")
+        if (self.shape in (ENTRIES, ENTRIES_BY_NODE)) != bool(self.entries) and self.shape != DELAY_LINE:
+            raise TypeError(f"state array {self.name!r}: entries go with the shapes {ENTRIES!r} and "
+                            f"{ENTRIES_BY_NODE!r} (and {DELAY_LINE!r})")
         if (self.shape == PART) != bool(self.kind) or (self.shape == PART) == (not (self.component or self.chosen_by)):
             raise TypeError(f"state array {self.name!r}: the shape {PART!r} needs kind and component or chosen_by")
 
@@ -241,13 +243,14 @@ def _shape_problem(array: StateArray, shape: tuple, nodes: dict, n_controls: int
         ok = len(shape) == 1 and shape[0] >= len(array.entries) + 1
         return "" if ok else f"its rule 'delay line' asks ({len(array.entries)} + m,) with m >= 1"
     want_dims = 1 if array.shape == PER_NODE else 2
-    if len(shape) != want_dims or (want_dims == 2 and shape[0] != 2):
-        return f"its rule {array.shape!r} asks {'(n,)' if want_dims == 1 else '(2, n)'}"
+    rows = len(array.entries) if array.shape == ENTRIES_BY_NODE else 2
+    if len(shape) != want_dims or (want_dims == 2 and shape[0] != rows):
+        return f"its rule {array.shape!r} asks {'(n,)' if want_dims == 1 else f'({rows}, n)'}"
     if nodes["n"] is None:
         nodes["n"] = shape[-1]
     return "" if shape[-1] == nodes["n"] else f"its rule {array.shape!r} asks {nodes['n']} nodes"
 
 
-__all__ = ["SCALAR", "ENTRIES", "PER_NODE", "LEVELS_BY_NODE", "PER_CONTROL", "DELAY_LINE", "PART", "SHAPES",
-           "ARRAY_KINDS", "StateArray", "StatesOf", "LinearBlock", "UNDECLARED", "Contract", "declared",
+__all__ = ["SCALAR", "ENTRIES", "PER_NODE", "LEVELS_BY_NODE", "ENTRIES_BY_NODE", "PER_CONTROL", "DELAY_LINE", "PART",
+           "SHAPES", "ARRAY_KINDS", "StateArray", "StatesOf", "LinearBlock", "UNDECLARED", "Contract", "declared",
            "contract_of", "state_mismatches"]

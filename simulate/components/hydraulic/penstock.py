@@ -33,7 +33,7 @@ import numpy as np
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
-from simulate.components.contract import ENTRIES, LEVELS_BY_NODE, SCALAR, LinearBlock, StateArray
+from simulate.components.contract import ENTRIES, ENTRIES_BY_NODE, LEVELS_BY_NODE, LinearBlock, StateArray
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import steady_reach_loss as reach_friction_loss
 
@@ -647,7 +647,19 @@ def time_scales(plant, schedules) -> list:
 MOC_STATES = (StateArray("heads", "m", "the piezometric head at every node, the current and the next level",
                          LEVELS_BY_NODE),
               StateArray("flows", "m^3/s", "the flow at every node, the current and the next level", LEVELS_BY_NODE),
-              StateArray("current", "1", "the index (0 or 1) of the current level", SCALAR))
+              StateArray("current", "1; step", "the index (0 or 1) of the current level and the step count", ENTRIES,
+                         entries=("level", "step")),
+              StateArray("inflows", "m^3/s", "the flow into every node from upstream, the current and the next level "
+                         "(differs from flows only at a node a vapour cavity holds; the flows array itself when "
+                         "column separation is off)", LEVELS_BY_NODE),
+              StateArray("track", "m^3; m^3; step; step; m; 1; step", "per node: the cavity volume, its largest, "
+                         "the step of the largest, the step of the lowest head, the lowest head, the cavities "
+                         "formed, the step of the first (simulate.components.hydraulic.cavitation.CavityRecord)",
+                         ENTRIES_BY_NODE, entries=("volume_m3", "max_volume_m3", "max_volume_step", "min_head_step",
+                                           "min_head_m", "cavities", "first_cavity_step")),
+              StateArray("totals", "m^3; 1; 1", "the total cavity volume, 1 while the relation held the downstream "
+                         "end at the vapour head, the number of open cavities", ENTRIES,
+                         entries=("volume_m3", "outlet_held", "open_cavities")))
 #: The difference equations (zdomain, lumped, rigid): ``hist`` of :func:`iir_turbine_relation`.
 IIR_STATES = (StateArray("history", "pu flow; pu flow; pu head; pu head; m^3/s", "the per-unit flow and head of the "
                          "last two steps and the last flow", ENTRIES,

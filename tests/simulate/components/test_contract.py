@@ -231,13 +231,13 @@ def test_states_that_omit_an_array_or_misstate_a_size_are_caught(monkeypatch):
     assert state_mismatches(declared, moc.state, where="moc", plant=plant, n_nodes=moc.n_nodes,
                             contract=_contract) == []
     short = state_mismatches(declared[:2], moc.state, where="moc", plant=plant, contract=_contract)
-    assert short == ["moc: the state has 3 arrays, STATES declares 2 (heads, flows)"]
+    assert short == ["moc: the state has 6 arrays, STATES declares 2 (heads, flows)"]
     per_node = (StateArray("heads", "m", "", "per node"),) + declared[1:]
     wrong = state_mismatches(per_node, moc.state, where="moc", plant=plant, n_nodes=moc.n_nodes, contract=_contract)
     assert wrong == [f"moc: state array 'heads' has shape (2, {moc.n_nodes}), its rule 'per node' asks (n,)"]
     other_grid = state_mismatches(declared, moc.state, where="moc", plant=plant, n_nodes=moc.n_nodes + 1,
                                   contract=_contract)
-    assert len(other_grid) == 2 and "asks" in other_grid[0]
+    assert len(other_grid) == 4 and "asks" in other_grid[0]  # heads, flows, inflows, track
     tank = (StateArray("tank", "m; m^3/s", "", ENTRIES, entries=("level_m", "tunnel_flow_m3_s")),)
     assert state_mismatches(tank, (np.zeros(3),), where="tank", plant=plant, contract=_contract) == [
         "tank: state array 'tank' has shape (3,), its rule 'entries' asks (2,)"]
