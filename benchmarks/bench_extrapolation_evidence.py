@@ -1,4 +1,4 @@
-"""Below the lowest line, on a real chart: what the inner evidence saw against what was asked.
+"""Below the lowest line, on the real charts: what the inner evidence saw against what was asked.
 
 For each k of ``benchmarks/bench_extrapolation.py`` (the k lowest opening lines of the Sayano-Shushenskaya chart held
 out), the extension of the kept lines weighs its hypotheses by its *inner* hold-outs (its own lowest line, then its
@@ -8,7 +8,11 @@ distance ``d = 1 - a / a_low`` below the lowest kept line and every hypothesis' 
 and the weighed blend; and how far the lowest kept line, as the hypotheses read it (:class:`LowestLine`), is from its
 own digitized points (0 when it passes through them).
 
-No nets are trained (the blend is what a run reads below the lowest line, within 0.1 % on this chart); about 15 s.
+The same for the EGAT 137 kW bulb table of ``benchmarks/bench_bulb_extrapolation.py`` (the k lowest guide-vane
+angles of every sweep held out; :mod:`hillchart.fccm.evidence`), per held-out angle.
+
+No nets are trained (the blend is what a run reads below the lowest line, within 0.1 % on the Francis chart);
+about 30 s.
 
 Run::
 
@@ -97,6 +101,37 @@ def diagnose(chart, k: int) -> str:
     return "\n".join(out)
 
 
+def diagnose_bulb(samples, k: int) -> str:
+    """The table of one k of the bulb table (module docstring)."""
+    from benchmarks.bench_bulb_extrapolation import SEED, _subset
+    from hillchart.fccm.double_regulated import extend_unit_samples
+    from hillchart.fccm.evidence import HYPOTHESES, held_out_mask, hold_out_angles, table_evidence
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        closed = extend_unit_samples(samples, seed=SEED)[2].opening_closed
+        n, a, b = (np.asarray(samples[key], float) for key in ("n11", "opening", "blade_angle"))
+        outer = hold_out_angles(samples, k, opening_closed=closed, seed=SEED)
+        kept = _subset(samples, ~held_out_mask(n, a, b, k)[0])
+        evidence = table_evidence(kept, extend_unit_samples(kept, opening_closed=closed, seed=SEED)[2], seed=SEED)
+    weights = evidence.weights["q11"]
+    out = [f"#### bulb, k = {k}", "",
+           "| held out | angle | mean d | points | " + " | ".join(HYPOTHESES) + " | weighed blend |",
+           "|---|---|---|---|" + "---|" * (len(HYPOTHESES) + 1),
+           "| weights Q11 | | | | " + " | ".join(f"{weights[h]:.2f}" for h in HYPOTHESES) + " | |"]
+    for label, folds in (("inner", evidence.folds), ("**outer** (asked)", [outer])):
+        for fold in folds:
+            blend = sum(weights[h] * fold.predictions[h][0] for h in HYPOTHESES)
+            for angle in np.unique(fold.opening):
+                on = fold.opening == angle
+                errors = [np.mean(np.log(fold.predictions[h][0][on] / fold.q11[on])) for h in HYPOTHESES]
+                errors.append(np.mean(np.log(blend[on] / fold.q11[on])))
+                tag = label if folds is not evidence.folds else f"inner, {fold.angles} angle{'s' * (fold.angles > 1)}"
+                out.append(f"| {tag} | {angle:g} | {float(np.mean(fold.distance[on])):.3f} | {int(on.sum())} | "
+                           + " | ".join(f"{100 * e:+.1f}" for e in errors) + " |")
+    return "\n".join(out + [""])
+
+
 def main() -> int:
     from benchmarks.bench_extrapolation import sayano_chart
     from tests.external_charts import EXTERNAL_DIR, SAYANO_CONTOURS, SAYANO_LINES
@@ -110,6 +145,17 @@ def main() -> int:
     print("Sayano-Shushenskaya Francis: mean signed Q11 error (log-ratio, %) per held-out line\n")
     for k in HOLD_OUTS:
         print(diagnose(chart, k))
+    from benchmarks.bench_bulb_extrapolation import real_samples
+    from tests.fccm_external import BULB_137KW
+
+    if not (EXTERNAL_DIR / BULB_137KW).is_file():
+        print(f"the real bulb table is absent ({EXTERNAL_DIR / BULB_137KW})")
+        return 0
+    with tempfile.TemporaryDirectory() as folder:
+        samples = real_samples(Path(folder))
+    print("EGAT 137 kW bulb: mean signed Q11 error (log-ratio, %) per held-out guide-vane angle\n")
+    for k in HOLD_OUTS:
+        print(diagnose_bulb(samples, k))
     return 0
 
 
