@@ -84,7 +84,8 @@ class LowestLine:
     n11 : ndarray (P,)
         N11 of the line's points, ascending (r/min).
     q11_residual, m11_residual : ndarray (P,)
-        The line's Q11 (m^3/s) and M11 (N*m) minus the model's at those points.
+        The line's Q11 (m^3/s) and M11 (N*m) minus the model's at those points (the model read at most at
+        :func:`model_n11`, as :meth:`values` reads it, so the line passes through its own points).
     """
 
     opening: float
@@ -95,11 +96,20 @@ class LowestLine:
     def values(self, model, n11):
         """``(Q11, M11)`` of the lowest line at ``n11`` (array, r/min)."""
         n11 = np.asarray(n11, float)
-        # the model's valid range ends at its pumping limit; beyond it the value there is held
-        n11 = np.minimum(n11, 0.95 * model.n11_limit) if math.isfinite(model.n11_limit) else n11
-        q = model.q11(n11, self.opening) + np.interp(n11, self.n11, self.q11_residual)
-        m = model.m11(n11, self.opening) + np.interp(n11, self.n11, self.m11_residual)
+        n_m = model_n11(model, n11)
+        # the residuals at the line's own N11: where it was digitized the line gives its own values, also beyond
+        # the model's range (read at the clamped N11, the lowest line of Sayano without its 22 and 26 mm lines was
+        # 7.9 % high at its digitized point at N11 = 100, where the refitted model's range ends at 96.4)
+        q = model.q11(n_m, self.opening) + np.interp(n11, self.n11, self.q11_residual)
+        m = model.m11(n_m, self.opening) + np.interp(n11, self.n11, self.m11_residual)
         return q, m
+
+
+def model_n11(model, n11):
+    """``n11`` (r/min) held at 0.95 of the model's pumping limit: its valid range ends there (beyond it, no positive
+    flow), and the value there is held beyond."""
+    n11 = np.asarray(n11, float)
+    return np.minimum(n11, 0.95 * model.n11_limit) if math.isfinite(model.n11_limit) else n11
 
 
 @dataclass(frozen=True)
@@ -149,9 +159,7 @@ class Hypotheses:
         t = np.clip(opening / a_low, 0.0, 1.0)
         q_low, m_low = self.lowest.values(self.model, n11)
         m_0 = -self.k_zero_opening * n11 ** 2
-        # the model answers up to 0.95 of its pumping limit (beyond it, no positive flow): held there beyond
-        limit = self.model.n11_limit
-        n_m = np.minimum(n11, 0.95 * limit) if math.isfinite(limit) else n11
+        n_m = model_n11(self.model, n11)
         if name == "model":
             return self.model.q11(n_m, opening), self.model.m11(n_m, opening)
         if name == "anchored-model":
@@ -221,8 +229,9 @@ def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
     lines = [(float(a), n, (q, m)) for (a, n, q), (_, _, m) in zip(chart.per_line(chart.flow_q11),
                                                                    chart.per_line(torque))]
     a_low, n_low, (q_low, m_low) = lines[0]
-    lowest = LowestLine(opening=a_low, n11=n_low, q11_residual=q_low - model.q11(n_low, a_low),
-                        m11_residual=m_low - model.m11(n_low, a_low))
+    n_m = model_n11(model, n_low)
+    lowest = LowestLine(opening=a_low, n11=n_low, q11_residual=q_low - model.q11(n_m, a_low),
+                        m11_residual=m_low - model.m11(n_m, a_low))
     # curvature of the quadratic hypothesis: least squares over the lowest lines (t >= 1 there)
     num_q = den_q = num_m = den_m = 0.0
     ratios_q, ratios_m, ts = [], [], []
