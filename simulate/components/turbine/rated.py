@@ -21,6 +21,9 @@ class TurbineConfig:
     ``a = y * opening_max``. ``characteristics`` is ``"ideal"``, ``"synthetic"`` (the exact synthetic Francis),
     ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb) or a path to a nets.json (relative to the plant
     file); characteristics with a blade angle (three-input nets, the bulb) need ``[combinator]``.
+    ``operating_mode``: ``"pump"`` starts the run pumping, at the speed -n_r in hillsim's turbine-positive
+    convention (flow < 0, head > 0, torque > 0; :mod:`simulate.components.turbine.four_quadrant`): only
+    characteristics over all four quadrants have a pump mode.
     ``step_up``: the table ``[turbine.step_up]`` when the chart is a model test to be converted to this prototype
     (IEC 60193 efficiency step-up, see below); absent, the characteristics are used as they are.
     """
@@ -38,6 +41,9 @@ class TurbineConfig:
     characteristics: str = parameter(unit="", kind="text", what='"ideal" or a path to a nets.json',
                                      description="the characteristics: a registered name or a nets.json path "
                                                  "(relative to the plant file)")
+    operating_mode: str = parameter("turbine", unit="", choices=("turbine", "pump"),
+                                    description="the mode at t = 0: turbine (speed +n_r) or pump (speed -n_r, "
+                                                "turbine-positive signs; four-quadrant characteristics only)")
     step_up: StepUpConfig | None = parameter(None, unit="", kind="table", table=StepUpConfig,
                                              what='a table such as {method = "iec60193"}',
                                              description="the model-to-prototype step-up, [turbine.step_up]")
@@ -52,6 +58,11 @@ class TurbineConfig:
             raise InputError(
                 f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency P_r/(rho g Q_r H_r) = "
                 f"{efficiency:.4g}, which must be in (0, 1]; check rated_power_mw, rated_flow_m3_s, rated_head_m")
+
+    @property
+    def initial_speed_rpm(self) -> float:
+        """The speed of the steady state at t = 0, r/min: n_r in turbine mode, -n_r in pump mode."""
+        return -self.rated_speed_rpm if self.operating_mode == "pump" else self.rated_speed_rpm
 
     @property
     def rated_efficiency(self) -> float:
