@@ -55,8 +55,9 @@ class TurbineConfig:
         validate_parameters("turbine", self)
         efficiency = self.rated_efficiency
         if not (0.0 < efficiency <= 1.0):
+            ratio = "P_r/(rho g Q_r H_r)"
             raise InputError(
-                f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency P_r/(rho g Q_r H_r) = "
+                f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency {ratio} = "
                 f"{efficiency:.4g}, which must be in (0, 1]; check rated_power_mw, rated_flow_m3_s, rated_head_m")
 
     @property
@@ -66,8 +67,12 @@ class TurbineConfig:
 
     @property
     def rated_efficiency(self) -> float:
-        """P_r / (rho g Q_r H_r), fraction."""
-        return self.rated_power_mw * 1e6 / (RHO_WATER_KG_M3 * G_M_S2 * self.rated_flow_m3_s * self.rated_head_m)
+        """P_r / (rho g Q_r H_r), fraction; in pump mode, when P_r is above rho g Q_r H_r (the rated values are a
+        pump's point, P_r its shaft power), the pump's (rho g Q_r H_r) / P_r."""
+        hydraulic = RHO_WATER_KG_M3 * G_M_S2 * self.rated_flow_m3_s * self.rated_head_m
+        if self.operating_mode == "pump" and self.rated_power_mw * 1e6 > hydraulic:
+            return hydraulic / (self.rated_power_mw * 1e6)
+        return self.rated_power_mw * 1e6 / hydraulic
 
     @property
     def rated_torque_nm(self) -> float:
