@@ -19,8 +19,10 @@ class TurbineConfig:
 
     ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
     ``a = y * opening_max``. ``characteristics`` is ``"ideal"``, ``"synthetic"`` (the exact synthetic Francis),
-    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb) or a path to a nets.json (relative to the plant
-    file); characteristics with a blade angle (three-input nets, the bulb) need ``[combinator]``.
+    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb), ``"synthetic-pump-turbine"`` (the exact synthetic
+    pump-turbine, four quadrants) or a path to a nets.json (relative to the plant file; Suter-curve nets and
+    tabulated Suter curves are four-quadrant too); characteristics with a blade angle (three-input nets, the bulb)
+    need ``[combinator]``.
     ``operating_mode``: ``"pump"`` starts the run pumping, at the speed -n_r in hillsim's turbine-positive
     convention (flow < 0, head > 0, torque > 0; :mod:`simulate.components.turbine.four_quadrant`): only
     characteristics over all four quadrants have a pump mode.
