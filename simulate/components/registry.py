@@ -338,6 +338,9 @@ CHARACTERISTICS = Registry("characteristics", "turbine.characteristics", {
     "synthetic-bulb": "simulate.components.turbine.kinds:SYNTHETIC_BULB",
     "nets": "simulate.components.turbine.kinds:TWO_INPUT_NETS",
     "nets-3": "simulate.components.turbine.kinds:THREE_INPUT_NETS",
+    "suter-nets": "simulate.components.turbine.four_quadrant:SUTER_NETS",
+    "suter-curves": "simulate.components.turbine.four_quadrant:SUTER_CURVES",
+    "synthetic-pump-turbine": "simulate.components.turbine.four_quadrant:SYNTHETIC_PUMP_TURBINE",
 })
 
 

@@ -77,13 +77,18 @@ def check_initial_state(plant, steady, domain=None, *, remember=None) -> None:
     error naming the cause. ``remember(key, compute)``: where the verdict of ``domain`` on a point is remembered
     (the engine's memo of the domain's characteristics: a batch's cases share a few steady states)."""
     t = plant.turbine
-    if steady.power_mw < -1e-6 * t.rated_power_mw:
+    pump = getattr(t, "operating_mode", "turbine") == "pump"  # pumping absorbs power: P = M n < 0
+    if pump and steady.power_mw > 1e-6 * t.rated_power_mw:
+        raise InputError(f"the initial operating point in pump mode gives power {steady.power_mw:.4g} MW > 0 (speed "
+                         f"{steady.speed_rpm:.4g} r/min, flow {steady.flow_m3_s:.4g} m^3/s): it does not pump; check "
+                         f"turbine.operating_mode, scenario.initial_opening and penstock.static_head_m")
+    if not pump and steady.power_mw < -1e-6 * t.rated_power_mw:
         raise InputError(
             f"the initial operating point has negative power {steady.power_mw:.4g} MW (N11 = "
             f"{steady.unit_speed_rpm:.4g} r/min, stroke {steady.stroke:.4g}): the turbine would brake, not drive; "
             f"check turbine.rated_speed_rpm = {t.rated_speed_rpm!r}, turbine.runner_diameter_m and "
             f"penstock.static_head_m")
-    if steady.power_mw > 1.5 * t.rated_power_mw:
+    if abs(steady.power_mw) > 1.5 * t.rated_power_mw:
         raise InputError(f"the initial power {steady.power_mw:.4g} MW is more than 1.5 x turbine.rated_power_mw = "
                          f"{t.rated_power_mw!r}: check scenario.initial_opening and the rated values")
     if domain is not None:

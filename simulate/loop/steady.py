@@ -225,7 +225,8 @@ def unreachable_power_message(power_mw, speed_rpm, stroke_min, stroke_max, p_min
 
 def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stroke_min, stroke_max,
                  speed_rpm=None, power_mw=None, stroke=None) -> SteadyState:
-    """Steady operation at ``speed_rpm`` (rated when None) for a power target or a given stroke, verified.
+    """Steady operation at ``speed_rpm`` (when None: the turbine section's initial speed, the rated speed, negative
+    in pump mode) for a power target or a given stroke, verified.
 
     Raises
     ------
@@ -249,7 +250,7 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
     """
     if (power_mw is None) == (stroke is None):
         raise InputError(f"steady state needs exactly one of power_mw or stroke, got {power_mw!r} and {stroke!r}")
-    speed = turbine.rated_speed_rpm if speed_rpm is None else float(speed_rpm)
+    speed = getattr(turbine, "initial_speed_rpm", turbine.rated_speed_rpm) if speed_rpm is None else float(speed_rpm)
     d1, a_max = turbine.runner_diameter_m, turbine.opening_max
     omega = speed * RPM_TO_RAD_S
 

@@ -63,6 +63,8 @@ class CharacteristicKind:
     label: str = ""
     opening_unit: str = "chart units"
     boundary: str = "simulate.components.turbine.boundary:build_pressure_loop"
+    #: True for characteristics over all four quadrants (a pump mode, reverse flow and rotation).
+    four_quadrant: bool = False
 
     def load(self, turbine, *, key: str = "turbine.characteristics"):
         """The characteristics of a word kind, from the plant's turbine section ``turbine`` (a
@@ -247,6 +249,11 @@ def load_kind(spec: str, *, turbine=None, base_dir=None, key: str = "turbine.cha
             raise InputError(f"{key} = {spec!r}: no registered kind of characteristics reads {str(path)!r} (format "
                              f"{found!r}, flow inputs {_flow_inputs(document)!r}); the kinds read: {kinds}")
         characteristics = kind_of(name).read(document, path)
+    if turbine is not None and getattr(turbine, "operating_mode", "turbine") == "pump" \
+            and not kind_of(name).four_quadrant:
+        fours = ", ".join(repr(n) for n in CHARACTERISTICS.names() if kind_of(n).four_quadrant)
+        raise InputError(f"turbine.operating_mode = 'pump' needs characteristics over all four quadrants (the kinds "
+                         f"{fours}); {key} = {spec!r} is of kind {name!r}, a turbine's chart")
     if turbine is not None and getattr(turbine, "step_up", None) is not None:
         from simulate.components.turbine.step_up import apply_step_up
 

@@ -19,8 +19,13 @@ class TurbineConfig:
 
     ``opening_max`` is the chart opening (chart units, e.g. mm) at full servo stroke y = 1, so the chart opening is
     ``a = y * opening_max``. ``characteristics`` is ``"ideal"``, ``"synthetic"`` (the exact synthetic Francis),
-    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb) or a path to a nets.json (relative to the plant
-    file); characteristics with a blade angle (three-input nets, the bulb) need ``[combinator]``.
+    ``"synthetic-bulb"`` (the exact synthetic double-regulated bulb), ``"synthetic-pump-turbine"`` (the exact synthetic
+    pump-turbine, four quadrants) or a path to a nets.json (relative to the plant file; Suter-curve nets and
+    tabulated Suter curves are four-quadrant too); characteristics with a blade angle (three-input nets, the bulb)
+    need ``[combinator]``.
+    ``operating_mode``: ``"pump"`` starts the run pumping, at the speed -n_r in hillsim's turbine-positive
+    convention (flow < 0, head > 0, torque > 0; :mod:`simulate.components.turbine.four_quadrant`): only
+    characteristics over all four quadrants have a pump mode.
     ``step_up``: the table ``[turbine.step_up]`` when the chart is a model test to be converted to this prototype
     (IEC 60193 efficiency step-up, see below); absent, the characteristics are used as they are.
     """
@@ -38,6 +43,9 @@ class TurbineConfig:
     characteristics: str = parameter(unit="", kind="text", what='"ideal" or a path to a nets.json',
                                      description="the characteristics: a registered name or a nets.json path "
                                                  "(relative to the plant file)")
+    operating_mode: str = parameter("turbine", unit="", choices=("turbine", "pump"),
+                                    description="the mode at t = 0: turbine (speed +n_r) or pump (speed -n_r, "
+                                                "turbine-positive signs; four-quadrant characteristics only)")
     step_up: StepUpConfig | None = parameter(None, unit="", kind="table", table=StepUpConfig,
                                              what='a table such as {method = "iec60193"}',
                                              description="the model-to-prototype step-up, [turbine.step_up]")
@@ -49,14 +57,24 @@ class TurbineConfig:
         validate_parameters("turbine", self)
         efficiency = self.rated_efficiency
         if not (0.0 < efficiency <= 1.0):
+            ratio = "P_r/(rho g Q_r H_r)"
             raise InputError(
-                f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency P_r/(rho g Q_r H_r) = "
+                f"turbine.rated_power_mw = {self.rated_power_mw!r} gives a rated efficiency {ratio} = "
                 f"{efficiency:.4g}, which must be in (0, 1]; check rated_power_mw, rated_flow_m3_s, rated_head_m")
 
     @property
+    def initial_speed_rpm(self) -> float:
+        """The speed of the steady state at t = 0, r/min: n_r in turbine mode, -n_r in pump mode."""
+        return -self.rated_speed_rpm if self.operating_mode == "pump" else self.rated_speed_rpm
+
+    @property
     def rated_efficiency(self) -> float:
-        """P_r / (rho g Q_r H_r), fraction."""
-        return self.rated_power_mw * 1e6 / (RHO_WATER_KG_M3 * G_M_S2 * self.rated_flow_m3_s * self.rated_head_m)
+        """P_r / (rho g Q_r H_r), fraction; in pump mode, when P_r is above rho g Q_r H_r (the rated values are a
+        pump's point, P_r its shaft power), the pump's (rho g Q_r H_r) / P_r."""
+        hydraulic = RHO_WATER_KG_M3 * G_M_S2 * self.rated_flow_m3_s * self.rated_head_m
+        if self.operating_mode == "pump" and self.rated_power_mw * 1e6 > hydraulic:
+            return hydraulic / (self.rated_power_mw * 1e6)
+        return self.rated_power_mw * 1e6 / hydraulic
 
     @property
     def rated_torque_nm(self) -> float:

@@ -126,5 +126,6 @@ def test_a_misspelt_word_names_the_registered_ones(register_kind):
     register_kind("rated")
     plant = load_plant(PLANT_HLA339, OVERRIDES | {"turbine.characteristics": "ratd"})
     with pytest.raises(InputError, match=r"nets file .*ratd' does not exist; give \"ideal\", \"synthetic\", "
-                                         r"\"synthetic-bulb\", \"rated\" or the path of a nets.json"):
+                                         r"\"synthetic-bulb\", \"synthetic-pump-turbine\", \"rated\" or the path of "
+                                         r"a nets.json"):
         run_simulation(plant)

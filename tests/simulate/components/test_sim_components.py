@@ -69,7 +69,8 @@ def test_registries_name_their_entries_and_reject_unknown_names():
     assert UPSTREAM.names() == ("reservoir", "surge_tank")
     assert CONTROLS.names() == ("governor", "prescribed", "governor_blades", "prescribed_blades")
     assert SHAFTS.names() == ("swing", "subtransient")
-    assert CHARACTERISTICS.names() == ("ideal", "synthetic", "synthetic-bulb", "nets", "nets-3")
+    assert CHARACTERISTICS.names() == ("ideal", "synthetic", "synthetic-bulb", "nets", "nets-3", "suter-nets",
+                                          "suter-curves", "synthetic-pump-turbine")
     with pytest.raises(InputError, match=r"penstock\.model must be one of moc, zdomain, lumped, rigid; got 'elastic'"):
         PENSTOCKS.builder("elastic")
 

@@ -95,7 +95,12 @@ def test_each_file_kind_claims_its_own_documents():
     assert kinds.TWO_INPUT_NETS.owns(two)
     for other in ([1, 2], {"format": "hillsim.suter"}, "text"):
         assert not any(kinds.kind_of(n).owns(other) for n in CHARACTERISTICS.names()), other
-    assert kinds.word_kinds() == ("ideal", "synthetic", "synthetic-bulb")
+    assert kinds.word_kinds() == ("ideal", "synthetic", "synthetic-bulb", "synthetic-pump-turbine")
+    # the four-quadrant kinds claim their own formats and nothing else
+    suter = _document(SHIPPED_NETS.parents[1] / "pump_turbine" / "nets.json")
+    assert [n for n in CHARACTERISTICS.names() if kinds.kind_of(n).owns(suter)] == ["suter-nets"]
+    curves = {"format": "hillsim.suter_curves"}
+    assert [n for n in CHARACTERISTICS.names() if kinds.kind_of(n).owns(curves)] == ["suter-curves"]
 
 
 def test_a_file_no_kind_claims_is_refused_naming_the_kinds(tmp_path):

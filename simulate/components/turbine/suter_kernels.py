@@ -1,0 +1,232 @@
+"""Compiled kernels of four-quadrant characteristics on the Suter transform: the curves WH(x, y), WM(x, y) and the
+operating point they give for a speed and the conduit's relation H = C_L + k Q.
+
+Relative quantities (:mod:`hillchart.four_quadrant.suter`, turbine convention): v = n/n_r, q = Q/Q_r, h = H/H_r,
+m = M/M_r, y the relative opening. The curves come in two forms, one kernel (:func:`suter_curves`) reading a flag:
+
+* a table (form :data:`TABLE`): WH and WM on a regular periodic grid of x (``nx`` points, step 2 pi / nx, from 0)
+  and a regular grid of openings (``ny`` lines from ``y0`` by ``dy``; one line: curves of x alone, a pump),
+  interpolated linearly in x (periodic) and in y;
+* logsig nets (form :data:`NETS`): :class:`hillchart.fccm.net.FCCMWeights` of inputs cos x, sin x[, y] (the
+  :class:`hillchart.four_quadrant.nets.SuterNets`), evaluated as ``FCCMWeights.predict`` does.
+
+The point (:func:`suter_point`) is walked on w = q + k2 sqrt(h), the shifted flow whose direction with v is the
+Suter angle, ``x = pi + atan2(w, v)``: for a fixed speed, x is a monotone function of w on the branch of the speed's
+sign (v > 0: x in (pi/2, 3 pi/2); v < 0: x in (3 pi/2, 5 pi/2), i.e. through 2 pi = 0), and each w gives one head
+and one flow, so F(w) = h(w) - (c + b q(w)) is single-valued, where Q11(N11) of the same machine is not (the S-zone).
+With the plain transform w = q and h = WH(x) (w^2 + v^2). With the improved one, s = sqrt(h) solves the quadratic
+the definitions give at a fixed x (WH (q^2 + v^2 + C_h h) = (y + C_y)^2 h with q = w - k2 s)::
+
+    (A - WH k2^2) s^2 + 2 WH k2 w s - WH (w^2 + v^2) = 0,     A = (y + C_y)^2 - C_h WH
+
+whose product of roots is negative: one positive root when WH > 0 and A - WH k2^2 > 0 (otherwise no finite
+positive head has this WH: the point is invalid). The torque is m = WM (q^2 + v^2 + C_h h) / (y + C_y)^2 - k1 h
+(plain: WM (q^2 + v^2)), :func:`hillchart.four_quadrant.suter.inverse_suter_transform` in compiled form. Through
+zero speed nothing changes: at v = 0 the angle is pi/2 or 3 pi/2 by the sign of w, and h tends to 0 with w.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: Curve forms (the first entry of the curves' scalars).
+TABLE, NETS = 0, 1
+TWO_PI = 2.0 * math.pi
+
+#: Step statuses (0: converged).
+NOT_BRACKETED, NOT_CONVERGED, INVALID_POINT, OPENING_OUTSIDE = 1, 2, 3, 4
+STATUS_TEXT = {NOT_BRACKETED: "found no sign change of h(w) - (C_L + k Q(w)) / H_r (no root bracketed)",
+               NOT_CONVERGED: "did not converge", INVALID_POINT: "met a point where the curves give no finite "
+               "positive head", OPENING_OUTSIDE: "was given an opening outside the curves' openings"}
+
+
+@numba.njit(cache=True, inline="always")
+def _logsig(z):
+    if z >= 0.0:
+        return 1.0 / (1.0 + math.exp(-z))
+    ez = math.exp(z)
+    return ez / (1.0 + ez)
+
+
+@numba.njit(cache=True)
+def _net(w1, vec, c, s, y):
+    """One FCCMWeights net (one output) at inputs (cos x, sin x[, y]); ``vec``: b1 (H), W2 (H), b2, x_min, x_max
+    (n_in each), y_min, y_max."""
+    hidden, n_in = w1.shape
+    inputs = (c, s, y)
+    lo = 2 * hidden + 1
+    out = vec[2 * hidden]
+    for i in range(hidden):
+        z = vec[i]
+        for j in range(n_in):
+            z += w1[i, j] * (2.0 * (inputs[j] - vec[lo + j]) / (vec[lo + n_in + j] - vec[lo + j]) - 1.0)
+        out += vec[hidden + i] * _logsig(z)
+    y_min, y_max = vec[lo + 2 * n_in], vec[lo + 2 * n_in + 1]
+    return (out + 1.0) * (y_max - y_min) / 2.0 + y_min
+
+
+@numba.njit(cache=True)
+def suter_curves(cs, wh_t, wm_t, w1h, w1m, vh, vm, x, y):
+    """``(WH, WM, ok)`` at the angle x (radians, any real) and relative opening y; ``ok`` False where y lies
+    outside a table's openings (no extrapolation). ``cs``: form, nx, ny, y0, dy, k1, k2, c_h, c_y."""
+    if cs[0] == NETS:
+        c, s = math.cos(x), math.sin(x)
+        return _net(w1h, vh, c, s, y), _net(w1m, vm, c, s, y), True
+    nx, ny = int(cs[1]), int(cs[2])
+    u = (x % TWO_PI) * nx / TWO_PI
+    i = int(math.floor(u))
+    fx = u - i
+    i = i % nx
+    i1 = (i + 1) % nx
+    if ny == 1:
+        return ((1.0 - fx) * wh_t[0, i] + fx * wh_t[0, i1], (1.0 - fx) * wm_t[0, i] + fx * wm_t[0, i1], True)
+    t = (y - cs[3]) / cs[4]
+    if not (-1e-12 <= t <= ny - 1 + 1e-12):
+        return 0.0, 0.0, False
+    j = min(max(int(math.floor(t)), 0), ny - 2)
+    fy = t - j
+    wh = ((1.0 - fy) * ((1.0 - fx) * wh_t[j, i] + fx * wh_t[j, i1])
+          + fy * ((1.0 - fx) * wh_t[j + 1, i] + fx * wh_t[j + 1, i1]))
+    wm = ((1.0 - fy) * ((1.0 - fx) * wm_t[j, i] + fx * wm_t[j, i1])
+          + fy * ((1.0 - fx) * wm_t[j + 1, i] + fx * wm_t[j + 1, i1]))
+    return wh, wm, True
+
+
+@numba.njit(cache=True)
+def suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y):
+    """``(q, h, m, status)`` at the shifted flow w and speed v (relative) and opening y (module docstring); status 0,
+    :data:`INVALID_POINT` or :data:`OPENING_OUTSIDE`."""
+    wh, wm, ok = suter_curves(cs, wh_t, wm_t, w1h, w1m, vh, vm, math.pi + math.atan2(w, v), y)
+    if not ok:
+        return 0.0, 0.0, 0.0, OPENING_OUTSIDE
+    k1, k2, c_h, c_y = cs[5], cs[6], cs[7], cs[8]
+    r2 = w * w + v * v
+    if k1 == 0.0 and k2 == 0.0 and c_h == 0.0 and c_y == 0.0:  # plain
+        return w, wh * r2, wm * r2, 0
+    factor = (y + c_y) ** 2
+    a2 = factor - c_h * wh - wh * k2 * k2
+    if not (wh > 0.0 and a2 > 0.0):
+        return 0.0, 0.0, 0.0, INVALID_POINT
+    if r2 == 0.0:
+        s = 0.0
+    else:
+        root = math.sqrt((wh * k2 * w) ** 2 + a2 * wh * r2)
+        # the positive root, written without cancellation on either side of w = 0
+        s = wh * r2 / (wh * k2 * w + root) if wh * k2 * w >= 0.0 else (root - wh * k2 * w) / a2
+    h = s * s
+    q = w - k2 * s
+    m = wm * (q * q + v * v + c_h * h) / factor - k1 * h
+    return q, h, m, 0
+
+
+@numba.njit(cache=True)
+def _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y, c, b):
+    q, h, m, status = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y)
+    return h - (c + b * q), status
+
+
+@numba.njit(cache=True)
+def solve_shifted_flow(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, w0, tol, max_iter):
+    """``(w, status, iterations)``: the root of F(w) = h(w) - (c + b q(w)) next to ``w0`` (relative head relation
+    h = c + b q, b <= 0). Bracketed from w0 outward: first toward where |F| falls (the side of the previous
+    solution's branch), the step growing 1.6-fold, at most 80 steps each way (the guard: a run that leaves the
+    curves' branch stops with :data:`NOT_BRACKETED`); then the Illinois method to |dw| < tol (1 + |w|)."""
+    f0, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0, v, y, c, b)
+    if st != 0:
+        return w0, st, 0
+    if f0 == 0.0:
+        return w0, 0, 0
+    delta = 1e-3 * (1.0 + abs(w0) + abs(v))
+    fp, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 + delta, v, y, c, b)
+    if st != 0:
+        return w0, st, 0
+    fm, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 - delta, v, y, c, b)
+    if st != 0:
+        return w0, st, 0
+    first = 1.0 if (fp - fm) * f0 < 0.0 else -1.0  # toward a smaller |F|
+    iterations = 2
+    lo, flo, hi, fhi = w0, f0, w0, f0
+    found = False
+    for direction in (first, -first):
+        step = delta
+        a, fa = w0, f0
+        for _ in range(80):
+            bnext = a + direction * step
+            fb, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, bnext, v, y, c, b)
+            iterations += 1
+            if st != 0:
+                return bnext, st, iterations
+            if fb == 0.0:
+                return bnext, 0, iterations
+            if fb * fa < 0.0:
+                lo, flo, hi, fhi = a, fa, bnext, fb
+                found = True
+                break
+            a, fa = bnext, fb
+            step *= 1.6
+        if found:
+            break
+    if not found:
+        return w0, NOT_BRACKETED, iterations
+    w, status, more = _illinois(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, lo, flo, hi, fhi, tol, max_iter)
+    return w, status, iterations + more
+
+
+@numba.njit(cache=True)
+def _illinois(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, lo, flo, hi, fhi, tol, max_iter):
+    """``(w, status, iterations)``: the Illinois method (regula falsi halving the value of an end kept twice) on
+    the bracket [lo, hi] of F (values flo, fhi of opposite signs) to |hi - lo| < tol (1 + |w|)."""
+    side = 0
+    w = lo
+    for iteration in range(max_iter):
+        w = (lo * fhi - hi * flo) / (fhi - flo)
+        fw, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y, c, b)
+        if st != 0:
+            return w, st, iteration + 1
+        if fw == 0.0:
+            return w, 0, iteration + 1
+        if fw * fhi < 0.0:
+            lo, flo = hi, fhi
+            hi, fhi = w, fw
+            side = 0
+        else:
+            hi, fhi = w, fw
+            if side == 1:
+                flo *= 0.5
+            side = 1
+        if abs(hi - lo) < tol * (1.0 + abs(w)):
+            return w, 0, iteration + 1
+    return w, NOT_CONVERGED, max_iter
+
+
+@numba.njit(cache=True)
+def unit_head_flow(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, scan):
+    """``(q, m, ok)`` at unit head (h = 1) and speed v: the root of h(w) = 1 with the largest flow in the speed's
+    direction (the normal operating branch: turbine flow for v > 0, pump flow for v < 0), found by a scan of
+    ``scan`` angles over the speed's branch from that end, then :func:`solve_shifted_flow`. Not at v = 0."""
+    if v == 0.0:
+        return np.nan, np.nan, False
+    previous = before = 0.0
+    have = False
+    for i in range(scan):
+        # x from the end of the branch where q sign(v) is largest: w = v tan(x - pi) runs from +-inf inward
+        phi = (0.5 - (i + 0.5) / scan) * math.pi * 0.999
+        w = v * math.tan(phi)  # from w sign(v) large (q sign(v) largest) to the other end of the branch
+        f, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y, 1.0, 0.0)
+        if st != 0:
+            have = False
+            continue
+        if have and f * previous <= 0.0:
+            root = w
+            if f != 0.0:
+                root, status, _ = _illinois(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, 1.0, 0.0, before, previous, w,
+                                            f, 1e-15, 300)
+                if status != 0:
+                    return np.nan, np.nan, False
+            q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, root, v, y)
+            return q, m, st == 0
+        previous, before, have = f, w, True
+    return np.nan, np.nan, False
