@@ -24,7 +24,8 @@ from simulate.config import _section_class, load_plant, plant_from_dict, to_dict
 
 PLANTS = {"hla339": PLANT_HLA339, "grid": PLANT_HLA339_GRID, "bulb": PLANT_BULB, "two_units": PLANT_TWO_UNITS,
           "surge_tank": PLANT_HLA339.parent / "plant_hla339_surge_tank.toml",
-          "guarantee": PLANT_HLA339.parent / "plant_hla339_guarantee.toml"}
+          "guarantee": PLANT_HLA339.parent / "plant_hla339_guarantee.toml",
+          "pump_turbine": PLANT_HLA339.parent / "plant_pump_turbine.toml"}
 #: A short run: the event at 1 s, the end 3 s later (every shipped scenario has an event time).
 SHORT = {"scenario.event_time_s": 1.0, "scenario.t_end_s": 4.0}
 #: Sections whose keys are checked (a table of keys each); ``penstock.segments`` is the first segment's keys.
@@ -34,9 +35,9 @@ TABLES = ("turbine", "penstock", "penstock.segments", "generator", "governor", "
 
 def _base(plant_name: str, section: str):
     """The short run's plant; the francis plants run the ideal turbine for keys that are not the turbine's (the
-    bulb needs its blades' characteristics)."""
+    bulb needs its blades' characteristics, the pump-turbine its four-quadrant ones and their boundary)."""
     overrides = dict(SHORT)
-    if section != "turbine" and plant_name != "bulb":
+    if section != "turbine" and plant_name not in ("bulb", "pump_turbine"):
         overrides["turbine.characteristics"] = "ideal"
     return load_plant(PLANTS[plant_name], overrides)
 

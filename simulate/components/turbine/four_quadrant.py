@@ -248,12 +248,31 @@ def rated_bases(characteristics: SuterCharacteristics, turbine) -> tuple[float, 
     return h_r, q_r, n_r, m_r
 
 
+#: The ``[solver]`` keys of the Q11/N11 pressure loop, which the four-quadrant boundary does not read.
+PRESSURE_LOOP_KEYS = ("pressure_loop", "tolerance", "max_iterations", "relaxation", "fallback")
+
+
+def refuse_pressure_loop_keys(solver) -> None:
+    """:class:`InputError` naming a ``[solver]`` key of the pressure loop set to other than its default: the
+    four-quadrant boundary solves its own equation to its own tolerance (:data:`BOUNDARY_TOL` on the shifted flow,
+    at most :data:`BOUNDARY_MAX_ITER` Illinois iterations), so the key would be accepted and ignored."""
+    from dataclasses import fields
+
+    for f in fields(solver):
+        if f.name in PRESSURE_LOOP_KEYS and getattr(solver, f.name) != f.default:
+            raise InputError(f"solver.{f.name} = {getattr(solver, f.name)!r} sets the Q11/N11 pressure loop; the "
+                             f"four-quadrant boundary solves on its Suter curves to its own tolerance "
+                             f"({BOUNDARY_TOL:g} on the shifted flow, at most {BOUNDARY_MAX_ITER} iterations) and "
+                             f"would ignore it: remove the key")
+
+
 def build_suter_boundary(inputs) -> CompiledPart:
     """The four-quadrant boundary of one unit (``inputs``: :class:`simulate.components.turbine.component.
     BoundaryInputs`), started from its steady state."""
     chars = inputs.characteristics
     if not isinstance(chars, SuterCharacteristics):
         raise TypeError(f"the four-quadrant boundary needs SuterCharacteristics, got {type(chars).__name__}")
+    refuse_pressure_loop_keys(inputs.solver)
     turbine, steady = inputs.turbine, inputs.steady
     h_r, q_r, n_r, m_r = rated_bases(chars, turbine)
     k2 = float(chars.curves[0][6])
