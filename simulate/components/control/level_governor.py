@@ -21,11 +21,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from hillchart.errors import InputError
 from simulate.components.contract import ENTRIES, LinearBlock, StateArray
 from simulate.components.control.pid import pid_step
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE
+from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE, refuse_speed_steps
 from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 from simulate.components.signals import signal_indices
@@ -82,10 +81,7 @@ def level_parameters(governor, initial_stroke: float) -> np.ndarray:
 
 def build_level_governor(plant, steady, dt_s: float, schedules):
     """The level mode's control part (refused with a scenario that steps the speed reference)."""
-    if np.any(schedules.ref_values != 0.0):
-        raise InputError(f"governor.mode = 'level' controls the upstream level and has no speed reference: the speed "
-                         f"steps of scenario.kind = {plant.scenario.kind!r} would be ignored; use governor.mode = "
-                         f"'speed' (or 'power', 'dashpot') for this scenario")
+    refuse_speed_steps('level', 'controls the upstream level', plant, schedules)
     gov = plant.governor
     servo = build_vane_servo(plant, steady.stroke, dt_s)
     setpoint = math.nan if gov.level_setpoint_m is None else float(gov.level_setpoint_m)

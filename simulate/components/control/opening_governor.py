@@ -18,7 +18,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
-from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE
+from simulate.components.control.speed_governor import CONTROLS, SERVO_STATE, refuse_speed_steps
 from simulate.components.parameters import own_keys, parameter
 from simulate.components.registry import Bound, CompiledPart, PartHooks
 
@@ -68,10 +68,7 @@ def opening_control_step(p, s, sig, t_s, t_next_s, dt_s):
 
 def build_opening_governor(plant, steady, dt_s: float, schedules):
     """The opening mode's control part (refused with a scenario that steps the speed reference)."""
-    if np.any(schedules.ref_values != 0.0):
-        raise InputError(f"governor.mode = 'opening' holds the opening and has no speed reference: the speed steps "
-                         f"of scenario.kind = {plant.scenario.kind!r} would be ignored; use governor.mode = 'speed' "
-                         f"(or 'power', 'dashpot') for this scenario")
+    refuse_speed_steps('opening', 'holds the opening', plant, schedules)
     gov = plant.governor
     reference = steady.stroke if gov.opening_reference is None else gov.opening_reference
     servo = build_vane_servo(plant, steady.stroke, dt_s)

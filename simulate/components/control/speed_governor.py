@@ -13,6 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from hillchart.errors import InputError
 from simulate.components.contract import ENTRIES, PART, PER_CONTROL, LinearBlock, StateArray
 from simulate.components.control.pid import PID_KEYS, governor_parameters, governor_step, pid_time_scales
 from simulate.components.control.servo import build_vane_servo, first_order_servo_step
@@ -87,5 +88,15 @@ def pid_block(governor, equation: str, droop_unit: str) -> LinearBlock:
     return LinearBlock(equation, values, units)
 
 
+def refuse_speed_steps(mode: str, doing: str, plant, schedules) -> None:
+    """:class:`InputError` for a mode without a speed reference (``doing``: what it does instead) under a scenario
+    that steps the speed reference: the steps would be ignored."""
+    if np.any(schedules.ref_values != 0.0):
+        raise InputError(f"governor.mode = {mode!r} {doing} and has no speed reference: the speed steps of "
+                         f"scenario.kind = {plant.scenario.kind!r} would be ignored; use governor.mode = 'speed' "
+                         f"(or 'power', 'dashpot') for this scenario")
+
+
 __all__ = ["GOVERNOR_KEYS", "REQUIRED_KEYS", "READS", "PID_STATE", "SERVO_STATE", "CONTROLS", "STATES",
-           "governor_control_step", "build_speed_governor", "time_scales", "linear_counterpart", "pid_block"]
+           "governor_control_step", "build_speed_governor", "time_scales", "linear_counterpart", "pid_block",
+           "refuse_speed_steps"]
