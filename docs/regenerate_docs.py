@@ -532,6 +532,8 @@ FIGURES = {
     "generator.png": _command_figure(["benchmarks/bench_generator.py", "--figures", "{out}"], "generator.png"),
     "column_separation.png": _command_figure(["benchmarks/bench_column_separation.py", "--figures", "{out}"],
                                              "column_separation.png"),
+    "friction_decay.png": _command_figure(["benchmarks/bench_friction_decay.py", "--figures", "{out}"],
+                                          "friction_decay.png"),
     "two_units.png": _command_figure(["-m", "hillsim.cli", "run", "data_synthetic/plant_two_units.toml", "--out",
                                       "{out}/two", "--quiet"], "two/transient.png"),
     "pump_turbine.png": _command_figure(["-m", "hillchart.four_quadrant.plots", "data_synthetic/pump_turbine", "{out}"],
