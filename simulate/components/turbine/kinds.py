@@ -80,6 +80,13 @@ class CharacteristicKind:
         """The characteristics from a ``document`` this kind :meth:`owns`, read from ``path`` (for messages)."""
         raise TypeError(f"{type(self).__name__} is chosen by its word; it defines no read()")
 
+    def adopt(self, characteristics):
+        """The simulator's form of a caller's own ``characteristics`` object when it is of this kind (the object
+        :meth:`read` or :meth:`load` returns, or the library object a file of this kind holds), else None. A
+        caller's object thereby runs on its kind's :attr:`boundary` and gives its kind's figures, as the plant's own
+        does (:func:`adopt_characteristics`)."""
+        return None
+
 
 def ideal_from_rated(turbine):
     """:class:`hillchart.characteristics.IdealTurbine` from the rated values: q11_max = Q_r / (D1^2 sqrt(H_r)) at full
@@ -199,6 +206,17 @@ def kind_of(name: str) -> CharacteristicKind:
         raise TypeError(f"turbine.characteristics kind {name!r} is registered as {type(kind).__name__}, not a "
                         f"CharacteristicKind")
     return kind
+
+
+def adopt_characteristics(characteristics) -> tuple[str | None, object]:
+    """``(kind, characteristics)``: the first registered kind that adopts the caller's ``characteristics``
+    (:meth:`CharacteristicKind.adopt`) and the object in the form it runs in; ``(None, characteristics)`` for an
+    object no kind adopts (it runs on the default boundary, the pressure loop on Q11(N11, a))."""
+    for name in CHARACTERISTICS.names():
+        adopted = kind_of(name).adopt(characteristics)
+        if adopted is not None:
+            return name, adopted
+    return None, characteristics
 
 
 def word_kinds() -> tuple[str, ...]:
