@@ -84,3 +84,63 @@ def test_a_sweep_case_gives_the_run_s_figures(plant, own_run):
     for name in ("max_speed_rise", "max_speed_rpm", "max_head_m", "min_head_m", "t_max_speed_s"):
         assert getattr(same, name) == summary[name], name
     assert heavier.max_speed_rise < same.max_speed_rise
+
+
+def test_the_summary_gives_the_four_quadrant_figures(own_run):
+    """The runaway through the S-zone: the flow reverses (about 10 m^3/s backwards), the speed never does, and the
+    first speed peak comes 5.7 s into the run, before the largest one (the runaway oscillates and its second peak is
+    higher). Against the exact machine through the same simulator each figure within 2 % (measured: reverse flow
+    0.09 %, reversal and runaway times 1.0 %: the nets' S-zone is that close, docs/pump-turbines.md)."""
+    nets = own_run.summary()
+    exact = run_simulation(load_plant(PLANT, {**SHORT, "turbine.characteristics": "synthetic-pump-turbine"})).summary()
+    assert nets["max_reverse_speed_rpm"] == 0.0 == nets["max_reverse_speed_pct"]
+    assert nets["max_reverse_flow_m3_s"] == pytest.approx(-own_run.flow_m3_s.min(), abs=0)
+    t = own_run.time_s
+    first_negative = t[np.argmax(own_run.flow_m3_s < 0)]
+    assert first_negative - (t[1] - t[0]) < nets["t_flow_reversal_s"] < first_negative
+    peak = int(np.argmax(t >= nets["t_runaway_s"]))
+    assert own_run.speed_rpm[peak] == own_run.speed_rpm[:peak + 40].max()  # the first peak: 1.1 s on either side
+    for name in ("max_reverse_flow_m3_s", "t_flow_reversal_s", "t_runaway_s"):
+        assert nets[name] == pytest.approx(exact[name], rel=0.02), name
+    assert own_run.component_figures["t_runaway_s"] == nets["t_runaway_s"]  # a sweep's column too
+
+
+def test_a_francis_turbine_gives_no_four_quadrant_figures():
+    """The figures belong to kinds that can reverse (CharacteristicKind.four_quadrant): a Francis chart's run has
+    none, even where its series would give numbers."""
+    from data_synthetic import PLANT_HLA339
+
+    summary = run_simulation(load_plant(PLANT_HLA339, {"scenario.t_end_s": 4.0})).summary()
+    assert not any(name in summary for name in ("max_reverse_speed_rpm", "t_flow_reversal_s", "t_runaway_s"))
+
+
+def test_uncertainty_runs_each_member_of_the_suter_nets(plant, own_run):
+    """--uncertainty on the shipped Suter nets: one run per member (4; the first is the point nets, so its figures
+    are the plant's run to the bit), and the band of each figure contains the central run's figure with a width
+    > 0 (the members differ by their data splits: measured 0.4 points of speed rise, 1.4 points of head rise)."""
+    from simulate.studies.uncertainty import run_ensemble
+
+    band, traces = run_ensemble(plant)
+    assert band["members"] == 4 and band["failed"] == [] and traces.members == 4
+    summary = own_run.summary()
+    for name in ("max_speed_rise", "max_head_rise", "min_head_drop", "max_reverse_flow_m3_s", "t_runaway_s"):
+        low, high = band[name]["low"], band[name]["high"]
+        assert band[name]["values"][0] == summary[name], name
+        assert low <= summary[name] <= high and high - low > 0, name
+    assert band["max_reverse_speed_pct"]["high"] == 0.0  # no member turns the runner backwards
+
+
+def test_uncertainty_without_members_is_refused(tmp_path):
+    """The same nets without their ensemble: the clear error, no run."""
+    import json
+
+    from hillchart.errors import InputError
+    from simulate.studies.uncertainty import run_ensemble
+
+    doc = json.loads((PUMP_TURBINE_DIR / "nets.json").read_text(encoding="utf-8"))
+    assert doc["members"]
+    doc["members"] = []
+    (tmp_path / "nets.json").write_text(json.dumps(doc), encoding="utf-8")
+    plant = load_plant(PLANT, {**SHORT, "turbine.characteristics": str(tmp_path / "nets.json")})
+    with pytest.raises(InputError, match="needs nets with an ensemble"):
+        run_ensemble(plant)
