@@ -7,6 +7,9 @@ Every entry of the registry is a :class:`CharacteristicKind`, one contract for a
 * a kind read from a nets.json (``by_word = False``) answers whether a file is its own from the file's parsed
   content, :meth:`CharacteristicKind.owns`, and builds its characteristics from it, :meth:`CharacteristicKind.read`.
   The file is read once, and the first registered kind that claims it reads it.
+* a characteristics object a caller hands the simulator (a sweep's cases, an ensemble member, a user's own nets) is
+  offered to every kind, :meth:`CharacteristicKind.adopt`; the first that adopts it gives its kind (its boundary,
+  its figures), :func:`adopt_characteristics`.
 
 How the loop evaluates the characteristics a kind returns is their compiled form
 (:mod:`simulate.components.turbine.evaluation`), chosen by what the object offers; a kind whose kernel needs its own
