@@ -203,50 +203,6 @@ def _events(plant) -> list[tuple[float, str]]:
     return [(t, "step") for t in sc.step_times_or_default]
 
 
-def trajectories(plant, runs) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """``(label, N11, Q11)`` of each run ``(name, SimulationResult)`` on the hill chart: N11 = n D1 / sqrt(H),
-    Q11 = Q / (D1^2 sqrt(H)); every unit of a plant with several, each on its own runner (the plant-level series
-    are one unit's)."""
-    from simulate.results.result import unit_series
-
-    from hillchart.characteristics import unit_quantities
-
-    out = []
-    for name, result in runs:
-        for unit, s, d1 in unit_series(result, plant):
-            n11, q11 = unit_quantities(s["speed_rpm"], s["flow_m3_s"], np.maximum(s["head_m"], 1e-9), d1)
-            out.append((name if unit is None else f"{name}, {unit}", n11, q11))
-    return out
-
-
-def plot_hill_chart_with_runs(chars, plant, runs, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from hillchart.nets.chartplot import plot_hill_chart
-
-    traj = trajectories(plant, runs)
-    n_all = np.concatenate([n for _, n, _ in traj])
-    flow = getattr(chars, "flow", None)
-    if flow is not None:
-        n11_range = (max(1e-3, float(flow.x_min[0]), 0.05 * float(flow.x_max[0])), float(flow.x_max[0]))
-        opening_range = (float(flow.x_min[1]), float(flow.x_max[1]))
-    else:
-        n11_range = (max(1e-3, 0.8 * float(n_all.min())), 1.1 * float(n_all.max()))
-        opening_range = (0.0, plant.turbine.opening_max)
-    fig, ax = plt.subplots(figsize=(9, 7))
-    plot_hill_chart(chars, ax, n11_range=n11_range, opening_range=opening_range, grid=161,
-                    title="hill chart with the operating range of each load case")
-    for name, n11, q11 in traj:
-        line, = ax.plot(n11, q11, lw=1.6, label=f"{name}: N11 {n11.min():.1f}-{n11.max():.1f} r/min")
-        ax.plot(n11[0], q11[0], "o", color=line.get_color())
-    ax.legend(loc="upper left", fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-
-
 def plot_envelope(envelopes, path: Path) -> None:
     import matplotlib
 
@@ -283,7 +239,13 @@ def figure_shares(record) -> dict:
     return out
 
 
+def _finite(value):
+    """``value``, None for NaN (a figure the run does not have, e.g. no flow reversal)."""
+    return None if value is None or not math.isfinite(value) else value
+
+
 def _case_json(case, lc, verdicts, folder: str) -> dict:
+    from simulate.results.reversal import REVERSAL_FIGURES
     from simulate.studies.batch import extrapolation_kinds
 
     return {"name": lc.name, "overrides": lc.overrides, "status": case.status, "error": case.error,
@@ -296,6 +258,8 @@ def _case_json(case, lc, verdicts, folder: str) -> dict:
             "max_opening_chart": case.max_opening_chart, "beyond_nets_range": case.beyond_nets_range,
             "extrapolation": extrapolation_kinds(case.extrapolation), "verdicts": verdicts,
             "extrapolation_share": figure_shares(case.extrapolation),
+            "four_quadrant": {name: _finite(case.components.get(name)) for name in REVERSAL_FIGURES}
+            if any(name in case.components for name in REVERSAL_FIGURES) else None,
             "summary_file": f"{folder}/summary.json", "timeseries_file": f"{folder}/timeseries.csv"}
 
 
@@ -303,7 +267,9 @@ def build_report(args) -> tuple[dict, Path]:
     """Run the cases, write the per-case files and figures; return (report.json document, out dir)."""
     import hillsim
     from simulate.studies.batch import case_from_result, nets_domain, variant_overrides
+    from hillsim.report_charts import plot_operating_chart
     from simulate.components.turbine.component import plant_turbine
+    from simulate.components.turbine.kinds import kind_of
     from simulate.config import parse_override
     from simulate.loop.engine import plant_characteristics, run_simulation
     from simulate.studies.cases import load_study
@@ -369,6 +335,7 @@ def build_report(args) -> tuple[dict, Path]:
                 for failure in band["failed"]:
                     warnings.append(f"{lc.name}: ensemble member {failure['member']} failed: {failure['message']}")
         verdicts = study.limits.check(case, band) if study.limits is not None else []
+        warnings += [f"{lc.name}: limit {v['limit']} not judged: {v['why']}" for v in verdicts if "why" in v]
         doc = _case_json(case, lc, verdicts, folder)
         if band is not None:
             doc["band"] = {k: v for k, v in band.items() if k != "failed"}
@@ -391,8 +358,11 @@ def build_report(args) -> tuple[dict, Path]:
         for kind, fraction in (doc["extrapolation"] or {}).items():
             warnings.append(f"{lc.name}: extrapolation ({kind}) during {100 * fraction:.1f} % of the run "
                             f"(simulator record)")
-    # the chart as the plant sees it: a double-regulated unit's on its cam, over (N11, guide-vane opening)
-    plot_hill_chart_with_runs(plant_characteristics(plant, chars), plant, runs, out / "hillchart.png")
+    # the chart as the plant sees it: a double-regulated unit's on its cam, over (N11, guide-vane opening); the Suter
+    # curves for characteristics over all four quadrants
+    four_quadrant = turbine.kind is not None and kind_of(turbine.kind).four_quadrant
+    chart_caption = plot_operating_chart(plant_characteristics(plant, chars), plant, runs, out / "hillchart.png",
+                                         four_quadrant=four_quadrant)
     if envelopes:
         plot_envelope(envelopes, out / "envelope.png")
     verdict_list = [v["verdict"] for c in cases for v in c["verdicts"]]
@@ -410,7 +380,9 @@ def build_report(args) -> tuple[dict, Path]:
                       f"median)" if with_band else "the point nets (no ensemble in the characteristics)")
         + _evidence_phrase(chars),
         "extrapolation_evidence": _extrapolation_evidence(chars),
-        "envelope_available": bool(envelopes),
+        "envelope_available": bool(envelopes), "chart_caption": chart_caption,
+        "chart_heading": ("Four-quadrant characteristics and operating range" if four_quadrant
+                          else "Hill chart and operating range"),
         "closure": None if closure_doc is None else {
             k: closure_doc.get(k) for k in ("mode", "constraint", "law", "best_linear",
                                             "improvement_over_best_linear", "verification_max_abs_difference",
@@ -559,6 +531,18 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
             caption="figures of each run (heads at the turbine inlet; rises relative to the initial value); "
                     "'outside chart' beside a figure: its extrapolation share, the share of the run up to it spent "
                     "outside the digitized chart; the hillsim run files of each case are in cases/<n>/")
+    four = [(i, c) for i, c in enumerate(cases) if c.get("four_quadrant")]
+    if four:
+        from simulate.results.reversal import REVERSAL_FIGURES
+
+        r.table(("load case", "max reverse speed (r/min)", "max reverse speed (% of rated)",
+                 "max reverse flow (m3/s)", "first flow reversal (s)", "runaway: first speed peak (s)"),
+                [(c["name"], *(Value(None) if c["four_quadrant"][k] is None else
+                               _v(c["four_quadrant"][k], f"cases.{i}.four_quadrant.{k}", "{:.4g}")
+                               for k in REVERSAL_FIGURES)) for i, c in four],
+                caption="four-quadrant figures: against the initial rotation and flow (a turbine's reverse flow is "
+                        "Q < 0, a pump's reverse rotation n > 0); n/a: the flow did not reverse, or the guide vanes "
+                        "moved (no runaway)")
     _decided_section(r, cases)
     r.heading("Transients")
     for i, c in enumerate(cases):
@@ -570,8 +554,8 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         r.paragraph("Not available: this simulator version reports the head at the turbine inlet only. The report "
                     "draws the envelope when the run result carries it (SimulationResult.envelope with "
                     "position_m, max_head_m, min_head_m and optionally min_pressure_head_m).")
-    r.heading("Hill chart and operating range")
-    r.figure(out / "hillchart.png", "iso-efficiency contours of the characteristics with each run's (N11, Q11) path")
+    r.heading(report["chart_heading"])
+    r.figure(out / "hillchart.png", report["chart_caption"])
     r.heading("Extrapolation warnings")
     if report["warnings"]:
         r.parts.append("<ul>" + "".join(f"<li>{_esc(w)}</li>" for w in report["warnings"]) + "</ul>")

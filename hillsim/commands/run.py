@@ -223,6 +223,8 @@ def run_command(args: argparse.Namespace) -> int:
           f"max speed rise {100 * summary['max_speed_rise']:.2f} %, max head rise "
           f"{100 * summary['max_head_rise']:.2f} %, min head drop {100 * summary['min_head_drop']:.2f} %, "
           f"mean iterations {summary['mean_iterations']:.2f}; wrote {args.out}")
+    if summary.get("max_reverse_speed_rpm") is not None:  # a unit whose characteristics' kind can reverse
+        print(four_quadrant_line(summary))
     if ensemble is not None:
         _add_uncertainty(ensemble[0], out / "summary.json")
     if step_check is not None:
@@ -237,6 +239,27 @@ def run_command(args: argparse.Namespace) -> int:
         from hillchart.errors import NumericalError
         raise NumericalError(raise_message)
     return 0
+
+
+def four_quadrant_line(summary: dict) -> str:
+    """The run's line of the four-quadrant figures (:func:`simulate.results.reversal.reversal_figures`).
+
+    Examples
+    --------
+    >>> print(four_quadrant_line({"max_reverse_speed_rpm": 0.0, "max_reverse_speed_pct": 0.0,
+    ...                           "max_reverse_flow_m3_s": 10.05, "t_flow_reversal_s": 5.69, "t_runaway_s": None}))
+    four-quadrant: max reverse speed 0.0 r/min (0.00 % of rated), max reverse flow 10.05 m^3/s, first flow \
+reversal at 5.69 s, no runaway (the vanes moved or no speed peak)
+    """
+    def at(value, what):
+        return f"{what} at {value:.2f} s" if value is not None else None
+
+    reversal = at(summary["t_flow_reversal_s"], "first flow reversal") or "no flow reversal"
+    runaway = at(summary["t_runaway_s"], "runaway (first speed peak)") or "no runaway (the vanes moved or no speed " \
+                                                                         "peak)"
+    return (f"four-quadrant: max reverse speed {summary['max_reverse_speed_rpm']:.1f} r/min "
+            f"({summary['max_reverse_speed_pct']:.2f} % of rated), max reverse flow "
+            f"{summary['max_reverse_flow_m3_s']:.2f} m^3/s, {reversal}, {runaway}")
 
 
 def _add_step_check(check: dict, summary_path: Path) -> None:
@@ -266,4 +289,8 @@ def _add_uncertainty(band: dict, summary_path: Path) -> None:
     print(f"ensemble of {band['members']} ({len(band['failed'])} failed): max speed rise "
           f"{100 * band['max_speed_rise']['low']:.2f}-{100 * band['max_speed_rise']['high']:.2f} %, max head rise "
           f"{100 * band['max_head_rise']['low']:.2f}-{100 * band['max_head_rise']['high']:.2f} %, min head drop "
-          f"{100 * band['min_head_drop']['low']:.2f}-{100 * band['min_head_drop']['high']:.2f} % (5-95 %)")
+          f"{100 * band['min_head_drop']['low']:.2f}-{100 * band['min_head_drop']['high']:.2f} % (5-95 %)"
+          + ("".join(f", {label} {band[name]['low']:.2f}-{band[name]['high']:.2f} {unit}"
+                     for name, label, unit in (("max_reverse_speed_pct", "max reverse speed", "% of rated"),
+                                               ("max_reverse_flow_m3_s", "max reverse flow", "m^3/s"),
+                                               ("t_runaway_s", "runaway at", "s")) if name in band)))

@@ -22,6 +22,7 @@ import numpy as np
 from hillchart.errors import InputError, NumericalError
 from simulate.components.turbine.boundary import FALLBACK_DAMPING
 from simulate.components.turbine.component import BoundaryInputs, build_turbine_part, plant_turbine
+from simulate.components.turbine.kinds import kind_of
 from simulate.config import PlantConfig
 from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, run_in_chunks, step_count
 from simulate.loop.generator import MANIFOLD_SERIES, UNIT_SERIES, assemble, signal_columns
@@ -289,6 +290,7 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
     warnings (the plant-level series are the first event unit's with several units)."""
     from simulate.components.turbine.step_up import step_up_of
     from simulate.loop.domain import extrapolation_record, extrapolation_warnings, units_record
+    from simulate.results.reversal import reversal_figures
 
     several = out_manifold is not None
     pen = plant.penstock
@@ -361,6 +363,14 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
             meta.update(part.hooks.summary)
             figures = {(k if not several else f"{unit.name}.{k}"): v
                        for k, v in part.hooks.figures_after(time_s, own).items()}
+            meta.update(figures)
+            component_figures.update(figures)
+    for unit in units:  # the figures of a unit that can reverse: declared by its characteristics' kind
+        if unit.kind is not None and kind_of(unit.kind).four_quadrant:
+            own = series[unit.name]
+            figures = reversal_figures(time_s, own["speed_rpm"], own["flow_m3_s"], own["opening"],
+                                       unit.view.turbine.rated_speed_rpm)
+            figures = {(k if not several else f"{unit.name}.{k}"): v for k, v in figures.items()}
             meta.update(figures)
             component_figures.update(figures)
     for unit in units:

@@ -10,6 +10,7 @@ import weakref
 
 from hillchart.errors import InputError
 from simulate.components.turbine.component import characteristics_of, load_turbine
+from simulate.components.turbine.kinds import adopt_characteristics
 from simulate.config import PlantConfig
 from simulate.loop.common import upstream_friction_s2_m5
 from simulate.loop.steady import ManifoldSteadyState, SteadyState, manifold_steady_state, steady_state
@@ -149,16 +150,18 @@ def unit_characteristics(plant: PlantConfig, characteristics=None) -> list:
 
 def unit_turbines(plant: PlantConfig, characteristics=None) -> list[tuple]:
     """``(characteristics as the unit uses them, kind)`` of every unit (:func:`unit_characteristics`); ``kind``:
-    the registry word of the characteristics' kind (None for the caller's ``characteristics``)."""
+    the registry word of the characteristics' kind (for the caller's ``characteristics``: of the kind that adopts
+    them, None when none does, :func:`simulate.components.turbine.kinds.adopt_characteristics`)."""
     loaded: dict = {}
     out = []
+    given = None if characteristics is None else adopt_characteristics(characteristics)
     for unit in plant.units:
         key = (id(characteristics), unit.turbine)
         if key not in loaded:
-            own = load_turbine(unit.turbine, plant.base_dir) if characteristics is None else None
-            raw = characteristics if own is None else own.characteristics
+            own = load_turbine(unit.turbine, plant.base_dir) if given is None else None
+            kind, raw = given if own is None else (own.kind, own.characteristics)
             try:
-                loaded[key] = (plant_characteristics(plant.unit_plant(unit), raw), None if own is None else own.kind)
+                loaded[key] = (plant_characteristics(plant.unit_plant(unit), raw), kind)
             except InputError as exc:
                 raise InputError(f"unit {unit.name!r}: {exc}") from None
         out.append(loaded[key])

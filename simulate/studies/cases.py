@@ -10,6 +10,8 @@ names)::
     max_head_rise = 0.45            # max(H)/H0 - 1 at the turbine, fraction
     max_head_m = 260.0              # head at the turbine inlet, m
     min_pressure_head_m = 5.0       # along the penstock (needs the simulator's head envelope)
+    max_reverse_speed_pct = 30.0    # against the initial rotation, % of n_r (four-quadrant characteristics)
+    max_reverse_flow_m3_s = 12.0    # against the initial flow, m^3/s (four-quadrant characteristics)
 
     [[load_cases]]                  # optional; default: the plant's own scenario as one case
     name = "rated load, normal level"
@@ -50,6 +52,20 @@ class Limits:
     # -10.4 m: vacuum, water
     min_pressure_head_m: float | None = parameter(None, unit="m", low=-10.4, low_open=True, high=1e4,
                                                   description="smallest pressure head along the penstock")
+    max_reverse_speed_pct: float | None = parameter(
+        None, unit="% of the rated speed", low=0.0, high=500.0,
+        description="largest speed against the initial rotation (characteristics over all four quadrants)")
+    max_reverse_flow_m3_s: float | None = parameter(
+        None, unit="m^3/s", low=0.0, high=1e5,
+        description="largest flow against the initial flow (characteristics over all four quadrants)")
+
+    #: Each limit: its figure, whether it bounds a maximum, and what the run needs to give the figure (said when a
+    #: case has none: the limit is then not judged).
+    JUDGED = (("max_speed_rise", True, "a run"), ("max_head_rise", True, "a run"), ("max_head_m", True, "a run"),
+              ("min_pressure_head_m", False, "the head envelope along a penstock with its profile (an MOC "
+                                             "penstock, [[penstock.segments]] elevation_start_m/elevation_end_m)"),
+              ("max_reverse_speed_pct", True, "characteristics over all four quadrants (a pump-turbine's)"),
+              ("max_reverse_flow_m3_s", True, "characteristics over all four quadrants (a pump-turbine's)"))
 
     def __post_init__(self):
         validate_parameters("limits", self)
@@ -69,17 +85,15 @@ class Limits:
         has a band is judged on its conservative side: the band's upper end for a maximum, its lower end for a
         minimum; the row then also has ``"band": [low, high]`` and ``"judged": "band"`` (else ``"point"``). A
         figure inside its limit at the point nets but outside it at the band's end FAILs: the chart does not
-        exclude it."""
+        exclude it. A row not judged has ``"why"``: the run failed, or the plant's run gives no such figure (what
+        it would need, :data:`JUDGED`)."""
         rows = []
-        for name, figure, upper in (("max_speed_rise", "max_speed_rise", True),
-                                    ("max_head_rise", "max_head_rise", True),
-                                    ("max_head_m", "max_head_m", True),
-                                    ("min_pressure_head_m", "min_pressure_head_m", False)):
-            allowed = getattr(self, name)
+        for figure, upper, needs in self.JUDGED:
+            allowed = getattr(self, figure)
             if allowed is None:
                 continue
-            value = getattr(case, figure)
-            row = {"limit": name, "allowed": allowed, "value": value, "judged": "point"}
+            value = getattr(case, figure) if hasattr(case, figure) else case.components.get(figure)
+            row = {"limit": figure, "allowed": allowed, "value": value, "judged": "point"}
             judged = value
             if band is not None and isinstance(band.get(figure), dict) and value is not None:
                 low, high = float(band[figure]["low"]), float(band[figure]["high"])
@@ -88,6 +102,8 @@ class Limits:
                 row.update(band=[low, high], judged="band")
             if not case.ok or judged is None or not math.isfinite(judged):
                 verdict = "n/a"
+                row["why"] = ("the run failed" if not case.ok else f"this plant's run gives no {figure}: it needs "
+                              f"{needs}")
             else:
                 verdict = "PASS" if (judged <= allowed if upper else judged >= allowed) else "FAIL"
             row["verdict"] = verdict

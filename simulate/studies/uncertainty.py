@@ -2,8 +2,9 @@
 
 Only the public seams are used: :func:`simulate.config.load_plant` and
 :func:`simulate.loop.engine.run_simulation(plant, characteristics)`; each member of the nets' ensemble (see
-:meth:`hillchart.nets.hill_nets.HillNets.members`) is passed as the characteristics. Cost: one simulation per member,
-the members on the machine's cores at once (:func:`simulate.loop.parallel.run_all`).
+:meth:`hillchart.nets.hill_nets.HillNets.members`, and for the Suter nets of a pump-turbine
+:meth:`simulate.components.turbine.four_quadrant.SuterCharacteristics.members`) is passed as the characteristics.
+Cost: one simulation per member, the members on the machine's cores at once (:func:`simulate.loop.parallel.run_all`).
 """
 
 from __future__ import annotations
@@ -16,8 +17,11 @@ from hillchart.errors import HillsimError, InputError
 
 #: Summary figures whose band is reported (fractions of the initial values, see SimulationResult.summary).
 BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m")
-#: Figures a run computes only with the head envelope (e.g. not on a rigid penstock): banded when every member has it.
-OPTIONAL_BAND_FIGURES = ("min_pressure_head_m",)
+#: Figures a run computes only with the head envelope (e.g. not on a rigid penstock), or only for characteristics
+#: that can reverse (:mod:`simulate.results.reversal`; a time only where the flow reversed or the unit ran away):
+#: banded when every member that ran has it.
+OPTIONAL_BAND_FIGURES = ("min_pressure_head_m", "max_reverse_speed_pct", "max_reverse_flow_m3_s",
+                         "t_flow_reversal_s", "t_runaway_s")
 #: Time series whose band over the members is drawn on ``transient.png`` (SimulationResult attributes).
 BAND_TRACES = ("speed_rpm", "head_m", "flow_m3_s", "opening")
 #: The members' spread is widened by this factor about their median (see :func:`figure_band`).
@@ -96,8 +100,8 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0), workers: int | No
     ----------
     plant : PlantConfig
         From :func:`simulate.config.load_plant`.
-    nets : HillNets, optional
-        Default: the plant's ``turbine.characteristics`` nets.json (it must hold an ensemble).
+    nets : HillNets or SuterCharacteristics of nets, optional
+        Default: the plant's ``turbine.characteristics`` nets.json (it must hold an ensemble: ``members()``).
     percentiles : (low, high), percent
     workers : int, optional
         Threads running the members (default: the cores this process may use; see

@@ -307,7 +307,7 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
 @pytest.mark.slow
 def test_the_hill_chart_of_a_plant_with_several_units_draws_every_unit():
     from data_synthetic import PLANT_TWO_UNITS
-    from hillsim.commands.report import trajectories
+    from hillsim.report_charts import trajectories
     from simulate.config import load_plant
     from simulate.loop.engine import run_simulation
 

@@ -2,9 +2,11 @@
 
 The characteristics are loaded by their kind (:mod:`simulate.components.turbine.kinds`) once per plant: every
 function that takes a plant and an optional characteristics object asks :func:`characteristics_of`, which returns
-the caller's object when one is given (an ensemble member, a user's own turbine: it overrides the plant's) and
-otherwise the plant's own, loaded at the first call and kept for that plant object while its nets.json is unchanged
-(a run reads the file once, and a steady state, a run and a step check of one plant read it once together).
+the caller's object when one is given (an ensemble member, a user's own turbine: it overrides the plant's; the
+registered kind that adopts it gives its form and its boundary, :func:`simulate.components.turbine.kinds.
+adopt_characteristics`) and otherwise the plant's own, loaded at the first call and kept for that plant object
+while its nets.json is unchanged (a run reads the file once, and a steady state, a run and a step check of one
+plant read it once together).
 
 The component also builds each unit's turbine boundary, the part of kind ``"turbine"`` the loop calls by role
 (:func:`build_turbine_part`), with the builder the characteristics' kind names
@@ -22,7 +24,8 @@ from pathlib import Path
 from typing import Any
 
 from simulate.components.registry import Bound, CompiledPart, LoopTemplate
-from simulate.components.turbine.kinds import CharacteristicKind, file_stamp, kind_of, load_kind
+from simulate.components.turbine.kinds import (CharacteristicKind, adopt_characteristics, file_stamp, kind_of,
+                                              load_kind)
 
 
 @dataclass(frozen=True)
@@ -37,8 +40,9 @@ class Turbine:
         Its characteristics (q11, m11 and their gradients), as the kind loaded them (stepped up with
         ``turbine.step_up``) or as the caller gave them.
     kind : str or None
-        The registry entry that loaded them (:data:`simulate.components.registry.CHARACTERISTICS`); None for the
-        caller's object.
+        The registry entry that loaded them (:data:`simulate.components.registry.CHARACTERISTICS`) or adopted the
+        caller's object (:func:`~simulate.components.turbine.kinds.adopt_characteristics`); None for a caller's
+        object no kind adopts.
     path : Path or None
         The nets.json they were read from (None for a registry word or the caller's object).
     stamp : tuple or None
@@ -98,10 +102,13 @@ _OWN_LOCK = threading.Lock()
 
 
 def plant_turbine(plant, characteristics=None) -> Turbine:
-    """The :class:`Turbine` of ``plant``: with ``characteristics`` given, that object (it overrides the plant's);
-    else the plant's own, loaded once per plant object (again only when its nets.json has changed)."""
+    """The :class:`Turbine` of ``plant``: with ``characteristics`` given, that object (it overrides the plant's) in
+    the form and with the kind of the registered kind that adopts it (:func:`~simulate.components.turbine.kinds.
+    adopt_characteristics`); else the plant's own, loaded once per plant object (again only when its nets.json has
+    changed)."""
     if characteristics is not None:
-        return Turbine(plant.turbine, characteristics)
+        kind, adopted = adopt_characteristics(characteristics)
+        return Turbine(plant.turbine, adopted, kind)
     key = id(plant)
     with _OWN_LOCK:
         found = _OWN.get(key)
@@ -163,7 +170,7 @@ class BoundaryInputs:
 
 
 def _boundary_builder(kind: str | None):
-    """The boundary builder of the registered kind ``kind`` (the pressure loop for the caller's own object,
+    """The boundary builder of the registered kind ``kind`` (the pressure loop for a caller's object no kind adopts,
     ``kind=None``)."""
     target = CharacteristicKind.boundary if kind is None else kind_of(kind).boundary
     module, _, name = str(target).partition(":")
@@ -203,8 +210,8 @@ def check_boundary(part, who: str) -> None:
 
 def build_turbine_part(kind: str | None, inputs: BoundaryInputs) -> CompiledPart:
     """A unit's turbine boundary, the part of kind ``"turbine"`` the loop calls by role (``step``, ``signals``),
-    built by the boundary the characteristics' kind ``kind`` names (the registry word; None for the caller's own
-    object: the pressure loop) and checked (:func:`check_boundary`)."""
+    built by the boundary the characteristics' kind ``kind`` names (the registry word; None for a caller's object no
+    kind adopts: the pressure loop) and checked (:func:`check_boundary`)."""
     part = _boundary_builder(kind)(inputs)
     check_boundary(part, "the caller's characteristics" if kind is None else f"turbine.characteristics kind {kind!r}")
     return part

@@ -93,6 +93,8 @@ class SuterCharacteristics:
         self.name = name
         self.params = (np.array([self.rated["n11_rpm"], self.rated["q11_m3_s"], self.rated["m11_nm"],
                                  self.opening_max]),) + self.curves
+        #: the :class:`hillchart.four_quadrant.nets.SuterNets` the curves are of (None for a table)
+        self.nets = None
 
     @classmethod
     def from_table(cls, wh, wm, *, openings=None, constants: SuterConstants = PLAIN, **keywords):
@@ -128,6 +130,22 @@ class SuterCharacteristics:
         cs = np.array([NETS, 0.0, 0.0, 0.0, 0.0, c.k1, c.k2, c.c_h, c.c_y, float(w1h.shape[1])])
         out = cls((cs, _EMPTY2, _EMPTY2, w1h, w1m, vh, vm), **keywords)
         out.nets = nets
+        return out
+
+    def members(self) -> list["SuterCharacteristics"]:
+        """The ensemble members of the nets (:attr:`hillchart.four_quadrant.nets.SuterNets.members`), each as
+        characteristics with the same transform, rated unit point and opening (empty for a table or nets without
+        an ensemble): what ``run --uncertainty`` runs once each."""
+        from hillchart.four_quadrant.nets import SuterNets
+
+        if self.nets is None:
+            return []
+        out = []
+        for i, (wh, wm) in enumerate(self.nets.members):
+            member = SuterNets(wh, wm, constants=self.nets.constants, convention=self.nets.convention,
+                               training=self.nets.training)
+            out.append(SuterCharacteristics.from_nets(member, rated=self.rated, opening_max=self.opening_max,
+                                                      name=f"{self.name} member {i}"))
         return out
 
     # the curves and the point, for Python callers (tests, the steady state's checks) --------------------------
@@ -370,6 +388,17 @@ def pump_turbine_rated() -> dict:
     return {"n11_rpm": doc["rated_n11_rpm"], "q11_m3_s": doc["rated_q11"], "m11_nm": doc["rated_m11_nm"]}
 
 
+def characteristics_of_nets(nets, name: str) -> SuterCharacteristics:
+    """:class:`SuterCharacteristics` of :class:`hillchart.four_quadrant.nets.SuterNets` that record their rated unit
+    point and full-stroke opening (``training.rated``, ``training.opening_max``); ``name`` for messages."""
+    training = nets.training
+    if "rated" not in training or "opening_max" not in training:
+        raise InputError(f"{name}: the simulator needs the nets' rated unit point and full-stroke opening "
+                         f"(training.rated and training.opening_max), which these nets do not record")
+    return SuterCharacteristics.from_nets(nets, rated=training["rated"], opening_max=training["opening_max"],
+                                          name=name)
+
+
 class SuterNetsKind(CharacteristicKind):
     """Nets of the Suter curves (format hillsim.suter_nets) that record their rated unit point."""
 
@@ -385,13 +414,18 @@ class SuterNetsKind(CharacteristicKind):
     def read(self, document, path):
         from hillchart.four_quadrant.nets import load_suter_nets
 
-        nets = load_suter_nets(path)
-        training = nets.training
-        if "rated" not in training or "opening_max" not in training:
-            raise InputError(f"{path}: the simulator needs the nets' rated unit point and full-stroke opening "
-                             f"(training.rated and training.opening_max), which these nets do not record")
-        return SuterCharacteristics.from_nets(nets, rated=training["rated"], opening_max=training["opening_max"],
-                                              name=str(path))
+        return characteristics_of_nets(load_suter_nets(path), str(path))
+
+    def adopt(self, characteristics):
+        """A caller's :class:`hillchart.four_quadrant.nets.SuterNets` (converted, :func:`characteristics_of_nets`)
+        or :class:`SuterCharacteristics` of nets (as they are)."""
+        from hillchart.four_quadrant.nets import SuterNets
+
+        if isinstance(characteristics, SuterNets):
+            return characteristics_of_nets(characteristics, "the caller's Suter nets")
+        if isinstance(characteristics, SuterCharacteristics) and characteristics.nets is not None:
+            return characteristics
+        return None
 
 
 class SuterCurvesKind(CharacteristicKind):
@@ -406,6 +440,12 @@ class SuterCurvesKind(CharacteristicKind):
 
     def read(self, document, path):
         return read_suter_curves(document, path)
+
+    def adopt(self, characteristics):
+        """A caller's :class:`SuterCharacteristics` of a table (as it is)."""
+        if isinstance(characteristics, SuterCharacteristics) and characteristics.nets is None:
+            return characteristics
+        return None
 
 
 class SyntheticPumpTurbineKind(CharacteristicKind):

@@ -7,6 +7,9 @@ Every entry of the registry is a :class:`CharacteristicKind`, one contract for a
 * a kind read from a nets.json (``by_word = False``) answers whether a file is its own from the file's parsed
   content, :meth:`CharacteristicKind.owns`, and builds its characteristics from it, :meth:`CharacteristicKind.read`.
   The file is read once, and the first registered kind that claims it reads it.
+* a characteristics object a caller hands the simulator (a sweep's cases, an ensemble member, a user's own nets) is
+  offered to every kind, :meth:`CharacteristicKind.adopt`; the first that adopts it gives its kind (its boundary,
+  its figures), :func:`adopt_characteristics`.
 
 How the loop evaluates the characteristics a kind returns is their compiled form
 (:mod:`simulate.components.turbine.evaluation`), chosen by what the object offers; a kind whose kernel needs its own
@@ -79,6 +82,13 @@ class CharacteristicKind:
     def read(self, document, path: Path):
         """The characteristics from a ``document`` this kind :meth:`owns`, read from ``path`` (for messages)."""
         raise TypeError(f"{type(self).__name__} is chosen by its word; it defines no read()")
+
+    def adopt(self, characteristics):
+        """The simulator's form of a caller's own ``characteristics`` object when it is of this kind (the object
+        :meth:`read` or :meth:`load` returns, or the library object a file of this kind holds), else None. A
+        caller's object thereby runs on its kind's :attr:`boundary` and gives its kind's figures, as the plant's own
+        does (:func:`adopt_characteristics`)."""
+        return None
 
 
 def ideal_from_rated(turbine):
@@ -199,6 +209,17 @@ def kind_of(name: str) -> CharacteristicKind:
         raise TypeError(f"turbine.characteristics kind {name!r} is registered as {type(kind).__name__}, not a "
                         f"CharacteristicKind")
     return kind
+
+
+def adopt_characteristics(characteristics) -> tuple[str | None, object]:
+    """``(kind, characteristics)``: the first registered kind that adopts the caller's ``characteristics``
+    (:meth:`CharacteristicKind.adopt`) and the object in the form it runs in; ``(None, characteristics)`` for an
+    object no kind adopts (it runs on the default boundary, the pressure loop on Q11(N11, a))."""
+    for name in CHARACTERISTICS.names():
+        adopted = kind_of(name).adopt(characteristics)
+        if adopted is not None:
+            return name, adopted
+    return None, characteristics
 
 
 def word_kinds() -> tuple[str, ...]:
