@@ -85,10 +85,11 @@ class ColumnSeparationConfig:
 
     water_temperature_c: float | None = parameter(
         None, unit="degC", low=0.0, high=100.0,
-        description="water temperature of the vapour pressure (dvcm; default 20 degC: 2.34 kPa)")
+        description="water temperature of the vapour pressure (dvcm, dgcm; default 20 degC: 2.34 kPa)")
     atmospheric_pressure_head_m: float | None = parameter(
         None, unit="m", low=0.0, high=20.0,
-        description="atmospheric pressure as a head of water at the plant (dvcm; default 10.33 m, sea level)")
+        description="atmospheric pressure as a head of water at the plant (dvcm, dgcm; default 10.33 m, sea "
+                    "level)")
     cavity_weighting: float | None = parameter(
         None, unit="1", low=0.5, high=1.0,
         description="weighting psi of the new flows in the cavity volume (dvcm, dgcm; default 1)")
