@@ -272,7 +272,7 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
 }, traits={
     "moc": ConduitTraits(grid_fixes_time_step=True, carries_waves=True, lumped_column=False, computes_branches=True,
                          reads=("friction_model", "column_separation", "water_temperature_c",
-                                "atmospheric_pressure_head_m", "cavity_weighting")),
+                                "atmospheric_pressure_head_m", "cavity_weighting", "gas_void_fraction")),
     "zdomain": ConduitTraits(grid_fixes_time_step=False, carries_waves=True, lumped_column=False,
                              reads=("zdomain_feedback",),
                              computes_branches=False),
@@ -288,6 +288,13 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
 FRICTION = Registry("friction", "penstock.friction_model", {
     "steady": "simulate.components.hydraulic.friction:build_steady_friction",
     "brunone": "simulate.components.hydraulic.brunone:build_brunone_friction",
+})
+#: Water-column separation models of the method of characteristics beside the MOC penstock's own discrete vapour
+#: cavity model (``"dvcm"``) and ``"off"`` (:func:`simulate.components.hydraulic.penstock.build_moc`); builders
+#: ``build(penstock, x_m, params, state, friction) -> (functions, params)``, the MOC's functions and parameters with
+#: the model's (:data:`simulate.components.hydraulic.cavitation.COLUMN_SEPARATION_MODELS` lists every model).
+COLUMN_SEPARATION = Registry("column separation", "penstock.column_separation", {
+    "dgcm": "simulate.components.hydraulic.gas_cavity:build_dgcm",
 })
 UPSTREAM = Registry("upstream", "upstream", {
     "reservoir": "simulate.components.hydraulic.reservoir:build_reservoir",

@@ -1,9 +1,9 @@
 """Head envelope along the penstock: max and min piezometric head at every computing node,
 and, with a penstock profile (``[[penstock.segments]] elevation_start_m/elevation_end_m``, m above the tailwater
 datum of the heads), the pressure head H - z, its minimum and where, and whether the water column separated: with the
-discrete vapour cavity model (``penstock.column_separation = "dvcm"``, the method of characteristics) the penstock
-reports its cavities itself (:mod:`simulate.components.hydraulic.cavitation`); otherwise a warning says the minimum
-fell below the vapour pressure, which the model does not represent.
+discrete vapour or gas cavity model (``penstock.column_separation = "dvcm"`` or ``"dgcm"``, the method of
+characteristics) the penstock reports its cavities itself (:mod:`simulate.components.hydraulic.cavitation`); otherwise
+a warning says the minimum fell below the vapour pressure, which the model does not represent.
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ def vapour_gauge_head_m(penstock) -> float:
 
 
 def separation_modelled(result) -> bool:
-    """Whether the run's penstock modelled the separation (the method of characteristics with the DVCM: its run
-    says so in the meta)."""
-    return result.meta.get("column_separation_model") == "dvcm"
+    """Whether the run's penstock modelled the separation (the method of characteristics with the DVCM or the DGCM:
+    its run says so in the meta)."""
+    return result.meta.get("column_separation_model") in ("dvcm", "dgcm")
 
 
 def envelope_table(result) -> dict[str, np.ndarray]:

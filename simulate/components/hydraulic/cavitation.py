@@ -1,7 +1,8 @@
 """Water-column separation in the method-of-characteristics conduits: the keys of the discrete vapour cavity model
-(DVCM, ``penstock.column_separation = "dvcm"``, the default), the vapour pressure of water and the vapour head at the
-computing nodes. The time-loop functions of the model are the MOC penstock's
-(:func:`simulate.components.hydraulic.penstock.moc_step_dvcm`), written with the compatibility equations there.
+(DVCM, ``penstock.column_separation = "dvcm"``, the default, and the discrete gas cavity model's, ``"dgcm"``), the
+vapour pressure of water and the vapour head at the computing nodes. The time-loop functions of the DVCM are the MOC
+penstock's (:func:`simulate.components.hydraulic.penstock.moc_step_dvcm`), written with the compatibility equations
+there.
 
 Equations numbered here (heads piezometric above the tailwater datum, m; flows m^3/s; the notation of the MOC
 module: C+ line H = C_P - B_L Q from the reach upstream of the node, C- line H = C_M + B_R Q from the reach
@@ -14,6 +15,9 @@ downstream of it)::
     (C4)  V = V_old + dt [psi (Q_out - Q_in) + (1 - psi) (Q_out,old - Q_in,old)]   cavity volume, m^3
     (C5)  V <= 0: the cavity collapses, V = 0 and the node is liquid again, (C2)
     (C6)  p_v(T): the saturation line of IAPWS-IF97, eq. (30) (quadratic in p^(1/4), theta = T + n9 / (T - n10))
+
+With ``column_separation = "dgcm"`` the discrete gas cavity model of
+:mod:`simulate.components.hydraulic.gas_cavity` takes the place of (C2)-(C5), with the same (C1), (C4) and (C6).
 
 (C1)-(C5) are the discrete vapour cavity model (Wylie and Streeter, *Fluid Transients in Systems*, 1993, ch. 8;
 reviewed as the DVCM by Bergant, Simpson and Tijsseling, "Water hammer with column separation: a historical review",
@@ -48,15 +52,26 @@ from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError
 from simulate.components.parameters import parameter, validate_parameters
 
-#: The ways a MOC conduit treats a head below the vapour head: the discrete vapour cavity model, or nothing (the
-#: head goes on falling; the turbine boundary stops the run when its net head reaches zero).
-COLUMN_SEPARATION_MODELS = ("dvcm", "off")
-#: The ``[penstock]`` keys of the DVCM (refused with ``column_separation = "off"``).
+#: The ways a MOC conduit treats a head below the vapour head: the discrete vapour cavity model, the discrete gas
+#: cavity model (:mod:`simulate.components.hydraulic.gas_cavity`), or nothing (the head goes on falling; the turbine
+#: boundary stops the run when its net head reaches zero).
+COLUMN_SEPARATION_MODELS = ("dvcm", "dgcm", "off")
+#: The names the reports give the models.
+MODEL_NAMES = {"dvcm": "discrete vapour cavity model", "dgcm": "discrete gas cavity model"}
+#: What the warnings call a cavity of each model (the DGCM's: its free gas beyond its volume at the atmospheric
+#: pressure).
+CAVITY_WORDS = {"dvcm": "vapour cavity", "dgcm": "gas cavity"}
+#: The ``[penstock]`` keys of both cavity models (refused with ``column_separation = "off"``).
 DVCM_KEYS = ("water_temperature_c", "atmospheric_pressure_head_m", "cavity_weighting")
-#: Defaults of the optional DVCM keys.
+#: The ``[penstock]`` keys of the DGCM alone (refused unless ``column_separation = "dgcm"``).
+DGCM_KEYS = ("gas_void_fraction",)
+#: Defaults of the optional keys.
 WATER_TEMPERATURE_C = 20.0
 ATMOSPHERIC_PRESSURE_HEAD_M = 10.33  # 101.325 kPa / (rho g), rho = 1000 kg/m^3, g = 9.81 m/s^2
 CAVITY_WEIGHTING = 1.0
+#: The free gas per volume of pipe at the atmospheric pressure: 1e-7, the void fraction Bergant and Simpson (1999) and
+#: He et al. (2025) run the Adelaide rig with.
+GAS_VOID_FRACTION = 1e-7
 
 #: IAPWS-IF97 coefficients n1..n10 of the saturation line, table 34.
 _IF97_N = (0.11670521452767e4, -0.72421316703206e6, -0.17073846940092e2, 0.12020824702470e5,
@@ -70,27 +85,32 @@ class ColumnSeparationConfig:
 
     water_temperature_c: float | None = parameter(
         None, unit="degC", low=0.0, high=100.0,
-        description="water temperature of the vapour pressure (dvcm; default 20 degC: 2.34 kPa)")
+        description="water temperature of the vapour pressure (dvcm, dgcm; default 20 degC: 2.34 kPa)")
     atmospheric_pressure_head_m: float | None = parameter(
         None, unit="m", low=0.0, high=20.0,
-        description="atmospheric pressure as a head of water at the plant (dvcm; default 10.33 m, sea level)")
+        description="atmospheric pressure as a head of water at the plant (dvcm, dgcm; default 10.33 m, sea "
+                    "level)")
     cavity_weighting: float | None = parameter(
         None, unit="1", low=0.5, high=1.0,
-        description="weighting psi of the new flows in the cavity volume (dvcm; default 1)")
+        description="weighting psi of the new flows in the cavity volume (dvcm, dgcm; default 1)")
+    gas_void_fraction: float | None = parameter(
+        None, unit="1", low=0.0, low_open=True, high=1e-2,
+        description="free gas per volume of pipe at the atmospheric pressure (dgcm; default 1e-7)")
 
     def __post_init__(self):
         validate_parameters("penstock", self)
 
 
 def check_penstock(penstock) -> None:
-    """The DVCM keys (:data:`DVCM_KEYS`) would be ignored with ``column_separation = "off"``: refused."""
-    if penstock.column_separation == "dvcm":
-        return
-    for key in DVCM_KEYS:
-        if getattr(penstock, key) is not None:
-            raise InputError(f"penstock.{key} = {getattr(penstock, key)!r} is a key of penstock.column_separation = "
-                             f"'dvcm'; with column_separation = {penstock.column_separation!r} it would be ignored: "
-                             f"set column_separation = \"dvcm\" or remove the key")
+    """The cavity models' keys (:data:`DVCM_KEYS`) would be ignored with ``column_separation = "off"``, the DGCM's
+    (:data:`DGCM_KEYS`) under any other model: refused."""
+    model = penstock.column_separation
+    for keys, owners in ((DVCM_KEYS, ("dvcm", "dgcm")), (DGCM_KEYS, ("dgcm",))):
+        for key in keys:
+            if model not in owners and getattr(penstock, key) is not None:
+                raise InputError(f"penstock.{key} = {getattr(penstock, key)!r} is a key of penstock.column_separation"
+                                 f" = {' or '.join(repr(o) for o in owners)}; with column_separation = {model!r} it "
+                                 f"would be ignored: set column_separation = \"{owners[-1]}\" or remove the key")
 
 
 def vapour_pressure_pa(temperature_c: float) -> float:
@@ -131,6 +151,7 @@ class VapourSettings:
     water_temperature_c: float
     atmospheric_pressure_head_m: float
     cavity_weighting: float
+    gas_void_fraction: float = GAS_VOID_FRACTION
 
     @property
     def vapour_pressure_head_m(self) -> float:
@@ -151,7 +172,8 @@ def vapour_settings(penstock) -> VapourSettings:
     return VapourSettings(getattr(penstock, "column_separation", "off"),
                           value("water_temperature_c", WATER_TEMPERATURE_C),
                           value("atmospheric_pressure_head_m", ATMOSPHERIC_PRESSURE_HEAD_M),
-                          value("cavity_weighting", CAVITY_WEIGHTING))
+                          value("cavity_weighting", CAVITY_WEIGHTING),
+                          value("gas_void_fraction", GAS_VOID_FRACTION))
 
 
 def has_profile(penstock) -> bool:
@@ -225,11 +247,13 @@ class CavityRecord:
     def settings_summary(self) -> dict:
         """The run's column-separation settings (fixed figures of the summary)."""
         out = {"column_separation_model": self.settings.model}
-        if self.settings.model == "dvcm":
+        if self.settings.model != "off":
             out.update({"water_temperature_c": self.settings.water_temperature_c,
                         "vapour_pressure_head_m": self.settings.vapour_pressure_head_m,
                         "atmospheric_pressure_head_m": self.settings.atmospheric_pressure_head_m,
                         "cavity_weighting": self.settings.cavity_weighting})
+        if self.settings.model == "dgcm":
+            out["gas_void_fraction"] = self.settings.gas_void_fraction
         return out
 
     def cavity_nodes(self) -> np.ndarray:
@@ -245,7 +269,7 @@ class CavityRecord:
         the pipe (head of water, m, and kPa), where and when."""
         track, dt = self.track, self.dt_s
         out = {}
-        if self.settings.model == "dvcm":
+        if self.settings.model != "off":
             nodes = self.cavity_nodes()
             out["max_cavity_volume_m3"] = float(track[1].max())
             out["cavity_nodes"] = int(nodes.size)
@@ -271,28 +295,29 @@ class CavityRecord:
         """Why the run stopped, when its turbine boundary found no solution with the downstream end held at the
         vapour head by a cavity ("" otherwise): the cavity is modelled, a turbine at a net head of zero or below is
         not."""
-        if self.settings.model != "dvcm" or self.totals[1] != 1.0:
+        if self.settings.model == "off" or self.totals[1] != 1.0:
             return ""
         return (f"a vapour cavity holds the downstream end of the pipe (the turbine inlet) at the vapour head, "
                 f"{self.vapour_m[-1]:.3g} m above the tailwater datum{no_profile_note(self.penstock)}, from "
                 f"t = {(self.track[6, -1] if self.track[5, -1] > 0 else 0.0) * self.dt_s:.4g} s or this step: the "
                 f"turbine's net head is not positive there, which its characteristics do not cover (the cavity is "
-                f"modelled by the discrete vapour cavity model; close the guide vanes more slowly or set the turbine "
-                f"lower)")
+                f"modelled by the {MODEL_NAMES[self.settings.model]}; close the guide vanes more slowly or set the "
+                f"turbine lower)")
 
     def warnings(self) -> list[str]:
         """One warning per node where a cavity formed (the largest :data:`MAX_CAVITY_WARNINGS`): where, when first,
         how often, and its largest volume and when."""
-        if self.settings.model != "dvcm":
+        if self.settings.model == "off":
             return []
         track, dt, nodes = self.track, self.dt_s, self.cavity_nodes()
         out = []
         for j in nodes[:MAX_CAVITY_WARNINGS]:
             count = int(track[5, j])
-            out.append(f"water-column separation: a vapour cavity formed at x = {self.x_m[j]:.4g} m from the pipe's "
-                       f"inlet (node {j} of {self.x_m.size - 1}) at t = {track[6, j] * dt:.4g} s"
+            out.append(f"water-column separation: a {CAVITY_WORDS[self.settings.model]} formed at x = "
+                       f"{self.x_m[j]:.4g} m from the pipe's inlet (node {j} of {self.x_m.size - 1}) at "
+                       f"t = {track[6, j] * dt:.4g} s"
                        f"{f' ({count} times)' if count > 1 else ''}; its largest volume {track[1, j]:.3g} m^3 at "
-                       f"t = {track[2, j] * dt:.4g} s (discrete vapour cavity model, vapour head "
+                       f"t = {track[2, j] * dt:.4g} s ({MODEL_NAMES[self.settings.model]}, vapour head "
                        f"{self.settings.gauge_vapour_head_m:.3g} m gauge){no_profile_note(self.penstock)}")
         if nodes.size > MAX_CAVITY_WARNINGS:
             out.append(f"water-column separation: vapour cavities formed at {nodes.size - MAX_CAVITY_WARNINGS} more "
@@ -300,6 +325,7 @@ class CavityRecord:
         return out
 
 
-__all__ = ["COLUMN_SEPARATION_MODELS", "DVCM_KEYS", "ColumnSeparationConfig", "check_penstock", "vapour_pressure_pa",
+__all__ = ["COLUMN_SEPARATION_MODELS", "MODEL_NAMES", "CAVITY_WORDS", "DVCM_KEYS", "DGCM_KEYS",
+           "ColumnSeparationConfig", "check_penstock", "vapour_pressure_pa",
            "vapour_pressure_head_m", "VapourSettings", "vapour_settings", "has_profile", "axis_elevations_m",
            "node_vapour_heads_m", "no_profile_note", "SIGNALS", "CavityRecord"]

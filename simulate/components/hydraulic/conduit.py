@@ -28,7 +28,7 @@ MAX_REACHES = 10000
 #: identification's linear reference of every elastic model (:mod:`simulate.identification.linear_reference`), so
 #: under another model it is kept and the run warns that it does not read it; ``zdomain_feedback`` is refused.
 MODEL_KEYS = ("lumped_alpha", "zdomain_feedback", "friction_model", "column_separation", "water_temperature_c",
-              "atmospheric_pressure_head_m", "cavity_weighting")
+              "atmospheric_pressure_head_m", "cavity_weighting", "gas_void_fraction")
 KEYS_READ_OUTSIDE_THE_RUN = ("lumped_alpha",)
 
 
@@ -129,7 +129,9 @@ class PenstockConfig:
     ``brunone_viscosity_m2_s``; a friction model's keys are refused under another). ``column_separation`` is what the
     method of characteristics does where the head falls to the vapour head
     (:mod:`simulate.components.hydraulic.cavitation`: ``"dvcm"``, the discrete vapour cavity model, with
-    ``water_temperature_c``, ``atmospheric_pressure_head_m`` and ``cavity_weighting``; ``"off"``: nothing).
+    ``water_temperature_c``, ``atmospheric_pressure_head_m`` and ``cavity_weighting``; ``"dgcm"``, the discrete gas
+    cavity model of :mod:`simulate.components.hydraulic.gas_cavity`, with the same keys and ``gas_void_fraction``;
+    ``"off"``: nothing).
     """
 
     model: str = parameter(unit="", choices=PENSTOCKS, description="the penstock model")
@@ -150,10 +152,12 @@ class PenstockConfig:
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
     column_separation: str = parameter("dvcm", unit="", choices=COLUMN_SEPARATION_MODELS,
                                        description="water-column separation in the method of characteristics: the "
-                                                   "discrete vapour cavity model, or off")
+                                                   "discrete vapour cavity model, the discrete gas cavity model, "
+                                                   "or off")
     water_temperature_c: float | None = borrowed(ColumnSeparationConfig, "water_temperature_c")
     atmospheric_pressure_head_m: float | None = borrowed(ColumnSeparationConfig, "atmospheric_pressure_head_m")
     cavity_weighting: float | None = borrowed(ColumnSeparationConfig, "cavity_weighting")
+    gas_void_fraction: float | None = borrowed(ColumnSeparationConfig, "gas_void_fraction")
 
     def __post_init__(self):
         validate_parameters("penstock", self)

@@ -412,11 +412,10 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
 #   node_heads(p, s, upstream_head_m, head_m, out)    the piezometric head at every computing node, m
 # The MOC state: (heads (2, nodes), flows (2, nodes), [current level, steps done], inflows (2, nodes), track
 # (7, nodes), [total cavity volume, 1 while the relation holds the outlet at the vapour head, open cavities]);
-# ``flows`` at the reaches' upstream ends, ``inflows`` at their downstream ends (kept while a cavity is open; the
-# same array object without column separation);
-# track rows: 0 cavity volume (m^3), 1 its largest, 2 the step of the largest, 3 the step of the lowest head, 4 the
-# lowest head (m), 5 cavities formed, 6 the step of the first.
-# Params: (B per reach, the friction model's arrays, vapour head per node (m), [dt (s), psi]).
+# ``flows`` at the reaches' upstream ends, ``inflows`` at their downstream ends (kept while a cavity is open; the same
+# array object without column separation); track rows: 0 cavity volume (m^3; the DGCM's: its gas volume), 1 its
+# largest, 2 the step of the largest, 3 the step of the lowest head, 4 the lowest head (m), 5 cavities formed, 6 the
+# step of the first. Params: (B per reach, the friction model's arrays, vapour head per node (m), [dt (s), psi]).
 @numba.njit(cache=True)
 def moc_relation(p, s, upstream_head_m):
     c = s[2][0]
@@ -558,14 +557,14 @@ def node_positions_m(penstock, model: str, dt_s: float, grid: MocGrid | None = N
 
 
 def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
-    """Compiled MOC penstock: params (B per reach, the friction model's arrays, the vapour head per node, [dt, psi]),
-    state (see the comment above :func:`moc_relation`). The friction model is ``penstock.friction_model``
-    (:data:`simulate.components.registry.FRICTION`, :mod:`simulate.components.hydraulic.friction`), bound into the
-    relation and the update (the steady model's arrays are R per reach); with ``penstock.column_separation = "dvcm"``
-    the relation, the update and the recorded cavity volumes are the discrete vapour cavity model's
-    (:mod:`simulate.components.hydraulic.cavitation`)."""
+    """Compiled MOC penstock: params (B per reach, the friction model's arrays, the vapour head per node, [dt, psi],
+    and a column-separation model's own), state (see the comment above :func:`moc_relation`). The friction model
+    (``penstock.friction_model``, :data:`simulate.components.registry.FRICTION`) is bound into the relation and the
+    update; with ``penstock.column_separation = "dvcm"`` they and the recorded cavity volumes are the discrete vapour
+    cavity model's (:mod:`simulate.components.hydraulic.cavitation`), with another model of
+    :data:`simulate.components.registry.COLUMN_SEPARATION` its module's (``"dgcm"``: the discrete gas cavity model)."""
     from simulate.components.hydraulic import cavitation
-    from simulate.components.registry import FRICTION, CompiledPart, PartHooks
+    from simulate.components.registry import COLUMN_SEPARATION, FRICTION, CompiledPart, PartHooks
 
     pen = plant.penstock
     grid = build_moc_grid(pen, dt_s)
@@ -573,7 +572,7 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
     heads, flows = moc_steady_state(grid, upstream_head_m, steady.flow_m3_s)
     x = node_positions_m(pen, "moc", dt_s, grid)
     settings = cavitation.vapour_settings(pen)
-    dvcm = settings.model == "dvcm"
+    dvcm = settings.model != "off"  # cavities: the DVCM's functions here, or another model's
     flows2 = np.vstack((flows, flows))
     track = np.zeros((7, heads.size))
     track[4] = heads
@@ -581,9 +580,11 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
              flows2.copy() if dvcm else flows2, track, np.zeros(3))
     params = (grid.impedance_s_m2, friction.arrays, cavitation.node_vapour_heads_m(pen, x, settings),
               np.array([dt_s, settings.cavity_weighting]))
-    if dvcm:
+    if settings.model == "dvcm":
         functions = {"relation": friction.bind(moc_dvcm_relation), "update": friction.bind(moc_dvcm_update),
                      "record": moc_dvcm_record}
+    elif dvcm:
+        functions, params = COLUMN_SEPARATION.builder(settings.model)(pen, x, params, state, friction)
     else:
         functions = {"relation": friction.bind(moc_relation), "update": friction.bind(moc_update)}
     functions.update({"inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads})

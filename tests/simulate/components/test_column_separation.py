@@ -147,12 +147,12 @@ def test_a_turbine_held_at_a_negative_vapour_head_stops_with_the_cavity_named():
 
 @pytest.mark.parametrize("keys,match", [
     (dict(column_separation="off", water_temperature_c=40.0),
-     r"penstock.water_temperature_c = 40.0 is a key of penstock.column_separation = 'dvcm'; with "
+     r"penstock.water_temperature_c = 40.0 is a key of penstock.column_separation = 'dvcm' or 'dgcm'; with "
      r"column_separation = 'off' it would be ignored"),
     (dict(column_separation="off", cavity_weighting=0.5), r"penstock.cavity_weighting = 0.5 is a key of"),
     (dict(cavity_weighting=0.3), r"penstock.cavity_weighting must be in \[0.5, 1.0\], got 0.3"),
     (dict(water_temperature_c=120.0), r"penstock.water_temperature_c must be in \[0.0, 100.0\], got 120.0"),
-    (dict(column_separation="gas"), r"penstock.column_separation must be one of dvcm, off; got 'gas'"),
+    (dict(column_separation="gas"), r"penstock.column_separation must be one of dvcm, dgcm, off; got 'gas'"),
     (dict(model="rigid", water_temperature_c=30.0),
      r"penstock.water_temperature_c = 30.0 is read only by penstock.model = moc; with model = 'rigid'"),
     (dict(model="rigid", column_separation="off"), r"penstock.column_separation = 'off' is read only by"),
@@ -179,29 +179,43 @@ def _rig():
 
 
 def test_bergant_simpson_rig_first_peak_and_collapse_converge():
-    """The sloping copper pipe of Bergant and Simpson (37.23 m, 22.1 mm, a = 1319 m/s, valve shut in 9 ms < 2 L/a,
-    tank 32 m above the valve; ``benchmarks/bench_column_separation.py``), default settings (the DVCM, steady
-    friction). The first peak at the valve is Joukowsky's rho a V0 above the initial pressure plus at most the
-    friction head the shut pipe packs back (rho g h_f: 39 kPa at 1.4 m/s, 2.6 kPa at 0.3 m/s); at 1.4 m/s the
-    down-surge opens a cavity at the valve and its collapse gives a second, higher peak (active column separation).
-    dt and dt/2 (32 and 64 reaches) agree on the first peak to 0.02 % and on the collapse peak to 0.07 % (bounds
-    0.1 % and 1 %) and on the collapse time to 2.2 % (bound 5 %: the DVCM's cavities along the pipe move by a step).
-    The figures held for the rig (1015 kPa at 0.3 m/s, 2057 kPa at 1.4 m/s) are printed beside these by the
-    script, not asserted (the script's docstring says why)."""
+    """The sloping copper pipe of Bergant and Simpson (37.23 m, 22.1 mm, a = 1319 m/s, rising 2.03 m to a valve shut
+    in 9 ms < 2 L/a, tank 22 m above the pipe's upstream end; ``benchmarks/bench_column_separation.py``), default
+    settings (the DVCM, steady friction). The first peak at the valve is Joukowsky's rho a V0 above the initial
+    pressure plus at most the friction head the shut pipe packs back (rho g h_f: 39 kPa at 1.4 m/s, 2.6 kPa at
+    0.3 m/s); at 0.3 m/s the collapse of the valve's first cavity gives a short pulse above it (1080 kPa against
+    693 kPa). dt and dt/2 (32 and 64 reaches) agree on the first peak to 0.02 % (bound 0.1 %), on the time the
+    valve's first cavity closed (interpolated within the step) to 0.6 % at 0.3 m/s and 0.07 % at 1.4 m/s (bound 1 %),
+    on the collapse peak to 0.01 % at 0.3 m/s (bound 1 %) and 1.4 % at 1.4 m/s (bound 2 %: the DVCM's spikes of a
+    step or two where the cavities along the pipe collapse, which the grid moves)."""
     rig = _rig()
     for v in (0.3, 1.4):
         coarse, fine = (rig.run_simulation(rig.rig_plant(v, reaches=n)) for n in (32, 64))
         p, q = rig.peaks(coarse), rig.peaks(fine)
         f = rig.blasius_friction(v)
         friction_head = f * rig.LENGTH_M / rig.DIAMETER_M * v ** 2 / (2 * G_M_S2)
-        initial = (rig.TANK_HEAD_ABOVE_VALVE_M - friction_head + 10.33) * G_M_S2  # kPa, absolute
+        initial = (rig.TANK_HEAD_M - rig.RISE_M - friction_head + 10.33) * G_M_S2  # kPa, absolute
         joukowsky = initial + rig.WAVE_SPEED_M_S * v  # rho a V0 in kPa with rho = 1000 kg/m^3
         assert joukowsky <= q.first_kpa <= joukowsky + friction_head * G_M_S2, v
         assert abs(p.first_kpa / q.first_kpa - 1.0) < 1e-3
-    assert math.isnan(rig.peaks(coarse).collapse_kpa) is False
-    assert p.collapse_kpa > p.first_kpa and q.collapse_kpa > q.first_kpa
-    assert abs(p.collapse_kpa / q.collapse_kpa - 1.0) < 1e-2
-    assert abs(p.collapse_t_s / q.collapse_t_s - 1.0) < 5e-2
+        assert abs(p.cavity_closed_t_s / q.cavity_closed_t_s - 1.0) < 1e-2, v
+        assert abs(p.collapse_kpa / q.collapse_kpa - 1.0) < (1e-2 if v < 1.0 else 2e-2), v
+        if v < 1.0:
+            assert q.collapse_kpa > 1.5 * q.first_kpa  # active column separation: the collapse pulse is the largest
     # the failing case: with column separation off the valve's head falls below its datum and the run stops
     off = rig.run_simulation(rig.rig_plant(1.4, column_separation="off"), raise_on_failure=False)
     assert not off.success and "water-column separation is not modelled" in off.message
+
+
+def test_bergant_simpson_rig_against_the_peaks_measured():
+    """The collapse peaks measured at the valve (He et al. 2025 after Bergant and Simpson 1999: 1015 kPa at 0.3 m/s,
+    2057 kPa at 1.4 m/s, absolute), dt/2, steady friction: at 1.4 m/s the DVCM comes within 1.2 % (bound 5 %); at
+    0.3 m/s it is 6.4 % above, outside 5 % (asserted as the gap it is), and Brunone's unsteady friction brings it to
+    4.5 % (bound 5 %)."""
+    rig = _rig()
+    steady = {v: rig.peaks(rig.run_simulation(rig.rig_plant(v, reaches=64))).collapse_kpa for v in (0.3, 1.4)}
+    assert abs(steady[1.4] / rig.MEASURED[1.4] - 1.0) < 0.05
+    assert abs(steady[0.3] / rig.MEASURED[0.3] - 1.0) > 0.05  # the gap of the steady friction: 1080 kPa
+    assert steady[0.3] == pytest.approx(1080.0, rel=5e-3)  # as the benchmark prints it (to the kPa: 0.05 %)
+    brunone = rig.peaks(rig.run_simulation(rig.rig_plant(0.3, reaches=64, friction_model="brunone")))
+    assert abs(brunone.collapse_kpa / rig.MEASURED[0.3] - 1.0) < 0.05

@@ -34,6 +34,7 @@ VARIANTS = {
     "lumped": ({"turbine.characteristics": "ideal", "penstock.model": "lumped"}, ()),
     "rigid": (RIGID, ()),
     "brunone": ({"turbine.characteristics": "ideal", "penstock.friction_model": "brunone"}, ()),
+    "dgcm": ({"turbine.characteristics": "ideal", "penstock.column_separation": "dgcm"}, ()),
     "power": ({**RIGID, "governor.mode": "power"}, ()),
     "opening": ({**RIGID, "governor.mode": "opening"}, PID + ("permanent_droop",)),
     "dashpot": ({**RIGID, "governor.mode": "dashpot", "governor.transient_droop": 0.3, "governor.dashpot_time_s": 5.0,
