@@ -538,6 +538,8 @@ FIGURES = {
                                       "{out}/two", "--quiet"], "two/transient.png"),
     "pump_turbine.png": _command_figure(["-m", "hillchart.four_quadrant.plots", "data_synthetic/pump_turbine", "{out}"],
                                          "pump_turbine.png"),
+    "pump_turbine_transients.png": _command_figure(
+        ["benchmarks/bench_pump_turbine_transients.py", "--figures", "{out}"], "pump_turbine_transients.png"),
 }
 
 
