@@ -69,6 +69,7 @@ def figures(plant, result) -> dict:
     four = reversal_figures(result.time_s, result.speed_rpm, result.flow_m3_s, result.opening, rated)
     out["max reverse flow (m^3/s)"] = four["max_reverse_flow_m3_s"]
     out["flow reversal (s)"] = four["t_flow_reversal_s"]
+    out["first speed peak (s)"] = four["t_runaway_s"]
     out["runaway period (s)"] = runaway_period_s(result.time_s, result.speed_rpm, 10.0)
     return out
 
