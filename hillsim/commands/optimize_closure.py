@@ -30,7 +30,7 @@ def register(subparsers) -> None:
     parser.add_argument("plant", type=Path, help="plant TOML file (optional [limits] and [[load_cases]])")
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--max-speed-rise", type=float, default=None, metavar="FRACTION",
-                       help="limit on max(n)/n0 - 1; minimize the max head rise (default: limits.max_speed_rise)")
+                       help="limit on max|n|/|n0| - 1; minimize the max head rise (default: limits.max_speed_rise)")
     group.add_argument("--max-head-rise", type=float, default=None, metavar="FRACTION",
                        help="limit on max(H)/H0 - 1; minimize the max speed rise")
     parser.add_argument("--out", type=Path, required=True, help="output directory (created if missing)")

@@ -28,7 +28,7 @@ from simulate.loop.common import CLOSED_STROKE, HEAD_FLOOR_FRACTION, run_in_chun
 from simulate.loop.generator import MANIFOLD_SERIES, UNIT_SERIES, assemble, signal_columns
 from simulate.loop.prepare import (_memo, initial_state, plant_characteristics, plant_schedules, unit_schedules,
                                    unit_turbines, units_initial_state)
-from simulate.results.result import SimulationResult, unit_figures, worst_over_units
+from simulate.results.result import SimulationResult, largest_speed_index, unit_figures, worst_over_units
 from simulate.scenarios import GOVERNOR
 
 
@@ -334,7 +334,7 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
             ref_end = float(getattr(piecewise_constant, "py_func", piecewise_constant)(
                 sched.ref_times_s, sched.ref_values, time_s[-1] + 1e-9 * dt, 0.0))
         n11 = speed * t.runner_diameter_m / np.sqrt(np.maximum(head, HEAD_FLOOR_FRACTION * t.rated_head_m))
-        figure_times = {"max_speed_rise": float(time_s[int(np.argmax(speed))]),
+        figure_times = {"max_speed_rise": float(time_s[largest_speed_index(speed)]),
                         "max_head_rise": float(time_s[int(np.argmax(head))])}
         if not several:  # the plant-level record of several units covers the figures worst over the units
             figure_times["min_head_drop"] = float(time_s[int(np.argmin(head))])

@@ -23,6 +23,29 @@ WORST_FIGURES = {"max_speed_rise": ("max", "t_max_speed_s"), "max_speed_rpm": ("
                  "min_head_drop": ("max", "t_min_head_s"), "min_head_m": ("min", "t_min_head_s")}
 
 
+def largest_speed_index(speed_rpm) -> int:
+    """The sample of the largest speed *magnitude*: the overspeed a guarantee reads, in either direction of rotation
+    (a pump's runner that trips turns back and runs away as a turbine; a unit that never reverses has the largest
+    speed there, as before)."""
+    return int(np.argmax(np.abs(np.asarray(speed_rpm, float))))
+
+
+def speed_figures(time_s, speed_rpm) -> dict:
+    """``max_speed_rise`` (|n| at :func:`largest_speed_index` over |n0|, minus 1), ``t_max_speed_s`` and
+    ``max_speed_rpm`` (that largest |n|, r/min).
+
+    Examples
+    --------
+    >>> f = speed_figures(np.array([0.0, 1.0, 2.0, 3.0]), np.array([-100.0, -60.0, 20.0, 130.0]))
+    >>> round(f["max_speed_rise"], 9), f["t_max_speed_s"], f["max_speed_rpm"]
+    (0.3, 3.0, 130.0)
+    """
+    speed = np.asarray(speed_rpm, float)
+    i = largest_speed_index(speed)
+    return {"max_speed_rise": float(abs(speed[i]) / abs(speed[0]) - 1.0), "t_max_speed_s": float(time_s[i]),
+            "max_speed_rpm": float(abs(speed[i]))}
+
+
 def unit_figures(time_s: np.ndarray, series: dict, rated_speed_rpm: float) -> dict:
     """Summary figures of one unit of a plant with several units (the names and meanings of
     :meth:`SimulationResult.summary`); ``series`` holds :data:`UNIT_COLUMNS` and ``speed_reference_rpm``.
@@ -39,8 +62,7 @@ def unit_figures(time_s: np.ndarray, series: dict, rated_speed_rpm: float) -> di
     speed, head = np.asarray(series["speed_rpm"]), np.asarray(series["head_m"])
     n0, h0 = float(speed[0]), float(head[0])
     return {
-        "max_speed_rise": float(speed.max() / n0 - 1.0), "t_max_speed_s": float(time_s[int(np.argmax(speed))]),
-        "max_speed_rpm": float(speed.max()),
+        **speed_figures(time_s, speed),
         "max_head_rise": float(head.max() / h0 - 1.0), "max_head_m": float(head.max()),
         "t_max_head_s": float(time_s[int(np.argmax(head))]),
         "min_head_drop": float(1.0 - head.min() / h0), "min_head_m": float(head.min()),
@@ -157,7 +179,8 @@ class SimulationResult:
     def summary(self) -> dict:
         """Summary figures (fractions of the initial values unless the name says otherwise).
 
-        ``max_speed_rise`` max(n)/n0 - 1; ``t_max_speed_s``; ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
+        ``max_speed_rise`` max|n|/|n0| - 1 (the largest speed in either direction: :func:`speed_figures`),
+        ``t_max_speed_s``, ``max_speed_rpm`` (that |n|); ``max_head_rise`` max(H)/H0 - 1; ``min_head_drop``
         1 - min(H)/H0; ``final_speed_error`` (n_end - n_ref)/n_rated with n_ref the final speed reference;
         ``max_head_m``/``min_head_m`` at the turbine (m) and when; the head envelope along the penstock
         (``envelope_*``; with a profile ``min_pressure_head_m`` and where, ``column_separation``);
@@ -178,11 +201,9 @@ class SimulationResult:
         [0.1, 1.0, 0.2, 0.1, 0.005, 3.0, 4]
         """
         n0, h0 = float(self.speed_rpm[0]), float(self.head_m[0])
-        i_max = int(np.argmax(self.speed_rpm))
         steps = self.iterations[1:]
         out = {
-            "max_speed_rise": float(self.speed_rpm.max() / n0 - 1.0),
-            "t_max_speed_s": float(self.time_s[i_max]),
+            **speed_figures(self.time_s, self.speed_rpm),
             "max_head_rise": float(self.head_m.max() / h0 - 1.0),
             "min_head_drop": float(1.0 - self.head_m.min() / h0),
             "final_speed_error": float((self.speed_rpm[-1] - self.speed_reference_rpm) / self.rated_speed_rpm),
@@ -192,7 +213,6 @@ class SimulationResult:
             "max_head_m": float(self.head_m.max()),
             "min_head_m": float(self.head_m.min()),
             "t_min_head_s": float(self.time_s[int(np.argmin(self.head_m))]),
-            "max_speed_rpm": float(self.speed_rpm.max()),
             "initial_speed_rpm": n0,
             "initial_head_m": h0,
             "initial_flow_m3_s": float(self.flow_m3_s[0]),

@@ -6,7 +6,7 @@ reads the TOML, takes ``limits`` and ``load_cases`` out, and builds the plant fr
 names)::
 
     [limits]                        # every key optional
-    max_speed_rise = 0.50           # max(n)/n0 - 1, fraction
+    max_speed_rise = 0.50           # max|n|/|n0| - 1, fraction
     max_head_rise = 0.45            # max(H)/H0 - 1 at the turbine, fraction
     max_head_m = 260.0              # head at the turbine inlet, m
     min_pressure_head_m = 5.0       # along the penstock (needs the simulator's head envelope)

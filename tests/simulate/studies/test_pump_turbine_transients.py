@@ -71,3 +71,17 @@ def test_the_flow_reversal_time_converges_below_the_plant_step(measured):
              ["flow reversal (s)"] for r in (20, 40, 80)]
     assert abs(times[1] / times[0] - 1) > 0.005  # the failing case: the plant's step
     assert abs(times[2] / times[1] - 1) < 0.001
+
+
+@pytest.mark.slow
+def test_a_pump_trip_s_max_speed_rise_is_its_reverse_runaway(measured):
+    """The summary's max speed rise is the largest speed in either direction over the initial |n0|: a pump trip
+    starting at -n_r and running away at +1.479 n_r rises by 47.9 %, at the reverse runaway's peak (17.92 s). The
+    failing case it replaces: max(n) / n0 - 1 of the signed speed gave -247.9 %."""
+    plant, result, figures = measured["pump trip"]["nets"]
+    summary = result.summary()
+    assert result.speed_rpm[0] == pytest.approx(-plant.turbine.rated_speed_rpm, rel=1e-9)
+    assert summary["max_speed_rise"] == pytest.approx(figures["max speed (% n_r)"] / 100 - 1, rel=1e-12)
+    assert 0.45 < summary["max_speed_rise"] < 0.50
+    assert summary["t_max_speed_s"] == pytest.approx(figures["first speed peak (s)"], abs=0.03)
+    assert result.speed_rpm.max() / result.speed_rpm[0] - 1 < -2.4  # the signed reading it replaces
