@@ -44,8 +44,9 @@ from hillchart.errors import InputError
 from hillchart.four_quadrant.suter import PLAIN, SuterConstants
 from simulate.components.registry import CompiledPart, PartHooks
 from simulate.components.turbine.kinds import CharacteristicKind
-from simulate.components.turbine.suter_kernels import (NETS, STATUS_TEXT, TABLE, TWO_PI, solve_shifted_flow,
-                                                       suter_point, unit_head_flow)
+from simulate.components.turbine.suter_kernels import (INVALID_POINT, NETS, NOT_BRACKETED, OPENING_OUTSIDE,
+                                                       STATUS_TEXT, TABLE, TWO_PI, solve_shifted_flow, suter_point,
+                                                       unit_head_flow)
 
 #: Largest relative difference between the plant's rated speed, flow and torque and those of the characteristics'
 #: rated unit point at the plant's D1 and H_r.
@@ -239,11 +240,27 @@ def suter_signals(p, s):
     return s[0][0], s[0][1], s[0][2]
 
 
+#: What to change when the boundary's step fails with a status (:func:`suter_step_failure`).
+STEP_ADVICE = {
+    OPENING_OUTSIDE: "the curves end at their smallest and largest openings: keep the guide-vane stroke within "
+                     "them (a closure to the closed vanes needs curves that reach them; end it at the smallest "
+                     "opening the table holds)",
+    INVALID_POINT: "the curves give no head there, most often below the smallest opening they were made from (nets "
+                   "extrapolate there): keep the guide-vane stroke within the table's openings, or give curves that "
+                   "cover the point",
+    NOT_BRACKETED: "the operating point left the curves' branch it was on: a smaller step (more penstock reaches) "
+                   "follows a fast change; check the curves are continuous in the Suter angle there",
+}
+
+
 def suter_step_failure(status: int, diag, conduit: str) -> tuple[str, str]:
-    """The boundary's own words for a failed step (:attr:`simulate.components.registry.PartHooks.step_failure`)."""
+    """The boundary's own words for a failed step (:attr:`simulate.components.registry.PartHooks.step_failure`),
+    with what to change (:data:`STEP_ADVICE`)."""
+    advice = STEP_ADVICE.get(status)
     return (f"the four-quadrant boundary {STATUS_TEXT.get(status, f'failed (status {status})')}",
             f"speed v = {diag[1]:.6g} of n_r, opening y = {diag[2]:.6g}, {conduit} relation H = {diag[3]:.6g} + "
-            f"({diag[4]:.6g}) Q, last shifted flow w = {diag[5]:.6g} (q = {diag[6]:.6g} of Q_r)")
+            f"({diag[4]:.6g}) Q, last shifted flow w = {diag[5]:.6g} (q = {diag[6]:.6g} of Q_r)"
+            + (f"; {advice}" if advice else ""))
 
 
 def rated_bases(characteristics: SuterCharacteristics, turbine) -> tuple[float, float, float, float]:

@@ -85,3 +85,29 @@ def test_a_pump_trip_s_max_speed_rise_is_its_reverse_runaway(measured):
     assert 0.45 < summary["max_speed_rise"] < 0.50
     assert summary["t_max_speed_s"] == pytest.approx(figures["first speed peak (s)"], abs=0.03)
     assert result.speed_rpm.max() / result.speed_rpm[0] - 1 < -2.4  # the signed reading it replaces
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("characteristics, stroke, words", [
+    (None, 0.0245, "no finite positive head"),  # the shipped nets, extrapolating below their 4 mm
+    ("synthetic-pump-turbine", 0.0355, "an opening outside the curves' openings"),  # tabulated from 1 mm
+])
+def test_a_pump_mode_closure_to_zero_stops_where_the_curves_end_and_says_what_to_change(characteristics, stroke,
+                                                                                         words):
+    """The curves hold no closed-vane state: a closure-law run in pump mode (0.7 to 0 in 10 s) stops when the stroke
+    leaves them, names the opening it reached and what to change, and keeps the series up to there."""
+    from bench_pump_turbine_transients import PLANT
+
+    from simulate.config import load_plant
+    from simulate.loop.engine import run_simulation
+
+    overrides = {"turbine.operating_mode": "pump", "scenario.t_end_s": 12.0, "scenario.kind": "closure-law",
+                 "scenario.closing_time_s": 10.0}
+    if characteristics:
+        overrides["turbine.characteristics"] = characteristics
+    result = run_simulation(load_plant(PLANT, overrides), raise_on_failure=False)
+    assert not result.success
+    assert words in result.message and "keep the guide-vane stroke within" in result.message
+    # the stroke it stopped at: 0.7 (1 - t / 10 s) one step past where the curves end
+    assert float(result.opening[-1]) == pytest.approx(stroke, abs=0.003)
+    assert result.time_s[-1] > 7.0 and result.flow_m3_s.size > 250  # the series up to there
