@@ -15,12 +15,18 @@ BENCH = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_pump_turbine
 
 
 @pytest.fixture(scope="module")
-def measured():
+def bench():
+    """The benchmark module, loaded from its file (each test worker loads it for itself)."""
     spec = importlib.util.spec_from_file_location("bench_pump_turbine_transients", BENCH)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
-    return module.measure()
+    return module
+
+
+@pytest.fixture(scope="module")
+def measured(bench):
+    return bench.measure()
 
 
 def _figures(measured, case):
@@ -62,12 +68,10 @@ def test_halving_the_step_moves_every_figure_by_less_than_half_a_percent(measure
 
 
 @pytest.mark.slow
-def test_the_flow_reversal_time_converges_below_the_plant_step(measured):
+def test_the_flow_reversal_time_converges_below_the_plant_step(bench):
     """20 -> 40 reaches moves the rejection's flow reversal by 0.56 %; 40 -> 80 by 0.04 %: the plant's step is the
     only one coarse for that figure; at 40 reaches it is within the 0.5 % bound (8 s runs: past the reversal)."""
-    from bench_pump_turbine_transients import figures, run
-
-    times = [figures(*run("turbine-mode rejection", {"penstock.reaches": r, "scenario.t_end_s": 8.0}))
+    times = [bench.figures(*bench.run("turbine-mode rejection", {"penstock.reaches": r, "scenario.t_end_s": 8.0}))
              ["flow reversal (s)"] for r in (20, 40, 80)]
     assert abs(times[1] / times[0] - 1) > 0.005  # the failing case: the plant's step
     assert abs(times[2] / times[1] - 1) < 0.001
@@ -92,12 +96,10 @@ def test_a_pump_trip_s_max_speed_rise_is_its_reverse_runaway(measured):
     (None, 0.0245, "no finite positive head"),  # the shipped nets, extrapolating below their 4 mm
     ("synthetic-pump-turbine", 0.0355, "an opening outside the curves' openings"),  # tabulated from 1 mm
 ])
-def test_a_pump_mode_closure_to_zero_stops_where_the_curves_end_and_says_what_to_change(characteristics, stroke,
-                                                                                         words):
+def test_a_pump_mode_closure_to_zero_stops_where_the_curves_end_and_says_what_to_change(bench, characteristics,
+                                                                                         stroke, words):
     """The curves hold no closed-vane state: a closure-law run in pump mode (0.7 to 0 in 10 s) stops when the stroke
     leaves them, names the opening it reached and what to change, and keeps the series up to there."""
-    from bench_pump_turbine_transients import PLANT
-
     from simulate.config import load_plant
     from simulate.loop.engine import run_simulation
 
@@ -105,7 +107,7 @@ def test_a_pump_mode_closure_to_zero_stops_where_the_curves_end_and_says_what_to
                  "scenario.closing_time_s": 10.0}
     if characteristics:
         overrides["turbine.characteristics"] = characteristics
-    result = run_simulation(load_plant(PLANT, overrides), raise_on_failure=False)
+    result = run_simulation(load_plant(bench.PLANT, overrides), raise_on_failure=False)
     assert not result.success
     assert words in result.message and "keep the guide-vane stroke within" in result.message
     # the stroke it stopped at: 0.7 (1 - t / 10 s) one step past where the curves end
