@@ -30,19 +30,22 @@ def largest_speed_index(speed_rpm) -> int:
     return int(np.argmax(np.abs(np.asarray(speed_rpm, float))))
 
 
-def speed_figures(time_s, speed_rpm) -> dict:
-    """``max_speed_rise`` (|n| at :func:`largest_speed_index` over |n0|, minus 1), ``t_max_speed_s`` and
-    ``max_speed_rpm`` (that largest |n|, r/min).
+def speed_figures(time_s, speed_rpm, rated_speed_rpm: float) -> dict:
+    """``max_speed_rise`` (|n| at :func:`largest_speed_index` over |n0|, minus 1; over the rated speed for a run
+    that starts at standstill, n0 = 0), ``t_max_speed_s`` and ``max_speed_rpm`` (that largest |n|, r/min).
 
     Examples
     --------
-    >>> f = speed_figures(np.array([0.0, 1.0, 2.0, 3.0]), np.array([-100.0, -60.0, 20.0, 130.0]))
+    >>> f = speed_figures(np.array([0.0, 1.0, 2.0, 3.0]), np.array([-100.0, -60.0, 20.0, 130.0]), 100.0)
     >>> round(f["max_speed_rise"], 9), f["t_max_speed_s"], f["max_speed_rpm"]
     (0.3, 3.0, 130.0)
+    >>> round(speed_figures(np.array([0.0, 1.0]), np.array([0.0, 104.0]), 100.0)["max_speed_rise"], 9)  # start-up
+    0.04
     """
     speed = np.asarray(speed_rpm, float)
     i = largest_speed_index(speed)
-    return {"max_speed_rise": float(abs(speed[i]) / abs(speed[0]) - 1.0), "t_max_speed_s": float(time_s[i]),
+    base = abs(speed[0]) if speed[0] != 0.0 else float(rated_speed_rpm)
+    return {"max_speed_rise": float(abs(speed[i]) / base - 1.0), "t_max_speed_s": float(time_s[i]),
             "max_speed_rpm": float(abs(speed[i]))}
 
 
@@ -62,7 +65,7 @@ def unit_figures(time_s: np.ndarray, series: dict, rated_speed_rpm: float) -> di
     speed, head = np.asarray(series["speed_rpm"]), np.asarray(series["head_m"])
     n0, h0 = float(speed[0]), float(head[0])
     return {
-        **speed_figures(time_s, speed),
+        **speed_figures(time_s, speed, rated_speed_rpm),
         "max_head_rise": float(head.max() / h0 - 1.0), "max_head_m": float(head.max()),
         "t_max_head_s": float(time_s[int(np.argmax(head))]),
         "min_head_drop": float(1.0 - head.min() / h0), "min_head_m": float(head.min()),
@@ -203,7 +206,7 @@ class SimulationResult:
         n0, h0 = float(self.speed_rpm[0]), float(self.head_m[0])
         steps = self.iterations[1:]
         out = {
-            **speed_figures(self.time_s, self.speed_rpm),
+            **speed_figures(self.time_s, self.speed_rpm, self.rated_speed_rpm),
             "max_head_rise": float(self.head_m.max() / h0 - 1.0),
             "min_head_drop": float(1.0 - self.head_m.min() / h0),
             "final_speed_error": float((self.speed_rpm[-1] - self.speed_reference_rpm) / self.rated_speed_rpm),

@@ -17,6 +17,8 @@
                      ``field_step_pu`` at ``event_time_s`` (speed held, no voltage control).
 ``grid-frequency-step`` sub-transient generator on an infinite bus under its governor; the bus frequency steps by
                      ``grid_frequency_steps`` (per unit, cumulative) at ``step_times_s``.
+``start-up``         the unit at standstill, vanes closed, breaker open; at ``event_time_s`` the governor opens the
+                     vanes (at most to ``governor.stroke_max``) and runs the unit up to rated speed.
 """
 
 from simulate.scenarios.base import (  # noqa: F401  (the public names of the package)
@@ -30,6 +32,7 @@ from simulate.scenarios.opening_steps import OpeningSteps  # noqa: F401
 from simulate.scenarios.short_circuit import ShortCircuit  # noqa: F401
 from simulate.scenarios.field_step import FieldStep  # noqa: F401
 from simulate.scenarios.grid_frequency_step import GridFrequencyStep  # noqa: F401
+from simulate.scenarios.start_up import StartUp  # noqa: F401
 
 if set(SCENARIO_CLASSES) != set(SCENARIO_KINDS):
     raise ImportError(f"scenario kinds without a class: {sorted(set(SCENARIO_KINDS) - set(SCENARIO_CLASSES))}")

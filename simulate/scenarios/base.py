@@ -16,7 +16,7 @@ from simulate.components.schedules import GOVERNOR, PRESCRIBED  # noqa: F401  (t
 
 
 SCENARIO_KINDS = ("load-rejection", "closure-law", "frequency-steps", "load-step", "opening-steps", "short-circuit",
-                  "field-step", "grid-frequency-step")
+                  "field-step", "grid-frequency-step", "start-up")
 
 #: Keys each scenario kind accepts beyond ``kind`` and ``t_end_s`` (required ones first in the docs).
 SCENARIO_KEYS = {
@@ -29,6 +29,7 @@ SCENARIO_KEYS = {
     "short-circuit": ("event_time_s",),
     "field-step": ("event_time_s", "field_step_pu"),
     "grid-frequency-step": ("initial_power_mw", "initial_opening", "grid_frequency_steps", "step_times_s"),
+    "start-up": ("event_time_s",),
 }
 
 #: What a list key of the scenario takes.

@@ -45,8 +45,9 @@ from hillchart.four_quadrant.suter import PLAIN, SuterConstants
 from simulate.components.registry import CompiledPart, PartHooks
 from simulate.components.turbine.kinds import CharacteristicKind
 from simulate.components.turbine.suter_kernels import (INVALID_POINT, NETS, NOT_BRACKETED, OPENING_OUTSIDE,
-                                                       STATUS_TEXT, TABLE, TWO_PI, solve_shifted_flow, suter_point,
-                                                       unit_head_flow)
+                                                       STATUS_TEXT, TABLE, TWO_PI, closed_vane_point,
+                                                       solve_shifted_flow, suter_point, unit_head_flow,
+                                                       zero_flow_torque)
 
 #: Largest relative difference between the plant's rated speed, flow and torque and those of the characteristics'
 #: rated unit point at the plant's D1 and H_r.
@@ -93,7 +94,7 @@ class SuterCharacteristics:
         self.opening_max = float(opening_max)
         self.name = name
         self.params = (np.array([self.rated["n11_rpm"], self.rated["q11_m3_s"], self.rated["m11_nm"],
-                                 self.opening_max]),) + self.curves
+                                 self.opening_max, self.smallest_opening]),) + self.curves
         #: the :class:`hillchart.four_quadrant.nets.SuterNets` the curves are of (None for a table)
         self.nets = None
 
@@ -132,6 +133,21 @@ class SuterCharacteristics:
         out = cls((cs, _EMPTY2, _EMPTY2, w1h, w1m, vh, vm), **keywords)
         out.nets = nets
         return out
+
+    @property
+    def smallest_opening(self) -> float:
+        """The smallest relative opening the curves were made from (a table's first row; the nets' smallest
+        training opening), below which the guide vanes close on the closed-vane model (:func:`simulate.components.
+        turbine.suter_kernels.closed_vane_point`); 0 for curves of x alone (a pump without vanes)."""
+        cs, w1h, w1m, vh, vm = self.curves[0], self.curves[3], self.curves[4], self.curves[5], self.curves[6]
+        if cs[0] == TABLE:
+            return float(cs[3]) if int(cs[2]) > 1 else 0.0
+        floors = []
+        for w1, vec in ((w1h, vh), (w1m, vm)):
+            hidden, n_in = w1.shape
+            if n_in == 3:
+                floors.append(float(vec[2 * hidden + 1 + 2]))  # x_min of the opening input (_net's layout)
+        return max(floors, default=0.0)
 
     def members(self) -> list["SuterCharacteristics"]:
         """The ensemble members of the nets (:attr:`hillchart.four_quadrant.nets.SuterNets.members`), each as
@@ -183,12 +199,25 @@ class SuterCharacteristics:
 
 @numba.njit(cache=True)
 def _unit_point(params, n11, opening):
+    """Q11, M11 at unit head; below the smallest opening on the closed-vane model (:func:`simulate.components.
+    turbine.suter_kernels.closed_vane_point`): the flow at the smallest opening scaled, the torque blended."""
     scal = params[0]
-    q, m, ok = unit_head_flow(params[1], params[2], params[3], params[4], params[5], params[6], params[7],
-                              n11 / scal[0], opening / scal[3], STEADY_SCAN)
+    v, y, y_floor = n11 / scal[0], opening / scal[3], scal[4]
+    r = 1.0
+    if y < y_floor:
+        r, y = max(y, 0.0) / y_floor, y_floor
+    m0 = 0.0
+    if r < 1.0:
+        m0, st = zero_flow_torque(params[1], params[2], params[3], params[4], params[5], params[6], params[7], v, y)
+        if st != 0:
+            return np.nan, np.nan
+        if r == 0.0:
+            return 0.0, m0 * scal[2]
+    q, m, ok = unit_head_flow(params[1], params[2], params[3], params[4], params[5], params[6], params[7], v, y,
+                              STEADY_SCAN)
     if not ok:
         return np.nan, np.nan
-    return q * scal[1], m * scal[2]
+    return r * q * scal[1], (r * m + (1.0 - r) * m0) * scal[2]
 
 
 @numba.njit(cache=True)
@@ -213,16 +242,25 @@ def suter_unit_kernel(params, n11, opening):
 def suter_step(p, s, c_l_m, k, speed_rpm, controls, diag):
     """Head, flow and torque against H = C_L + k Q (k <= 0, m per m^3/s) at the speed and the guide-vane stroke
     ``controls[0]``: the shifted flow w next to the last step's (state ``s[0][3]``) by
-    :func:`~simulate.components.turbine.suter_kernels.solve_shifted_flow`; ``p[0]``: H_r, Q_r, n_r, M_r, the
-    relative opening per unit of stroke. On failure ``diag[1:7]`` holds v, y, C_L, k, the last w, q."""
+    :func:`~simulate.components.turbine.suter_kernels.solve_shifted_flow`; below the curves' smallest opening on
+    the closed-vane model (:func:`~simulate.components.turbine.suter_kernels.closed_vane_point`: the smallest
+    opening's curves with the head relation's slope scaled by r = y / y_f). ``p[0]``: H_r, Q_r, n_r, M_r, the
+    relative opening per unit of stroke, y_f. On failure ``diag[1:7]`` holds v, y, C_L, k, the last w, q."""
     b = p[0]
-    h_r, q_r, n_r, m_r = b[0], b[1], b[2], b[3]
+    h_r, q_r, n_r, m_r, y_floor = b[0], b[1], b[2], b[3], b[5]
     v = speed_rpm / n_r
     y = controls[0] * b[4]
+    r = 1.0
+    if y < y_floor:
+        r = max(y, 0.0) / y_floor
     state = s[0]
-    w, status, iterations = solve_shifted_flow(p[1], p[2], p[3], p[4], p[5], p[6], p[7], v, y, c_l_m / h_r,
-                                               k * q_r / h_r, state[3], BOUNDARY_TOL, BOUNDARY_MAX_ITER)
-    q, h, m, st = suter_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y)
+    w, status, iterations = solve_shifted_flow(p[1], p[2], p[3], p[4], p[5], p[6], p[7], v, max(y, y_floor),
+                                               c_l_m / h_r, r * k * q_r / h_r, state[3], BOUNDARY_TOL,
+                                               BOUNDARY_MAX_ITER)
+    if r < 1.0:
+        q, h, m, st = closed_vane_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y, y_floor, r)
+    else:
+        q, h, m, st = suter_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y)
     if status == 0 and st != 0:
         status = st
     if status != 0:
@@ -242,12 +280,11 @@ def suter_signals(p, s):
 
 #: What to change when the boundary's step fails with a status (:func:`suter_step_failure`).
 STEP_ADVICE = {
-    OPENING_OUTSIDE: "the curves end at their smallest and largest openings: keep the guide-vane stroke within "
-                     "them (a closure to the closed vanes needs curves that reach them; end it at the smallest "
-                     "opening the table holds)",
-    INVALID_POINT: "the curves give no head there, most often below the smallest opening they were made from (nets "
-                   "extrapolate there): keep the guide-vane stroke within the table's openings, or give curves that "
-                   "cover the point",
+    OPENING_OUTSIDE: "the curves end at their largest opening: keep the guide-vane stroke at or below it "
+                     "(turbine.opening_max against the opening of the curves' full stroke, governor.stroke_max)",
+    INVALID_POINT: "the curves give no finite positive head there (nets far from the points they were trained on "
+                   "can): give curves that cover the point, e.g. a table with more points near it, or keep the "
+                   "run away from it",
     NOT_BRACKETED: "the operating point left the curves' branch it was on: a smaller step (more penstock reaches) "
                    "follows a fast change; check the curves are continuous in the Suter angle there",
 }
@@ -301,6 +338,28 @@ def refuse_pressure_loop_keys(solver) -> None:
                              f"would ignore it: remove the key")
 
 
+def initial_shifted_flow(chars: SuterCharacteristics, steady, scal) -> float:
+    """The shifted flow w of the steady state (relative; ``scal`` as :func:`build_suter_boundary` makes it): at or
+    above the smallest opening q + k2 sqrt(h); below it the smallest opening's w of the flow q / r; with the vanes
+    closed (r = 0, no flow) the smallest opening's w that gives the head at the speed, on the side of turbine flow
+    (the way the water would go if the vanes opened), solved as the boundary solves."""
+    k2 = float(chars.curves[0][6])
+    q0, h0 = steady.flow_m3_s / scal[1], steady.head_m / scal[0]
+    y, y_floor = steady.stroke * scal[4], scal[5]
+    r = min(max(y, 0.0) / y_floor, 1.0) if y < y_floor else 1.0
+    if r > 0.0:
+        return q0 / r + k2 * math.sqrt(max(h0, 0.0))
+    guess = (1.0 + k2) * math.sqrt(max(h0, 0.0))
+    w, status, _ = solve_shifted_flow(*chars.curves, steady.speed_rpm / scal[2], y_floor, h0, 0.0, guess,
+                                      BOUNDARY_TOL, BOUNDARY_MAX_ITER)
+    if status != 0:
+        raise InputError(f"{chars.name}: with the guide vanes closed the curves at their smallest opening "
+                         f"{y_floor:.6g} give no point at the steady head {steady.head_m:.6g} m and speed "
+                         f"{steady.speed_rpm:.6g} r/min ({STATUS_TEXT.get(status, status)}): give curves that "
+                         f"cover that point, or start with the vanes open")
+    return float(w)
+
+
 def build_suter_boundary(inputs) -> CompiledPart:
     """The four-quadrant boundary of one unit (``inputs``: :class:`simulate.components.turbine.component.
     BoundaryInputs`), started from its steady state."""
@@ -310,10 +369,8 @@ def build_suter_boundary(inputs) -> CompiledPart:
     refuse_pressure_loop_keys(inputs.solver)
     turbine, steady = inputs.turbine, inputs.steady
     h_r, q_r, n_r, m_r = rated_bases(chars, turbine)
-    k2 = float(chars.curves[0][6])
-    q0, h0 = steady.flow_m3_s / q_r, steady.head_m / h_r
-    w0 = q0 + k2 * math.sqrt(max(h0, 0.0))
-    scal = np.array([h_r, q_r, n_r, m_r, turbine.opening_max / chars.opening_max])
+    scal = np.array([h_r, q_r, n_r, m_r, turbine.opening_max / chars.opening_max, chars.smallest_opening])
+    w0 = initial_shifted_flow(chars, steady, scal)
     return CompiledPart(kind="turbine", name="four-quadrant", functions={"step": suter_step, "signals": suter_signals},
                         params=(scal,) + chars.curves,
                         state=(np.array([steady.head_m, steady.flow_m3_s, steady.torque_nm, w0]),),

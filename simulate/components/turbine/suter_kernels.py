@@ -19,10 +19,25 @@ the definitions give at a fixed x (WH (q^2 + v^2 + C_h h) = (y + C_y)^2 h with q
 
     (A - WH k2^2) s^2 + 2 WH k2 w s - WH (w^2 + v^2) = 0,     A = (y + C_y)^2 - C_h WH
 
-whose product of roots is negative: one positive root when WH > 0 and A - WH k2^2 > 0 (otherwise no finite
-positive head has this WH: the point is invalid). The torque is m = WM (q^2 + v^2 + C_h h) / (y + C_y)^2 - k1 h
+whose product of roots is negative when A - WH k2^2 > 0: one positive root. When A - WH k2^2 <= 0 (small openings
+near zero speed, where WH nears (y + C_y)^2 / (C_h + k2^2)) both roots have the sign of k2 w: the smaller positive
+one is the point (the larger tends to infinity as A - WH k2^2 rises to 0). The point is invalid where WH <= 0 or
+A <= 0 (no finite positive head has this WH) or no root is positive. The torque is m = WM (q^2 + v^2 + C_h h) / (y + C_y)^2 - k1 h
 (plain: WM (q^2 + v^2)), :func:`hillchart.four_quadrant.suter.inverse_suter_transform` in compiled form. Through
 zero speed nothing changes: at v = 0 the angle is pi/2 or 3 pi/2 by the sign of w, and h tends to 0 with w.
+
+Below the curves' smallest opening y_f (the closed vanes, :func:`closed_vane_point`): the curves end at the smallest
+opening they were made from, and the guide vanes close below it. There the machine is the one at y_f with its flow
+scaled by r = y / y_f (a throat area proportional to the opening, as the hill chart's extension to zero opening
+takes Q11 proportional to the opening), and its torque blended from the y_f machine's at that point to the
+torque it has at zero flow at the same speed (the runner turning in the water of the closed casing)::
+
+    q = r q_f(w),   h = h_f(w),   m = r m_f(w) + (1 - r) m_0(v),   r = y / y_f
+
+so the head relation h = c + b q is the y_f machine's with b r in place of b (one solve, as above), and at y = 0 the
+flow is zero and the head the conduit's. m_0(v) is the y_f machine's torque where q_f = 0 at speed v
+(:func:`zero_flow_torque`). The blend is an assumption of this simulator, the simplest that is continuous at y_f
+and has zero flow at the closed vanes; the curves themselves say nothing below y_f.
 """
 
 from __future__ import annotations
@@ -108,18 +123,68 @@ def suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y):
         return w, wh * r2, wm * r2, 0
     factor = (y + c_y) ** 2
     a2 = factor - c_h * wh - wh * k2 * k2
-    if not (wh > 0.0 and a2 > 0.0):
+    if not (wh > 0.0 and factor - c_h * wh > 0.0):
         return 0.0, 0.0, 0.0, INVALID_POINT
     if r2 == 0.0:
         s = 0.0
     else:
-        root = math.sqrt((wh * k2 * w) ** 2 + a2 * wh * r2)
-        # the positive root, written without cancellation on either side of w = 0
+        disc = (wh * k2 * w) ** 2 + a2 * wh * r2
+        if disc < 0.0 or (a2 <= 0.0 and wh * k2 * w <= 0.0):  # a2 <= 0: both roots of one sign, that of k2 w
+            return 0.0, 0.0, 0.0, INVALID_POINT
+        root = math.sqrt(disc)
+        # the positive root (a2 > 0), or the smaller positive one (a2 <= 0: the larger one tends to infinity as a2
+        # rises to 0, a point of reversed flow, h < 0 physically), without cancellation on either side of w = 0
         s = wh * r2 / (wh * k2 * w + root) if wh * k2 * w >= 0.0 else (root - wh * k2 * w) / a2
     h = s * s
     q = w - k2 * s
     m = wm * (q * q + v * v + c_h * h) / factor - k1 * h
     return q, h, m, 0
+
+
+@numba.njit(cache=True)
+def zero_flow_torque(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y):
+    """``(m_0, status)``: the torque at zero flow (q = 0) at speed v and opening y; 0 at v = 0 (standstill). The
+    plain transform has q = w (m_0 at w = 0); the improved one q = w - k2 sqrt(h(w)), whose sign at w = 0 gives
+    the side where it crosses 0: found by doubling a step from 1e-3 (1 + |v|), then bisected to 1e-13 (1 + |v|)."""
+    if v == 0.0:
+        return 0.0, 0
+    q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, 0.0, v, y)
+    if st != 0 or q == 0.0:
+        return m, st
+    side = 1.0 if q < 0.0 else -1.0  # toward q = 0
+    q_lo = q
+    lo, hi = 0.0, side * 1e-3 * (1.0 + abs(v))
+    for _ in range(80):
+        q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, hi, v, y)
+        if st != 0:
+            return 0.0, st
+        if q * q_lo <= 0.0:
+            break
+        lo, hi = hi, 2.0 * hi
+    if q * q_lo > 0.0:
+        return 0.0, NOT_BRACKETED
+    while abs(hi - lo) > 1e-13 * (1.0 + abs(v)):
+        mid = 0.5 * (lo + hi)
+        q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, mid, v, y)
+        if st != 0:
+            return 0.0, st
+        if q * q_lo <= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, hi, v, y)
+    return m, st
+
+
+@numba.njit(cache=True)
+def closed_vane_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y, y_floor, r):
+    """``(q, h, m, status)`` below the smallest opening ``y_floor`` (module docstring: the y_floor machine's point at
+    w, its flow scaled by r = y / y_floor, the torque blended to the zero-flow torque)."""
+    q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y_floor)
+    if st != 0:
+        return q, h, m, st
+    m0, st = zero_flow_torque(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y_floor)
+    return r * q, h, r * m + (1.0 - r) * m0, st
 
 
 @numba.njit(cache=True)
