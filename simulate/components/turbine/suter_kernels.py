@@ -22,8 +22,9 @@ the definitions give at a fixed x (WH (q^2 + v^2 + C_h h) = (y + C_y)^2 h with q
 whose product of roots is negative when A - WH k2^2 > 0: one positive root. When A - WH k2^2 <= 0 (small openings
 near zero speed, where WH nears (y + C_y)^2 / (C_h + k2^2)) both roots have the sign of k2 w: the smaller positive
 one is the point (the larger tends to infinity as A - WH k2^2 rises to 0). The point is invalid where WH <= 0 or
-A <= 0 (no finite positive head has this WH) or no root is positive. The torque is m = WM (q^2 + v^2 + C_h h) / (y + C_y)^2 - k1 h
-(plain: WM (q^2 + v^2)), :func:`hillchart.four_quadrant.suter.inverse_suter_transform` in compiled form. Through
+A <= 0 (no finite positive head has this WH) or no root is positive. The torque is
+m = WM (q^2 + v^2 + C_h h) / (y + C_y)^2 - k1 h (plain: WM (q^2 + v^2)),
+:func:`hillchart.four_quadrant.suter.inverse_suter_transform` in compiled form. Through
 zero speed nothing changes: at v = 0 the angle is pi/2 or 3 pi/2 by the sign of w, and h tends to 0 with w.
 
 Below the curves' smallest opening y_f (the closed vanes, :func:`closed_vane_point`): the curves end at the smallest
