@@ -79,7 +79,7 @@ def measure() -> dict:
     out = {}
     for case in CASES:
         out[case] = {}
-        for label, extra in (("nets", None), ("exact", EXACT), ("half step", {"penstock.reaches": 40})):
+        for label, extra in (("nets", None), ("exact", EXACT), ("half step", {"penstock.reaches": 80})):
             plant, result = run(case, extra)
             out[case][label] = (plant, result, figures(plant, result))
     return out

@@ -60,7 +60,7 @@ def test_a_caller_s_suter_nets_run_on_the_four_quadrant_boundary(plant, own_run)
     # the failing case: the default boundary on the same characteristics stops where the S-zone begins
     plain = run_simulation(plant, characteristics=NoKind(turbine.characteristics), raise_on_failure=False)
     assert not plain.success and "pressure loop" in plain.message
-    assert plain.time_s[-1] < 5.0
+    assert plain.time_s[-1] < 5.67  # before the first speed peak, where the path enters the S-zone
 
 
 def test_a_table_is_adopted_by_the_curves_kind(plant):
