@@ -296,7 +296,10 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
     pen = plant.penstock
     series, component_figures = {}, {}
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
-            "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "substeps": n_sub,
+            # the turbine boundary of the pressure loop reads solver.pressure_loop; another (four-quadrant) its own
+            "pressure_loop": (plant.solver.pressure_loop if units[0].parts["turbine"].name == "pressure_loop"
+                              else f"none ({units[0].parts['turbine'].name} boundary)"),
+            "dt_s": dt, "substeps": n_sub,
             "pressure_loop_fallback_steps": int(diag[7]), "travel_time_s": pen.travel_time_s, "compiled": compiled}
     if several:
         meta.update({"dt_chosen": False,

@@ -285,8 +285,13 @@ class SimulationResult:
         figures_band = getattr(band, "figures", None) or {}
         for figure, trace, label, sign in GUARANTEE_FIGURES:
             values = getattr(self, trace)
-            i = int(np.argmax(values)) if sign > 0 else int(np.argmin(values))
-            v0, value = float(values[0]), float(values[i])
+            if trace == "speed_rpm":  # the summary's figure (speed_figures): the largest |n| over |n0| (n_r at rest)
+                i = largest_speed_index(values)
+                value = float(abs(values[i]))
+                v0 = float(abs(values[0])) if values[0] != 0.0 else float(self.rated_speed_rpm)
+            else:
+                i = int(np.argmax(values)) if sign > 0 else int(np.argmin(values))
+                v0, value = float(values[0]), float(values[i])
             rise = sign * (value / v0 - 1.0)  # the summary's figure: max(x)/x0 - 1, or 1 - min(x)/x0
             unit = "r/min" if trace == "speed_rpm" else "m"
             text = f"{label} {value:.1f} {unit} ({'+' if sign > 0 else '-'}{100 * rise:.2f} %)"

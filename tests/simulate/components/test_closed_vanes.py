@@ -161,3 +161,17 @@ def test_start_up_runs_up_to_rated_speed_and_converges_in_the_step():
     exact = run_simulation(load_plant(START_UP, {"turbine.characteristics": "synthetic-pump-turbine"})).summary()
     assert abs(exact["max_speed_rpm"] - s["max_speed_rpm"]) / N_R < 0.01
     assert exact["max_head_m"] - exact["min_head_m"] > s["max_head_m"] - s["min_head_m"] + 12.0  # the hunting
+
+
+def test_a_run_from_standstill_marks_its_speed_over_the_rated_speed_and_names_its_boundary():
+    """The figure's marks read the summary's max speed rise (over n_r for a run from rest; |n0| = 0 divided by zero
+    before), and the run's settings say the pressure loop was not used (the four-quadrant boundary solves its own
+    equation)."""
+    result = run_simulation(load_plant(START_UP, {"scenario.t_end_s": 20.0}))
+    summary = result.summary()
+    speed = next(m for m in result.guarantee_marks() if m["trace"] == "speed_rpm")
+    assert speed["value"] == summary["max_speed_rpm"] and speed["time_s"] == summary["t_max_speed_s"]
+    assert f"+{100 * summary['max_speed_rise']:.2f} %" in speed["text"] and 0.08 < summary["max_speed_rise"] < 0.11
+    assert summary["pressure_loop"] == "none (four-quadrant boundary)"
+    francis = run_simulation(load_plant(ROOT / "data_synthetic" / "plant_hla339.toml", {"scenario.t_end_s": 3.0}))
+    assert francis.summary()["pressure_loop"] == "improved"  # the pressure loop's boundary reads the setting
