@@ -8,21 +8,18 @@ from what those scripts produce now.
 
 import argparse
 import dataclasses
-import importlib.util
 import re
 from pathlib import Path
 
 import pytest
+from tests.scripts import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
 
 
 def _script(name: str):
-    spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(name, "docs")
 
 
 @pytest.fixture(scope="module")
@@ -276,9 +273,7 @@ def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
     from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
 
     require_external(SAYANO_LINES, SAYANO_CONTOURS)
-    spec = importlib.util.spec_from_file_location("bench_extrapolation", REPO / "benchmarks" / "bench_extrapolation.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_extrapolation")
     assert bench.main([]) == 0
     printed = capsys.readouterr().out
     page = (DOCS / "guarantee-benchmark.md").read_text(encoding="utf-8")
@@ -303,10 +298,7 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
     from tests.fccm_external import BULB_137KW
 
     require_external(BULB_137KW)
-    spec = importlib.util.spec_from_file_location("bench_bulb_extrapolation",
-                                                  REPO / "benchmarks" / "bench_bulb_extrapolation.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_bulb_extrapolation")
     assert bench.main([]) == 0
     printed = capsys.readouterr().out
     page = (DOCS / "bulb-extrapolation.md").read_text(encoding="utf-8")

@@ -1,20 +1,17 @@
 """The papers' numbers through our models (benchmarks/paper_numbers.py; the docs page holds its output as a generated
 block, checked by tests/test_docs.py)."""
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("paper_numbers", ROOT / "benchmarks" / "paper_numbers.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("paper_numbers")
 
 
 def test_identification_page_holds_the_generated_tables():

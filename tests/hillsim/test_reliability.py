@@ -20,6 +20,7 @@ import pytest
 from hillchart.errors import InputError
 from hillsim.cli import main, run_command
 from hillsim.outputs import MANIFEST, OutputSet
+from tests.scripts import load_script
 
 REPO = Path(__file__).resolve().parents[2]
 CHART = REPO / "data_synthetic" / "francis"
@@ -827,16 +828,7 @@ def test_the_campaign_page_matches_the_campaign_cases():
 
 
 def _campaign():
-    import importlib.util
-    import sys
-
-    name = "bench_fault_campaign"
-    if name not in sys.modules:  # registered: the campaign's worker processes find its functions by module name
-        spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / "bench_fault_campaign.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
+    return load_script("bench_fault_campaign")  # registered: the campaign's workers find its functions by name
 
 
 @pytest.mark.slow

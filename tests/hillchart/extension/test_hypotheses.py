@@ -12,6 +12,7 @@ from hillchart.extension import hypotheses as H
 from hillchart.extension.extend import extend_samples
 from hillchart.io.samples import load_chart
 from hillchart.synthetic.francis import SyntheticFrancis
+from tests.scripts import load_script
 
 
 @pytest.fixture(scope="module")
@@ -136,16 +137,11 @@ def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_lin
     of the 14 mm line lies 1.9 % of its Q11 outside, and one 0.1 % inside, less than the nets move between CPU
     families, 0.4 %, so the bound is on the pooled points, which one such point cannot break); the failing side:
     the physical model alone misses by 14 %."""
-    import importlib.util
-    from pathlib import Path
 
     from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
 
     require_external(SAYANO_LINES, SAYANO_CONTOURS)
-    path = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_extrapolation.py"
-    spec = importlib.util.spec_from_file_location("bench_extrapolation", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_extrapolation")
     chart = bench.sayano_chart(tmp_path)
     results = [bench.hold_out_lines(chart, k) for k in (1, 2)]
     for result in results:

@@ -3,7 +3,6 @@ vapour pressure, the discrete vapour cavity model against the wave solution of a
 the pressure stays above the vapour pressure, the failing cases with the model off, its keys and its report."""
 
 import math
-import sys
 
 import numpy as np
 import pytest
@@ -15,6 +14,7 @@ from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, Pe
                              ScenarioConfig, SolverConfig, TurbineConfig)
 from simulate.loop.engine import run_simulation
 from tests.simulate.components.test_friction import valve_plant
+from tests.scripts import load_script
 
 LENGTH_M, WAVE_SPEED_M_S, DIAMETER_M, V0_M_S = 1000.0, 1000.0, 0.5, 0.5
 AXIS_M = 12.0  # the horizontal pipe's axis above the datum (the valve's outlet): the vapour head stays positive
@@ -167,15 +167,7 @@ def test_the_keys_are_refused_where_they_would_be_ignored(keys, match):
 
 
 def _rig():
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_column_separation.py"
-    spec = importlib.util.spec_from_file_location("bench_column_separation", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclass looks its module up
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_column_separation")
 
 
 def test_bergant_simpson_rig_first_peak_and_collapse_converge():

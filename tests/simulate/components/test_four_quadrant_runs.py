@@ -2,7 +2,6 @@
 integration (benchmarks/bench_pump_trip.py), and the runaway of the example pump-turbine through the S-zone with
 its nets against the exact machine."""
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -11,16 +10,14 @@ import pytest
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 from tests.external_charts import require_external
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[3]
 PLANT = ROOT / "data_synthetic" / "plant_pump_turbine.toml"
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_pump_trip", ROOT / "benchmarks" / "bench_pump_trip.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_pump_trip")
 
 
 @pytest.mark.external

@@ -3,26 +3,20 @@ rejection's extreme heads by less than 0.1 % with Brunone's friction on, as with
 plant's 100 s of ringing shows the first-order time error of the Brunone form (the failing case); the ringing after
 the demo's closure decays with Brunone and hardly with the steady loss."""
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_friction_decay",
-                                                  ROOT / "benchmarks" / "bench_friction_decay.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up by name
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_friction_decay")
 
 
 def test_halving_the_step_moves_the_demo_rejection_by_less_than_0_1_percent(bench):

@@ -3,7 +3,6 @@ a pressure loop that does not fail on a hair, and the step-convergence table in 
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ from simulate.config import (GeneratorConfig, GovernorConfig, PenstockConfig, Pe
 from simulate.loop.engine import run_simulation
 from simulate.loop.timestep import aligned_step
 from simulate.studies.step_check import check_step
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[3]
 IDEAL = {"turbine.characteristics": "ideal"}
@@ -199,9 +199,7 @@ def test_check_step_reports_the_change_of_each_figure():
 
 @pytest.mark.slow
 def test_the_time_step_page_is_what_the_benchmark_prints():
-    spec = importlib.util.spec_from_file_location("bench_time_step", ROOT / "benchmarks" / "bench_time_step.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_time_step")
     page = (ROOT / "docs" / "time-step.md").read_text(encoding="utf-8")
     rows = bench.table_rows()
     # the figures agree to the printed digits on any machine (the runs are deterministic; printed to 1e-4 point)

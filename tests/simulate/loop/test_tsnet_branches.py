@@ -1,11 +1,11 @@
 """The branched valve network against TSNet (optional: skipped without ``pip install tsnet``); the comparison is
 ``benchmarks/bench_tsnet_branches.py``."""
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from tests.scripts import load_script
 
 pytest.importorskip("tsnet")
 
@@ -14,11 +14,7 @@ ROOT = Path(__file__).resolve().parents[3]
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_tsnet_branches",
-                                                  ROOT / "benchmarks" / "bench_tsnet_branches.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_tsnet_branches")
 
 
 def test_heads_at_the_valves_agree_with_tsnet(bench):

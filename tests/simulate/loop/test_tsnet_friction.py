@@ -1,23 +1,17 @@
 """Brunone's friction on the reservoir-pipe-valve case at dt and dt / 2, and TSNet's on the same case (optional:
 the TSNet test skips without ``pip install tsnet``); the comparison is ``benchmarks/bench_tsnet_friction.py``."""
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_tsnet_friction",
-                                                  ROOT / "benchmarks" / "bench_tsnet_friction.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_tsnet_friction")
 
 
 def _rows(rows, tool, friction):

@@ -4,8 +4,6 @@ they say: the loop the floor benchmark times alone is the run's own loop, and th
 from __future__ import annotations
 
 import copy
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ from data_synthetic import PLANT_HLA339
 from simulate.config import load_characteristics, load_plant
 from simulate.loop.engine import run_simulation
 from simulate.loop.generator import UNIT_SERIES
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -22,13 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 def _bench(name: str):
     """The benchmark script as a module registered under its name: numba's disk cache reloads a compiled function
     by importing its module, which fails (``No module named '<dynamic>'``) for a module absent from sys.modules."""
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script(name)
 
 
 @pytest.mark.slow

@@ -10,6 +10,7 @@ from data_synthetic import FRANCIS_DIR
 from hillchart.extension.extend import ExtensionOptions, extend_samples, silent_region_points
 from hillchart.io.samples import load_chart
 from simulate.studies.guarantee import ACCEPTANCE, evaluate_chart, family_plant_dict
+from tests.scripts import load_script
 
 
 @pytest.fixture(scope="module")
@@ -215,15 +216,9 @@ def test_the_throat_foot_decides_the_out_of_class_head_rise():
     measured -3.92, 1.5 against 0.74), so a change of the nets by tenths of a point, more than a CPU family moves
     them, keeps the verdict while a hypothesis that saw the foot would fail the first."""
     import dataclasses
-    import importlib.util
-    from pathlib import Path
-
     from hillchart.synthetic import francis_variants
 
-    path = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_out_of_class_ablation.py"
-    spec = importlib.util.spec_from_file_location("bench_out_of_class_ablation", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_script("bench_out_of_class_ablation")
     family = francis_variants.OUT_OF_CLASS_FAMILY
     member = family["slow-x"]
     errors = {}

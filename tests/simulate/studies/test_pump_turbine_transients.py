@@ -4,12 +4,11 @@ synthetic machine through the same simulator, and at half the step. The bounds a
 max speed within 1 point, extreme heads within 2 % of the rated head, the runaway's period (and the flow reversal's
 time) within 5 %; halving the step moves every figure by less than 0.5 %."""
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import pytest
+from tests.scripts import load_script
 
 BENCH = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_pump_turbine_transients.py"
 
@@ -17,11 +16,7 @@ BENCH = Path(__file__).resolve().parents[3] / "benchmarks" / "bench_pump_turbine
 @pytest.fixture(scope="module")
 def bench():
     """The benchmark module, loaded from its file (each test worker loads it for itself)."""
-    spec = importlib.util.spec_from_file_location("bench_pump_turbine_transients", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_pump_turbine_transients")
 
 
 @pytest.fixture(scope="module")

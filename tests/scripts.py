@@ -1,0 +1,28 @@
+"""The repository's scripts (benchmarks/*.py, docs/*.py) as modules, for the tests that check what they print."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def load_script(name: str, folder: str = "benchmarks"):
+    """The script ``REPO/folder/name.py`` as a module, loaded once per process and registered in ``sys.modules``
+    under ``name``: its dataclasses look their module up by name, numba's disk cache reloads a compiled function by
+    importing its module, and a campaign's worker processes find its functions there. Each pytest-xdist worker loads
+    it for itself (a test that imported it by name would fail in a worker where no other test had loaded it)."""
+    module = sys.modules.get(name)
+    if module is not None:
+        return module
+    spec = importlib.util.spec_from_file_location(name, REPO / folder / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
