@@ -123,7 +123,10 @@ class SteadyState:
 def _turbine_point(kernel, params, speed_rpm, opening, head_m, d1_m):
     sqrt_h = math.sqrt(head_m)
     n11 = speed_rpm * d1_m / sqrt_h
-    out = kernel(params, n11, opening)
+    try:
+        out = kernel(params, n11, opening)
+    except ZeroDivisionError:  # a Python kernel at N11 = 0 (standstill) that has no value there
+        return n11, math.nan, math.nan, math.nan
     q11, m11 = float(out[0]), float(out[3])
     return n11, q11, q11 * d1_m * d1_m * sqrt_h, m11 * d1_m ** 3 * head_m
 
@@ -281,6 +284,12 @@ def steady_state(kernel, params, *, turbine, static_head_m, friction_s2_m5, stro
             stroke = brentq(lambda y: power_of(y) - power_mw, stroke_min, stroke_max, xtol=1e-15, rtol=1e-15,
                             maxiter=500)
     stroke = float(stroke)
+    if speed == 0.0 and not all(math.isfinite(v) for v in _turbine_point(kernel, params, 0.0, stroke * a_max,
+                                                                          static_head_m, d1)[1:]):
+        raise InputError(f"steady state at standstill (speed 0, stroke {stroke:g}): the characteristics give no "
+                         f"flow or torque at N11 = 0; a start from standstill needs characteristics that hold zero "
+                         f"speed and the closed vanes (four-quadrant characteristics, or nets extended to zero "
+                         f"speed): set turbine.characteristics to such, or start the unit turning")
     head = head_of(stroke)
     n11, q11, flow, torque = _turbine_point(kernel, params, speed, stroke * a_max, head, d1)
     power = torque * omega * 1e-6
