@@ -30,6 +30,16 @@ def largest_speed_index(speed_rpm) -> int:
     return int(np.argmax(np.abs(np.asarray(speed_rpm, float))))
 
 
+def extremum_index(trace: str, values, sense: float) -> int:
+    """The sample a guarantee figure reads on its series ``trace``: the speed by its magnitude, in either direction
+    (:func:`largest_speed_index`), any other series at its maximum (``sense`` > 0) or minimum. The one place the
+    summary's figures, their marks on the figure and their origin (:mod:`simulate.studies.figure_origin`) agree on."""
+    if trace == "speed_rpm":
+        return largest_speed_index(values)
+    values = np.asarray(values, float)
+    return int(np.argmax(values)) if sense > 0 else int(np.argmin(values))
+
+
 def speed_figures(time_s, speed_rpm, rated_speed_rpm: float) -> dict:
     """``max_speed_rise`` (|n| at :func:`largest_speed_index` over |n0|, minus 1; over the rated speed for a run
     that starts at standstill, n0 = 0), ``t_max_speed_s`` and ``max_speed_rpm`` (that largest |n|, r/min).
@@ -285,13 +295,10 @@ class SimulationResult:
         figures_band = getattr(band, "figures", None) or {}
         for figure, trace, label, sign in GUARANTEE_FIGURES:
             values = getattr(self, trace)
+            i = extremum_index(trace, values, sign)
+            v0, value = float(values[0]), float(values[i])
             if trace == "speed_rpm":  # the summary's figure (speed_figures): the largest |n| over |n0| (n_r at rest)
-                i = largest_speed_index(values)
-                value = float(abs(values[i]))
-                v0 = float(abs(values[0])) if values[0] != 0.0 else float(self.rated_speed_rpm)
-            else:
-                i = int(np.argmax(values)) if sign > 0 else int(np.argmin(values))
-                v0, value = float(values[0]), float(values[i])
+                value, v0 = abs(value), (abs(v0) if v0 != 0.0 else float(self.rated_speed_rpm))
             rise = sign * (value / v0 - 1.0)  # the summary's figure: max(x)/x0 - 1, or 1 - min(x)/x0
             unit = "r/min" if trace == "speed_rpm" else "m"
             text = f"{label} {value:.1f} {unit} ({'+' if sign > 0 else '-'}{100 * rise:.2f} %)"

@@ -38,7 +38,7 @@ import numpy as np
 
 from hillchart.characteristics import unit_quantities
 from hillchart.errors import NumericalError
-from simulate.results.result import largest_speed_index
+from simulate.results.result import extremum_index
 from simulate.studies.uncertainty import BAND_FIGURES
 
 #: The series and sense of each banded figure's extremum (SimulationResult attribute, +1 maximum, -1 minimum).
@@ -170,11 +170,7 @@ def deciding_point(result, plant, figure: str) -> dict:
         name, s, d1 = next(item for item in series if item[0] == unit)
     else:
         name, s, d1 = series[0]
-    values = np.asarray(s[trace])
-    if trace == "speed_rpm":  # the largest speed in either direction, as the summary reads it
-        i = largest_speed_index(values)
-    else:
-        i = int(np.argmax(values)) if sense > 0 else int(np.argmin(values))
+    i = extremum_index(trace, s[trace], sense)  # the sample the summary's figure reads
     rated_head = (plant.turbine if name is None else plant.unit_plant(
         next(u for u in plant.units if u.name == name)).turbine).rated_head_m
     head = max(float(s["head_m"][i]), HEAD_FLOOR_FRACTION * rated_head)  # the floor of the simulator's own N11
