@@ -134,3 +134,93 @@ def test_turbine_mode_rejection_with_the_vanes_closing_nets_against_the_exact_ma
         assert half[key] == pytest.approx(nets[key], rel=0.005), key
     # the check can fail: with the vanes blocked the unit runs away 11 points higher
     assert _rejection_figures({})["max_speed_pct"] > nets["max_speed_pct"] + 10.0
+
+
+#: Two pump-turbines of the synthetic machine on one 600 m conduit of 3.6 m, each on its own 50 m branch of 2.6 m.
+TWO_UNITS = """
+[turbine]
+rated_head_m = 300.0
+rated_flow_m3_s = 13.4442
+rated_speed_rpm = 638.18
+rated_power_mw = 36.81
+runner_diameter_m = 2.0
+opening_max = 28.0
+characteristics = "{nets}"
+
+[penstock]
+model = "moc"
+static_head_m = 305.0
+reaches = 20
+
+[[penstock.segments]]
+length_m = 600.0
+diameter_m = 3.6
+wave_speed_m_s = 1100.0
+darcy_friction = 0.012
+
+[generator]
+inertia_time_s = 6.0
+self_regulation = 0.0
+
+[governor]
+mode = "opening"
+servo_time_s = 0.2
+closing_time_s = 12.0
+opening_time_s = 20.0
+
+[[units]]
+name = "A"
+[[units.branch]]
+length_m = 50.0
+diameter_m = 2.6
+wave_speed_m_s = 1100.0
+darcy_friction = 0.012
+
+[[units]]
+name = "B"
+[[units.branch]]
+length_m = 50.0
+diameter_m = 2.6
+wave_speed_m_s = 1100.0
+darcy_friction = 0.012
+
+[scenario]
+kind = "load-rejection"
+t_end_s = 30.0
+initial_opening = 0.7
+event_time_s = 0.5
+"""
+
+
+def test_two_pump_turbines_on_one_conduit_run_away_and_trip_as_one_unit_does(tmp_path):
+    """Both units rejected with their vanes blocked: each runs away through the S-zone (148.4 % of n_r, the flow
+    reversing at 5.77 s), the two identical to the bit; nets against the exact machine within 0.2 point of speed and
+    0.3 % of H_r of head; 40 reaches instead of 20 move the figures by 0.003 %. Both pumping at 230 m and tripped:
+    each turns back and runs away at 128.9 % (exact 129.1 %). The four-quadrant figures are each unit's
+    (``A.t_flow_reversal_s``). The failing case: one unit rejected (scenario.units) leaves the other on its load,
+    35 points of n_r slower."""
+    path = tmp_path / "two_pump_turbines.toml"
+    path.write_text(TWO_UNITS.format(nets=(ROOT / "data_synthetic" / "pump_turbine" / "nets.json").as_posix()))
+
+    def figures(overrides):
+        result = run_simulation(load_plant(path, overrides))
+        assert result.success, result.message
+        summary = result.summary()
+        units = {name: (100 * u["max_speed_rpm"] / 638.18, 100 * u["max_head_m"] / 300.0,
+                        100 * u["min_head_m"] / 300.0) for name, u in summary["units"].items()}
+        return units, summary
+
+    nets, summary = figures({})
+    assert nets["A"] == nets["B"] and 147.0 < nets["A"][0] < 150.0  # identical units, identical runs
+    assert summary["A.t_flow_reversal_s"] == pytest.approx(5.77, abs=0.05) and summary["A.max_reverse_flow_m3_s"] > 5
+    exact, _ = figures(EXACT)
+    assert abs(nets["A"][0] - exact["A"][0]) < 1.0  # the acceptance's 1 point of speed, 2 % of H_r of head
+    assert abs(nets["A"][1] - exact["A"][1]) < 2.0 and abs(nets["A"][2] - exact["A"][2]) < 2.0
+    half, _ = figures({"penstock.reaches": 40})
+    assert half["A"] == pytest.approx(nets["A"], rel=0.005)
+    pump = {"turbine.operating_mode": "pump", "penstock.static_head_m": 230.0, "scenario.event_time_s": 0.0}
+    tripped, trip_summary = figures(pump)
+    assert tripped["A"] == tripped["B"] and trip_summary["A.max_reverse_speed_pct"] > 120.0
+    assert abs(tripped["A"][0] - figures({**pump, **EXACT})[0]["A"][0]) < 1.0
+    one, _ = figures({"scenario.units": ["A"]})
+    assert one["A"][0] - one["B"][0] > 30.0
