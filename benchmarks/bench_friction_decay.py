@@ -34,7 +34,7 @@ from simulate.loop.engine import run_simulation
 
 DATA = resources.files("data_synthetic")
 DEMO_PLANT = "plant_hla339.toml"
-#: The shipped plants of one unit on a MOC penstock (plant_two_units.toml joins branches with the steady loss only).
+#: The shipped plants of one unit on a MOC penstock (plant_two_units.toml: tests/simulate/loop/test_units_friction.py).
 SHIPPED_MOC = ("plant_hla339.toml", "plant_hla339_guarantee.toml", "plant_hla339_grid.toml",
                "plant_hla339_surge_tank.toml", "plant_bulb.toml", "plant_pump_turbine.toml")
 FRICTIONS = ("steady", "brunone")

@@ -10,7 +10,8 @@ kind       TOML key                      functions (p = params tuple, s = state 
 ========== ============================= ==================================================================
 penstock   ``penstock.model``            relation(p, s, H_up) -> (C_L, k); update(p, s, H_up, H, Q);
                                          inlet_flow(p, s) -> Q; envelope(p, s, H_up, H, env_max, env_min);
-                                         node_heads(p, s, H_up, H, out)
+                                         node_heads(p, s, H_up, H, out); a conduit that computes branches
+                                         also inlet_relation(p, s) -> (C_M, B) (H = C_M + B Q at its inlet)
 friction   ``penstock.friction_model``   reach_friction_loss(friction, flows, reach, node) -> m;
                                          reach_friction_advance(friction, flows, new_flows) (bound into the MOC
                                          penstock's functions, :mod:`simulate.components.hydraulic.friction`)

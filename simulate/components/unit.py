@@ -12,7 +12,7 @@ from hillchart.validation import check_number
 from simulate.components.control.governor import GovernorConfig
 from simulate.components.hydraulic.conduit import PenstockConfig, PenstockSegment, read_segments
 from simulate.components.parameters import parameter, validate_parameters
-from simulate.components.registry import FRICTION, PENSTOCKS
+from simulate.components.registry import PENSTOCKS
 from simulate.components.shaft.generator_config import GeneratorConfig
 from simulate.components.turbine.rated import TurbineConfig
 
@@ -98,10 +98,6 @@ def check_units(plant) -> None:
         raise InputError(f"penstock.model = {plant.penstock.model!r}: a plant with [[units]] computes the common "
                          f"conduit and the branches by the method of characteristics; set penstock.model = "
                          f"\"moc\"")
-    if not FRICTION.attribute(plant.penstock.friction_model, "IN_BRANCHES", False):
-        raise InputError(f"penstock.friction_model = {plant.penstock.friction_model!r}: a plant with [[units]] joins "
-                         f"its branches at the manifold with the steady friction's characteristic line; set "
-                         f"penstock.friction_model = \"steady\" or simulate a plant of one unit (leave [[units]] out)")
     for key in plant.penstock.unread_keys():  # no linear reference of a plant of several units reads it either
         raise InputError(f"penstock.{key} = {getattr(plant.penstock, key)!r}: a plant with [[units]] computes its "
                          f"conduit by the method of characteristics, which does not read it; remove the key")

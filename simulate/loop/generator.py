@@ -39,7 +39,7 @@ from simulate.loop.assembly import (_header_lines, _import_line, _modules_of, _t
                                     level_function, role_function, signal_lines)
 
 #: Bump when the template changes shape (part of every generated file's hash through the source text).
-TEMPLATE_VERSION = 2
+TEMPLATE_VERSION = 3
 
 #: Per-unit series in ``out_units[row, unit, :]``, then the unit's control vector (``controls[0]``: the vane stroke).
 UNIT_SERIES = ("speed_rpm", "head_m", "flow_m3_s", "torque_nm")
@@ -137,6 +137,9 @@ UNIT_ROLES = {
     "turbine_step": ("turbine", "step"),
     "turbine_signals": ("turbine", "signals"),
 }
+#: alias -> (key of a unit's parts, function role) of a branch (several units): its C- line at the manifold, with the
+#: branch's own friction model (:func:`simulate.components.hydraulic.penstock.moc_inlet_relation`, bound by its builder)
+BRANCH_ROLES = {"conduit_inlet_relation": ("conduit", "inlet_relation")}
 #: alias -> (key of the common parts, function role); the penstock's only with several units (the common conduit)
 COMMON_ROLES = {
     "upstream_head": ("upstream", "head"),
@@ -149,7 +152,7 @@ COMMON_ROLES = {
 
 
 def _unit_roles(several: bool) -> dict:
-    return UNIT_ROLES if several else {**UNIT_ROLES, "conduit_envelope": ("conduit", "envelope")}
+    return {**UNIT_ROLES, **(BRANCH_ROLES if several else {"conduit_envelope": ("conduit", "envelope")})}
 
 
 def _common_roles(several: bool) -> dict:
@@ -187,7 +190,6 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
     if several:
         modules.add(junction.__name__)
         for alias, func in (("manifold_solve", junction.manifold_solve),
-                            ("conduit_inlet_relation", junction.moc_inlet_relation),
                             ("conduit_inlet_head", junction.moc_inlet_head),
                             ("conduit_outlet_flow", junction.moc_outlet_flow),
                             ("conduit_outlet_head", junction.moc_outlet_head)):
@@ -229,7 +231,7 @@ def loop_source(common: dict, units: list[dict], characteristics, pressure_loop:
         fill, after_control, after_turbine = signal_lines(parts["control"].hooks.reads, i)
         substep.append(_UNIT_SUBSTEP.format(i=i, fill=fill, after_control=after_control))
         if several:
-            inlets.append(f"        man_c[{i}], man_b[{i}] = conduit_inlet_relation(cd{i}, cd{i}_s)")
+            inlets.append(f"        man_c[{i}], man_b[{i}] = u{i}_conduit_inlet_relation(cd{i}, cd{i}_s)")
         turbines.append(_UNIT_TURBINE.format(i=i, head=names["up"], after_turbine=after_turbine))
         records.append(_UNIT_RECORDS.format(i=i))
         for kind in UNIT_RECORDING_KINDS:

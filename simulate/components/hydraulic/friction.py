@@ -24,9 +24,9 @@ The default, ``steady``, is the quasi-steady Darcy-Weisbach loss Delta h_f = R Q
 A friction model's builder ``build(penstock, grid, flow_m3_s) -> CompiledFriction`` (``penstock`` the
 :class:`simulate.components.hydraulic.conduit.PenstockConfig`, ``grid`` its
 :class:`simulate.components.hydraulic.penstock.MocGrid`, ``flow_m3_s`` the steady flow); its module may name its
-``[penstock]`` keys in ``PENSTOCK_KEYS`` (refused under another friction model) and say ``IN_BRANCHES = True`` when
-the junction of a plant with ``[[units]]`` may compute its branches with it (the junction's branch-inlet line,
-:func:`simulate.components.hydraulic.junction.moc_inlet_relation`, is the default model's).
+``[penstock]`` keys in ``PENSTOCK_KEYS`` (refused under another friction model). A plant with ``[[units]]`` runs the
+model in every pipe: the common conduit and each branch are MOC penstocks, and a branch's C- line at the manifold
+(:func:`simulate.components.hydraulic.penstock.moc_inlet_relation`) is bound like the other lines.
 """
 
 from __future__ import annotations
@@ -45,9 +45,6 @@ TIME_SCALES = ()
 LINEAR_COUNTERPART = None
 #: The names by which the MOC functions call the friction model.
 SEAM = ("reach_friction_loss", "reach_friction_advance")
-#: The steady model computes the junction's branches (:func:`simulate.components.hydraulic.junction.moc_inlet_relation`
-#: is written with it).
-IN_BRANCHES = True
 
 
 @numba.njit(cache=True)

@@ -18,8 +18,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from simulate.components.hydraulic.penstock import moc_inlet_characteristic
-
 
 @numba.njit(cache=True)
 def manifold_solve(c_l, k, c_m, b, flows):
@@ -47,19 +45,10 @@ def manifold_solve(c_l, k, c_m, b, flows):
     return head, total
 
 
-# a branch as a component of the multi-unit loop: the MOC penstock's functions (relation, update, envelope) plus
-#   inlet_relation(p, s) -> (C_M, B)   the C- line at its upstream end (the manifold)
+# a branch as a component of the multi-unit loop: the MOC penstock's functions (relation, update, envelope, and
+#   inlet_relation(p, s) -> (C_M, B), the C- line at its upstream end, the manifold, with the pipe's friction model:
+#   :func:`simulate.components.hydraulic.penstock.moc_inlet_relation` as its builder binds it), plus
 #   inlet_head(p, s) -> H               its head at the manifold after the update
-@numba.njit(cache=True)
-def moc_inlet_relation(p, s):
-    """(C_M, B) of the C- line at the inlet of a MOC pipe for this step: H = C_M + B Q (Q into the pipe; the flows
-    at the reaches' downstream ends, ``s[3]``, which differ from ``s[1]`` only while a vapour cavity is open,
-    ``s[5][2] > 0``)."""
-    c = s[2][0]
-    flows = s[3][c] if s[5][2] > 0.0 else s[1][c]
-    return moc_inlet_characteristic(s[0][c], flows, p[0], p[1]), p[0][0]
-
-
 @numba.njit(cache=True)
 def moc_inlet_head(p, s):
     """Head at the inlet node of a MOC pipe after the last update, m."""

@@ -41,9 +41,7 @@ from simulate.components.hydraulic.friction import steady_reach_loss as reach_fr
 MAX_WAVE_SPEED_ADJUSTMENT = 0.05
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# Method of characteristics
-# ---------------------------------------------------------------------------------------------------------------
+# --- Method of characteristics ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MocGrid:
     """Reaches of the MOC grid, upstream first (reach r joins nodes r and r+1).
@@ -306,9 +304,7 @@ def moc_step_dvcm(heads, flows, inflows, track, totals, impedance, friction, vap
     totals[2] = count
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# Second-order difference equations: zdomain, lumped, rigid
-# ---------------------------------------------------------------------------------------------------------------
+# --- Second-order difference equations: zdomain, lumped, rigid -------------------------------------------------
 def zdomain_original(travel_time_s: float, water_time_s: float, feedback: float = 0.0):
     """Numerator and denominator (in z, highest power first, monic) of eq. (17), sampled at T_so = L/a.
 
@@ -401,15 +397,9 @@ def iir_step(coef, hist, flow_m3_s, flow0_m3_s, rated_flow_m3_s):
     hist[4] = flow_m3_s
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# Components for the time loop (registry kind "penstock"; see simulate.components.registry)
-# ---------------------------------------------------------------------------------------------------------------
-# Every penstock model offers the same five functions (params and state are tuples of arrays):
-#   relation(p, s, upstream_head_m) -> (C_L, k)      H = C_L + k Q at the turbine for this step
-#   update(p, s, upstream_head_m, head_m, flow_m3_s)   advance the state with the solved boundary values
-#   inlet_flow(p, s) -> Q                              flow at the upstream end after the update, m^3/s
-#   envelope(p, s, upstream_head_m, head_m, env_max, env_min)   fold this step's node heads into the envelope
-#   node_heads(p, s, upstream_head_m, head_m, out)    the piezometric head at every computing node, m
+# --- Components for the time loop (registry kind "penstock"; see simulate.components.registry) -----------------
+# Every penstock model offers the functions of the registry's table (simulate.components.registry: relation, update,
+# inlet_flow, envelope, node_heads; params and state are tuples of arrays); the MOC also inlet_relation (a branch's).
 # The MOC state: (heads (2, nodes), flows (2, nodes), [current level, steps done], inflows (2, nodes), track
 # (7, nodes), [total cavity volume, 1 while the relation holds the outlet at the vapour head, open cavities]);
 # ``flows`` at the reaches' upstream ends, ``inflows`` at their downstream ends (kept while a cavity is open; the same
@@ -483,6 +473,16 @@ def moc_dvcm_record(p, s, out):
 @numba.njit(cache=True)
 def moc_inlet_flow(p, s):
     return s[1][s[2][0], 0]
+
+
+@numba.njit(cache=True)
+def moc_inlet_relation(p, s):
+    """(C_M, B) of the C- line at the inlet for this step, H = C_M + B Q (Q into the pipe): a branch's at the manifold
+    (:mod:`simulate.components.hydraulic.junction`); the flows at the reaches' downstream ends, ``s[3]``, while a
+    vapour cavity is open (``s[5][2] > 0``)."""
+    c = s[2][0]
+    flows = s[3][c] if s[5][2] > 0.0 else s[1][c]
+    return moc_inlet_characteristic(s[0][c], flows, p[0], p[1]), p[0][0]
 
 
 @numba.njit(cache=True)
@@ -587,7 +587,8 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
         functions, params = COLUMN_SEPARATION.builder(settings.model)(pen, x, params, state, friction)
     else:
         functions = {"relation": friction.bind(moc_relation), "update": friction.bind(moc_update)}
-    functions.update({"inlet_flow": moc_inlet_flow, "envelope": moc_envelope, "node_heads": moc_node_heads})
+    functions.update({"inlet_flow": moc_inlet_flow, "inlet_relation": friction.bind(moc_inlet_relation),
+                      "envelope": moc_envelope, "node_heads": moc_node_heads})
     record = cavitation.CavityRecord(pen, x, dt_s, settings, track, state[5], params[2])
     return CompiledPart(
         kind="penstock", name="moc", functions=functions, params=params, state=state,
@@ -641,9 +642,7 @@ def time_scales(plant, schedules) -> list:
                       plant.penstock.water_time_s(t.rated_flow_m3_s, t.rated_head_m), coupled=True)]
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# What the models declare (simulate.components.contract): their states and their linear counterparts, by builder
-# ---------------------------------------------------------------------------------------------------------------
+# --- What the models declare (simulate.components.contract): their states and their linear counterparts, by builder
 #: The method of characteristics: heads and flows at every node on two time levels, and which level is current.
 MOC_STATES = (StateArray("heads", "m", "the piezometric head at every node, the current and the next level",
                          LEVELS_BY_NODE),

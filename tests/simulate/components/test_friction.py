@@ -162,16 +162,6 @@ def test_a_friction_models_keys_are_refused_elsewhere(keys, match):
                    brunone_viscosity_m2_s=1.3e-6)
 
 
-def test_brunone_is_refused_in_a_plant_with_units():
-    from data_synthetic import PLANT_TWO_UNITS
-    from simulate.config import load_plant
-
-    assert load_plant(PLANT_TWO_UNITS).penstock.friction_model == "steady"
-    with pytest.raises(InputError, match=r"penstock.friction_model = 'brunone': a plant with \[\[units\]\] joins its "
-                                         r"branches at the manifold with the steady friction's characteristic"):
-        load_plant(PLANT_TWO_UNITS, {"penstock.friction_model": "brunone"})
-
-
 def test_the_steady_model_leaves_the_moc_functions_unbound_and_brunone_binds_them():
     """The default model adds nothing to the loop's text (bit-identical, no slower); another is bound through every
     MOC function that reaches the friction seam (relation -> turbine relation; update -> step -> inlet line -> C-
