@@ -46,6 +46,34 @@ class Characteristics(Protocol):
     def m11_grad(self, n11, opening) -> tuple[np.ndarray, np.ndarray]: ...
 
 
+class KernelCharacteristics:
+    """The four methods of :class:`Characteristics` from the six-value scalar kernel of ``numba_kernel()`` (module
+    docstring), evaluated point by point over broadcast arrays: characteristics that have their compiled kernel only
+    (a four-quadrant table, a user's own kind) get the Python methods the steady state and the checks read without
+    writing them. A subclass defines ``numba_kernel()``."""
+
+    def numba_kernel(self):
+        raise NotImplementedError(f"{type(self).__name__} must define numba_kernel() -> (kernel, params)")
+
+    def _values(self, n11, opening) -> list[np.ndarray]:
+        kernel, params = self.numba_kernel()
+        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
+        out = np.array([kernel(params, a, b) for a, b in zip(n11.ravel(), opening.ravel())], dtype=float)
+        return [out[:, i].reshape(n11.shape) for i in range(6)]
+
+    def q11(self, n11, opening):
+        return self._values(n11, opening)[0]
+
+    def m11(self, n11, opening):
+        return self._values(n11, opening)[3]
+
+    def q11_grad(self, n11, opening):
+        return tuple(self._values(n11, opening)[1:3])
+
+    def m11_grad(self, n11, opening):
+        return tuple(self._values(n11, opening)[4:6])
+
+
 def unit_torque_from_efficiency(q11, n11, efficiency):
     """Unit torque M11 (N*m) from unit flow, unit speed and hydraulic efficiency.
 

@@ -40,6 +40,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from hillchart.characteristics import KernelCharacteristics
 from hillchart.errors import InputError
 from hillchart.four_quadrant.suter import PLAIN, SuterConstants
 from simulate.components.registry import CompiledPart, PartHooks
@@ -67,7 +68,7 @@ def _net_arrays(net):
     return np.ascontiguousarray(net.W1, dtype=float), vec
 
 
-class SuterCharacteristics:
+class SuterCharacteristics(KernelCharacteristics):
     """Four-quadrant characteristics: Suter curves (a table or nets), their transform, their rated unit point.
 
     Parameters
@@ -176,25 +177,9 @@ class SuterCharacteristics:
 
     def numba_kernel(self):
         """``(kernel, params)``: Q11, M11 at (N11, a) on the normal operating branch at unit head
-        (:func:`suter_unit_kernel`), with central-difference derivatives."""
+        (:func:`suter_unit_kernel`), with central-difference derivatives; the Python methods are
+        :class:`hillchart.characteristics.KernelCharacteristics`'."""
         return suter_unit_kernel, self.params
-
-    def _values(self, n11, opening):
-        n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
-        out = np.array([suter_unit_kernel(self.params, a, b) for a, b in zip(n11.ravel(), opening.ravel())])
-        return [out[:, i].reshape(n11.shape) for i in range(6)]
-
-    def q11(self, n11, opening):
-        return self._values(n11, opening)[0]
-
-    def m11(self, n11, opening):
-        return self._values(n11, opening)[3]
-
-    def q11_grad(self, n11, opening):
-        return tuple(self._values(n11, opening)[1:3])
-
-    def m11_grad(self, n11, opening):
-        return tuple(self._values(n11, opening)[4:6])
 
 
 @numba.njit(cache=True)

@@ -25,6 +25,7 @@ MODULE = textwrap.dedent('''
     import numba
     import numpy as np
 
+    from hillchart.characteristics import KernelCharacteristics
     from simulate.components.registry import CompiledPart, PartHooks
     from simulate.components.turbine.kinds import CharacteristicKind
 
@@ -40,29 +41,12 @@ MODULE = textwrap.dedent('''
         return q11_full * opening / opening_max, 0.0, q11_full / opening_max, 0.0, 0.0, 0.0
 
 
-    class Valve:
+    class Valve(KernelCharacteristics):
         """The valve as characteristics (the steady state and the trusted domain read them)."""
 
         def __init__(self, q11_full, opening_max, flow_scale):
             self.q11_full = q11_full * flow_scale
             self.params = (self.q11_full, opening_max)
-
-        def _values(self, n11, opening):
-            n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
-            out = kernel.py_func(self.params, n11, opening)
-            return [np.zeros_like(n11) + v for v in out]
-
-        def q11(self, n11, opening):
-            return self._values(n11, opening)[0]
-
-        def m11(self, n11, opening):
-            return self._values(n11, opening)[3]
-
-        def q11_grad(self, n11, opening):
-            return tuple(self._values(n11, opening)[1:3])
-
-        def m11_grad(self, n11, opening):
-            return tuple(self._values(n11, opening)[4:6])
 
         def numba_kernel(self):
             return kernel, self.params
