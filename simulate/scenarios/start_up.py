@@ -34,6 +34,10 @@ class StartUp(ScenarioConfig):
         if plant.generator.model == "subtransient":
             raise InputError("scenario.kind = 'start-up' needs the swing rotor (generator.model = \"swing\"): the "
                              "sub-transient machine starts at rated speed and voltage")
+        if plant.governor.stroke_min > 0.0:
+            raise InputError(f"scenario.kind = 'start-up' starts with the vanes closed, below governor.stroke_min = "
+                             f"{plant.governor.stroke_min!r}, which the governor would open them to at once: set "
+                             f"governor.stroke_min = 0")
         if plant.governor.mode not in SPEED_MODES:
             raise InputError(f"scenario.kind = 'start-up' needs a governor that controls the speed: governor.mode "
                              f"in {list(SPEED_MODES)}, got {plant.governor.mode!r}")

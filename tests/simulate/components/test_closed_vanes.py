@@ -100,6 +100,9 @@ def test_start_up_refuses_a_plant_it_cannot_start():
     plant.scenario.check_plant(plant)  # the passing case
     for changed, words in ((SimpleNamespace(units=(), generator=SimpleNamespace(model="subtransient"),
                                             governor=plant.governor), "swing rotor"),
+                           (SimpleNamespace(units=(), generator=plant.generator,
+                                            governor=SimpleNamespace(mode="speed", stroke_min=0.05)),
+                            "governor.stroke_min = 0.05"),
                            (SimpleNamespace(units=("a", "b"), generator=plant.generator, governor=plant.governor),
                             "one unit")):
         with pytest.raises(InputError, match=words):
