@@ -113,16 +113,15 @@ def draw(measured: dict, out_dir) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from hillchart.four_quadrant.plots import opening_line
     from hillchart.synthetic.pump_turbine import SyntheticPumpTurbine
 
     turbine = SyntheticPumpTurbine()
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     plant = measured["turbine-mode rejection"]["nets"][0]
     held_mm = plant.scenario.initial_opening * plant.turbine.opening_max
-    n11, q11, _ = turbine.unit_curve(held_mm, np.linspace(-math.pi, math.pi, 4001))
-    window = np.isfinite(n11) & (np.abs(n11) <= 160) & (np.abs(q11) <= 0.6)
-    axes[0].plot(np.where(window, n11, np.nan), np.where(window, q11, np.nan), color="0.6", lw=3,
-                 label=f"opening line {held_mm:g} mm (exact)")
+    n11, q11, _ = opening_line(turbine, held_mm)
+    axes[0].plot(n11, q11, color="0.6", lw=3, label=f"opening line {held_mm:g} mm (exact)")
     for (case, runs), color, width in zip(measured.items(), ("C0", "C3"), (2.0, 0.8)):
         p, result, _ = runs["nets"]
         n, q = unit_path(p, result)

@@ -14,6 +14,18 @@ import numpy as np
 OPENINGS_MM = (4.0, 8.0, 12.0, 16.0, 20.0, 24.0, 28.0)
 
 
+#: The window of the (N11, Q11) plane the opening lines are drawn in: |N11| r/min, |Q11| m^3/s.
+WINDOW_N11_RPM, WINDOW_Q11_M3_S = 160.0, 0.6
+
+
+def opening_line(turbine, opening_mm: float, points: int = 4001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(N11, Q11, M11)`` of a machine's opening line over all quadrants (``turbine.unit_curve`` around the
+    plane), NaN outside the drawn window (:data:`WINDOW_N11_RPM`, :data:`WINDOW_Q11_M3_S`)."""
+    n11, q11, m11 = turbine.unit_curve(opening_mm, np.linspace(-math.pi, math.pi, points))
+    window = np.isfinite(n11) & (np.abs(n11) <= WINDOW_N11_RPM) & (np.abs(q11) <= WINDOW_Q11_M3_S)
+    return tuple(np.where(window, v, np.nan) for v in (n11, q11, m11))
+
+
 def plot_four_quadrant(folder, out_dir) -> Path:
     """Draw the figure (module docstring) of the table folder ``folder`` (table.toml, table.csv, nets.json of the
     synthetic pump-turbine) into ``out_dir/pump_turbine.png``. Left: N11-Q11 of each opening line over the four
@@ -32,13 +44,10 @@ def plot_four_quadrant(folder, out_dir) -> Path:
     turbine = SyntheticPumpTurbine()
     rated = load_complete_characteristics(folder).rated
     nets = load_suter_nets(Path(folder) / "nets.json")
-    theta = np.linspace(-math.pi, math.pi, 4001)
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(OPENINGS_MM)))
     for a, color in zip(OPENINGS_MM, colors):
-        n11, q11, m11 = turbine.unit_curve(a, theta)
-        window = np.isfinite(n11) & (np.abs(n11) <= 160) & (np.abs(q11) <= 0.6)
-        n11, q11, m11 = (np.where(window, v, np.nan) for v in (n11, q11, m11))
+        n11, q11, m11 = opening_line(turbine, a)
         axes[0].plot(n11, q11, color=color, label=f"{a:g} mm")
         cross = np.flatnonzero((n11[:-1] > 0) & (q11[:-1] > 0) & (np.sign(m11[:-1]) != np.sign(m11[1:])))
         axes[0].plot(n11[cross], q11[cross], "o", color=color, ms=4)
