@@ -195,12 +195,7 @@ def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
 
 
 def _events(plant) -> list[tuple[float, str]]:
-    sc = plant.scenario
-    if sc.kind in ("load-rejection", "closure-law"):
-        return [(sc.event_time_s, "load rejection")]
-    if sc.kind == "load-step":
-        return [(sc.event_time_s, f"load step {sc.load_step:+g}")]
-    return [(t, "step") for t in sc.step_times_or_default]
+    return plant.scenario.events()
 
 
 def plot_envelope(envelopes, path: Path) -> None:

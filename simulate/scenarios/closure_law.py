@@ -18,6 +18,7 @@ class ClosureLaw(ScenarioConfig):
     KIND: ClassVar[str] = "closure-law"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s", "closing_time_s",
                                        "break_opening", "break_time_s")
+    EVENT: ClassVar[str] = "load rejection"
 
     def validate(self) -> None:
         if self.closing_time_s is None:

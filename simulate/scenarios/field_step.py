@@ -18,6 +18,7 @@ from simulate.scenarios.short_circuit import require_subtransient
 class FieldStep(ScenarioConfig):
     KIND: ClassVar[str] = "field-step"
     KEYS: ClassVar[tuple[str, ...]] = ("event_time_s", "field_step_pu")
+    EVENT: ClassVar[str] = "field step"
 
     def initial_target(self) -> dict:
         return {"power_mw": 0.0}

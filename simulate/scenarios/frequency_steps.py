@@ -16,6 +16,9 @@ class FrequencySteps(ScenarioConfig):
     KIND: ClassVar[str] = "frequency-steps"
     KEYS: ClassVar[tuple[str, ...]] = ("speed_steps", "step_times_s")
 
+    def events(self) -> list[tuple[float, str]]:
+        return [(float(t), "step") for t in self.step_times_or_default]
+
     @property
     def steps_or_default(self) -> tuple[float, ...]:
         return tuple(self.speed_steps) if self.speed_steps is not None else (0.04, -0.08, 0.04)

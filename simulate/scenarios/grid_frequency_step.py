@@ -31,6 +31,9 @@ class GridFrequencyStep(ScenarioConfig):
     KIND: ClassVar[str] = "grid-frequency-step"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "grid_frequency_steps", "step_times_s")
 
+    def events(self) -> list[tuple[float, str]]:
+        return [(float(t), "step") for t in self.step_times_or_default]
+
     @property
     def steps_or_default(self) -> tuple[float, ...]:
         return tuple(self.grid_frequency_steps)

@@ -15,6 +15,7 @@ from simulate.scenarios.base import ScenarioConfig, Schedules, steady_schedules
 class LoadRejection(ScenarioConfig):
     KIND: ClassVar[str] = "load-rejection"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s")
+    EVENT: ClassVar[str] = "load rejection"
 
     def schedules(self, plant, initial_stroke: float, initial_load_pu: float) -> Schedules:
         zero = np.array([0.0])

@@ -17,6 +17,9 @@ class LoadStep(ScenarioConfig):
     KIND: ClassVar[str] = "load-step"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "event_time_s", "load_step")
 
+    def events(self) -> list[tuple[float, str]]:
+        return [(float(self.event_time_s), f"load step {self.load_step:+g}")]
+
     def check_plant(self, plant) -> None:
         grid = getattr(plant, "grid", None)
         if grid is not None and grid.kind == "infinite-bus":

@@ -17,6 +17,9 @@ class OpeningSteps(ScenarioConfig):
     KIND: ClassVar[str] = "opening-steps"
     KEYS: ClassVar[tuple[str, ...]] = ("initial_power_mw", "initial_opening", "opening_steps", "step_times_s")
 
+    def events(self) -> list[tuple[float, str]]:
+        return [(float(t), "step") for t in self.step_times_or_default]
+
     @property
     def steps_or_default(self) -> tuple[float, ...]:
         return tuple(self.opening_steps) if self.opening_steps is not None else (0.02,)

@@ -25,6 +25,7 @@ def require_subtransient(kind: str, plant) -> None:
 class ShortCircuit(ScenarioConfig):
     KIND: ClassVar[str] = "short-circuit"
     KEYS: ClassVar[tuple[str, ...]] = ("event_time_s",)
+    EVENT: ClassVar[str] = "three-phase fault"
 
     def initial_target(self) -> dict:
         return {"power_mw": 0.0}

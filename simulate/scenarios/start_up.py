@@ -26,6 +26,7 @@ class StartUp(ScenarioConfig):
 
     KIND: ClassVar[str] = "start-up"
     KEYS: ClassVar[tuple[str, ...]] = ("event_time_s",)
+    EVENT: ClassVar[str] = "start"
 
     def check_plant(self, plant) -> None:
         if plant.units:

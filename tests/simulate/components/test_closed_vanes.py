@@ -196,3 +196,22 @@ def test_a_francis_plant_starts_up_on_nets_extended_to_zero_speed_and_the_ideal_
     assert any("outside the digitized region" in w for w in s["warnings"])
     with pytest.raises(InputError, match="no flow or torque at N11 = 0.*start the unit turning"):
         run_simulation(load_plant(demo, {**start, "turbine.characteristics": "ideal"}))
+
+
+@pytest.mark.slow
+def test_a_start_up_plant_runs_through_report(tmp_path):
+    """`hillsim report` on the start-up plant with limits: it judges the max speed rise over the rated speed (+9.46 %
+    against a limit of 15 %: PASS; 5 %: FAIL, exit 3)."""
+    import json
+
+    from hillsim.cli import main
+
+    text = START_UP.read_text(encoding="utf-8").replace(
+        'characteristics = "pump_turbine/nets.json"', f'characteristics = "{NETS.as_posix()}"')
+    for limit, code, verdict in ((0.15, 0, "PASS"), (0.05, 3, "FAIL")):
+        study = tmp_path / f"start_up_{limit}.toml"
+        study.write_text(text + f"\n[limits]\nmax_speed_rise = {limit}\n", encoding="utf-8")
+        out = tmp_path / f"report_{limit}"
+        assert main(["report", str(study), "--out", str(out)]) == code
+        report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+        assert report["overall_verdict"] == verdict

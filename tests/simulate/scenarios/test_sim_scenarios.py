@@ -126,3 +126,27 @@ def test_shipped_plant_with_its_nets_rejects_load_and_returns_to_rated_speed():
     shut = r.opening <= 1e-6
     assert shut.sum() > 100 and np.all(r.flow_m3_s[shut] == 0.0) and np.all(r.iterations[shut] == 0)
     assert 0.0 < r.opening[-1] < 0.1  # no-load opening of the nets
+
+
+def test_every_scenario_kind_says_what_happens_when_for_the_figures():
+    """Each kind's events (what a report's transient figure marks): its event in words at event_time_s, or a step at
+    each step time. A kind the report did not know by name (a start-up) raised AttributeError in the report."""
+    from simulate.scenarios import SCENARIO_CLASSES, ScenarioConfig
+
+    made = {"load-rejection": dict(initial_opening=0.8, event_time_s=2.0),
+            "closure-law": dict(initial_opening=0.8, event_time_s=2.0, closing_time_s=8.0),
+            "load-step": dict(initial_opening=0.8, event_time_s=2.0, load_step=-0.1),
+            "frequency-steps": {}, "opening-steps": dict(initial_opening=0.8, opening_steps=(0.02, -0.02),
+                                                        step_times_s=(1.0, 5.0)),
+            "short-circuit": dict(event_time_s=2.0), "field-step": dict(event_time_s=2.0),
+            "grid-frequency-step": dict(initial_opening=0.8, grid_frequency_steps=(0.01,), step_times_s=(3.0,)),
+            "start-up": dict(event_time_s=2.0)}
+    assert set(made) == set(SCENARIO_CLASSES)  # the check can fail: a new kind must say its events here
+    events = {kind: ScenarioConfig(kind=kind, t_end_s=100.0, **keys).events() for kind, keys in made.items()}
+    assert events["load-rejection"] == events["closure-law"] == [(2.0, "load rejection")]
+    assert events["load-step"] == [(2.0, "load step -0.1")]
+    assert events["frequency-steps"] == [(10.0, "step"), (40.0, "step"), (70.0, "step")]  # the defaults
+    assert events["opening-steps"] == [(1.0, "step"), (5.0, "step")]
+    assert events["grid-frequency-step"] == [(3.0, "step")]
+    assert events["short-circuit"] == [(2.0, "three-phase fault")] and events["field-step"] == [(2.0, "field step")]
+    assert events["start-up"] == [(2.0, "start")]
