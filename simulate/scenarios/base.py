@@ -149,13 +149,13 @@ class ScenarioConfig:
             return {"power_mw": float(self.initial_power_mw)}
         return {"stroke": float(self.initial_opening)}
 
+    #: What happens at ``event_time_s``, in words (per kind).
+    EVENT: ClassVar[str] = "event"
+
     def events(self) -> list[tuple[float, str]]:
         """``(time_s, label)`` of what happens, for the figures to mark (per kind): the event at ``event_time_s``
         by default, a step at each of ``step_times_s`` for the kinds that step."""
         return [(float(self.event_time_s), self.EVENT)]
-
-    #: What happens at ``event_time_s``, in words (per kind).
-    EVENT: ClassVar[str] = "event"
 
     def schedules(self, plant, initial_stroke: float, initial_load_pu: float):
         """The :class:`simulate.scenarios.Schedules` the loop follows (per kind)."""
