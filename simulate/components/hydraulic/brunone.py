@@ -32,7 +32,15 @@ periods of a closure converges to well under 0.1 % (the demo rejection: +0.0054 
 from 8 to 16 reaches); a head read after 50 periods of ringing inherits the error (the surge-tank plant: -0.18 %,
 then -0.089 %; ``benchmarks/bench_friction_decay.py``). Extrapolating the bracket of (B4) one step forward makes a
 smooth ringing second order but overshoots the jump of a front reflected at the reservoir and grows after an
-instantaneous closure, so the bracket stays as written.
+instantaneous closure. Limiting that extrapolation by the minmod of the bracket's last two changes (no extrapolation
+where they differ in sign) keeps the instantaneous closure's decay (decrement 0.0333 per period, as (B4)) and makes
+the surge-tank plant second order (-0.038 %, then -0.0064 %), but a closure over two steps spreads the front over
+two brackets whose changes agree in sign, the extrapolation overshoots there, and the ringing gains energy (the
+valve shut in 0.1 s of ``benchmarks/bench_tsnet_friction.py``: the second peak 0.6 m above the first, decrement
+0.0089 per period against 0.0225). A second-order form needs the local term at the new level, implicit at each node:
+with the convective term frozen by its sign, one of the two lines of a reach then carries the impedance B (1 + k3/2)
+and the other B, so the node equations of the MOC and of its cavity models would take the impedance per line from
+the friction model. The bracket stays as written.
 
 TSNet (``tsnet/simulation/solver.py``, ``unsteady_friction``, and ``tsnet/simulation/main.py``) computes (B1)-(B3)
 with the same time difference at the foot and the difference across the reach of level n-1 on both lines (the sign
