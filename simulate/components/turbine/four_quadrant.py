@@ -46,9 +46,9 @@ from hillchart.four_quadrant.suter import PLAIN, SuterConstants
 from simulate.components.registry import CompiledPart, PartHooks
 from simulate.components.turbine.kinds import CharacteristicKind
 from simulate.components.turbine.suter_kernels import (INVALID_POINT, NETS, NOT_BRACKETED, OPENING_OUTSIDE,
-                                                       STATUS_TEXT, TABLE, TWO_PI, closed_vane_point,
-                                                       solve_shifted_flow, suter_point, unit_head_flow,
-                                                       zero_flow_torque)
+                                                       STATUS_TEXT, TABLE, TWO_PI, closed_vane_blend,
+                                                       closed_vane_point, closed_vane_ratio, solve_shifted_flow,
+                                                       suter_point, unit_head_flow, zero_flow_torque)
 
 #: Largest relative difference between the plant's rated speed, flow and torque and those of the characteristics'
 #: rated unit point at the plant's D1 and H_r.
@@ -188,11 +188,10 @@ def _unit_point(params, n11, opening):
     turbine.suter_kernels.closed_vane_point`): the flow at the smallest opening scaled, the torque blended."""
     scal = params[0]
     v, y, y_floor = n11 / scal[0], opening / scal[3], scal[4]
-    r = 1.0
-    if y < y_floor:
-        r, y = max(y, 0.0) / y_floor, y_floor
+    r = closed_vane_ratio(y, y_floor)
     m0 = 0.0
     if r < 1.0:
+        y = y_floor
         m0, st = zero_flow_torque(params[1], params[2], params[3], params[4], params[5], params[6], params[7], v, y)
         if st != 0:
             return np.nan, np.nan
@@ -202,7 +201,8 @@ def _unit_point(params, n11, opening):
                               STEADY_SCAN)
     if not ok:
         return np.nan, np.nan
-    return r * q * scal[1], (r * m + (1.0 - r) * m0) * scal[2]
+    q, m = closed_vane_blend(r, q, m, m0)
+    return q * scal[1], m * scal[2]
 
 
 @numba.njit(cache=True)
@@ -235,15 +235,13 @@ def suter_step(p, s, c_l_m, k, speed_rpm, controls, diag):
     h_r, q_r, n_r, m_r, y_floor = b[0], b[1], b[2], b[3], b[5]
     v = speed_rpm / n_r
     y = controls[0] * b[4]
-    r = 1.0
-    if y < y_floor:
-        r = max(y, 0.0) / y_floor
+    r = closed_vane_ratio(y, y_floor)
     state = s[0]
-    w, status, iterations = solve_shifted_flow(p[1], p[2], p[3], p[4], p[5], p[6], p[7], v, max(y, y_floor),
+    w, status, iterations = solve_shifted_flow(p[1], p[2], p[3], p[4], p[5], p[6], p[7], v, y_floor if r < 1.0 else y,
                                                c_l_m / h_r, r * k * q_r / h_r, state[3], BOUNDARY_TOL,
                                                BOUNDARY_MAX_ITER)
     if r < 1.0:
-        q, h, m, st = closed_vane_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y, y_floor, r)
+        q, h, m, st = closed_vane_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y_floor, r)
     else:
         q, h, m, st = suter_point(p[1], p[2], p[3], p[4], p[5], p[6], p[7], w, v, y)
     if status == 0 and st != 0:
@@ -331,7 +329,7 @@ def initial_shifted_flow(chars: SuterCharacteristics, steady, scal) -> float:
     k2 = float(chars.curves[0][6])
     q0, h0 = steady.flow_m3_s / scal[1], steady.head_m / scal[0]
     y, y_floor = steady.stroke * scal[4], scal[5]
-    r = min(max(y, 0.0) / y_floor, 1.0) if y < y_floor else 1.0
+    r = closed_vane_ratio(y, y_floor)
     if r > 0.0:
         return q0 / r + k2 * math.sqrt(max(h0, 0.0))
     guess = (1.0 + k2) * math.sqrt(max(h0, 0.0))

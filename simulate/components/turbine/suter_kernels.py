@@ -178,14 +178,31 @@ def zero_flow_torque(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y):
 
 
 @numba.njit(cache=True)
-def closed_vane_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y, y_floor, r):
+def closed_vane_ratio(y, y_floor):
+    """r = y / y_floor below the smallest opening ``y_floor`` (0 at the closed vanes and below), 1 at or above it
+    and for curves of x alone (``y_floor`` = 0: no vanes to close)."""
+    if y_floor <= 0.0 or y >= y_floor:
+        return 1.0
+    return max(y, 0.0) / y_floor
+
+
+@numba.njit(cache=True)
+def closed_vane_blend(r, q, m, m0):
+    """``(q, m)`` of the closed-vane model (module docstring) from the smallest opening's flow q and torque m and the
+    zero-flow torque m0: the flow scaled by r, the torque blended, ``(r q, r m + (1 - r) m0)``."""
+    return r * q, r * m + (1.0 - r) * m0
+
+
+@numba.njit(cache=True)
+def closed_vane_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y_floor, r):
     """``(q, h, m, status)`` below the smallest opening ``y_floor`` (module docstring: the y_floor machine's point at
-    w, its flow scaled by r = y / y_floor, the torque blended to the zero-flow torque)."""
+    w, its flow scaled by r = y / y_floor, :func:`closed_vane_ratio`, the torque blended to the zero-flow torque)."""
     q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y_floor)
     if st != 0:
         return q, h, m, st
     m0, st = zero_flow_torque(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y_floor)
-    return r * q, h, r * m + (1.0 - r) * m0, st
+    q, m = closed_vane_blend(r, q, m, m0)
+    return q, h, m, st
 
 
 @numba.njit(cache=True)

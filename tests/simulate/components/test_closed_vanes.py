@@ -13,8 +13,8 @@ from hillchart.errors import InputError
 from hillchart.four_quadrant.suter import SuterConstants, suter_transform
 from simulate.components.turbine.four_quadrant import (EXACT_OPENINGS_MM, SUTER_NETS, SuterCharacteristics,
                                                        exact_pump_turbine_curves, pump_turbine_rated)
-from simulate.components.turbine.suter_kernels import (INVALID_POINT, closed_vane_point, suter_point,
-                                                       zero_flow_torque)
+from simulate.components.turbine.suter_kernels import (INVALID_POINT, closed_vane_point, closed_vane_ratio,
+                                                       suter_point, zero_flow_torque)
 from simulate.config import load_plant
 from simulate.loop.engine import run_simulation
 from simulate.loop.prepare import initial_state
@@ -39,6 +39,9 @@ def test_the_smallest_opening_is_the_nets_smallest_training_opening_and_a_table_
     assert table.smallest_opening == 0.2
     pump = SuterCharacteristics.from_table(wh[:1], wm[:1], rated=pump_turbine_rated(), opening_max=1.0, name="p")
     assert pump.smallest_opening == 0.0  # curves of x alone: no vanes to close
+    # the ratio r: y / y_f below the smallest opening, 0 at or below closed, 1 above it and without vanes
+    assert [closed_vane_ratio(y, 0.2) for y in (0.1, 0.0, -0.01, 0.2, 0.5)] == [0.5, 0.0, 0.0, 1.0, 1.0]
+    assert closed_vane_ratio(-0.01, 0.0) == 1.0
 
 
 def test_improved_transform_point_at_a_small_opening_near_zero_speed_is_recovered(nets_chars):
@@ -64,12 +67,12 @@ def test_closed_vane_point_is_continuous_at_the_smallest_opening_and_has_no_flow
     curves, y_f = nets_chars.curves, nets_chars.smallest_opening
     for v, w in ((1.0, 0.8), (-1.0, -0.3), (0.5, 1.0)):  # valid points of the 4 mm curves
         at_floor = suter_point(*curves, w, v, y_f)
-        assert np.allclose(closed_vane_point(*curves, w, v, y_f, y_f, 1.0)[:3], at_floor[:3], rtol=1e-14, atol=0)
-        q, h, m, status = closed_vane_point(*curves, w, v, 0.0, y_f, 0.0)
+        assert np.allclose(closed_vane_point(*curves, w, v, y_f, 1.0)[:3], at_floor[:3], rtol=1e-14, atol=0)
+        q, h, m, status = closed_vane_point(*curves, w, v, y_f, 0.0)
         m0, st = zero_flow_torque(*curves, v, y_f)
         assert status == st == 0 and q == 0.0 and h == at_floor[1] and m == m0
         # half-way: half the flow, the torque half-way to the zero-flow torque
-        q2, _, m2, _ = closed_vane_point(*curves, w, v, 0.5 * y_f, y_f, 0.5)
+        q2, _, m2, _ = closed_vane_point(*curves, w, v, y_f, 0.5)
         assert q2 == pytest.approx(0.5 * at_floor[0], rel=1e-14) and m2 == pytest.approx(0.5 * (at_floor[2] + m0))
 
 
