@@ -40,6 +40,11 @@ def extremum_index(trace: str, values, sense: float) -> int:
     return int(np.argmax(values)) if sense > 0 else int(np.argmin(values))
 
 
+def speed_base_rpm(initial_speed_rpm: float, rated_speed_rpm: float) -> float:
+    """What the max speed rise is a rise over: |n0|, or the rated speed for a run from standstill (n0 = 0)."""
+    return abs(float(initial_speed_rpm)) if initial_speed_rpm != 0.0 else float(rated_speed_rpm)
+
+
 def speed_figures(time_s, speed_rpm, rated_speed_rpm: float) -> dict:
     """``max_speed_rise`` (|n| at :func:`largest_speed_index` over |n0|, minus 1; over the rated speed for a run
     that starts at standstill, n0 = 0), ``t_max_speed_s`` and ``max_speed_rpm`` (that largest |n|, r/min).
@@ -54,8 +59,8 @@ def speed_figures(time_s, speed_rpm, rated_speed_rpm: float) -> dict:
     """
     speed = np.asarray(speed_rpm, float)
     i = largest_speed_index(speed)
-    base = abs(speed[0]) if speed[0] != 0.0 else float(rated_speed_rpm)
-    return {"max_speed_rise": float(abs(speed[i]) / base - 1.0), "t_max_speed_s": float(time_s[i]),
+    rise = float(abs(speed[i]) / speed_base_rpm(speed[0], rated_speed_rpm) - 1.0)
+    return {"max_speed_rise": rise, "t_max_speed_s": float(time_s[i]),
             "max_speed_rpm": float(abs(speed[i]))}
 
 
@@ -298,7 +303,7 @@ class SimulationResult:
             i = extremum_index(trace, values, sign)
             v0, value = float(values[0]), float(values[i])
             if trace == "speed_rpm":  # the summary's figure (speed_figures): the largest |n| over |n0| (n_r at rest)
-                value, v0 = abs(value), (abs(v0) if v0 != 0.0 else float(self.rated_speed_rpm))
+                value, v0 = abs(value), speed_base_rpm(v0, self.rated_speed_rpm)
             rise = sign * (value / v0 - 1.0)  # the summary's figure: max(x)/x0 - 1, or 1 - min(x)/x0
             unit = "r/min" if trace == "speed_rpm" else "m"
             text = f"{label} {value:.1f} {unit} ({'+' if sign > 0 else '-'}{100 * rise:.2f} %)"
