@@ -66,7 +66,8 @@ from simulate.components.contract import contract_of
 class PartHooks:
     """What a component tells the engine besides its arrays and functions; every field is optional.
 
-    ``summary``: fixed figures for the run's summary (e.g. the MOC reach count). ``initial_head_m``: an upstream
+    ``summary``: fixed figures for the run's summary (e.g. the MOC reach count; a turbine boundary's come last, so a
+    boundary that solves its own equation can say so over ``pressure_loop``). ``initial_head_m``: an upstream
     part's head at the penstock inlet at t = 0, m (default: the static head). ``initial_signals``: row 0 of the
     columns its ``record`` function writes. After the run, on the stored signals ({column: array}) and their times
     (s): ``summary_after(time_s, signals) -> dict`` more figures, ``warnings_after(signals) -> list[str]``,

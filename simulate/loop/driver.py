@@ -296,10 +296,7 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
     pen = plant.penstock
     series, component_figures = {}, {}
     meta = {"scenario": plant.scenario.kind, "penstock_model": pen.model,
-            # the turbine boundary of the pressure loop reads solver.pressure_loop; another (four-quadrant) its own
-            "pressure_loop": (plant.solver.pressure_loop if units[0].parts["turbine"].name == "pressure_loop"
-                              else f"none ({units[0].parts['turbine'].name} boundary)"),
-            "dt_s": dt, "substeps": n_sub,
+            "pressure_loop": plant.solver.pressure_loop, "dt_s": dt, "substeps": n_sub,
             "pressure_loop_fallback_steps": int(diag[7]), "travel_time_s": pen.travel_time_s, "compiled": compiled}
     if several:
         meta.update({"dt_chosen": False,
@@ -360,7 +357,9 @@ def _result(plant, units, steady, common, penstock, time_s, n_rows, out_units, o
         meta.update({f"conduit_{k}": v for k, v in common["penstock"].hooks.summary.items()})
     for i, unit in enumerate(units):
         own = signals_of(i, n_rows)
-        kinds = ("shaft", "downstream", "control") if several else ("conduit", "shaft", "downstream", "control")
+        # the turbine's summary last: a boundary that solves its own equation says so over solver.pressure_loop
+        kinds = (("shaft", "downstream", "control") if several else ("conduit", "shaft", "downstream", "control")) \
+            + ("turbine",)
         for kind in kinds:
             part = unit.parts[kind]
             meta.update(part.hooks.summary)

@@ -357,7 +357,8 @@ def build_suter_boundary(inputs) -> CompiledPart:
     return CompiledPart(kind="turbine", name="four-quadrant", functions={"step": suter_step, "signals": suter_signals},
                         params=(scal,) + chars.curves,
                         state=(np.array([steady.head_m, steady.flow_m3_s, steady.torque_nm, w0]),),
-                        hooks=PartHooks(step_failure=suter_step_failure))
+                        hooks=PartHooks(step_failure=suter_step_failure,
+                                        summary={"pressure_loop": "none (four-quadrant boundary)"}))
 
 
 # ---------------------------------------------------------------------------------------------------------------
