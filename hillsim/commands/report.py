@@ -177,7 +177,7 @@ def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
                                 else h0 * (1 + limits.max_head_rise)) if v is not None)
         axes[1].axhline(level, color="tab:red", ls="--", lw=1, label=f"limit {level:.1f} m")
         axes[1].legend(fontsize=8, loc="upper right")
-    events = _events(plant)
+    events = plant.scenario.events()
     shut = np.nonzero((t > events[0][0]) & (result.opening <= 1e-6))[0] if events else np.array([], int)
     if shut.size:
         events = events + [(float(t[shut[0]]), "vanes shut")]
@@ -192,10 +192,6 @@ def plot_transient(result, case, plant, limits, path: Path, title: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
-
-
-def _events(plant) -> list[tuple[float, str]]:
-    return plant.scenario.events()
 
 
 def plot_envelope(envelopes, path: Path) -> None:
