@@ -43,7 +43,8 @@ from simulate.studies.guarantee import (ACCEPTANCE, CLOSING_TIMES_S, LOAD_FRACTI
 FAMILIES = {"in-class": tuple(FAMILY), "out-of-class": tuple(OUT_OF_CLASS_FAMILY)}
 #: Headings of the per-family tables.
 HEADINGS = {"in-class": "In-class family (the model class the extension fits)",
-            "out-of-class": "Out-of-class family (throat foot, asymmetric incidence loss, leakage at closed vanes)"}
+            "out-of-class": "Out-of-class family (hyperbolic throat foot, asymmetric incidence loss, leakage at closed "
+                            "vanes)"}
 
 
 def _chart_line(g) -> str:

@@ -475,9 +475,14 @@ class Extrapolation:
     def of_chart(cls, chart, torque, model) -> "Extrapolation":
         """Weigh the hypotheses of ``chart`` (``torque``: M11 at its flow points, N*m; ``model``: the physical
         model fitted to the whole chart)."""
+        from functools import partial
+
         from hillchart.extension.turbine_model import fit_turbine_model
 
-        evidence = chart_evidence(chart, torque, fit_turbine_model)
+        # the refits take the whole chart's form (with or without the throat foot): the evidence judges the model
+        # the answer uses, also where a fold's lines are too few to find the foot on their own
+        refit = partial(fit_turbine_model, throat_foot_mm=getattr(model, "throat_foot_mm", 0.0))
+        evidence = chart_evidence(chart, torque, refit)
         hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
         # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's
         # answers held at its pumping limit beyond it, :meth:`Hypotheses.predict`)
@@ -485,7 +490,7 @@ class Extrapolation:
         ends = tuple((float(a), float(chart.flow_n11[chart.flow_opening == a].max()))
                      for a in np.unique(chart.flow_opening))
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top,
-                   overspeed=overspeed_evidence(chart, torque, fit_turbine_model), line_ends=ends)
+                   overspeed=overspeed_evidence(chart, torque, refit), line_ends=ends)
 
     @property
     def lowest_opening(self) -> float:

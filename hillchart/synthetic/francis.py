@@ -547,6 +547,7 @@ def _efficiency_contours(turbine: SyntheticFrancis, layout: ChartLayout, digitiz
             arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line / [30.0, 20.0], axis=0).T))])
             for s in np.linspace(0.0, arc[-1], points_per_contour, endpoint=not np.allclose(line[0], line[-1])):
                 n, a = np.interp(s, arc, line[:, 0]), np.interp(s, arc, line[:, 1])
+                a = min(max(a, opening[0]), opening[-1])  # a contour on the grid's edge, rounded past it
                 rows.append(digitizer.row(level * digitizer.eff_factor if digitizer.eff_factor != 1.0 else level,
                                           digitizer.eff_digits, n, float(turbine.q11(n, a))))
     return rows

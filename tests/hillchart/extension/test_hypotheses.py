@@ -130,13 +130,14 @@ def test_band_sides_are_one_sided_conformal_bounds_on_the_signed_scores():
 
 
 @pytest.mark.external
-def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_line(tmp_path):
+def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_line(tmp_path, monkeypatch):
     """Sayano with its lowest line, then its two lowest, held out and trained with the defaults on the rest: what a
-    run reads is within the straight line's mean error (measured 2.0 and 5.7 % against 4.0 and 7.2 %) and the band
-    covers at least 80 % of the 10 held-out Q11 and M11 together (measured 9 of 10 each: 3 of 3, 6 of 7; one point
-    of the 14 mm line lies 1.9 % of its Q11 outside, and one 0.1 % inside, less than the nets move between CPU
-    families, 0.4 %, so the bound is on the pooled points, which one such point cannot break); the failing side:
-    the physical model alone misses by 14 %."""
+    run reads is within the straight line's mean error (measured 1.7 and 3.9 % against 4.0 and 7.2 %), its worst
+    error within 8 % (measured -3.8 and +6.5 %; the straight line's +7.9 and +13.2 % show the bound can fail; the
+    nets move by up to 0.4 % between CPU families), and the band covers at least 80 % of the 10 held-out Q11 and M11
+    (measured 9 of 10 each; pooled, since one point near a band's edge must not decide it: a point of the 10 mm
+    line lies 1.9 % of its Q11 above the band). The failing side: the physical model without its throat foot
+    misses the two lowest lines by 14 % (mean)."""
 
     from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
 
@@ -147,10 +148,22 @@ def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_lin
     for result in results:
         run, line = result["rows"]["run"], result["rows"]["line"]
         assert run["q11_mean_abs_pct"] < line["q11_mean_abs_pct"]
-        assert result["rows"]["model"]["q11_mean_abs_pct"] > 10.0
+        assert abs(run["q11_worst_pct"]) <= 8.0
+    assert results[1]["rows"]["line"]["q11_worst_pct"] > 8.0
     points = sum(r["points"] for r in results)
     assert sum(r["q11_covered"] for r in results) >= 0.8 * points
     assert sum(r["m11_covered"] for r in results) >= 0.8 * points
+    # the model with the foot and without it (the test at level 0 never keeps it), at the two lowest lines
+    import hillchart.extension.turbine_model as turbine_model
+
+    rest, held = bench.reduced_chart(chart, 2)
+    n11, opening, q11 = chart.flow_n11[held], chart.flow_opening[held], chart.flow_q11[held]
+    footed = turbine_model.fit_turbine_model(rest, bench.chart_torque(rest))
+    monkeypatch.setattr(turbine_model, "FOOT_SIGNIFICANCE", 0.0)
+    plain = turbine_model.fit_turbine_model(rest, bench.chart_torque(rest))
+    assert plain.throat_foot_mm == 0.0 < footed.throat_foot_mm
+    assert np.mean(np.abs(plain.q11(n11, opening) / q11 - 1.0)) > 0.10
+    assert np.mean(np.abs(footed.q11(n11, opening) / q11 - 1.0)) < 0.04  # measured 2.1 %
 
 
 def test_toward_runaway_the_chart_states_how_well_it_predicts_its_held_out_line_ends(shipped):

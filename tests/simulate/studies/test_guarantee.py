@@ -209,26 +209,32 @@ def test_out_of_class_turbines_run_through_the_same_pipeline():
 
 
 @pytest.mark.slow
-def test_the_throat_foot_decides_the_out_of_class_head_rise():
-    """benchmarks/bench_out_of_class_ablation.py, its dense row: with all three out-of-class changes the max head rise
-    of an 8 s closure is under the exact turbine's by 3.9 points; with the throat foot switched off it is within
-    0.75 point (the failing case and the passing one). The bounds sit in the gap between the two (-2.0 against the
-    measured -3.92, 1.5 against 0.74), so a change of the nets by tenths of a point, more than a CPU family moves
-    them, keeps the verdict while a hypothesis that saw the foot would fail the first."""
+def test_the_fitted_throat_foot_brings_the_out_of_class_head_rise_within_two_points(monkeypatch):
+    """benchmarks/bench_out_of_class_ablation.py, its dense row (slow-x, noise 0.3 %, 8 s closure from full load): the
+    turbine's hyperbolic throat foot, seen above the lowest line by the fitted model's rational foot, leaves the max
+    head rise 1.78 points under the exact turbine's; the model without a foot (the failing case, the F-test at level
+    0) leaves it 4.62 points under; with the foot switched off in the turbine the fit keeps none and the error is
+    +0.74. The bounds sit in the gaps (2.5 against 1.78 and 4.62; 1.5 against 0.74), so a change of the nets by
+    tenths of a point, more than a CPU family moves them, keeps each verdict."""
     import dataclasses
+
+    import hillchart.extension.turbine_model as turbine_model
     from hillchart.synthetic import francis_variants
 
     bench = load_script("bench_out_of_class_ablation")
     family = francis_variants.OUT_OF_CLASS_FAMILY
     member = family["slow-x"]
-    errors = {}
-    try:
-        for label in ("all three changes", "without the throat foot"):
-            family["slow-x"] = dataclasses.replace(member, physics=bench.variants(member)[label])
+
+    def head_error(label):
+        family["slow-x"] = dataclasses.replace(member, physics=bench.variants(member)[label])
+        try:
             chart = evaluate_chart("slow-x", density="dense", noise_pct=0.3, runaway=False, seed=0,
                                    closing_times_s=(8.0,), load_fractions=(1.0,), band=False)
-            errors[label] = chart.cases[0].error_pt("max_head_rise")
-    finally:
-        family["slow-x"] = member
-    assert errors["all three changes"] < -2.0
-    assert abs(errors["without the throat foot"]) < 1.5
+        finally:
+            family["slow-x"] = member
+        return chart.cases[0].error_pt("max_head_rise")
+
+    assert abs(head_error("all three changes")) < 2.5
+    assert abs(head_error("without the throat foot")) < 1.5
+    monkeypatch.setattr(turbine_model, "FOOT_SIGNIFICANCE", 0.0)
+    assert head_error("all three changes") < -2.5
