@@ -86,6 +86,34 @@ class FittedTurbineModel:
         """a_0 of the model's throat law ``a_t = a^2 / (a + a_0)``, chart opening units (0: no foot)."""
         return float(self.turbine.physics.throat_foot_mm)
 
+    def describe(self) -> str:
+        """One line for ``hillsim extend`` and ``train``: the misfit and the throat foot, with its test.
+
+        Examples
+        --------
+        >>> from hillchart.synthetic.francis_variants import OutOfClassFrancis, VariantPhysics
+        >>> model = FittedTurbineModel(OutOfClassFrancis(physics=VariantPhysics(throat_foot_mm=4.42)), 1e-3, 1.9,
+        ...                            0.8, 200.0, foot_p_value=3e-13)
+        >>> model.describe().split("; ")[1]
+        'throat foot a_0 = 4.42 (chart opening units'
+        >>> model.describe().split("; ")[2]
+        'F-test p = 3e-13)'
+        """
+        if self.throat_foot_mm > 0:
+            foot = (f"throat foot a_0 = {self.throat_foot_mm:.3g} (chart opening units; F-test p = "
+                    f"{self.foot_p_value:.2g})")
+        elif self.foot_p_value < 1.0:
+            foot = f"no throat foot (F-test p = {self.foot_p_value:.2g}, kept below {FOOT_SIGNIFICANCE:g})"
+        else:
+            foot = f"no throat foot (not tried: fewer than {FOOT_MIN_LINES} opening lines)"
+        return (f"misfit Q11 RMS {self.q11_rms_pct:.2f} %, M11 RMS {self.m11_rms_pct:.2f} % of the measured range; "
+                + foot)
+
+    def to_dict(self) -> dict:
+        """What ``nets.json`` records of the model (``training.extension.model``)."""
+        return {"misfit_pct": {"q11": round(self.q11_rms_pct, 4), "m11": round(self.m11_rms_pct, 4)},
+                "throat_foot": round(self.throat_foot_mm, 6), "throat_foot_p_value": float(f"{self.foot_p_value:.3g}")}
+
     def q11(self, n11, opening):
         return self.turbine.q11(n11, opening)
 

@@ -90,8 +90,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  zero opening: M11 = -K N11^2 with K = {extended.k_zero_opening:.6g} N*m/(r/min)^2")
     if extended.boundary_model is not None:
         model = extended.boundary_model
-        print(f"  boundaries from the physical turbine model fitted to the chart: misfit Q11 RMS "
-              f"{model.q11_rms_pct:.2f} %, M11 RMS {model.m11_rms_pct:.2f} % of the measured range")
+        print(f"  boundaries from the physical turbine model fitted to the chart: {model.describe()}")
     print(f"  efficiency surface: polynomial of degree {extended.efficiency_surface.degree}, "
           f"cross-validated RMSE {extended.efficiency_surface.cv_rmse:.4f}")
     if args.plot:

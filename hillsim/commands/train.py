@@ -127,8 +127,9 @@ def run(args: argparse.Namespace) -> int:
         "boundaries": extension.boundaries, "k_zero_opening_used": extended.k_zero_opening,
     }
     if extended.boundary_model is not None:
-        nets.training["extension"]["model_misfit_pct"] = {"q11": round(extended.boundary_model.q11_rms_pct, 4),
-                                                          "m11": round(extended.boundary_model.m11_rms_pct, 4)}
+        model = extended.boundary_model.to_dict()
+        nets.training["extension"]["model_misfit_pct"] = model.pop("misfit_pct")
+        nets.training["extension"].update(model)
     if args.record_time:
         nets.training["time_s"] = round(elapsed, 3)
     import numpy as np
@@ -152,6 +153,8 @@ def run(args: argparse.Namespace) -> int:
           f"2-H-1 logsig nets (H {hidden}), Levenberg-Marquardt, ensemble of {options['ensemble']} (seed "
           f"{options['seed']})")
     print(format_training_table(nets))
+    if extended.boundary_model is not None:
+        print(f"physical turbine model: {extended.boundary_model.describe()}")
     if extended.extrapolation is not None:
         print(f"extrapolation: {extended.extrapolation.summary()}")
     print(f"training time (both nets): {elapsed:.2f} s")

@@ -72,3 +72,27 @@ def test_default_selection_is_recorded_in_nets_json():
         assert sel["cv_mse_best"] == min(c["cv_mse"] for c in sel["candidates"])
         assert len(doc["flow"]["W1"]) == doc["training"]["flow"]["selection"]["hidden"]
     assert len(doc["ensemble"]) == 10 and doc["training"]["extension"]["boundaries"] == "model"
+
+
+def test_train_states_the_physical_models_throat_foot(tmp_path, capsys):
+    """The shipped chart's turbine has no foot (p = 0.014 against the kept level 0.01); a chart drawn from a turbine
+    with a rational foot of 1.8 mm gets one (1.82 mm measured): ``hillsim train`` says which, and nets.json records
+    it (``training.extension.throat_foot``, chart opening units, and its p-value)."""
+    from hillchart.synthetic.francis import FAMILY, DigitizationOptions, write_synthetic_chart
+    from hillchart.synthetic.francis_variants import OutOfClassMember, VariantPhysics
+
+    base = FAMILY["medium"]
+    member = OutOfClassMember(base.params, base.layout, "medium with a foot",
+                              VariantPhysics(throat_foot_mm=1.8, throat_law="rational"))
+    chart = tmp_path / "footed"
+    write_synthetic_chart(chart, seed=0, turbine=member,
+                          options=DigitizationOptions(points_per_line=6, spacing="uneven", noise_pct=0.15))
+    for folder, says in ((FRANCIS_DIR, "no throat foot (F-test p = 0.014, kept below 0.01)"),
+                         (chart, "throat foot a_0 = 1.8")):
+        out = tmp_path / f"{folder.name}.json"
+        assert main(["train", str(folder), "--out", str(out), "--ensemble", "0"]) == 0
+        printed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("physical turbine model")]
+        assert len(printed) == 1 and says in printed[0], printed
+        extension = json.loads(out.read_text())["training"]["extension"]
+        assert set(extension) >= {"model_misfit_pct", "throat_foot", "throat_foot_p_value"}
+        assert (1.5 < extension["throat_foot"] < 2.1) == (folder == chart)
