@@ -5,7 +5,10 @@ incidence, runner-friction, draft-tube and exit-swirl losses, disc friction: 11 
 (``scipy.optimize.least_squares``, trust-region reflective on log-parameters) to the chart's measured flow samples,
 the torque samples computed from efficiency (eq. 5 of the BP hill-chart paper) and, when the chart has a runaway
 curve, its M11 = 0 points. The chart's opening unit is arbitrary: the guide-vane pitch (opening at which the inlet
-flow would be radial) is a fitted parameter in chart units.
+flow would be radial) is a fitted parameter in chart units. When the chart's lines need it (:func:`fit_turbine_model`),
+a twelfth parameter is the foot of the guide-vane throat, ``a_t = a^2 / (a + a_0)`` in place of the stroke ``a``
+(:mod:`hillchart.synthetic.francis_variants`, the rational law): the flow angle follows a throat that opens later than
+the stroke, and Q11 falls faster than in proportion to the opening below the lowest line.
 
 From the fitted model the extension takes the zero-opening torque M11 = -K N11^2 (eq. 8; K is the model's disc
 friction), the zero-speed flow and torque, and the runaway curve where the chart has none. All boundaries then come
