@@ -113,7 +113,8 @@ class FittedTurbineModel:
                 + foot)
 
     def to_dict(self) -> dict:
-        """What ``nets.json`` records of the model (``training.extension.model``)."""
+        """What ``nets.json`` records of the model in ``training.extension``: ``misfit_pct`` (written there as
+        ``model_misfit_pct``), ``throat_foot`` (chart opening units, 0 for none) and ``throat_foot_p_value``."""
         return {"misfit_pct": {"q11": round(self.q11_rms_pct, 4), "m11": round(self.m11_rms_pct, 4)},
                 "throat_foot": round(self.throat_foot_mm, 6), "throat_foot_p_value": float(f"{self.foot_p_value:.3g}")}
 
