@@ -481,7 +481,7 @@ class Extrapolation:
 
         # the refits take the whole chart's form (with or without the throat foot): the evidence judges the model
         # the answer uses, also where a fold's lines are too few to find the foot on their own
-        refit = partial(fit_turbine_model, throat_foot_mm=getattr(model, "throat_foot_mm", 0.0))
+        refit = partial(fit_turbine_model, throat_foot_mm=model.throat_foot_mm)
         evidence = chart_evidence(chart, torque, refit)
         hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
         # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's

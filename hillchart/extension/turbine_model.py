@@ -74,7 +74,8 @@ class FittedTurbineModel:
         Upper N11 (r/min) of the model's valid range (beyond it: the pumping region), inf when unbounded.
     foot_p_value : float
         p-value of the throat foot's F-test (:func:`fit_turbine_model`); the foot is in the model when it is below
-        :data:`FOOT_SIGNIFICANCE`.
+        :data:`FOOT_SIGNIFICANCE`; 1 when not tried (fewer than :data:`FOOT_MIN_LINES` lines), NaN when the form was
+        given (``throat_foot_mm``: a held-out fold's refit).
     """
 
     turbine: object
@@ -102,7 +103,10 @@ class FittedTurbineModel:
         >>> model.describe().split("; ")[2]
         'F-test p = 3e-13)'
         """
-        if self.throat_foot_mm > 0:
+        if math.isnan(self.foot_p_value):
+            foot = (f"throat foot a_0 = {self.throat_foot_mm:.3g} (chart opening units; the form given, not tested)"
+                    if self.throat_foot_mm > 0 else "no throat foot (the form given, not tested)")
+        elif self.throat_foot_mm > 0:
             foot = (f"throat foot a_0 = {self.throat_foot_mm:.3g} (chart opening units; F-test p = "
                     f"{self.foot_p_value:.2g})")
         elif self.foot_p_value < 1.0:
@@ -246,10 +250,11 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
         held = 0.0 if throat_foot_mm is None or enough else float(throat_foot_mm)
         plain = best_of(without, [x0 if start == 0 else x0 + rng.normal(0.0, 0.2, x0.size)
                                   for start in range(starts)], held)
-        foot_p = 1.0
+        foot_p = 1.0 if throat_foot_mm is None else math.nan  # a given form is not tested
         if enough and (throat_foot_mm is None or throat_foot_mm > 0):
             given = () if throat_foot_mm is None else (throat_foot_mm / opening_max,)
             footed = best_of(PARAMETER_NAMES, [np.insert(plain.x, at, math.log(f)) for f in FOOT_STARTS + given])
+        if enough and throat_foot_mm is None:
             rss = [float(np.sum(r.fun[:-1] ** 2)) for r in (plain, footed)]  # the data's (the prior left out)
             dof = max(2 * n.size - len(PARAMETER_NAMES), 1)
             f_ratio = (rss[0] - rss[1]) / max(rss[1] / dof, 1e-300)

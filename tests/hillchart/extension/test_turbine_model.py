@@ -80,3 +80,20 @@ def test_three_lines_are_too_few_to_try_a_foot(footed):
                     flow_q11=chart.flow_q11[keep])
     model = fit_turbine_model(three, _torque(three))
     assert model.foot_p_value == 1.0 and model.throat_foot_mm == 0.0
+
+
+def test_a_given_form_is_refitted_not_tested(footed):
+    """A held-out fold's refit takes the whole chart's form (``throat_foot_mm``): none when 0 (whatever the lines
+    say: this chart's foot tests at p < 1e-6), fitted on 4+ lines when > 0, held at the given value on fewer; the
+    p-value is NaN (not tested), and the line hillsim prints says so."""
+    chart, _ = footed
+    torque = _torque(chart)
+    assert fit_turbine_model(chart, torque, throat_foot_mm=0.0).throat_foot_mm == 0.0
+    refit = fit_turbine_model(chart, torque, throat_foot_mm=1.0)
+    assert refit.throat_foot_mm == pytest.approx(FOOT_MM, rel=0.15) and np.isnan(refit.foot_p_value)
+    assert "the form given, not tested" in refit.describe()
+    openings = np.unique(chart.flow_opening)
+    keep = np.isin(chart.flow_opening, openings[-3:])
+    three = replace(chart, flow_opening=chart.flow_opening[keep], flow_n11=chart.flow_n11[keep],
+                    flow_q11=chart.flow_q11[keep])
+    assert fit_turbine_model(three, _torque(three), throat_foot_mm=1.3).throat_foot_mm == 1.3
