@@ -66,6 +66,8 @@ WATER_VISCOSITY_M2_S = 1.0e-6
 MEASURED = {0.3: 1015.0, 1.4: 2057.0}
 #: The cavity models compared.
 MODELS = ("dvcm", "dgcm")
+#: The runs the figure draws (friction, cavity model).
+FIGURE_RUNS = (("steady", "dvcm"), ("steady", "dgcm"), ("convolution", "dvcm"))
 
 
 def blasius_friction(velocity_m_s: float) -> float:
@@ -152,7 +154,7 @@ def peaks(result) -> Peaks:
                  float(result.summary().get("max_cavity_volume_m3", 0.0)))
 
 
-def table(velocities=(0.3, 1.4), frictions=("steady", "brunone"), models=MODELS, reaches: int = 32,
+def table(velocities=(0.3, 1.4), frictions=("steady", "brunone", "convolution"), models=MODELS, reaches: int = 32,
           tank_head_m: float = TANK_HEAD_M) -> list[dict]:
     """One row per velocity, friction model, cavity model and step (dt, dt/2)."""
     rows = []
@@ -176,11 +178,11 @@ def figure(rows, path: Path) -> Path:
     axes = fig.subplots(2, 1, sharex=True)
     for ax, v in zip(axes, (0.3, 1.4)):
         for row in rows:
-            if row["velocity_m_s"] == v and row["friction"] == "steady" and row["dt_s"] == max(
+            if row["velocity_m_s"] == v and (row["friction"], row["model"]) in FIGURE_RUNS and row["dt_s"] == max(
                     r["dt_s"] for r in rows if r["velocity_m_s"] == v):
                 r, p = row["result"], row["peaks"]
                 line, = ax.plot(r.time_s - EVENT_TIME_S, valve_pressure_kpa(r), lw=1,
-                                label=f"{row['model'].upper()}, steady friction")
+                                label=f"{row['model'].upper()}, {row['friction']} friction")
                 ax.plot(p.collapse_t_s, p.collapse_kpa, "o", mfc="none", color=line.get_color(), ms=6)
         ax.axhline(MEASURED[v], color="k", ls=":", lw=1, label=f"held collapse peak {MEASURED[v]:g} kPa (measured)")
         ax.set_ylabel("absolute pressure at the valve (kPa)")

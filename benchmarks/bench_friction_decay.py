@@ -37,7 +37,7 @@ DEMO_PLANT = "plant_hla339.toml"
 #: The shipped plants of one unit on a MOC penstock (plant_two_units.toml: tests/simulate/loop/test_units_friction.py).
 SHIPPED_MOC = ("plant_hla339.toml", "plant_hla339_guarantee.toml", "plant_hla339_grid.toml",
                "plant_hla339_surge_tank.toml", "plant_bulb.toml", "plant_pump_turbine.toml")
-FRICTIONS = ("steady", "brunone")
+FRICTIONS = ("steady", "brunone", "convolution")
 #: Length of the windows of the ringing amplitude, s.
 WINDOW_S = 10.0
 #: The closure is over when the turbine's flow is below this fraction of its initial value.
@@ -157,14 +157,15 @@ def decay_table(decays: list[Decay]) -> str:
 
 
 def draw(runs: dict, decays: dict, path: Path) -> Path:
-    """``friction_decay.png``: the head at the turbine over the run, and its last 12 s, with both models."""
+    """``friction_decay.png``: the head at the turbine over the run, and its last 12 s, with every model."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, (whole, tail) = plt.subplots(2, 1, figsize=(9.0, 6.5))
-    styles = {"steady": {"color": "0.55", "lw": 1.0}, "brunone": {"color": "tab:blue", "lw": 1.0}}
+    styles = {"steady": {"color": "0.55", "lw": 1.0}, "brunone": {"color": "tab:blue", "lw": 1.0},
+              "convolution": {"color": "tab:red", "lw": 1.0}}
     for friction, result in runs.items():
         d = decays[friction]
         label = (f"{friction}: ringing {d.amplitudes_m[0]:.2f} -> {d.amplitudes_m[-1]:.2f} m "
@@ -172,7 +173,7 @@ def draw(runs: dict, decays: dict, path: Path) -> Path:
         whole.plot(result.time_s, result.head_m, label=label, **styles[friction])
         late = result.time_s >= result.time_s[-1] - 12.0
         tail.plot(result.time_s[late], result.head_m[late], label=friction, **styles[friction])
-    whole.set_title("Demo load rejection: head at the turbine, quasi-steady and Brunone unsteady friction")
+    whole.set_title("Demo load rejection: head at the turbine, quasi-steady, Brunone and convolution friction")
     whole.set_ylabel("head (m)")
     whole.legend(loc="upper right", fontsize=8)
     tail.set_xlabel("time (s)")

@@ -18,6 +18,8 @@ rule              shape of the array
 ``per node``      ``(n,)``: one value per computing node of the part's grid
 ``levels x node`` ``(2, n)``: the current and the next time level, one value per computing node
 ``entries x node`` ``(len(entries), n)``: the named entries, one row each, one value per computing node
+``rows x node``   ``(m, n)``, m >= 1: m rows (m set at build time, e.g. a friction model's terms), one value per
+                  computing node
 ``per control``   ``(n_controls,)``: one value per control of the control vector (1: the guide vanes; 2 with the
                   runner blades)
 ``delay line``    ``(len(entries) + m,)``, m >= 1: the named entries, then one value per step of a delay (m set at
@@ -40,10 +42,11 @@ import numpy as np
 
 from hillchart.errors import InputError
 
-SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, PER_CONTROL, DELAY_LINE, PART = (
-    "scalar", "entries", "per node", "levels x node", "entries x node", "per control", "delay line", "part")
+SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, ROWS_BY_NODE, PER_CONTROL, DELAY_LINE, PART = (
+    "scalar", "entries", "per node", "levels x node", "entries x node", "rows x node", "per control", "delay line",
+    "part")
 #: The shape rules (module docstring).
-SHAPES = (SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, PER_CONTROL, DELAY_LINE, PART)
+SHAPES = (SCALAR, ENTRIES, PER_NODE, LEVELS_BY_NODE, ENTRIES_BY_NODE, ROWS_BY_NODE, PER_CONTROL, DELAY_LINE, PART)
 #: Registry kinds whose components' state is one array, not a tuple.
 ARRAY_KINDS = ("servo",)
 
@@ -243,14 +246,18 @@ def _shape_problem(array: StateArray, shape: tuple, nodes: dict, n_controls: int
         ok = len(shape) == 1 and shape[0] >= len(array.entries) + 1
         return "" if ok else f"its rule 'delay line' asks ({len(array.entries)} + m,) with m >= 1"
     want_dims = 1 if array.shape == PER_NODE else 2
-    rows = len(array.entries) if array.shape == ENTRIES_BY_NODE else 2
-    if len(shape) != want_dims or (want_dims == 2 and shape[0] != rows):
-        return f"its rule {array.shape!r} asks {'(n,)' if want_dims == 1 else f'({rows}, n)'}"
+    if array.shape == ROWS_BY_NODE:
+        if len(shape) != 2 or shape[0] < 1:
+            return f"its rule {array.shape!r} asks (m, n) with m >= 1"
+    else:
+        rows = len(array.entries) if array.shape == ENTRIES_BY_NODE else 2
+        if len(shape) != want_dims or (want_dims == 2 and shape[0] != rows):
+            return f"its rule {array.shape!r} asks {'(n,)' if want_dims == 1 else f'({rows}, n)'}"
     if nodes["n"] is None:
         nodes["n"] = shape[-1]
     return "" if shape[-1] == nodes["n"] else f"its rule {array.shape!r} asks {nodes['n']} nodes"
 
 
-__all__ = ["SCALAR", "ENTRIES", "PER_NODE", "LEVELS_BY_NODE", "ENTRIES_BY_NODE", "PER_CONTROL", "DELAY_LINE", "PART",
-           "SHAPES", "ARRAY_KINDS", "StateArray", "StatesOf", "LinearBlock", "UNDECLARED", "Contract", "declared",
-           "contract_of", "state_mismatches"]
+__all__ = ["SCALAR", "ENTRIES", "PER_NODE", "LEVELS_BY_NODE", "ENTRIES_BY_NODE", "ROWS_BY_NODE", "PER_CONTROL",
+           "DELAY_LINE", "PART", "SHAPES", "ARRAY_KINDS", "StateArray", "StatesOf", "LinearBlock", "UNDECLARED",
+           "Contract", "declared", "contract_of", "state_mismatches"]

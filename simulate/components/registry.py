@@ -290,6 +290,7 @@ PENSTOCKS = Registry("penstock", "penstock.model", {
 FRICTION = Registry("friction", "penstock.friction_model", {
     "steady": "simulate.components.hydraulic.friction:build_steady_friction",
     "brunone": "simulate.components.hydraulic.brunone:build_brunone_friction",
+    "convolution": "simulate.components.hydraulic.convolution:build_convolution_friction",
 })
 #: Water-column separation models of the method of characteristics beside the MOC penstock's own discrete vapour
 #: cavity model (``"dvcm"``) and ``"off"`` (:func:`simulate.components.hydraulic.penstock.build_moc`); builders

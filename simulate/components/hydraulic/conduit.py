@@ -13,6 +13,7 @@ from typing import Any
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
 from simulate.components.hydraulic.brunone import BrunoneConfig
+from simulate.components.hydraulic.convolution import ConvolutionConfig
 from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, ColumnSeparationConfig,
                                                       axis_elevations_m, vapour_settings)
 from simulate.components.hydraulic.cavitation import check_penstock as check_column_separation
@@ -124,9 +125,11 @@ class PenstockConfig:
     h = -Tw s / (1 + alpha Te^2 s^2) q (default 4/pi^2 puts its resonance on the pipe's first mode, pi a / (2 L)).
     ``zdomain_feedback`` is F of eq. (17) of the BP hill-chart paper (default 0: lossless characteristic line).
     ``friction_model`` is the wall friction of the method of characteristics
-    (:data:`simulate.components.registry.FRICTION`: ``"steady"``, the Darcy-Weisbach loss, or ``"brunone"``, the
+    (:data:`simulate.components.registry.FRICTION`: ``"steady"``, the Darcy-Weisbach loss; ``"brunone"``, the
     unsteady friction of :mod:`simulate.components.hydraulic.brunone` with its keys ``brunone_k3`` and
-    ``brunone_viscosity_m2_s``; a friction model's keys are refused under another). ``column_separation`` is what the
+    ``brunone_viscosity_m2_s``; ``"convolution"``, the Zielke / Vardy-Brown convolution of
+    :mod:`simulate.components.hydraulic.convolution` with its key ``convolution_viscosity_m2_s``; a friction model's
+    keys are refused under another). ``column_separation`` is what the
     method of characteristics does where the head falls to the vapour head
     (:mod:`simulate.components.hydraulic.cavitation`: ``"dvcm"``, the discrete vapour cavity model, with
     ``water_temperature_c``, ``atmospheric_pressure_head_m`` and ``cavity_weighting``; ``"dgcm"``, the discrete gas
@@ -150,6 +153,7 @@ class PenstockConfig:
                                     description="the wall friction of the method of characteristics")
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
+    convolution_viscosity_m2_s: float | None = borrowed(ConvolutionConfig, "kinematic_viscosity_m2_s")
     column_separation: str = parameter("dvcm", unit="", choices=COLUMN_SEPARATION_MODELS,
                                        description="water-column separation in the method of characteristics: the "
                                                    "discrete vapour cavity model, the discrete gas cavity model, "

@@ -211,3 +211,24 @@ def test_bergant_simpson_rig_against_the_peaks_measured():
     assert steady[0.3] == pytest.approx(1080.0, rel=5e-3)  # as the benchmark prints it (to the kPa: 0.05 %)
     brunone = rig.peaks(rig.run_simulation(rig.rig_plant(0.3, reaches=64, friction_model="brunone")))
     assert abs(brunone.collapse_kpa / rig.MEASURED[0.3] - 1.0) < 0.05
+
+
+def test_bergant_simpson_rig_with_the_convolution_friction():
+    """Vardy and Brown's convolution friction on the rig (dt, dt/2: 32 and 64 reaches): at 1.4 m/s the DVCM's
+    collapse peak is 1998 / 2015 kPa, 2.9 % / 2.0 % below the 2057 kPa measured (bound 5 %), and dt and dt/2 agree
+    within 0.85 % (bound 1 %; Brunone's 2685 / 2399 kPa differ by 11 %, the steady loss's 2052 / 2081 by 1.4 %); at
+    0.3 m/s 1069 kPa at both steps, 5.3 % above the 1015 kPa measured: still outside 5 % with the DVCM (asserted
+    as the gap it is), inside with the DGCM (1061 / 1063 kPa, +4.6 / +4.8 %). Each figure pinned within 0.5 % of
+    the value measured here."""
+    rig = _rig()
+    peaks = {(v, model, n): rig.peaks(rig.run_simulation(rig.rig_plant(
+        v, reaches=n, friction_model="convolution", column_separation=model))).collapse_kpa
+        for v, model, n in ((1.4, "dvcm", 32), (1.4, "dvcm", 64), (0.3, "dvcm", 64), (0.3, "dgcm", 64))}
+    severe = peaks[1.4, "dvcm", 32], peaks[1.4, "dvcm", 64]
+    assert severe == pytest.approx((1998.0, 2015.0), rel=5e-3)
+    assert all(abs(p / rig.MEASURED[1.4] - 1.0) < 0.05 for p in severe)
+    assert abs(severe[1] / severe[0] - 1.0) < 0.01
+    assert peaks[0.3, "dvcm", 64] == pytest.approx(1069.0, rel=5e-3)
+    assert peaks[0.3, "dvcm", 64] / rig.MEASURED[0.3] - 1.0 > 0.05
+    assert peaks[0.3, "dgcm", 64] == pytest.approx(1063.0, rel=5e-3)
+    assert abs(peaks[0.3, "dgcm", 64] / rig.MEASURED[0.3] - 1.0) < 0.05

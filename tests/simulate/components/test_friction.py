@@ -148,7 +148,8 @@ def test_the_run_reports_k3(closures):
     (dict(friction_model="brunone", brunone_k3=0.01, brunone_viscosity_m2_s=1.3e-6),
      r"penstock.brunone_viscosity_m2_s = 1.3e-06 would be ignored: penstock.brunone_k3 = 0.01 is given"),
     (dict(friction_model="brunone", brunone_k3=1.5), r"penstock.brunone_k3 must be in \[0.0, 1.0\], got 1.5"),
-    (dict(friction_model="darcy"), r"penstock.friction_model must be one of steady, brunone; got 'darcy'"),
+    (dict(friction_model="darcy"),
+     r"penstock.friction_model must be one of steady, brunone, convolution; got 'darcy'"),
     (dict(friction_model="brunone", model="zdomain"),
      r"penstock.friction_model = 'brunone' is read only by penstock.model = moc; with model = 'zdomain' it would be "
      r"ignored"),
