@@ -229,7 +229,8 @@ def test_sweep_cli_over_a_model_choice_groups_the_cases(tmp_path, capsys):
     (["--vary", "penstock.modle=moc,rigid"], "unknown key 'penstock.modle'; numeric keys of [penstock]: "
      "penstock.static_head_m, penstock.reaches, penstock.lumped_alpha, penstock.zdomain_feedback, penstock.brunone_k3, "
      "penstock.brunone_viscosity_m2_s, penstock.convolution_viscosity_m2_s, penstock.water_temperature_c, "
-     "penstock.atmospheric_pressure_head_m, penstock.cavity_weighting, penstock.gas_void_fraction; keys of [penstock] that take a name: penstock.model"),
+     "penstock.atmospheric_pressure_head_m, penstock.cavity_weighting, penstock.gas_void_fraction; keys of [penstock] "
+     "that take a name: penstock.model"),
     (["--vary", "generator.model=swing,subtransient"], "varied key 'generator.model' is not numeric (it takes a name "
      "or a table, not a number); of the keys that take a name only penstock.model, scenario.kind, "
      "solver.pressure_loop, turbine.characteristics can be varied"),
