@@ -154,6 +154,85 @@ def peaks(result) -> Peaks:
                  float(result.summary().get("max_cavity_volume_m3", 0.0)))
 
 
+#: The measured valve pressure at 1.4 m/s (absolute, kPa, against s from the start of the closure), digitized from
+#: He et al. (2025), Fig. 4, for RTHYM-MOC (MIT licence); the file's header gives provenance and licence.
+TRACE_PATH = Path(__file__).resolve().parent / "data" / "bergant_simpson_valve_trace_1p4.csv"
+#: Windows (s after the start of the closure) of the three pressure pulses at the valve at 1.4 m/s: the closure's
+#: water hammer, the collapse of the valve's first cavity and that of its second.
+TRACE_WINDOWS = {"water hammer": (0.0, 0.1), "first collapse": (0.25, 0.5), "second collapse": (0.55, 0.8)}
+#: A pulse's time: when the pressure first rises through this level in its window, kPa (half-way up the pulses; the
+#: time of the largest pressure on a pulse's ragged top is not a robust figure).
+PULSE_LEVEL_KPA = 1000.0
+#: The runs the trace is compared with (friction, cavity model), to 0.85 s.
+TRACE_RUNS = (("steady", "dvcm"), ("convolution", "dvcm"), ("convolution", "dgcm"))
+TRACE_END_S = 0.85
+
+
+#: Points of the file that are not the measured curve: from 0.446 to 0.477 s six points at 2061.7-2062.0 kPa, equally
+#: spaced (6.5 ms), where the curve has fallen to the cavity's pressure at 0.443 s: the digitizer followed a
+#: horizontal line of the figure (the peak's annotation, 2057 kPa). Box (t_lo, t_hi, p_lo, p_hi), s and kPa.
+TRACE_EXCLUDED = (0.445, 0.478, 2061.0, 2063.0)
+
+
+def measured_trace() -> tuple[np.ndarray, np.ndarray]:
+    """The digitized valve pressure at 1.4 m/s without :data:`TRACE_EXCLUDED`: times (s after the start of the
+    closure, as the figure gives them) and absolute pressure (kPa), in time order. The digitization reads the
+    cavity's pressure as -10 to -30 kPa (absolute: its offset, about 1.5 % of the peaks)."""
+    rows = [line.split(",") for line in TRACE_PATH.read_text(encoding="utf-8").splitlines()
+            if line and not line.startswith("#") and line[0].isdigit()]  # the data lines (not the column names)
+    values = np.array(rows, dtype=float)
+    t_lo, t_hi, p_lo, p_hi = TRACE_EXCLUDED
+    values = values[~((values[:, 0] >= t_lo) & (values[:, 0] <= t_hi) & (values[:, 1] >= p_lo)
+                      & (values[:, 1] <= p_hi))]
+    order = np.argsort(values[:, 0], kind="stable")
+    return values[order, 0], values[order, 1]
+
+
+def window_peaks(time_s, pressure_kpa) -> dict:
+    """Each pulse of :data:`TRACE_WINDOWS`: its largest pressure (kPa) and the time it rises through
+    :data:`PULSE_LEVEL_KPA` (s; NaN when it does not)."""
+    out = {}
+    for name, (lo, hi) in TRACE_WINDOWS.items():
+        inside = np.flatnonzero((time_s >= lo) & (time_s < hi))
+        above = inside[pressure_kpa[inside] >= PULSE_LEVEL_KPA]
+        out[name] = (float(pressure_kpa[inside].max()), float(time_s[above[0]]) if above.size else float("nan"))
+    return out
+
+
+def trace_table(reaches: int = 32) -> list[dict]:
+    """The peaks of :data:`TRACE_WINDOWS` measured and computed at 1.4 m/s (each run of :data:`TRACE_RUNS` at dt and
+    dt / 2)."""
+    rows = [{"run": "measured", "dt_s": float("nan"), "peaks": window_peaks(*measured_trace())}]
+    for friction, model in TRACE_RUNS:
+        for n in (reaches, 2 * reaches):
+            r = run_simulation(rig_plant(1.4, friction_model=friction, reaches=n, column_separation=model,
+                                         t_end_s=TRACE_END_S))
+            rows.append({"run": f"{model.upper()}, {friction} friction", "dt_s": r.meta["dt_s"],
+                         "peaks": window_peaks(r.time_s - EVENT_TIME_S, valve_pressure_kpa(r)), "result": r})
+    return rows
+
+
+def trace_markdown(rows: list[dict]) -> str:
+    """:func:`trace_table` as a markdown table, each computed figure with its difference from the measured one."""
+    measured = rows[0]["peaks"]
+    head = "| run | dt (ms) | " + " | ".join(f"{name}: peak (kPa), rises at (ms)" for name in TRACE_WINDOWS) + " |"
+    lines = [head, "|---|---|" + "---|" * len(TRACE_WINDOWS)]
+    for row in rows:
+        cells = []
+        for name in TRACE_WINDOWS:
+            (p, t), (p0, t0) = row["peaks"][name], measured[name]
+            if row is rows[0]:
+                cells.append(f"{p:.0f}, {1e3 * t:.1f}")
+            else:
+                # the water hammer's rise, a few ms after the start of the closure: its difference in ms (in per
+                # cent of so short a time it would mostly say where each source put the closure's start)
+                when = (f"{1e3 * (t - t0):+.1f} ms" if name == "water hammer" else f"{100 * (t / t0 - 1):+.1f} %")
+                cells.append(f"{p:.0f} ({100 * (p / p0 - 1):+.1f} %), {1e3 * t:.1f} ({when})")
+        dt = "-" if row is rows[0] else f"{1e3 * row['dt_s']:.4f}"
+        lines.append(f"| {row['run']} | {dt} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def table(velocities=(0.3, 1.4), frictions=("steady", "brunone", "convolution"), models=MODELS, reaches: int = 32,
           tank_head_m: float = TANK_HEAD_M) -> list[dict]:
     """One row per velocity, friction model, cavity model and step (dt, dt/2)."""
@@ -185,6 +264,10 @@ def figure(rows, path: Path) -> Path:
                                 label=f"{row['model'].upper()}, {row['friction']} friction")
                 ax.plot(p.collapse_t_s, p.collapse_kpa, "o", mfc="none", color=line.get_color(), ms=6)
         ax.axhline(MEASURED[v], color="k", ls=":", lw=1, label=f"held collapse peak {MEASURED[v]:g} kPa (measured)")
+        if v == 1.4:
+            t_m, p_m = measured_trace()
+            keep = t_m <= max(r.time_s[-1] - EVENT_TIME_S for r in (row["result"] for row in rows))
+            ax.plot(t_m[keep], p_m[keep], ".", color="k", ms=2, label="measured (digitized, He et al. 2025 Fig. 4)")
         ax.set_ylabel("absolute pressure at the valve (kPa)")
         ax.set_title(f"V0 = {v} m/s", fontsize=10)
         ax.grid(True, alpha=0.3)
@@ -223,6 +306,11 @@ def main(argv=None) -> int:
                         and r["friction"] == friction and r["model"] == model]
                 print(f"| {v} | {held:g} | {friction} | {model} | {pair[0]:.0f} / {pair[1]:.0f} | "
                       f"{100 * (pair[0] / held - 1):+.1f} / {100 * (pair[1] / held - 1):+.1f} % |")
+    print()
+    print(f"The measured trace at 1.4 m/s ({TRACE_PATH.name}): each pulse's largest pressure and the time it rises "
+          f"through {PULSE_LEVEL_KPA:g} kPa, to {TRACE_END_S:g} s")
+    print()
+    print(trace_markdown(trace_table()))
     if args.figures is not None:
         args.figures.mkdir(parents=True, exist_ok=True)
         print(figure(rows, args.figures / "column_separation.png"))
