@@ -190,12 +190,14 @@ def measured_trace() -> tuple[np.ndarray, np.ndarray]:
 
 def window_peaks(time_s, pressure_kpa) -> dict:
     """Each pulse of :data:`TRACE_WINDOWS`: its largest pressure (kPa) and the time it rises through
-    :data:`PULSE_LEVEL_KPA` (s; NaN when it does not)."""
+    :data:`PULSE_LEVEL_KPA` (s: the first sample in the window at or above it whose predecessor is below; NaN when
+    it does not rise through it there)."""
     out = {}
     for name, (lo, hi) in TRACE_WINDOWS.items():
         inside = np.flatnonzero((time_s >= lo) & (time_s < hi))
-        above = inside[pressure_kpa[inside] >= PULSE_LEVEL_KPA]
-        out[name] = (float(pressure_kpa[inside].max()), float(time_s[above[0]]) if above.size else float("nan"))
+        rising = inside[(inside > 0) & (pressure_kpa[inside] >= PULSE_LEVEL_KPA)]
+        rising = rising[pressure_kpa[rising - 1] < PULSE_LEVEL_KPA]
+        out[name] = (float(pressure_kpa[inside].max()), float(time_s[rising[0]]) if rising.size else float("nan"))
     return out
 
 
@@ -227,6 +229,7 @@ def trace_markdown(rows: list[dict]) -> str:
                 # the water hammer's rise, a few ms after the start of the closure: its difference in ms (in per
                 # cent of so short a time it would mostly say where each source put the closure's start)
                 when = (f"{1e3 * (t - t0):+.1f} ms" if name == "water hammer" else f"{100 * (t / t0 - 1):+.1f} %")
+                when = "none" if math.isnan(t) else when
                 cells.append(f"{p:.0f} ({100 * (p / p0 - 1):+.1f} %), {1e3 * t:.1f} ({when})")
         dt = "-" if row is rows[0] else f"{1e3 * row['dt_s']:.4f}"
         lines.append(f"| {row['run']} | {dt} | " + " | ".join(cells) + " |")
