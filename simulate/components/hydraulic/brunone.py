@@ -99,11 +99,12 @@ class BrunoneConfig:
         validate_parameters("penstock", self)
 
 
-def check_penstock(penstock) -> None:
-    """A given k3 leaves no use for the viscosity (it sets k3 only through the Reynolds number)."""
+def check_penstock(penstock, section: str = "penstock") -> None:
+    """A given k3 leaves no use for the viscosity (it sets k3 only through the Reynolds number); ``section`` names
+    the keys (``penstock`` or ``draft_tube``)."""
     if penstock.brunone_k3 is not None and penstock.brunone_viscosity_m2_s is not None:
-        raise InputError(f"penstock.brunone_viscosity_m2_s = {penstock.brunone_viscosity_m2_s!r} would be ignored: "
-                         f"penstock.brunone_k3 = {penstock.brunone_k3!r} is given (the viscosity sets k3 only "
+        raise InputError(f"{section}.brunone_viscosity_m2_s = {penstock.brunone_viscosity_m2_s!r} would be ignored: "
+                         f"{section}.brunone_k3 = {penstock.brunone_k3!r} is given (the viscosity sets k3 only "
                          f"through the Reynolds number); remove one of them")
 
 

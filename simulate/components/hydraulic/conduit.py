@@ -166,16 +166,7 @@ class PenstockConfig:
     def __post_init__(self):
         validate_parameters("penstock", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "penstock.segments"))
-        own = FRICTION.attribute(self.friction_model, "PENSTOCK_KEYS", ())
-        for key in friction_keys():
-            if getattr(self, key) is not None and key not in own:
-                owners = [m for m in FRICTION.names() if key in FRICTION.attribute(m, "PENSTOCK_KEYS", ())]
-                raise InputError(f"penstock.{key} is a key of penstock.friction_model = {' or '.join(owners)!r}; "
-                                 f"with friction_model = {self.friction_model!r} it would be ignored: set "
-                                 f"friction_model or remove the key")
-        check = FRICTION.attribute(self.friction_model, "check_penstock")
-        if check is not None:
-            check(self)
+        check_friction_keys("penstock", self)
         check_column_separation(self)
         for key in self.unread_keys():
             if key not in KEYS_READ_OUTSIDE_THE_RUN:
@@ -237,10 +228,26 @@ class PenstockConfig:
         return min(s.travel_time_s for s in self.segments) / self.reaches
 
 
+def check_friction_keys(section: str, config) -> None:
+    """Refuse a friction model's keys set under another model (they would be ignored) and run the model's own
+    check of its keys (its module's ``check_penstock(config, section)``); ``section`` names the keys in messages
+    (``penstock`` or ``draft_tube``)."""
+    own = FRICTION.attribute(config.friction_model, "PENSTOCK_KEYS", ())
+    for key in friction_keys():
+        if getattr(config, key) is not None and key not in own:
+            owners = [m for m in FRICTION.names() if key in FRICTION.attribute(m, "PENSTOCK_KEYS", ())]
+            raise InputError(f"{section}.{key} is a key of {section}.friction_model = {' or '.join(owners)!r}; "
+                             f"with friction_model = {config.friction_model!r} it would be ignored: set "
+                             f"friction_model or remove the key")
+    check = FRICTION.attribute(config.friction_model, "check_penstock")
+    if check is not None:
+        check(config, section)
+
+
 def friction_keys() -> tuple[str, ...]:
     """The ``[penstock]`` keys of every friction model (each its module's ``PENSTOCK_KEYS``)."""
     return tuple(k for name in FRICTION.names() for k in FRICTION.attribute(name, "PENSTOCK_KEYS", ()))
 
 
 __all__ = ["WAVE_SPEED_MIN_M_S", "MAX_REACHES", "MODEL_KEYS", "SEGMENT_KEYS", "PenstockSegment", "PenstockConfig",
-           "read_segments"]
+           "read_segments", "check_friction_keys", "friction_keys"]

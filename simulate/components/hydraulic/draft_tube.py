@@ -30,11 +30,13 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.hydraulic.cavitation import DVCM_KEYS
-from simulate.components.hydraulic.conduit import PenstockConfig, read_segments
+from simulate.components.hydraulic.brunone import BrunoneConfig
+from simulate.components.hydraulic.conduit import PenstockConfig, check_friction_keys, read_segments
+from simulate.components.hydraulic.convolution import ConvolutionConfig
 from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
 from simulate.components.contract import PART, SCALAR, LinearBlock, StateArray
-from simulate.components.parameters import parameter, validate_parameters
-from simulate.components.registry import PENSTOCKS
+from simulate.components.parameters import borrowed, parameter, validate_parameters
+from simulate.components.registry import FRICTION, PENSTOCKS
 
 SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
 #: The tailwater keeps no state (one unused value); the draft tube the state of its conduit (a penstock model's, run
@@ -99,6 +101,15 @@ def build_tailwater(plant, steady, dt_s: float):
                         params=(np.zeros(1),), state=(np.zeros(1),))
 
 
+def _calling(func, name: str, target):
+    """``func`` calling ``target`` as its global ``name``: the MOC function the inner conduit's builder bound to its
+    friction model (a :class:`simulate.components.registry.Bound`); ``func`` itself when that is the module's own
+    (the steady loss: the loop's text is the same as without a friction model)."""
+    from simulate.components.registry import Bound
+
+    return func if target is func.py_func.__globals__[name] else Bound(func, ((name, target),))
+
+
 def build_draft_tube(plant, steady, dt_s: float):
     """The plant's ``[draft_tube]`` on the step ``dt_s``, started at the steady flow."""
     from types import SimpleNamespace
@@ -123,7 +134,9 @@ def build_draft_tube(plant, steady, dt_s: float):
     on_grid = PENSTOCKS.traits(config.model).grid_fixes_time_step  # the draft tube on its MOC grid
     if on_grid:
         head0 = float(inner.state[0][0, -1])  # the grid's own steady head at the outlet
-        functions = {"relation": moc_draft_relation, "update": moc_draft_update, "record": draft_record}
+        functions = {"relation": _calling(moc_draft_relation, "moc_relation", inner.functions["relation"]),
+                     "update": _calling(moc_draft_update, "moc_update", inner.functions["update"]),
+                     "record": draft_record}
     else:
         functions = {"relation": rigid_draft_relation, "update": rigid_draft_update, "record": draft_record}
     offset = config.atmospheric_pressure_head_m - config.runner_elevation_m
@@ -144,7 +157,8 @@ def build_draft_tube(plant, steady, dt_s: float):
                     f"slowly, set the runner deeper (draft_tube.runner_elevation_m) or check the draft tube"]
         return []
 
-    summary = {"draft_tube_model": config.model, "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5}
+    summary = {"draft_tube_model": config.model, "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5,
+               "draft_tube_friction_model": config.friction_model}
     if on_grid:
         summary["draft_tube_moc_reaches"] = inner.hooks.summary["moc_reaches"]
     hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset), summary_after=summary_after,
@@ -188,7 +202,9 @@ class DraftTubeConfig:
     ``atmospheric_pressure_head_m`` (m of water, 10.33 at sea level); ``runner_elevation_m`` the runner outlet above
     the tailwater level (m, negative below it); ``vapour_pressure_head_m`` (m of water, 0.24 at 20 C);
     ``vapour_margin_m``: warn when the outlet pressure head falls below vapour pressure head + this margin (m).
-    The component: :mod:`simulate.components.hydraulic.draft_tube`.
+    ``friction_model`` and its keys: the wall friction of the ``moc`` draft tube, as the penstock's
+    (:class:`simulate.components.hydraulic.conduit.PenstockConfig`; a friction model's keys are refused under
+    another). The component: :mod:`simulate.components.hydraulic.draft_tube`.
     """
 
     model: str = parameter(unit="", choices=DRAFT_TUBE_MODELS, description="the conduit model")
@@ -202,11 +218,21 @@ class DraftTubeConfig:
                                               description="vapour pressure as a head of water")
     vapour_margin_m: float = parameter(2.0, unit="m", low=0.0, high=50.0,
                                        description="warning margin above the vapour pressure head")
+    friction_model: str = parameter("steady", unit="", choices=FRICTION,
+                                    description="the wall friction of the method of characteristics (moc)")
+    brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
+    brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
+    convolution_viscosity_m2_s: float | None = borrowed(ConvolutionConfig, "kinematic_viscosity_m2_s")
 
     def __post_init__(self):
         validate_parameters("draft_tube", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=False,
                                                           first="runner outlet"))
+        if self.friction_model != "steady" and "friction_model" not in PENSTOCKS.traits(self.model).reads:
+            raise InputError(f"draft_tube.friction_model = {self.friction_model!r} is read only by draft_tube.model "
+                             f"= moc; with model = {self.model!r} it would be ignored: set draft_tube.model or "
+                             f"remove the key")
+        check_friction_keys("draft_tube", self)
 
     def mirrored(self) -> PenstockConfig:
         """The conduit as a :class:`simulate.components.hydraulic.conduit.PenstockConfig` from the tailwater to the
