@@ -228,7 +228,8 @@ class DraftTubeConfig:
         validate_parameters("draft_tube", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=False,
                                                           first="runner outlet"))
-        if self.friction_model != "steady" and "friction_model" not in PENSTOCKS.traits(self.model).reads:
+        default = next(f.default for f in fields(self) if f.name == "friction_model")
+        if self.friction_model != default and "friction_model" not in PENSTOCKS.traits(self.model).reads:
             raise InputError(f"draft_tube.friction_model = {self.friction_model!r} is read only by draft_tube.model "
                              f"= moc; with model = {self.model!r} it would be ignored: set draft_tube.model or "
                              f"remove the key")
