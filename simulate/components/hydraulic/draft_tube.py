@@ -230,9 +230,10 @@ class DraftTubeConfig:
                                                           first="runner outlet"))
         default = next(f.default for f in fields(self) if f.name == "friction_model")
         if self.friction_model != default and "friction_model" not in PENSTOCKS.traits(self.model).reads:
+            owners = [m for m in DRAFT_TUBE_MODELS if "friction_model" in PENSTOCKS.traits(m).reads]
             raise InputError(f"draft_tube.friction_model = {self.friction_model!r} is read only by draft_tube.model "
-                             f"= moc; with model = {self.model!r} it would be ignored: set draft_tube.model or "
-                             f"remove the key")
+                             f"= {' or '.join(owners)}; with model = {self.model!r} it would be ignored: set "
+                             f"draft_tube.model or remove the key")
         check_friction_keys("draft_tube", self)
 
     def mirrored(self) -> PenstockConfig:
