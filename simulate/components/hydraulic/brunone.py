@@ -66,7 +66,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.contract import PER_NODE, StateArray
-from simulate.components.hydraulic.friction import CompiledFriction
+from simulate.components.hydraulic.friction import CompiledFriction, segment_reynolds
 from simulate.components.parameters import parameter, validate_parameters
 
 #: Its memory (the last array of its ``arrays``): the change of every node's flow over the last step, (B4).
@@ -77,8 +77,6 @@ TIME_SCALES = ()
 LINEAR_COUNTERPART = None
 #: The ``[penstock]`` keys of this model (refused under another friction model).
 PENSTOCK_KEYS = ("brunone_k3", "brunone_viscosity_m2_s")
-#: Kinematic viscosity of water at 20 C, m^2/s (the Reynolds number of (B3) when none is given).
-WATER_VISCOSITY_M2_S = 1.0e-6
 #: Reynolds number below which the flow is laminar in (B3).
 LAMINAR_REYNOLDS = 2000.0
 
@@ -139,8 +137,7 @@ def segment_k3(penstock, flow_m3_s: float) -> list[float]:
     Re = |Q| D / (A nu)."""
     if penstock.brunone_k3 is not None:
         return [float(penstock.brunone_k3)] * len(penstock.segments)
-    nu = WATER_VISCOSITY_M2_S if penstock.brunone_viscosity_m2_s is None else penstock.brunone_viscosity_m2_s
-    return [brunone_coefficient(abs(flow_m3_s) * s.diameter_m / (s.area_m2 * nu)) for s in penstock.segments]
+    return [brunone_coefficient(re) for re in segment_reynolds(penstock, flow_m3_s, penstock.brunone_viscosity_m2_s)]
 
 
 @numba.njit(cache=True)

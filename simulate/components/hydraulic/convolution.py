@@ -57,7 +57,7 @@ import numpy as np
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
 from simulate.components.contract import ROWS_BY_NODE, StateArray
-from simulate.components.hydraulic.friction import CompiledFriction
+from simulate.components.hydraulic.friction import WATER_VISCOSITY_M2_S, CompiledFriction, segment_reynolds
 from simulate.components.parameters import parameter, validate_parameters
 
 #: Its memory (the last two arrays of its ``arrays``): at each node, as the foot of its downstream reach (C+, side
@@ -72,8 +72,6 @@ TIME_SCALES = ()
 LINEAR_COUNTERPART = None
 #: The ``[penstock]`` keys of this model (refused under another friction model).
 PENSTOCK_KEYS = ("convolution_viscosity_m2_s",)
-#: Kinematic viscosity of water at 20 C, m^2/s (default).
-WATER_VISCOSITY_M2_S = 1.0e-6
 #: Reynolds number below which the flow is laminar: Zielke's (U2), else Vardy and Brown's (U3).
 LAMINAR_REYNOLDS = 2000.0
 #: Step of the trapezoid rule in u = ln(rate) of (U4).
@@ -197,12 +195,6 @@ def convolution_advance(friction, flows, new_flows):
             sums[side, j] = s
 
 
-def segment_reynolds(penstock, flow_m3_s: float) -> list[float]:
-    """The steady Reynolds number |Q| D / (A nu) of every segment."""
-    nu = WATER_VISCOSITY_M2_S if penstock.convolution_viscosity_m2_s is None else penstock.convolution_viscosity_m2_s
-    return [abs(flow_m3_s) * s.diameter_m / (s.area_m2 * nu) for s in penstock.segments]
-
-
 def step_terms(weights, rates, step_tau: float) -> tuple[np.ndarray, np.ndarray]:
     """Decays exp(-n_i Delta tau) and gains m_i (1 - exp(-n_i Delta tau)) / (n_i Delta tau) of eq. (U5); the terms
     that forget within one step (n_i Delta tau > :data:`INSTANT_RATE_STEPS`, decay below exp(-30)) as one term of
@@ -217,7 +209,7 @@ def build_convolution_friction(penstock, grid, flow_m3_s: float) -> CompiledFric
     """The convolution model on ``grid``, started from steady flow (no past acceleration): at each node one history
     per side, the weights of the reach on that side (at a node inside a segment one history serves both)."""
     nu = WATER_VISCOSITY_M2_S if penstock.convolution_viscosity_m2_s is None else penstock.convolution_viscosity_m2_s
-    reynolds = segment_reynolds(penstock, flow_m3_s)
+    reynolds = segment_reynolds(penstock, flow_m3_s, nu)
     reaches = grid.impedance_s_m2.size
     scale = np.zeros(reaches)
     per_reach = []
@@ -247,5 +239,5 @@ def build_convolution_friction(penstock, grid, flow_m3_s: float) -> CompiledFric
 
 
 __all__ = ["PENSTOCK_KEYS", "ConvolutionConfig", "vardy_brown_decay", "weighting_terms", "weighting",
-           "convolution_reach_loss", "convolution_advance", "segment_reynolds", "step_terms",
+           "convolution_reach_loss", "convolution_advance", "step_terms",
            "build_convolution_friction"]

@@ -47,6 +47,23 @@ LINEAR_COUNTERPART = None
 SEAM = ("reach_friction_loss", "reach_friction_advance")
 
 
+#: Kinematic viscosity of water at 20 C, m^2/s: the unsteady models' default.
+WATER_VISCOSITY_M2_S = 1.0e-6
+
+
+def segment_reynolds(penstock, flow_m3_s: float, viscosity_m2_s: float | None) -> list[float]:
+    """The steady Reynolds number |Q| D / (A nu) of every segment of ``penstock`` (``nu`` the given viscosity, or
+    :data:`WATER_VISCOSITY_M2_S` when None).
+
+    >>> from types import SimpleNamespace
+    >>> seg = SimpleNamespace(diameter_m=0.5, area_m2=0.25)
+    >>> [round(re) for re in segment_reynolds(SimpleNamespace(segments=(seg,)), -0.1, None)]
+    [200000]
+    """
+    nu = WATER_VISCOSITY_M2_S if viscosity_m2_s is None else viscosity_m2_s
+    return [abs(flow_m3_s) * s.diameter_m / (s.area_m2 * nu) for s in penstock.segments]
+
+
 @numba.njit(cache=True)
 def steady_reach_loss(friction, flows, reach, node):
     """Delta h_f = R Q|Q| (m) of reach ``reach`` at the flow of node ``node`` (the foot of the characteristic),
@@ -120,5 +137,5 @@ def _reaches_seam(func, seen: set) -> bool:
     return False
 
 
-__all__ = ["SEAM", "CompiledFriction", "steady_reach_loss", "steady_advance", "build_steady_friction",
-           "with_friction"]
+__all__ = ["SEAM", "WATER_VISCOSITY_M2_S", "segment_reynolds", "CompiledFriction", "steady_reach_loss",
+           "steady_advance", "build_steady_friction", "with_friction"]
