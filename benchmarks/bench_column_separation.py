@@ -201,15 +201,15 @@ def window_peaks(time_s, pressure_kpa) -> dict:
     return out
 
 
-def trace_table(reaches: int = 32) -> list[dict]:
-    """The peaks of :data:`TRACE_WINDOWS` measured and computed at 1.4 m/s (each run of :data:`TRACE_RUNS` at dt and
-    dt / 2)."""
+def trace_table(reaches: int = 32, runs=TRACE_RUNS, label: str = "") -> list[dict]:
+    """The peaks of :data:`TRACE_WINDOWS` measured and computed at 1.4 m/s (each of ``runs``, (friction, cavity
+    model), at dt and dt / 2; ``label`` before each computed run's name)."""
     rows = [{"run": "measured", "dt_s": float("nan"), "peaks": window_peaks(*measured_trace())}]
-    for friction, model in TRACE_RUNS:
+    for friction, model in runs:
         for n in (reaches, 2 * reaches):
             r = run_simulation(rig_plant(1.4, friction_model=friction, reaches=n, column_separation=model,
                                          t_end_s=TRACE_END_S))
-            rows.append({"run": f"{model.upper()}, {friction} friction", "dt_s": r.meta["dt_s"],
+            rows.append({"run": f"{label}{model.upper()}, {friction} friction", "dt_s": r.meta["dt_s"],
                          "peaks": window_peaks(r.time_s - EVENT_TIME_S, valve_pressure_kpa(r)), "result": r})
     return rows
 

@@ -111,25 +111,16 @@ def rthym_run(velocity_m_s: float, dt_s: float, t_end_s: float) -> tuple[np.ndar
     return t, gauge_kpa + ATMOSPHERIC_KPA
 
 
-def rows(t_end_s: float | None = None) -> list[dict]:
+def rows() -> list[dict]:
     """The measured pulses, hillsim's (:data:`HILLSIM_RUNS` at dt and dt / 2) and RTHYM-MOC's
     (:data:`RTHYM_STEPS_S`, when installed), each as :func:`window_peaks` reads them, at 1.4 m/s."""
-    from simulate.loop.engine import run_simulation
-
     b = rig()
-    t_end = b.TRACE_END_S if t_end_s is None else t_end_s
-    out = [{"run": "measured", "dt_s": math.nan, "peaks": b.window_peaks(*b.measured_trace())}]
-    for friction, model in HILLSIM_RUNS:
-        for n in (32, 64):
-            r = run_simulation(b.rig_plant(1.4, friction_model=friction, reaches=n, column_separation=model,
-                                           t_end_s=t_end))
-            out.append({"run": f"hillsim, {model.upper()}, {friction} friction", "dt_s": r.meta["dt_s"],
-                        "peaks": b.window_peaks(r.time_s - b.EVENT_TIME_S, b.valve_pressure_kpa(r))})
+    out = b.trace_table(runs=HILLSIM_RUNS, label="hillsim, ")
     if rthym_available():
         import rthym_moc
 
         for dt in RTHYM_STEPS_S:
-            t, p = rthym_run(1.4, dt, t_end)
+            t, p = rthym_run(1.4, dt, b.TRACE_END_S)
             out.append({"run": f"RTHYM-MOC {rthym_moc.__version__}, DVCM, its defaults", "dt_s": dt,
                         "peaks": b.window_peaks(t, p)})
     return out
