@@ -69,7 +69,6 @@ def chart_torque(chart):
 def hold_out_lines(chart, k: int, *, seed: int = 0, ensemble: int = 10) -> dict:
     """The held-out comparison of one ``k`` (module docstring) as a dict of per-point arrays and summary numbers."""
     from hillchart.extension.extend import extend_samples
-    from hillchart.extension.hypotheses import HYPOTHESES
     from hillchart.nets.hill_nets import load_nets
     from hillchart.nets.training import train_nets
     from simulate.studies.uncertainty import figure_band
@@ -94,7 +93,7 @@ def hold_out_lines(chart, k: int, *, seed: int = 0, ensemble: int = 10) -> dict:
     q_lo, q_hi = figure_band(q_members, axis=0)
     m_lo, m_hi = figure_band(m_members, axis=0)
     extrapolation = extended.extrapolation
-    candidates = {h: extrapolation.hypotheses.predict(h, n, a) for h in HYPOTHESES}
+    candidates = {h: extrapolation.hypotheses.predict(h, n, a) for h in extrapolation.hypotheses.names}
     candidates["blend"] = extrapolation.values(n, a)
     rows = {}
     for name, (qq, mm) in {**candidates, "run": (q_run, m_run)}.items():
@@ -119,11 +118,11 @@ def sayano_chart(folder):
 
 
 def table(results: list) -> str:
-    names = list(results[0]["rows"])
+    names = list(dict.fromkeys(name for r in results for name in r["rows"]))  # a chart of 3 lines has no other form
     lines = ["| k held out | points | lowest kept | candidate | Q11 mean abs err % | Q11 worst % | M11 mean abs err "
              "(% of range) | M11 worst (% of range) |", "|---|---|---|---|---|---|---|---|"]
     for r in results:
-        for name in names:
+        for name in (n for n in names if n in r["rows"]):
             row = r["rows"][name]
             label = {"run": "**what a run reads** (nets + table)", "blend": "weighed blend",
                      "line": "line (straight-line baseline)"}.get(name, name)

@@ -34,14 +34,13 @@ sys.path.insert(0, str(REPO))
 HOLD_OUTS = (1, 2, 3)
 
 
-def _line_rows(label, opening, distance, q11, predictions, blend=None):
-    """One row per line: label, opening, distance, points and every hypothesis' mean signed log-ratio error (%)."""
-    from hillchart.extension.hypotheses import HYPOTHESES
-
+def _line_rows(label, opening, distance, q11, predictions, names, blend=None):
+    """One row per line: label, opening, distance, points and the mean signed log-ratio error (%) of every hypothesis
+    of ``names``."""
     rows = []
     for a in np.unique(opening):
         on = opening == a
-        errors = [100 * float(np.mean(np.log(predictions[h][0][on] / q11[on]))) for h in HYPOTHESES]
+        errors = [100 * float(np.mean(np.log(predictions[h][0][on] / q11[on]))) for h in names]
         if blend is not None:
             errors.append(100 * float(np.mean(np.log(blend[on] / q11[on]))))
         rows.append(f"| {label} | {a:g} | {float(distance[on][0]):.3f} | {int(on.sum())} | "
@@ -64,7 +63,7 @@ def diagnose(chart, k: int) -> str:
     """The tables of one k (module docstring)."""
     from benchmarks.bench_extrapolation import reduced_chart
     from hillchart.extension.extend import extend_samples
-    from hillchart.extension.hypotheses import HYPOTHESES, sub_chart
+    from hillchart.extension.hypotheses import sub_chart
     from hillchart.extension.turbine_model import fit_turbine_model
 
     rest, held = reduced_chart(chart, k)
@@ -73,19 +72,20 @@ def diagnose(chart, k: int) -> str:
         extended = extend_samples(rest)
     x = extended.extrapolation
     ev, hyp = x.evidence, x.hypotheses
-    weights = ev.weights["q11"]
+    weights, names = ev.weights["q11"], ev.names
     out = [f"#### k = {k}: lowest kept line {hyp.lowest.opening:g}", "",
-           "| held out | line | d | points | " + " | ".join(HYPOTHESES) + " | weighed blend |",
-           "|---|---|---|---|" + "---|" * (len(HYPOTHESES) + 1),
-           "| weights Q11 | | | | " + " | ".join(f"{weights[h]:.2f}" for h in HYPOTHESES) + " | |"]
+           "| held out | line | d | points | " + " | ".join(names) + " | weighed blend |",
+           "|---|---|---|---|" + "---|" * (len(names) + 1),
+           "| weights Q11 | | | | " + " | ".join(f"{weights[h]:.2f}" for h in names) + " | |"]
     for fold in ev.folds + ev.band_folds:
-        blend = sum(weights[h] * fold.predictions[h][0] for h in HYPOTHESES)
+        blend = sum(weights[h] * fold.predictions[h][0] for h in names)
         tag = f"inner, {fold.lines} line{'s' if fold.lines > 1 else ''}" + (
             "" if fold in ev.folds else " (band only)")
-        out += _line_rows(tag, fold.opening, fold.distance, fold.q11, fold.predictions, blend)
+        out += _line_rows(tag, fold.opening, fold.distance, fold.q11, fold.predictions, names, blend)
     n, a, q = chart.flow_n11[held], chart.flow_opening[held], chart.flow_q11[held]
-    predictions = {h: hyp.predict(h, n, a) for h in HYPOTHESES}
-    out += _line_rows("**outer** (asked)", a, 1.0 - a / hyp.lowest.opening, q, predictions, x.values(n, a)[0])
+    predictions = {h: hyp.predict(h, n, a) for h in names}
+    out += _line_rows("**outer** (asked)", a, 1.0 - a / hyp.lowest.opening, q, predictions, names,
+                      x.values(n, a)[0])
     inner_d = max(float(f.distance.max()) for f in ev.folds + ev.band_folds)
     outer_d = float((1.0 - a / hyp.lowest.opening).max())
     torque = extended.value[(extended.target == "m11") & (extended.origin == "measured")]

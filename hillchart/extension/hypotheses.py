@@ -13,6 +13,11 @@ and scores each at the held-out points. The hypotheses, all of them functions of
 ``anchored-model``
     the model's shape corrected to pass through the lowest line: ``y = y_m(a) + (y_low - y_m(a_low)) t`` (the
     model's error at the lowest line, fading linearly to none at a = 0, where Q11 = 0 and M11 = -K N11^2 hold);
+``other-form-model``, ``anchored-other-form-model``
+    the same two of the model's other form (:attr:`FittedTurbineModel.other_form`: with the throat foot when the
+    chart's F-test did not keep it, without it when it did), fitted to the same lines: the test decides the form from
+    the lines above, where the forms differ little; below the lowest line they part, and the held-out lines weigh
+    them as they weigh every other hypothesis. Available where the foot was tried (four opening lines or more);
 ``line``
     a straight line in opening from the lowest line to the closed vanes: ``Q11 = Q_low t``,
     ``M11 = M_0 + (M_low - M_0) t`` with ``M_0 = -K N11^2`` (eq. 8 of the BP hill-chart paper);
@@ -56,7 +61,10 @@ from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_S
                                       band_scale, band_sides, band_square, log_ratio, member_positions)
 
 #: The hypotheses, in the order of every weight vector.
-HYPOTHESES = ("model", "anchored-model", "line", "offset-line", "speed-scaled-line", "quadratic")
+HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-form-model", "line", "offset-line",
+              "speed-scaled-line", "quadratic")
+#: The hypotheses of the model's other form: available only where it was fitted (:attr:`Hypotheses.names`).
+OTHER_FORM = ("other-form-model", "anchored-other-form-model")
 #: Lines (the lowest, and those just above it) whose bending gives the quadratic hypothesis its curvature.
 CURVATURE_LINES = 4
 #: Held-out folds: the lowest line, then the two lowest. A fold needs MIN_LINES_LEFT lines left to refit on to
@@ -125,6 +133,8 @@ class Hypotheses:
         ``c`` of the quadratic hypothesis for Q11 and M11.
     k_zero_opening : float
         K of eq. (8), N*m/(r/min)^2.
+    other : FittedTurbineModel or None
+        The model's other form (:data:`OTHER_FORM`), fitted to the same lines; None when it was not.
     """
 
     model: object
@@ -134,6 +144,12 @@ class Hypotheses:
     k_zero_opening: float
     offset_q11: float = 0.0
     offset_m11: float = 0.0
+    other: object = None
+
+    @property
+    def names(self) -> tuple:
+        """The hypotheses these fits answer: :data:`HYPOTHESES`, less :data:`OTHER_FORM` without the other form."""
+        return HYPOTHESES if self.other is not None else tuple(h for h in HYPOTHESES if h not in OTHER_FORM)
 
     def speed_ratio(self, opening):
         """``n_run(a_low) / n_run(a)``: how much closer to its runaway speed a smaller opening runs at the same N11
@@ -162,9 +178,16 @@ class Hypotheses:
         n_m = model_n11(self.model, n11)
         if name == "model":
             return self.model.q11(n_m, opening), self.model.m11(n_m, opening)
-        if name == "anchored-model":
-            q_m, m_m = self.model.q11(n_m, opening), self.model.m11(n_m, opening)
-            q_ml, m_ml = self.model.q11(n_m, a_low), self.model.m11(n_m, a_low)
+        if name in ("anchored-model", "anchored-other-form-model", "other-form-model"):
+            model = self.model if name == "anchored-model" else self.other
+            if model is None:
+                raise InputError(f"hypothesis {name!r} needs the model's other form, which was not fitted "
+                                 f"(fewer than four opening lines, or it cannot represent the chart)")
+            n_o = model_n11(model, n11)
+            q_m, m_m = model.q11(n_o, opening), model.m11(n_o, opening)
+            if name == "other-form-model":
+                return q_m, m_m
+            q_ml, m_ml = model.q11(n_o, a_low), model.m11(n_o, a_low)
             return q_m + (q_low - q_ml) * t, m_m + (m_low - m_ml) * t
         if name == "line":
             return q_low * t, m_0 + (m_low - m_0) * t
@@ -213,7 +236,7 @@ def _offset(ratios, ts) -> float:
     return float(np.clip(np.sum((r - t) * (r - 1.0)) / den, 0.0, MAX_OFFSET))
 
 
-def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
+def fit_hypotheses(chart, torque, model, k_zero_opening: float, other=None) -> Hypotheses:
     """The hypotheses of a chart: its lowest line against ``model`` and the curvature of its lowest lines.
 
     Parameters
@@ -224,6 +247,8 @@ def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
     model : FittedTurbineModel
     k_zero_opening : float
         K of eq. (8), N*m/(r/min)^2.
+    other : FittedTurbineModel or None
+        The model's other form (:data:`OTHER_FORM`).
     """
     torque = np.asarray(torque, float)
     lines = [(float(a), n, (q, m)) for (a, n, q), (_, _, m) in zip(chart.per_line(chart.flow_q11),
@@ -252,7 +277,7 @@ def fit_hypotheses(chart, torque, model, k_zero_opening: float) -> Hypotheses:
     c_m = num_m / den_m if den_m > 0 else 0.0
     return Hypotheses(model=model, lowest=lowest, curvature_q11=float(np.clip(c_q, -1.0, 1.0)),
                       curvature_m11=float(np.clip(c_m, -1.0, 1.0)), k_zero_opening=float(k_zero_opening),
-                      offset_q11=_offset(ratios_q, ts), offset_m11=_offset(ratios_m, ts))
+                      offset_q11=_offset(ratios_q, ts), offset_m11=_offset(ratios_m, ts), other=other)
 
 
 @dataclass(frozen=True)
@@ -268,7 +293,7 @@ class HeldOut:
     distance : ndarray (P,)
         ``1 - a / a_low`` of each point, ``a_low`` the lowest line kept.
     predictions : dict
-        hypothesis -> ``(Q11, M11)`` arrays.
+        hypothesis -> ``(Q11, M11)`` arrays (the hypotheses the refit answers: :attr:`Hypotheses.names`).
     lines_left : int
         Opening lines the hypotheses were refitted on.
     """
@@ -289,11 +314,12 @@ def sub_chart(chart, keep):
                    flow_q11=chart.flow_q11[keep])
 
 
-def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
+def hold_out(chart, torque, lines: int, fit_model, fit_other=None) -> HeldOut | None:
     """Hold out the ``lines`` lowest opening lines, refit on the rest, predict the held-out points.
 
-    ``fit_model(chart, torque) -> FittedTurbineModel`` refits the physical model. None when fewer than
-    :data:`MIN_LINES_LEFT` lines would be left or the model cannot represent the rest (``InputError``)."""
+    ``fit_model(chart, torque) -> FittedTurbineModel`` refits the physical model, ``fit_other`` its other form
+    (None: not refitted, :data:`OTHER_FORM` not predicted; nor when it cannot represent the rest). None when fewer
+    than :data:`MIN_LINES_LEFT` lines would be left or the model cannot represent the rest (``InputError``)."""
     openings = np.unique(chart.flow_opening)
     if openings.size - lines < MIN_LINES_LEFT:
         return None
@@ -304,9 +330,15 @@ def hold_out(chart, torque, lines: int, fit_model) -> HeldOut | None:
         model = fit_model(rest, torque[~held])
     except InputError:
         return None
-    hyp = fit_hypotheses(rest, torque[~held], model, model.k_zero_opening)
+    other = None
+    if fit_other is not None:
+        try:
+            other = fit_other(rest, torque[~held])
+        except InputError:
+            other = None
+    hyp = fit_hypotheses(rest, torque[~held], model, model.k_zero_opening, other=other)
     n, a = chart.flow_n11[held], chart.flow_opening[held]
-    predictions = {name: hyp.predict(name, n, a) for name in HYPOTHESES}
+    predictions = {name: hyp.predict(name, n, a) for name in hyp.names}
     return HeldOut(lines=lines, n11=n, opening=a, q11=chart.flow_q11[held], m11=torque[held],
                    distance=1.0 - a / openings[lines], predictions=predictions,
                    lines_left=int(openings.size - lines))
@@ -344,6 +376,8 @@ class Evidence:
     notes : list of str
     band_folds : list of HeldOut
         Folds refitted on fewer than :data:`MIN_LINES_WEIGHED` lines: behind the band only.
+    names : tuple
+        The hypotheses weighed (answered by every fold); the others weigh 0.
     """
 
     folds: list
@@ -355,6 +389,7 @@ class Evidence:
     distance_cap: float = 1.0
     notes: list = field(default_factory=list)
     band_folds: list = field(default_factory=list)
+    names: tuple = HYPOTHESES
 
     def blend(self, hypotheses: Hypotheses, n11, opening):
         """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``)."""
@@ -372,7 +407,7 @@ class Evidence:
                     f"(+-{100 * NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap)[0]:.0f} % of Q11 at half "
                     f"the lowest opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
-        ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
+        ranked = sorted(self.names, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)
         h = band_square(0.5, self.distance_cap)[0]
         low, high = (100.0 * (math.exp(sign * k * h) - 1.0) for sign, k in zip((-1.0, 1.0), self.band["q11"]))
@@ -390,10 +425,10 @@ class Evidence:
                 "distance_cap": self.distance_cap, "notes": list(self.notes)}
 
 
-def _errors(folds, m11_scale):
-    """Per target and hypothesis: the held-out errors pooled over the folds (:class:`Evidence`)."""
+def _errors(folds, m11_scale, names):
+    """Per target and hypothesis of ``names``: the held-out errors pooled over the folds (:class:`Evidence`)."""
     out = {"q11": {}, "m11": {}}
-    for name in HYPOTHESES:
+    for name in names:
         q, m = [], []
         for f in folds:
             pq, pm = f.predictions[name]
@@ -403,9 +438,14 @@ def _errors(folds, m11_scale):
     return out
 
 
-def weigh(folds, m11_scale: float) -> Evidence:
-    """Pseudo-BMA weights of the hypotheses from the held-out folds, the blend's errors and the band.
+def weigh(folds, m11_scale: float, names=HYPOTHESES, priors=None) -> Evidence:
+    """Pseudo-BMA weights of the hypotheses ``names`` from the held-out folds, the blend's errors and the band.
 
+    A hypothesis that a weighing fold does not answer (the model's other form where its refit failed) weighs 0.
+    ``priors`` (hypothesis -> prior weight, 1 when not given) multiply the held-out likelihoods: the model's two
+    forms share the prior of one hypothesis by their probability given the whole chart
+    (:attr:`hillchart.extension.turbine_model.FittedTurbineModel.form_probability`), so a form the chart's lines
+    reject is not revived by a few held-out points.
     Each hypothesis' weight is ``exp(-n/2 log MSE)``, its held-out Gaussian log-likelihood (Yao et al. 2018), with
     ``n`` the number of held-out *lines* (the points of one line share one cause of error, so they are one piece of
     evidence) and the errors divided by ``d^2`` (the error model of :func:`band_scale`). The weights come from the
@@ -413,17 +453,21 @@ def weigh(folds, m11_scale: float) -> Evidence:
     folds = [f for f in folds if f is not None]
     weighed = [f for f in folds if f.lines_left >= MIN_LINES_WEIGHED]
     points = int(sum(f.n11.size for f in weighed))
+    names = tuple(h for h in names if all(h in f.predictions for f in weighed))
+    priors = {h: float((priors or {}).get(h, 1.0)) for h in names}
     if not points:
-        equal = {h: 1.0 / len(HYPOTHESES) for h in HYPOTHESES}
+        equal = {h: priors[h] / sum(priors.values()) if h in names else 0.0 for h in HYPOTHESES}
         wide = (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
         return Evidence(folds=[], weights={"q11": dict(equal), "m11": dict(equal)}, errors={"q11": {}, "m11": {}},
-                        band={"q11": wide, "m11": wide}, points=0,
+                        band={"q11": wide, "m11": wide}, points=0, names=names,
                         m11_scale=m11_scale, notes=["no held-out evidence: too few opening lines"])
-    errors = _errors(weighed, m11_scale)
+    errors = _errors(weighed, m11_scale, names)
     distance_w = np.maximum(np.concatenate([f.distance for f in weighed]), 1e-9)
     lines_w = sum(f.lines for f in weighed)
-    # the band: the blend's errors at every fold; M11's band closes at the closed vanes (eq. 8), as 1 - d
-    band_errors = _errors(folds, m11_scale)
+    # the band: the blend's errors at every fold; M11's band closes at the closed vanes (eq. 8), as 1 - d (a
+    # band-only fold that does not answer a hypothesis takes the blend of those it answers, reweighed)
+    band_names = tuple(h for h in names if all(h in f.predictions for f in folds))
+    band_errors = _errors(folds, m11_scale, band_names)
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
     closing = {"q11": None, "m11": np.maximum(1.0 - distance, 1e-9)}
     lines = sum(f.lines for f in folds)
@@ -431,24 +475,31 @@ def weigh(folds, m11_scale: float) -> Evidence:
     for target in ("q11", "m11"):
         mse = {h: float(np.mean((e / distance_w ** GROWTH) ** 2)) for h, e in errors[target].items()}
         best = max(min(mse.values()), 1e-300)
-        log_w = {h: -0.5 * lines_w * math.log(max(v, 1e-300) / best) for h, v in mse.items()}
+        log_w = {h: math.log(max(priors[h], 1e-300)) - 0.5 * lines_w * math.log(max(v, 1e-300) / best)
+                 for h, v in mse.items()}
+        top = max(log_w.values())
+        log_w = {h: v - top for h, v in log_w.items()}
         total = sum(math.exp(v) for v in log_w.values())
-        weights[target] = {h: math.exp(log_w[h]) / total for h in HYPOTHESES}
-        blended = sum(weights[target][h] * errors[target][h] for h in HYPOTHESES)
+        weights[target] = {h: math.exp(log_w[h]) / total if h in names else 0.0 for h in HYPOTHESES}
+        blended = sum(weights[target][h] * errors[target][h] for h in names)
         rms[target] = {h: float(np.sqrt(np.mean(e ** 2))) for h, e in errors[target].items()}
         rms[target]["blend"] = float(np.sqrt(np.mean(blended ** 2)))
         rms[target]["blend_worst"] = float(np.max(np.abs(blended)))
-        scored = sum(weights[target][h] * band_errors[target][h] for h in HYPOTHESES)
+        share = sum(weights[target][h] for h in band_names)
+        scored = sum(weights[target][h] * band_errors[target][h] for h in band_names) / share
         band[target] = band_sides(scored, distance, lines, shape=closing[target])
     return Evidence(folds=weighed, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
                     distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())),
-                    band_folds=[f for f in folds if f not in weighed])
+                    band_folds=[f for f in folds if f not in weighed], names=names)
 
 
-def chart_evidence(chart, torque, fit_model, *, hold_out_lines=HOLD_OUT) -> Evidence:
-    """Hold out the chart's lowest line, then its two lowest (:data:`HOLD_OUT`), and weigh the hypotheses."""
+def chart_evidence(chart, torque, fit_model, *, hold_out_lines=HOLD_OUT, fit_other=None, priors=None) -> Evidence:
+    """Hold out the chart's lowest line, then its two lowest (:data:`HOLD_OUT`), and weigh the hypotheses
+    (:data:`OTHER_FORM` among them when ``fit_other`` refits the model's other form; ``priors``: :func:`weigh`)."""
     torque = np.asarray(torque, float)
-    return weigh([hold_out(chart, torque, k, fit_model) for k in hold_out_lines], float(np.ptp(torque)) or 1.0)
+    names = HYPOTHESES if fit_other is not None else tuple(h for h in HYPOTHESES if h not in OTHER_FORM)
+    return weigh([hold_out(chart, torque, k, fit_model, fit_other) for k in hold_out_lines],
+                 float(np.ptp(torque)) or 1.0, names, priors)
 
 
 @dataclass(frozen=True)
@@ -482,8 +533,13 @@ class Extrapolation:
         # the refits take the whole chart's form (with or without the throat foot): the evidence judges the model
         # the answer uses, also where a fold's lines are too few to find the foot on their own
         refit = partial(fit_turbine_model, throat_foot_mm=model.throat_foot_mm)
-        evidence = chart_evidence(chart, torque, refit)
-        hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening)
+        other = model.other_form
+        refit_other = None if other is None else partial(fit_turbine_model, throat_foot_mm=other.throat_foot_mm)
+        priors = None if other is None else {
+            **dict.fromkeys(("model", "anchored-model"), model.form_probability),
+            **dict.fromkeys(OTHER_FORM, other.form_probability)}
+        evidence = chart_evidence(chart, torque, refit, fit_other=refit_other, priors=priors)
+        hypotheses = fit_hypotheses(chart, torque, model, model.k_zero_opening, other=other)
         # 1.5 x the chart's largest N11, where a load rejection's overspeed at small openings runs (the model's
         # answers held at its pumping limit beyond it, :meth:`Hypotheses.predict`)
         top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
@@ -610,8 +666,9 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     return result
 
 
-__all__ = ["HYPOTHESES", "CURVATURE_LINES", "HOLD_OUT", "MIN_LINES_LEFT", "MIN_LINES_WEIGHED", "DISTANCE_CAP_FACTOR",
-           "OVERSPEED_GAP_CAP", "MAX_OFFSET", "LowestLine", "Hypotheses", "offset_line", "fit_hypotheses", "HeldOut",
+__all__ = ["HYPOTHESES", "OTHER_FORM", "CURVATURE_LINES", "HOLD_OUT", "MIN_LINES_LEFT", "MIN_LINES_WEIGHED",
+           "DISTANCE_CAP_FACTOR", "OVERSPEED_GAP_CAP", "MAX_OFFSET", "LowestLine", "Hypotheses", "offset_line",
+           "fit_hypotheses", "HeldOut",
            "sub_chart", "hold_out", "Evidence", "weigh", "chart_evidence", "Extrapolation", "overspeed_evidence",
            "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "NO_EVIDENCE_SCALE", "band_square",
            "log_ratio", "band_scale", "band_sides", "member_positions"]

@@ -29,7 +29,7 @@ runaway curve the data dominate the prior.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -76,6 +76,16 @@ class FittedTurbineModel:
         p-value of the throat foot's F-test (:func:`fit_turbine_model`); the foot is in the model when it is below
         :data:`FOOT_SIGNIFICANCE`; 1 when not tried (fewer than :data:`FOOT_MIN_LINES` lines), NaN when the form was
         given (``throat_foot_mm``: a held-out fold's refit).
+    other_form : FittedTurbineModel or None
+        The form the test did not choose, fitted to the same samples (without the foot when it was kept, with it
+        when it was not): a hypothesis of its own below the lowest line
+        (:mod:`hillchart.extension.hypotheses`); None when the foot was not tried, the form was given, or the other
+        form cannot represent the chart.
+    form_probability : float
+        Probability of this form against the other given the chart's samples, from Schwarz's approximation of the
+        Bayes factor of the nested pair (``exp((2n ln(RSS_0 / RSS_1) - ln 2n) / 2)`` for the foot, ``2n`` the flow
+        and torque residuals; Kass and Raftery 1995, section 4.1.3): the prior of its hypotheses below the lowest
+        line (:func:`hillchart.extension.hypotheses.weigh`). 1 without the other form.
     """
 
     turbine: object
@@ -84,6 +94,8 @@ class FittedTurbineModel:
     m11_rms_pct: float
     n11_limit: float
     foot_p_value: float = 1.0
+    other_form: "FittedTurbineModel | None" = None
+    form_probability: float = 1.0
 
     @property
     def throat_foot_mm(self) -> float:
@@ -108,19 +120,27 @@ class FittedTurbineModel:
                     if self.throat_foot_mm > 0 else "no throat foot (the form given, not tested)")
         elif self.throat_foot_mm > 0:
             foot = (f"throat foot a_0 = {self.throat_foot_mm:.3g} (chart opening units; F-test p = "
-                    f"{self.foot_p_value:.2g})")
+                    f"{self.foot_p_value:.3g})")
         elif self.foot_p_value < 1.0:
-            foot = f"no throat foot (F-test p = {self.foot_p_value:.2g}, kept below {FOOT_SIGNIFICANCE:g})"
+            foot = f"no throat foot (F-test p = {self.foot_p_value:.3g}, kept below {FOOT_SIGNIFICANCE:g})"
         else:
             foot = f"no throat foot (not tried: fewer than {FOOT_MIN_LINES} opening lines)"
+        if self.other_form is not None:
+            foot += (f"; the form {'without' if self.throat_foot_mm > 0 else 'with'} the foot is "
+                     f"{self.other_form.form_probability:.2g} likely and weighed below the lowest line")
         return (f"misfit Q11 RMS {self.q11_rms_pct:.2f} %, M11 RMS {self.m11_rms_pct:.2f} % of the measured range; "
                 + foot)
 
     def to_dict(self) -> dict:
         """What ``nets.json`` records of the model in ``training.extension``: ``misfit_pct`` (written there as
-        ``model_misfit_pct``), ``throat_foot`` (chart opening units, 0 for none) and ``throat_foot_p_value``."""
-        return {"misfit_pct": {"q11": round(self.q11_rms_pct, 4), "m11": round(self.m11_rms_pct, 4)},
-                "throat_foot": round(self.throat_foot_mm, 6), "throat_foot_p_value": float(f"{self.foot_p_value:.3g}")}
+        ``model_misfit_pct``), ``throat_foot`` (chart opening units, 0 for none), ``throat_foot_p_value`` and, where
+        the other form was fitted, ``other_form`` (its ``throat_foot`` and ``probability``)."""
+        doc = {"misfit_pct": {"q11": round(self.q11_rms_pct, 4), "m11": round(self.m11_rms_pct, 4)},
+               "throat_foot": round(self.throat_foot_mm, 6), "throat_foot_p_value": float(f"{self.foot_p_value:.3g}")}
+        if self.other_form is not None:
+            doc["other_form"] = {"throat_foot": round(self.other_form.throat_foot_mm, 6),
+                                 "probability": float(f"{self.other_form.form_probability:.3g}")}
+        return doc
 
     def q11(self, n11, opening):
         return self.turbine.q11(n11, opening)
@@ -259,16 +279,40 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
             dof = max(2 * n.size - len(PARAMETER_NAMES), 1)
             f_ratio = (rss[0] - rss[1]) / max(rss[1] / dof, 1e-300)
             foot_p = float(f_distribution.sf(f_ratio, 1, dof)) if f_ratio > 0 else 1.0
+            # Schwarz's approximation of the Bayes factor (BIC: one parameter more, 2 n residuals)
+            log_odds = 0.5 * (2 * n.size * math.log(max(rss[0], 1e-300) / max(rss[1], 1e-300))
+                              - math.log(2 * n.size))
+            foot_probability = 1.0 / (1.0 + math.exp(-min(max(log_odds, -700.0), 700.0)))
+    plain_model = _model(plain.x, opening_max, without, held)
     if enough and (foot_p < FOOT_SIGNIFICANCE if throat_foot_mm is None else throat_foot_mm > 0):
-        turbine = _model(footed.x, opening_max)
+        turbine, other = _model(footed.x, opening_max), plain_model
     else:
-        turbine = _model(plain.x, opening_max, without, held)
+        turbine = plain_model
+        other = _model(footed.x, opening_max) if enough and throat_foot_mm is None else None
+    chosen = _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, refuse=True)
+    if other is None or throat_foot_mm is not None:
+        return chosen
+    other = _fitted(other, chart, torque, q_scale, m_scale, foot_p, refuse=False)
+    if other is None:
+        return chosen
+    footed_first = chosen.throat_foot_mm > 0
+    probability = foot_probability if footed_first else 1.0 - foot_probability
+    return replace(chosen, form_probability=probability,
+                   other_form=replace(other, form_probability=1.0 - probability))
+
+
+def _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, *, refuse):
+    """The fitted model of ``turbine`` with its misfit; when it cannot represent the chart (misfit above
+    :data:`MAX_MISFIT_PCT` or no positive disc friction) an ``InputError`` naming what to provide instead
+    (``refuse``), or None."""
     qq = turbine.q11(chart.flow_n11, chart.flow_opening)
     mm = turbine.m11(chart.flow_n11, chart.flow_opening)
     q_rms = 100.0 * float(np.sqrt(np.mean((qq - chart.flow_q11) ** 2))) / q_scale
     m_rms = 100.0 * float(np.sqrt(np.mean((mm - torque) ** 2))) / m_scale
     k = float(turbine.params.k_disc_friction)
     if not (q_rms <= MAX_MISFIT_PCT and m_rms <= MAX_MISFIT_PCT) or not (math.isfinite(k) and k > 0):
+        if not refuse:
+            return None
         raise InputError(
             f"{chart.folder}: the physical turbine model fits this chart with Q11 RMS {q_rms:.2g} % and M11 RMS "
             f"{m_rms:.2g} % of the measured range (allowed <= {MAX_MISFIT_PCT} %), K = {k:.3g}: no physically "

@@ -209,7 +209,8 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
                             "hypotheses are weighed equally and the band is the wide default")
         return "the extrapolation hypotheses, weighed equally", evidence
     weights, errors = record["weights"], record["rms_error"]
-    ranked = sorted(weights["q11"], key=lambda h: -(weights["q11"][h] + weights["m11"][h]))
+    ranked = sorted((h for h in weights["q11"] if h in errors["q11"]),  # the hypotheses weighed
+                    key=lambda h: -(weights["q11"][h] + weights["m11"][h]))
     text = (f"opening {opening:.4g} below the lowest line's {details['lowest_opening']:.4g} (distance "
             f"1 - a / a_low = {details['distance']:.2f}); weights Q11/M11 and held-out RMS error Q11/M11 (M11 as "
             f"a share of its measured range) on the chart's own lowest lines, held out "

@@ -87,7 +87,8 @@ def test_train_states_the_physical_models_throat_foot(tmp_path, capsys):
     chart = tmp_path / "footed"
     write_synthetic_chart(chart, seed=0, turbine=member,
                           options=DigitizationOptions(points_per_line=6, spacing="uneven", noise_pct=0.15))
-    for folder, says in ((FRANCIS_DIR, "no throat foot (F-test p = 0.014, kept below 0.01)"),
+    for folder, says in ((FRANCIS_DIR, "no throat foot (F-test p = 0.0141, kept below 0.01); the form with the foot is "
+                                        "0.64 likely and weighed below the lowest line"),
                          (chart, "throat foot a_0 = 1.8")):
         out = tmp_path / f"{folder.name}.json"
         assert main(["train", str(folder), "--out", str(out), "--ensemble", "0"]) == 0
@@ -96,3 +97,7 @@ def test_train_states_the_physical_models_throat_foot(tmp_path, capsys):
         extension = json.loads(out.read_text())["training"]["extension"]
         assert set(extension) >= {"model_misfit_pct", "throat_foot", "throat_foot_p_value"}
         assert (1.5 < extension["throat_foot"] < 2.1) == (folder == chart)
+        # the form not chosen: a foot on the shipped chart (0.64 likely), none beside the 1.8 mm foot (< 1e-6)
+        other = extension["other_form"]
+        assert (other["throat_foot"] > 0, other["probability"] > 0.5) == ((True, True) if folder == FRANCIS_DIR
+                                                                          else (False, False))

@@ -63,19 +63,24 @@ def test_the_lowest_line_passes_through_its_own_points_beyond_the_models_range(s
 
 
 def test_the_weights_sum_to_one_and_favour_what_predicted_the_held_out_lines(shipped):
-    """On the in-class chart the held-out lines are predicted within 0.5 % by the model family and 15 % too high by
-    the lines through the origin (the exact turbine's Q11 is concave in the opening): the evidence weighs them so."""
+    """On the in-class chart the held-out lines are predicted within 0.5 % by the model family (both forms) and 15 %
+    too high by the lines through the origin (the exact turbine's Q11 is concave in the opening): the evidence weighs
+    them so."""
     ev = shipped.extrapolation.evidence
     for target in ("q11", "m11"):
         assert sum(ev.weights[target].values()) == pytest.approx(1.0, abs=1e-12)
     assert ev.points == 21 and [f.lines for f in ev.folds] == [1, 2]
     assert ev.errors["q11"]["model"] < 0.01 < 0.05 < ev.errors["q11"]["line"]
-    assert ev.weights["q11"]["model"] + ev.weights["q11"]["anchored-model"] > 0.8
-    # the weighed answer is within 1.5 % of the exact turbine below the lowest line (measured 1.1 %)
+    assert ev.errors["q11"]["other-form-model"] < 0.01
+    assert sum(ev.weights["q11"][h] for h in ("model", "anchored-model", *H.OTHER_FORM)) > 0.8  # measured 0.90
+    # the weighed answer is within 3 % of the exact turbine at 2-8 mm below the lowest line, and at 2 mm below it
+    # (measured -2.3 %: this turbine has no throat foot, but its chart's F-test, p = 0.014, leaves the foot 0.64
+    # likely and the held-out lines cannot tell the forms apart; less flow there is the safe side of a head rise)
     exact = SyntheticFrancis()
     n11, a = np.meshgrid(np.linspace(40.0, 100.0, 13), [2.0, 4.0, 6.0, 8.0])
     q, _ = shipped.extrapolation.values(n11, a)
-    assert np.max(np.abs(q / exact.q11(n11, a) - 1.0)) < 0.015
+    error = q / exact.q11(n11, a) - 1.0
+    assert np.max(np.abs(error)) < 0.03 and np.all(error[0] < 0.0)
 
 
 def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
@@ -95,10 +100,38 @@ def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
     ev = ext.extrapolation.evidence
     wide = (H.NO_EVIDENCE_SCALE, H.NO_EVIDENCE_SCALE)
     assert ev.points == 0 and ev.band == {"q11": wide, "m11": wide}
-    assert set(ev.weights["q11"].values()) == {1.0 / len(H.HYPOTHESES)}
+    # three lines: the throat foot is not tried, so the model has no other form to weigh
+    assert ev.names == tuple(h for h in H.HYPOTHESES if h not in H.OTHER_FORM)
+    assert {ev.weights["q11"][h] for h in ev.names} == {1.0 / len(ev.names)}
+    assert all(ev.weights["q11"][h] == 0.0 for h in H.OTHER_FORM)
     assert "no held-out evidence" in ev.summary() and "digitize more opening lines" in ev.summary()
     # kappa h at half the lowest opening: 1.2 x 0.5^2 (the message once printed kappa itself, "+-120 %")
     assert "(+-30 % of Q11 at half the lowest opening)" in ev.summary()
+
+
+def test_the_priors_multiply_the_held_out_likelihoods():
+    """Two hypotheses that predicted the held-out points equally well share their weight as their priors do (3:1
+    here, the model's two forms by their probability given the chart); a hypothesis with a 100x larger held-out MSE
+    over 3 lines weighs 100^(-3/2) of them; a hypothesis a weighing fold did not answer weighs 0."""
+    distance = np.full(4, 0.5)
+    truth = np.array([1.0, 1.1, 1.2, 1.3])
+
+    def fold(lines, answers):
+        return H.HeldOut(lines=lines, n11=np.arange(4.0), opening=np.full(4, 5.0), q11=truth, m11=truth,
+                         distance=distance, predictions=answers, lines_left=5)
+
+    near, far = truth * np.exp(0.01 * np.array([1, -1, 1, -1])), truth * np.exp(0.1 * np.array([1, -1, 1, -1]))
+    answers = {"model": (near, near), "other-form-model": (near, near), "line": (far, far)}
+    folds = [fold(1, dict(answers)), fold(2, {k: v for k, v in answers.items()})]
+    ev = H.weigh(folds, 1.0, names=("model", "other-form-model", "line", "quadratic"),
+                 priors={"model": 0.75, "other-form-model": 0.25})
+    w = ev.weights["q11"]
+    assert w["model"] == pytest.approx(3.0 * w["other-form-model"], rel=1e-9)
+    assert w["line"] / w["model"] == pytest.approx(100.0 ** -1.5 / 0.75, rel=1e-6)
+    assert w["quadratic"] == 0.0 and "quadratic" not in ev.names  # not answered by the folds
+    # without priors the two forms weigh the same: the failing case of a prior left out
+    plain = H.weigh(folds, 1.0, names=("model", "other-form-model", "line"))
+    assert plain.weights["q11"]["model"] == pytest.approx(plain.weights["q11"]["other-form-model"], rel=1e-12)
 
 
 def test_band_scale_is_split_conformal_on_the_far_half():
@@ -131,25 +164,29 @@ def test_band_sides_are_one_sided_conformal_bounds_on_the_signed_scores():
 
 @pytest.mark.external
 def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_line(tmp_path, monkeypatch):
-    """Sayano with its lowest line, then its two lowest, held out and trained with the defaults on the rest: what a
-    run reads is within the straight line's mean error (measured 1.7 and 3.9 % against 4.0 and 7.2 %), its worst
-    error within 8 % (measured -3.8 and +6.5 %; the straight line's +7.9 and +13.2 % show the bound can fail; the
-    nets move by up to 0.4 % between CPU families), and the band covers at least 80 % of the 10 held-out Q11 and M11
-    (measured 9 of 10 each; pooled, since one point near a band's edge must not decide it: a point of the 10 mm
-    line lies 1.9 % of its Q11 above the band). The failing side: the physical model without its throat foot
-    misses the two lowest lines by 14 % (mean)."""
+    """Sayano with its lowest line, then its two and its three lowest, held out and trained with the defaults on the
+    rest: what a run reads is within the straight line's mean error (measured 1.7, 3.9 and 4.4 % against 4.0, 7.2
+    and 6.1 %), its worst error within 8 % for one and two lines (measured -3.8 and +6.5 %; the straight line's +7.9
+    and +13.2 % show the bound can fail; the nets move by up to 0.4 % between CPU families), and the band covers at
+    least 80 % of the 22 held-out Q11 and M11 (measured 20 and 21 of 22; pooled, since one point near a band's edge
+    must not decide it: a point of the 10 mm line lies 1.9 % of its Q11 above the band with one line held out).
+    The failing sides: with three lines held out the F-test does not keep the throat foot (p = 0.0104), and the
+    model it chose misses by 11.4 % (mean), where the weighed forms miss by 4.4 %; the physical model without its
+    throat foot misses the two lowest lines by 14 % (mean)."""
 
     from tests.external_charts import SAYANO_CONTOURS, SAYANO_LINES, require_external
 
     require_external(SAYANO_LINES, SAYANO_CONTOURS)
     bench = load_script("bench_extrapolation")
     chart = bench.sayano_chart(tmp_path)
-    results = [bench.hold_out_lines(chart, k) for k in (1, 2)]
+    results = [bench.hold_out_lines(chart, k) for k in (1, 2, 3)]
     for result in results:
         run, line = result["rows"]["run"], result["rows"]["line"]
         assert run["q11_mean_abs_pct"] < line["q11_mean_abs_pct"]
-        assert abs(run["q11_worst_pct"]) <= 8.0
+    for result in results[:2]:
+        assert abs(result["rows"]["run"]["q11_worst_pct"]) <= 8.0
     assert results[1]["rows"]["line"]["q11_worst_pct"] > 8.0
+    assert results[2]["rows"]["model"]["q11_mean_abs_pct"] > 10.0  # the chosen form alone (measured 11.4 %)
     points = sum(r["points"] for r in results)
     assert sum(r["q11_covered"] for r in results) >= 0.8 * points
     assert sum(r["m11_covered"] for r in results) >= 0.8 * points

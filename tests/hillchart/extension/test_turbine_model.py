@@ -71,6 +71,46 @@ def test_a_chart_without_a_foot_keeps_the_plain_model():
     assert model.foot_p_value > FOOT_SIGNIFICANCE and model.throat_foot_mm == 0.0
 
 
+def _data_rss(model, chart, torque):
+    """The fit's residual sum of squares without its prior: flow and torque at the flow points, flow and zero torque
+    at the runaway points, each scaled by the measured range."""
+    n = np.concatenate([chart.flow_n11, chart.runaway_n11])
+    a = np.concatenate([chart.flow_opening, chart.runaway_opening])
+    q = np.concatenate([chart.flow_q11, chart.runaway_q11])
+    m = np.concatenate([torque, np.zeros(chart.runaway_n11.size)])
+    rq = (model.q11(n, a) - q) / np.ptp(chart.flow_q11)
+    rm = (model.m11(n, a) - m) / np.ptp(torque)
+    return float(np.sum(rq ** 2) + np.sum(rm ** 2)), 2 * n.size
+
+
+def test_the_form_not_chosen_is_kept_with_its_probability(footed):
+    """Beside the form the F-test chose, the fit keeps the other (the shipped chart: a foot; a chart with a foot:
+    none), and the two forms' probabilities are Schwarz's: ``P(foot) = 1 / (1 + exp(-(2n ln(RSS_0 / RSS_1) -
+    ln 2n) / 2))``, recomputed here from the two models' own residuals (1e-6: the same sums, in another order). The
+    chart with its foot of 1.8 mm leaves the plain form no chance (below 1e-6); the shipped chart (p = 0.014)
+    leaves the foot 0.64 likely, the lines above the lowest cannot tell the forms apart."""
+    import math
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        shipped = load_chart(FRANCIS_DIR)
+    for chart, foot_chosen in ((shipped, False), (footed[0], True)):
+        torque = _torque(chart)
+        model = fit_turbine_model(chart, torque)
+        other = model.other_form
+        assert (model.throat_foot_mm > 0) is foot_chosen and (other.throat_foot_mm > 0) is not foot_chosen
+        assert other.other_form is None and model.form_probability + other.form_probability == pytest.approx(1.0)
+        with_foot, without = (model, other) if foot_chosen else (other, model)
+        (rss_1, n), (rss_0, _) = _data_rss(with_foot, chart, torque), _data_rss(without, chart, torque)
+        odds = math.exp(0.5 * (n * math.log(rss_0 / rss_1) - math.log(n)))
+        assert with_foot.form_probability == pytest.approx(odds / (1.0 + odds), abs=1e-6)
+        if not foot_chosen:  # measured 0.64: between the forms, as the p-value of 0.014 is
+            assert 0.4 < with_foot.form_probability < 0.85
+    assert without.form_probability < 1e-6  # the footed chart's plain form
+    # a given form (a fold's refit) has no other form, and three lines none either
+    assert fit_turbine_model(footed[0], _torque(footed[0]), throat_foot_mm=0.0).other_form is None
+
+
 def test_three_lines_are_too_few_to_try_a_foot(footed):
     """Three opening lines fit any opening law of three parameters exactly: the foot is not tried (p = 1)."""
     chart, _ = footed
@@ -80,6 +120,7 @@ def test_three_lines_are_too_few_to_try_a_foot(footed):
                     flow_q11=chart.flow_q11[keep])
     model = fit_turbine_model(three, _torque(three))
     assert model.foot_p_value == 1.0 and model.throat_foot_mm == 0.0
+    assert model.other_form is None and model.form_probability == 1.0
 
 
 def test_a_given_form_is_refitted_not_tested(footed):
