@@ -185,9 +185,12 @@ class Hypotheses:
                                  f"(fewer than four opening lines, or it cannot represent the chart)")
             n_o = model_n11(model, n11)
             q_m, m_m = model.q11(n_o, opening), model.m11(n_o, opening)
+            if model is self.other:  # the other form's disc friction is not the chart's K: at shut vanes eq. (8)
+                m_m = m_m + (m_0 - model.m11(n_o, 0.0)) * (1.0 - t)  # holds with the K every hypothesis shares
             if name == "other-form-model":
                 return q_m, m_m
-            q_ml, m_ml = model.q11(n_o, a_low), model.m11(n_o, a_low)
+            q_ml = model.q11(n_o, a_low)
+            m_ml = model.m11(n_o, a_low)  # the shut-vane correction vanishes at the lowest line
             return q_m + (q_low - q_ml) * t, m_m + (m_low - m_ml) * t
         if name == "line":
             return q_low * t, m_0 + (m_low - m_0) * t

@@ -26,7 +26,7 @@ def test_every_anchored_hypothesis_passes_through_the_lowest_line_and_the_closed
     hyp = shipped.extrapolation.hypotheses
     n11 = np.linspace(40.0, 100.0, 7)
     q_low, m_low = hyp.lowest.values(hyp.model, n11)
-    for name in ("anchored-model", "line", "offset-line", "quadratic"):
+    for name in ("anchored-model", "anchored-other-form-model", "line", "offset-line", "quadratic"):
         q, m = hyp.predict(name, n11, hyp.lowest.opening)
         np.testing.assert_allclose(q, q_low, rtol=1e-12)
         np.testing.assert_allclose(m, m_low, rtol=1e-12)
@@ -35,6 +35,11 @@ def test_every_anchored_hypothesis_passes_through_the_lowest_line_and_the_closed
         np.testing.assert_allclose(m0, -hyp.k_zero_opening * n11 ** 2, rtol=1e-12)
     # the model itself is not anchored: it misses the lowest line by its own misfit there
     assert np.max(np.abs(hyp.predict("model", n11, hyp.lowest.opening)[0] / q_low - 1.0)) > 1e-4
+    # the other form has a disc friction of its own (K differs by 2.6 % here), corrected to the chart's K at shut
+    # vanes, so eq. (8) holds there with the K every hypothesis shares
+    assert abs(hyp.other.k_zero_opening / hyp.k_zero_opening - 1.0) > 0.01
+    np.testing.assert_allclose(hyp.predict("other-form-model", n11, 0.0)[1], -hyp.k_zero_opening * n11 ** 2,
+                               rtol=1e-12)
 
 
 def test_the_lowest_line_passes_through_its_own_points_beyond_the_models_range(shipped):
