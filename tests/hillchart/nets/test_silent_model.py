@@ -50,15 +50,18 @@ def test_the_shipped_nets_hand_over_below_the_lowest_line(nets):
 
 
 def test_the_table_follows_the_exact_turbine_on_the_in_class_chart(nets):
-    """The shipped chart is drawn from the 1-D model itself, so its held-out lines weigh the model hypotheses; the
-    table is then within 1.5 % of the exact Q11 below the lowest line (measured 1.1 %: the blend gives the quadratic
-    hypothesis a tenth)."""
+    """The shipped chart is drawn from the 1-D model itself, so its held-out lines weigh the model hypotheses (both
+    forms: without the throat foot and with it, 0.64 likely given this chart); the table is then within 3 % of the
+    exact Q11 below the lowest line, and below it at 2 mm (measured -2.3 %: the footed form's foot of 0.11 mm, fitted
+    to the reading noise, takes flow away at small openings, the safe side of a head rise)."""
     exact = SyntheticFrancis()
     n11, a = np.meshgrid(np.linspace(40.0, 100.0, 13), [2.0, 4.0, 6.0, 8.0])
     q, _ = nets.silent_model.table(n11, a)
-    assert np.max(np.abs(q / exact.q11(n11, a) - 1.0)) < 0.015
+    error = q / exact.q11(n11, a) - 1.0
+    assert np.max(np.abs(error)) < 0.03 and np.all(error[0] < 0.0)
     weights = nets.training["extrapolation"]["weights"]["q11"]
-    assert weights["model"] + weights["anchored-model"] > 0.8 and weights["line"] < 0.01
+    family = ("model", "anchored-model", "other-form-model", "anchored-other-form-model")
+    assert sum(weights[h] for h in family) > 0.8 and weights["line"] < 0.01
 
 
 def test_the_blend_is_continuously_differentiable(nets):
@@ -252,7 +255,8 @@ def test_a_corrupted_ensemble_member_is_refused_naming_it(nets):
     members of one ensemble depart by (0.5 % in the median at most on the shipped chart): refused, naming it."""
     doc = json.loads(nets.to_json())
     HillNets.from_dict(json.loads(json.dumps(doc)))  # as written: loads
-    doc["ensemble"][4]["torque"]["W2"][0] *= 10.0
+    w2 = doc["ensemble"][4]["torque"]["W2"]
+    w2[int(np.argmax(np.abs(w2)))] *= 10.0  # its strongest hidden unit
     with pytest.raises(InputError,
                        match=r"ensemble\[4\].torque departs from the point net by \d+% .* median .* allowed 25%"):
         HillNets.from_dict(doc)
@@ -261,9 +265,10 @@ def test_a_corrupted_ensemble_member_is_refused_naming_it(nets):
 def test_no_flow_passes_shut_vanes_at_any_speed(nets):
     """Below half the lowest opening the table answers at every N11 (its last values held beyond its range, 1.5 x
     the chart's largest N11): at shut vanes Q11 is 0 up to 400 r/min, so a shutdown never runs flow backwards through
-    them. The failing case beside it: the flow net alone pumps backwards there (-0.125 m^3/s at high N11), which the
-    simulator followed when the physical model's pumping limit handed the characteristics back to the nets."""
+    them. The failing case beside it: the flow net alone pumps backwards there (-0.011 m^3/s at high N11; -0.125
+    with the nets of an earlier extension), which the simulator followed when the physical
+    model's pumping limit handed the characteristics back to the nets."""
     n11 = np.linspace(0.0, 400.0, 81)
     assert np.all(nets.q11(n11, 0.0) == 0.0) and np.all(nets.q11(n11, 1.0) > 0.0)
     assert nets.silent_model.n11_top < 400.0
-    assert np.min(nets.flow.evaluate(n11, 0.0)[0]) < -0.1
+    assert np.min(nets.flow.evaluate(n11, 0.0)[0]) < -0.005

@@ -97,7 +97,7 @@ def test_a_load_rejection_max_speed_is_decided_below_the_lowest_line(rejection):
                                                  rel=1e-12)
     assert evidence["nets_weight"] == 0.0  # below half the lowest opening: the table alone
     assert chars.members()[k].silent_model.position == evidence["member_position"] > 1.0  # the top of the band
-    assert "model 0.56/0.48" in evidence["text"] and "anchored-model 0.32/0.51" in evidence["text"]
+    assert "other-form-model 0.41/0.43" in evidence["text"] and "anchored-model 0.10/0.13" in evidence["text"]
 
 
 def test_a_deciding_member_that_does_not_repeat_its_figure_is_an_error(rejection):
