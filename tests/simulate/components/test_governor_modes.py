@@ -118,7 +118,8 @@ def test_power_mode_settles_the_electrical_power_on_its_droop_line_after_a_frequ
     assert _settle(power) < 1e-11
     assert p_e == pytest.approx(p0 - df / b_p, abs=1e-8)
     assert df == pytest.approx(-b_p * p0 * step / (1.0 + b_p * p0 * (1.0 + step)), abs=1e-9)
-    assert power.summary()["power_reference_mw"] == 180.0
+    # the initial power, solved to the steady state's tolerance (measured 1e-13 MW off)
+    assert power.summary()["power_reference_mw"] == pytest.approx(180.0, abs=1e-9)
     # beside it, the speed mode's droop on the stroke settles elsewhere: 0.0128 pu off that line
     speed = run_simulation(_plant(GRID, keys))
     assert _settle(speed) < 1e-11
@@ -154,11 +155,12 @@ def test_power_mode_settles_the_electrical_power_at_its_droop_after_a_bus_freque
     assert p_e[-1] == pytest.approx(p_ref - dx_bus / b_p, abs=1e-9)
     assert x[-1] == pytest.approx(dx_bus, abs=1e-12)  # in step with the bus (measured 6e-15 off)
     # beside it, the speed mode's droop on the stroke settles the stroke at y0 - dx_bus / b_p (its integral's time
-    # 1 / (ki b_p) = 12.5 s leaves 2e-7 of drift in the last 10 s: 1e-6) and the power 0.021 off the power mode's line
+    # 1 / (ki b_p) = 12.5 s leaves 2e-7 of drift in the last 10 s: 1e-6) and the power 0.0196 off the power mode's
+    # line (the bound half that: the gap is the turbine's power-stroke slope, which the characteristics set)
     speed = run_simulation(_plant(GRID, BUS_STEP))
     assert speed.opening[-1] == pytest.approx(speed.opening[0] - dx_bus / b_p, abs=1e-6)
     p_speed = speed.signals["electrical_power_pu"][-1] * 250.0 / 225.0
-    assert abs(p_speed - (p_ref - dx_bus / b_p)) > 0.02
+    assert abs(p_speed - (p_ref - dx_bus / b_p)) > 0.01
 
 
 @pytest.mark.slow
