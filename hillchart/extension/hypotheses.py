@@ -489,7 +489,10 @@ def weigh(folds, m11_scale: float, names=HYPOTHESES, priors=None) -> Evidence:
         rms[target]["blend"] = float(np.sqrt(np.mean(blended ** 2)))
         rms[target]["blend_worst"] = float(np.max(np.abs(blended)))
         share = sum(weights[target][h] for h in band_names)
-        scored = sum(weights[target][h] * band_errors[target][h] for h in band_names) / share
+        if share > 0:
+            scored = sum(weights[target][h] * band_errors[target][h] for h in band_names) / share
+        else:  # every weighed hypothesis is missing from a band-only fold: those left, equally
+            scored = sum(band_errors[target][h] for h in band_names) / len(band_names)
         band[target] = band_sides(scored, distance, lines, shape=closing[target])
     return Evidence(folds=weighed, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
                     distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())),
