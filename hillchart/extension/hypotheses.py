@@ -65,6 +65,8 @@ HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-for
               "speed-scaled-line", "quadratic")
 #: The hypotheses of the model's other form: available only where it was fitted (:attr:`Hypotheses.names`).
 OTHER_FORM = ("other-form-model", "anchored-other-form-model")
+#: The hypotheses of a chart whose model has no other form.
+WITHOUT_OTHER_FORM = tuple(h for h in HYPOTHESES if h not in OTHER_FORM)
 #: Lines (the lowest, and those just above it) whose bending gives the quadratic hypothesis its curvature.
 CURVATURE_LINES = 4
 #: Held-out folds: the lowest line, then the two lowest. A fold needs MIN_LINES_LEFT lines left to refit on to
@@ -149,7 +151,7 @@ class Hypotheses:
     @property
     def names(self) -> tuple:
         """The hypotheses these fits answer: :data:`HYPOTHESES`, less :data:`OTHER_FORM` without the other form."""
-        return HYPOTHESES if self.other is not None else tuple(h for h in HYPOTHESES if h not in OTHER_FORM)
+        return HYPOTHESES if self.other is not None else WITHOUT_OTHER_FORM
 
     def speed_ratio(self, opening):
         """``n_run(a_low) / n_run(a)``: how much closer to its runaway speed a smaller opening runs at the same N11
@@ -503,7 +505,7 @@ def chart_evidence(chart, torque, fit_model, *, hold_out_lines=HOLD_OUT, fit_oth
     """Hold out the chart's lowest line, then its two lowest (:data:`HOLD_OUT`), and weigh the hypotheses
     (:data:`OTHER_FORM` among them when ``fit_other`` refits the model's other form; ``priors``: :func:`weigh`)."""
     torque = np.asarray(torque, float)
-    names = HYPOTHESES if fit_other is not None else tuple(h for h in HYPOTHESES if h not in OTHER_FORM)
+    names = HYPOTHESES if fit_other is not None else WITHOUT_OTHER_FORM
     return weigh([hold_out(chart, torque, k, fit_model, fit_other) for k in hold_out_lines],
                  float(np.ptp(torque)) or 1.0, names, priors)
 
@@ -672,9 +674,9 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     return result
 
 
-__all__ = ["HYPOTHESES", "OTHER_FORM", "CURVATURE_LINES", "HOLD_OUT", "MIN_LINES_LEFT", "MIN_LINES_WEIGHED",
-           "DISTANCE_CAP_FACTOR", "OVERSPEED_GAP_CAP", "MAX_OFFSET", "LowestLine", "Hypotheses", "offset_line",
-           "fit_hypotheses", "HeldOut",
+__all__ = ["HYPOTHESES", "OTHER_FORM", "WITHOUT_OTHER_FORM", "CURVATURE_LINES", "HOLD_OUT", "MIN_LINES_LEFT",
+           "MIN_LINES_WEIGHED", "DISTANCE_CAP_FACTOR", "OVERSPEED_GAP_CAP", "MAX_OFFSET", "LowestLine", "Hypotheses",
+           "offset_line", "fit_hypotheses", "HeldOut",
            "sub_chart", "hold_out", "Evidence", "weigh", "chart_evidence", "Extrapolation", "overspeed_evidence",
            "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "NO_EVIDENCE_SCALE", "band_square",
            "log_ratio", "band_scale", "band_sides", "member_positions"]

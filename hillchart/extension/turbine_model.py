@@ -283,20 +283,17 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
             log_odds = 0.5 * (2 * n.size * math.log(max(rss[0], 1e-300) / max(rss[1], 1e-300))
                               - math.log(2 * n.size))
             foot_probability = 1.0 / (1.0 + math.exp(-min(max(log_odds, -700.0), 700.0)))
+    foot_kept = enough and (foot_p < FOOT_SIGNIFICANCE if throat_foot_mm is None else throat_foot_mm > 0)
     plain_model = _model(plain.x, opening_max, without, held)
-    if enough and (foot_p < FOOT_SIGNIFICANCE if throat_foot_mm is None else throat_foot_mm > 0):
-        turbine, other = _model(footed.x, opening_max), plain_model
-    else:
-        turbine = plain_model
-        other = _model(footed.x, opening_max) if enough and throat_foot_mm is None else None
+    turbine = _model(footed.x, opening_max) if foot_kept else plain_model
     chosen = _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, refuse=True)
-    if other is None or throat_foot_mm is not None:
+    if not (enough and throat_foot_mm is None):  # the foot not tried, or the form given: no other form
         return chosen
-    other = _fitted(other, chart, torque, q_scale, m_scale, foot_p, refuse=False)
+    other = _fitted(plain_model if foot_kept else _model(footed.x, opening_max), chart, torque, q_scale, m_scale,
+                    foot_p, refuse=False)
     if other is None:
         return chosen
-    footed_first = chosen.throat_foot_mm > 0
-    probability = foot_probability if footed_first else 1.0 - foot_probability
+    probability = foot_probability if foot_kept else 1.0 - foot_probability
     return replace(chosen, form_probability=probability,
                    other_form=replace(other, form_probability=1.0 - probability))
 
