@@ -107,6 +107,9 @@ def hold_out_lines(chart, k: int, *, seed: int = 0, ensemble: int = 10) -> dict:
     return {"k": k, "points": int(held.sum()), "lowest_kept": float(np.unique(rest.flow_opening)[0]),
             "rows": rows, "q11_covered": int(covered_q.sum()), "m11_covered": int(covered_m.sum()),
             "q11_band_median_pct": 100 * float(np.median((q_hi - q_lo) / q_run)),
+            # how far the point nearest a band's edge lies inside it (negative: outside), % of Q11 / of the M11 range
+            "q11_margin_pct": 100 * float(np.min(np.minimum(q - q_lo, q_hi - q) / q)),
+            "m11_margin_pct_range": 100 * float(np.min(np.minimum(m - m_lo, m_hi - m) / m_scale)),
             "weights": extrapolation.evidence.weights, "evidence": extrapolation.summary()}
 
 

@@ -23,6 +23,12 @@ BAND_COVERAGE = 0.90
 #: The narrower side of the band is at least this fraction of the wider one: a record of a few held-out lines that
 #: all fell on one side does not show that the other side is impossible, only that it is less likely.
 MIN_SIDE_FRACTION = 0.25
+#: The same floor below the lowest line (:func:`hillchart.extension.hypotheses.weigh`), where the evidence is the
+#: inner folds' two or three held-out lines, one or two line spacings below the kept lines: a record that short
+#: does not fix the sign of the error further down (on the real chart of ``benchmarks/bench_extrapolation.py`` the
+#: inner folds all fell below the blend, the chart's own lowest line above it), so neither side is narrower than half
+#: the other. Toward runaway every line is a unit of evidence (6 to 12 of them) and :data:`MIN_SIDE_FRACTION` holds.
+MIN_SIDE_FRACTION_BELOW = 0.5
 #: ``kappa`` of the band when the chart gives no held-out evidence (fewer than
 #: :data:`hillchart.extension.hypotheses.MIN_LINES_WEIGHED` + 1 lines): 1.2, so +-30 % at half the lowest opening
 #: (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter to a half of the lowest opening below
@@ -89,7 +95,8 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
 
 
 def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE, *, growth: float = GROWTH,
-               far_fraction: float = FAR_FRACTION, shape=None) -> tuple[float, float]:
+               far_fraction: float = FAR_FRACTION, shape=None,
+               min_side_fraction: float = MIN_SIDE_FRACTION) -> tuple[float, float]:
     """``(low, high)``: the band's half-widths per squared distance below and above the prediction, each a one-sided
     split-conformal bound at ``(1 + coverage) / 2`` on the signed scores ``r / d^2`` of the far half of the distances
     tested (:func:`band_scale` says why ``d^2`` and the far half). ``r`` is prediction minus truth (a log-ratio for
@@ -98,7 +105,8 @@ def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE,
     The units of evidence are the held-out *lines* (the points of one line share one cause of error): with too few
     of them for the quantile (``ceil((n + 1) q) > n``), a side is its largest score times ``(lines + 1) / lines``,
     so a chart with one held-out line gets twice the width its one line showed. Neither side is narrower than
-    :data:`MIN_SIDE_FRACTION` of the other. ``growth`` and ``far_fraction``: the power of the distance and the part
+    ``min_side_fraction`` of the other (:data:`MIN_SIDE_FRACTION`; below the lowest line
+    :data:`MIN_SIDE_FRACTION_BELOW`). ``growth`` and ``far_fraction``: the power of the distance and the part
     of the distances calibrated on (toward runaway, :func:`hillchart.extension.hypotheses.overspeed_evidence`: 1 and
     0); ``shape``, a further factor of the band's growth at each point (M11 below the lowest line: ``1 - d``, the
     band closing at the closed vanes).
@@ -124,7 +132,7 @@ def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE,
         width = float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (lines + 1) / lines
         sides.append(max(width, 0.0))
     widest = max(sides)
-    return tuple(max(v, MIN_SIDE_FRACTION * widest) for v in sides)
+    return tuple(max(v, min_side_fraction * widest) for v in sides)
 
 
 def member_positions(members: int, seed: int) -> np.ndarray:

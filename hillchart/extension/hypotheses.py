@@ -57,8 +57,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_SIDE_FRACTION, NO_EVIDENCE_SCALE,
-                                      band_scale, band_sides, band_square, log_ratio, member_positions)
+from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_SIDE_FRACTION, MIN_SIDE_FRACTION_BELOW,
+                                      NO_EVIDENCE_SCALE, band_scale, band_sides, band_square, log_ratio,
+                                      member_positions)
 
 #: The hypotheses, in the order of every weight vector.
 HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-form-model", "line", "offset-line",
@@ -495,7 +496,8 @@ def weigh(folds, m11_scale: float, names=HYPOTHESES, priors=None) -> Evidence:
             scored = sum(weights[target][h] * band_errors[target][h] for h in band_names) / share
         else:  # every weighed hypothesis is missing from a band-only fold: those left, equally
             scored = sum(band_errors[target][h] for h in band_names) / len(band_names)
-        band[target] = band_sides(scored, distance, lines, shape=closing[target])
+        band[target] = band_sides(scored, distance, lines, shape=closing[target],
+                                  min_side_fraction=MIN_SIDE_FRACTION_BELOW)
     return Evidence(folds=weighed, weights=weights, errors=rms, band=band, points=points, m11_scale=m11_scale,
                     distance_cap=min(1.0, DISTANCE_CAP_FACTOR * float(distance.max())),
                     band_folds=[f for f in folds if f not in weighed], names=names)
@@ -678,5 +680,5 @@ __all__ = ["HYPOTHESES", "OTHER_FORM", "WITHOUT_OTHER_FORM", "CURVATURE_LINES", 
            "MIN_LINES_WEIGHED", "DISTANCE_CAP_FACTOR", "OVERSPEED_GAP_CAP", "MAX_OFFSET", "LowestLine", "Hypotheses",
            "offset_line", "fit_hypotheses", "HeldOut",
            "sub_chart", "hold_out", "Evidence", "weigh", "chart_evidence", "Extrapolation", "overspeed_evidence",
-           "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "NO_EVIDENCE_SCALE", "band_square",
-           "log_ratio", "band_scale", "band_sides", "member_positions"]
+           "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "MIN_SIDE_FRACTION_BELOW",
+           "NO_EVIDENCE_SCALE", "band_square", "log_ratio", "band_scale", "band_sides", "member_positions"]
