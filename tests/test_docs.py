@@ -312,3 +312,24 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
         assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
         for old, new in zip(number.findall(row), number.findall(fresh)):
             assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
+
+
+def test_the_laminar_decay_table_is_what_the_benchmark_prints(capsys):
+    """docs/simulator.md's table of the laminar damping case is the output of benchmarks/bench_laminar_decay.py now
+    (about 1 s): the same rows and labels, the numbers within 2 units of their last printed digit (deterministic
+    runs whose spread between CPU families is below 1e-9 relative; a printed digit can still round the other way).
+    A stale row (a number moved by more, a row lost or added) fails."""
+    bench = load_script("bench_laminar_decay")
+    assert bench.main([]) == 0
+    printed = capsys.readouterr().out
+    page = (DOCS / "simulator.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_laminar_decay -->\n(.*?)\n<!-- end bench_laminar_decay -->", page, re.S).group(1)
+    rows = [line for line in block.splitlines() if line.strip()]
+    now = [line for line in printed.splitlines() if line.strip()]
+    assert len(rows) == len(now) > 10, "rerun PYTHONPATH=$PWD python benchmarks/bench_laminar_decay.py"
+    number = re.compile(r"[-+]?\d+(?:\.(\d+))?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.finditer(row), number.finditer(fresh)):
+            unit = 10.0 ** -len(old.group(1) or "")
+            assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
