@@ -159,8 +159,39 @@ def table() -> list[dict]:
     return rows
 
 
+def tsnet_rows(steps_s=(0.002, 0.001)) -> list[dict]:
+    """TSNet (optional, ``pip install tsnet``) on the same case, its quasi-steady and its unsteady (Brunone) friction
+    at each step of ``steps_s``: its reservoir-pipe-valve run of ``benchmarks/bench_tsnet_friction.py`` (the valve
+    prescribing the flow, Q = Q0 s(t); EPANET's Darcy factor, 64 / Re in laminar flow), read as :func:`decay` reads
+    hillsim's. ``sigma`` None where the run diverged (a head not finite)."""
+    import importlib.metadata
+    import tempfile
+
+    from tests.scripts import load_script
+
+    bench = load_script("bench_tsnet_friction")
+    exact = fundamental()
+    version = importlib.metadata.version("tsnet")
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for friction in ("steady", "unsteady"):
+            for dt in steps_s:
+                run = bench.run_tsnet(Path(folder), dt, friction, reservoir_head_m=HEAD_M, length_m=LENGTH_M,
+                                      diameter_m=DIAMETER_M, wave_speed_m_s=WAVE_SPEED_M_S,
+                                      flow_m3_s=VELOCITY_M_S * math.pi * DIAMETER_M ** 2 / 4.0,
+                                      close_start_s=EVENT_TIME_S, close_time_s=CLOSING_TIME_S, t_end_s=2.6)
+                finite = bool(np.all(np.isfinite(run["head_m"])))
+                sigma, omega = decay(run["time_s"], run["head_m"], exact.imag) if finite else (None, None)
+                rows.append({"model": f"TSNet {version}, {friction}", "dt_ms": 1e3 * dt, "sigma": sigma,
+                             "omega": omega, "exact_sigma": -exact.real, "exact_omega": exact.imag,
+                             "darcy_friction": run["darcy_friction"]})
+    return rows
+
+
 def main(argv=None) -> int:
-    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args(argv)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tsnet", action="store_true", help="also run TSNet on the case (pip install tsnet)")
+    args = parser.parse_args(argv)
     with_steady, without = fundamental(), fundamental(steady=False)
     print(f"exact (L1): sigma {-with_steady.real:.4f} 1/s, omega {with_steady.imag:.4f} rad/s; without the steady "
           f"part (L2): sigma {-without.real:.4f} 1/s, omega {without.imag:.4f} rad/s; frictionless omega "
@@ -173,6 +204,17 @@ def main(argv=None) -> int:
         print(f"| {r['model']} | {r['reaches']} | {r['dt_ms']:.2f} | {r['sigma']:.4f} | "
               f"{100 * (r['sigma'] / r['exact_sigma'] - 1):+.2f} % | {r['sigma_late']:.4f} | {r['omega']:.4f} | "
               f"{100 * (r['omega'] / r['exact_omega'] - 1):+.3f} % |")
+    if args.tsnet:
+        print("\n| tool, friction | dt (ms) | sigma (1/s), from 0.3 s | against exact (L1) | omega (rad/s) | "
+              "against exact |")
+        print("|---|---|---|---|---|---|")
+        for r in tsnet_rows():
+            if r["sigma"] is None:
+                print(f"| {r['model']} | {r['dt_ms']:.2f} | diverged | - | - | - |")
+                continue
+            print(f"| {r['model']} | {r['dt_ms']:.2f} | {r['sigma']:.4f} | "
+                  f"{100 * (r['sigma'] / r['exact_sigma'] - 1):+.1f} % | {r['omega']:.3f} | "
+                  f"{100 * (r['omega'] / r['exact_omega'] - 1):+.2f} % |")
     return 0
 
 

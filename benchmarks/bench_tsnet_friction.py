@@ -64,21 +64,25 @@ def _branches():
     return module
 
 
-def run_tsnet(folder: Path, dt_s: float, friction: str) -> dict:
-    """TSNet's time (s) and head at the valve (m), and its Darcy friction factor of the pipe."""
+def run_tsnet(folder: Path, dt_s: float, friction: str, *, reservoir_head_m: float = RESERVOIR_HEAD_M,
+              length_m: float = LENGTH_M, diameter_m: float = DIAMETER_M, wave_speed_m_s: float = WAVE_SPEED_M_S,
+              flow_m3_s: float = FLOW_M3_S, close_start_s: float = CLOSE_START_S,
+              close_time_s: float = CLOSE_TIME_S, t_end_s: float = T_END_S) -> dict:
+    """TSNet's time (s) and head at the valve (m), and its Darcy friction factor of the pipe (the case of the module
+    docstring, or another reservoir-pipe-valve case given by the keywords)."""
     import tsnet
 
     _branches()._numpy2_shims()
     inp = folder / "valve.inp"
-    inp.write_text(INP.format(q=1000 * FLOW_M3_S, h0=RESERVOIR_HEAD_M, length=LENGTH_M,
-                              diameter_mm=1000 * DIAMETER_M), encoding="utf-8")
+    inp.write_text(INP.format(q=1000 * flow_m3_s, h0=reservoir_head_m, length=length_m,
+                              diameter_mm=1000 * diameter_m), encoding="utf-8")
     # TSNet prints its progress; EPANET (through wntr) writes temp.inp/.rpt/.bin into the working folder
     with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), contextlib.chdir(folder):
         warnings.simplefilter("ignore")
         tm = tsnet.network.TransientModel(inp.name)
-        tm.set_wavespeed(WAVE_SPEED_M_S)
-        tm.set_time(T_END_S, dt_s)
-        tm.valve_closure("V1", [CLOSE_TIME_S, CLOSE_START_S, 0.0, 1])
+        tm.set_wavespeed(wave_speed_m_s)
+        tm.set_time(t_end_s, dt_s)
+        tm.valve_closure("V1", [close_time_s, close_start_s, 0.0, 1])
         tm = tsnet.simulation.Initializer(tm, 0, "DD")
         tm = tsnet.simulation.MOCSimulator(tm, "results", friction)
     head = np.asarray(tm.get_node("J1").head, float)

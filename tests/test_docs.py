@@ -333,3 +333,26 @@ def test_the_laminar_decay_table_is_what_the_benchmark_prints(capsys):
         for old, new in zip(number.finditer(row), number.finditer(fresh)):
             unit = 10.0 ** -len(old.group(1) or "")
             assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
+
+
+@pytest.mark.slow
+def test_the_laminar_decay_tsnet_table_is_what_the_benchmark_prints(capsys):
+    """The TSNet rows of docs/simulator.md's laminar damping case are ``bench_laminar_decay.py --tsnet`` now (TSNet
+    optional: skipped without it), the numbers within 2 units of their last printed digit as above; a diverged run
+    must still diverge."""
+    pytest.importorskip("tsnet")
+    bench = load_script("bench_laminar_decay")
+    assert bench.main(["--tsnet"]) == 0
+    printed = capsys.readouterr().out.split("| tool, friction")[1]
+    page = (DOCS / "simulator.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_laminar_decay --tsnet -->\n(.*?)\n<!-- end bench_laminar_decay --tsnet -->",
+                      page, re.S).group(1).split("| tool, friction")[1]
+    rows = [line for line in block.splitlines() if line.strip()]
+    now = [line for line in printed.splitlines() if line.strip()]
+    assert len(rows) == len(now) == 6, "rerun PYTHONPATH=$PWD python benchmarks/bench_laminar_decay.py --tsnet"
+    number = re.compile(r"[-+]?\d+(?:\.(\d+))?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.finditer(row), number.finditer(fresh)):
+            unit = 10.0 ** -len(old.group(1) or "")
+            assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
