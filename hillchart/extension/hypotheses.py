@@ -592,6 +592,10 @@ class Extrapolation:
                      f"{100 * o['model_q11_rms']:.1f} % (Q11) and {100 * o['model_m11_rms']:.1f} % of the M11 range "
                      f"(a straight continuation of each line: {100 * o['line_q11_rms']:.1f} % and "
                      f"{100 * o['line_m11_rms']:.1f} %)")
+            if o.get("beyond_model_range"):
+                text += (f" ({o['beyond_model_range']} of the {o['held_out_points']} held-out points lie beyond the "
+                         f"refitted model's pumping limit, N11 = {o['model_n11_limit']:.4g}, and count as misses of "
+                         f"their whole value)")
             if o.get("runaway_n11_rms") is not None:
                 text += f", its held-out runaway speeds within {100 * o['runaway_n11_rms']:.1f} %"
             band = o.get("m11_band_per_gap")
@@ -654,6 +658,7 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     gaps = np.array(gaps)
     m_low, m_high = band_sides((m_model - m) / scale, gaps, lines=len(ends), growth=1.0)
     result = {"held_out_points": int(held.sum()), "beyond_model_range": int((~inside).sum()),
+              "model_n11_limit": float(model.n11_limit) if math.isfinite(model.n11_limit) else None,
               "m11_band_per_gap": {"low": m_low, "high": m_high}, "m11_scale": scale,
               "gap_cap": OVERSPEED_GAP_CAP * float(gaps.max()),
               "model_q11_rms": float(np.sqrt(np.mean(((q_model - q) / q) ** 2))),

@@ -229,6 +229,36 @@ def test_toward_runaway_the_chart_states_how_well_it_predicts_its_held_out_line_
         shipped.extrapolation.summary()
 
 
+def test_toward_runaway_a_refit_that_cannot_reach_the_line_ends_says_so(shipped):
+    """The shipped chart's refit reaches past every held-out line end (its pumping limit N11 = 200, none beyond, and
+    the summary does not speak of it); a refit whose pumping limit falls short of them (as Sayano's without its three
+    lowest lines does, N11 = 95.6 against line ends at 100) counts each as a miss of its whole value, and the summary
+    says how many and where the limit is, so that "within 100.0 %" is not read as a fit."""
+    import dataclasses
+
+    from hillchart.characteristics import unit_torque_from_efficiency
+    from hillchart.extension.hypotheses import overspeed_evidence
+    from hillchart.extension.turbine_model import fit_turbine_model
+
+    o = shipped.extrapolation.overspeed
+    assert o["beyond_model_range"] == 0 and o["model_n11_limit"] > 150.0
+    assert "pumping limit" not in shipped.extrapolation.summary()
+    chart = load_chart(FRANCIS_DIR)
+    torque = unit_torque_from_efficiency(chart.flow_q11, chart.flow_n11, shipped.efficiency_surface(
+        chart.flow_n11, chart.flow_q11))  # as the extension computes it, eq. (5)
+    ends = max(n for _, n in shipped.extrapolation.line_ends)
+
+    def short_reach(*args, **kwargs):
+        model = fit_turbine_model(*args, **kwargs)
+        return dataclasses.replace(model, n11_limit=0.9 * ends)
+
+    short = overspeed_evidence(chart, torque, short_reach)
+    assert 0 < short["beyond_model_range"] <= short["held_out_points"]
+    assert short["model_q11_rms"] > o["model_q11_rms"]
+    summary = dataclasses.replace(shipped.extrapolation, overspeed=short).summary()
+    assert f"lie beyond the refitted model's pumping limit, N11 = {0.9 * ends:.4g}" in summary
+
+
 def test_toward_runaway_the_band_grows_with_the_gap_beyond_each_line(shipped):
     """The overspeed band: the refitted model's signed M11 misses at the held-out line ends, per relative N11 gap,
     give each side's width; it is zero up to a line's last point, grows linearly with the gap, stops at twice the
