@@ -158,7 +158,7 @@ def hillsim_plant(friction: dict):
     shortest = min(length / WAVE_SPEED_M_S for _, _, _, length, _ in PIPES)
     raw = {"turbine": turbine(VALVE_FLOWS["V1"]),
            "penstock": {"model": "moc", "static_head_m": RESERVOIR_HEAD_M, "reaches": int(round(shortest / DT_S)),
-                        "segments": [segment("P1")]},
+                        "segments": [segment("P1")], "friction_model": "steady"},  # TSNet's quasi-steady loss
            "generator": {"inertia_time_s": 5.0, "self_regulation": 0.0},
            "governor": {"kp": 0.0, "ki": 0.0, "kd": 0.0, "derivative_filter_s": 0.0, "permanent_droop": 0.0,
                         "servo_time_s": 0.2, "closing_time_s": CLOSE_TIME_S, "opening_time_s": CLOSE_TIME_S},

@@ -239,9 +239,17 @@ def best_linear(evaluator: ClosureEvaluator, mode: str, limit: float, grid: list
         cache[float(t1)] = ev
         return getattr(ev, key) - limit if ev.feasible_runs else math.inf
 
-    root = brentq(excess, t[i], t[i + 1], xtol=1e-6)
-    candidates = [ev for ev in [evaluator.evaluate([ClosureLaw(closing_time_s=float(root))], record=False)[0]]
-                  if ev.feasible_runs and getattr(ev, key) <= limit * (1 + 1e-9)]
+    xtol = 1e-6
+    root = brentq(excess, t[i], t[i + 1], xtol=xtol)
+    # brentq's root lies within xtol of the crossing, on either side: where it is just past the limit, the point
+    # 2 xtol toward the bracket's feasible end meets it
+    inside = t[i] if meets[i] else t[i + 1]
+    candidates = []
+    for t1 in (root, root + math.copysign(2.0 * xtol, inside - root)):
+        ev = evaluator.evaluate([ClosureLaw(closing_time_s=float(t1))], record=False)[0]
+        if ev.feasible_runs and getattr(ev, key) <= limit:
+            candidates.append(ev)
+            break
     candidates += [g for g in ok if getattr(g, key) <= limit]
     return min(candidates, key=lambda g: _objective(g, mode, limit))
 

@@ -149,7 +149,7 @@ class PenstockConfig:
                                     description="alpha of the lumped model's second-order term")
     zdomain_feedback: float = parameter(0.0, unit="1", low=0.0, high=100.0,
                                         description="F of the z-domain model's friction feedback")
-    friction_model: str = parameter("steady", unit="", choices=FRICTION,
+    friction_model: str = parameter("convolution", unit="", choices=FRICTION,
                                     description="the wall friction of the method of characteristics")
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")

@@ -218,7 +218,7 @@ class DraftTubeConfig:
                                               description="vapour pressure as a head of water")
     vapour_margin_m: float = parameter(2.0, unit="m", low=0.0, high=50.0,
                                        description="warning margin above the vapour pressure head")
-    friction_model: str = parameter("steady", unit="", choices=FRICTION,
+    friction_model: str = parameter("convolution", unit="", choices=FRICTION,
                                     description="the wall friction of the method of characteristics (moc)")
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")

@@ -33,7 +33,7 @@ def horizontal_plant(static_head_m: float, column_separation: str = "dvcm", t_en
     seg = PenstockSegment(length_m=LENGTH_M, diameter_m=DIAMETER_M, wave_speed_m_s=WAVE_SPEED_M_S, darcy_friction=0.0,
                           **(dict(elevation_start_m=AXIS_M, elevation_end_m=AXIS_M) if profile else {}))
     penstock = PenstockConfig(model="moc", static_head_m=static_head_m, reaches=20, segments=(seg,),
-                              column_separation=column_separation)
+                              column_separation=column_separation, friction_model="steady")  # f = 0: no friction
     governor = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0, servo_time_s=0.2,
                               closing_time_s=10.0, opening_time_s=20.0)
     scenario = ScenarioConfig(kind="closure-law", t_end_s=t_end_s, initial_opening=1.0, event_time_s=EVENT_S,

@@ -34,7 +34,7 @@ VARIANTS = {
     "lumped": ({"turbine.characteristics": "ideal", "penstock.model": "lumped"}, ()),
     "rigid": (RIGID, ()),
     "brunone": ({"turbine.characteristics": "ideal", "penstock.friction_model": "brunone"}, ()),
-    "convolution": ({"turbine.characteristics": "ideal", "penstock.friction_model": "convolution"}, ()),
+    "steady": ({"turbine.characteristics": "ideal", "penstock.friction_model": "steady"}, ()),
     "dgcm": ({"turbine.characteristics": "ideal", "penstock.column_separation": "dgcm"}, ()),
     "power": ({**RIGID, "governor.mode": "power"}, ()),
     "opening": ({**RIGID, "governor.mode": "opening"}, PID + ("permanent_droop",)),
@@ -179,7 +179,7 @@ def build(plant, steady, dt_s, upstream_head_m):
 # ---------------------------------------------------------------------------------------------------------------
 #: What each case is there to build (beside what it builds anyway): together every registry entry.
 COVERS = {
-    "plant_hla339.toml": {("penstock", "moc"), ("friction", "steady"), ("upstream", "reservoir"),
+    "plant_hla339.toml": {("penstock", "moc"), ("friction", "convolution"), ("upstream", "reservoir"),
                           ("control", "governor"), ("governor", "speed"), ("servo", "first-order"), ("shaft", "swing"),
                           ("downstream", "tailwater")},
     "plant_hla339_grid.toml": {("shaft", "subtransient")},
@@ -187,7 +187,7 @@ COVERS = {
     "plant_bulb.toml": {("control", "governor_blades"), ("downstream", "draft_tube")},
     "hla339 zdomain": {("penstock", "zdomain")}, "hla339 lumped": {("penstock", "lumped")},
     "hla339 rigid": {("penstock", "rigid")}, "hla339 brunone": {("friction", "brunone")},
-    "hla339 convolution": {("friction", "convolution")},
+    "hla339 steady": {("friction", "steady")},
     "hla339 power": {("governor", "power")}, "hla339 opening": {("governor", "opening")},
     "hla339 dashpot": {("governor", "dashpot")}, "hla339 discrete": {("servo", "discrete")},
     "hla339 dead-time": {("servo", "dead-time")}, "hla339 backlash": {("servo", "backlash")},

@@ -34,7 +34,8 @@ def tnet0_plant(reaches: int) -> PlantConfig:
     governor = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
                               servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
     return PlantConfig(turbine=turbine,
-                       penstock=PenstockConfig(model="moc", static_head_m=h0, reaches=reaches, segments=segments),
+                       penstock=PenstockConfig(model="moc", static_head_m=h0, reaches=reaches, segments=segments,
+                                               friction_model="steady"),  # as the reference code ran it
                        generator=GeneratorConfig(inertia_time_s=8.0), governor=governor,
                        scenario=ScenarioConfig(kind="closure-law", t_end_s=60.0, initial_opening=1.0,
                                                event_time_s=0.0, closing_time_s=2.0))

@@ -72,7 +72,8 @@ def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | N
     raw = {"turbine": {"rated_head_m": 176.0, "rated_flow_m3_s": 142.5 * scale, "rated_speed_rpm": 200.0,
                        "rated_power_mw": 225.0 * scale, "runner_diameter_m": 4.5, "opening_max": 32.0,
                        "characteristics": "ideal"},
-           "penstock": {"model": "moc", "static_head_m": 180.0, "reaches": 8,
+           # the quasi-steady loss (frictionless here): the unsteady friction's weights depend on the diameter
+           "penstock": {"model": "moc", "static_head_m": 180.0, "reaches": 8, "friction_model": "steady",
                         "segments": [{"length_m": 320.0, "diameter_m": 8.6, "wave_speed_m_s": 1120.0,
                                       "darcy_friction": 0.0}]},
            "generator": {"inertia_time_s": 9.0, "self_regulation": 1.0}, "governor": dict(GOVERNOR),
@@ -80,7 +81,7 @@ def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | N
                         "event_time_s": 1.0},
            "solver": {"pressure_loop": "newton"}}
     if draft_diameter_m is not None:
-        raw["draft_tube"] = {"model": "moc", "runner_elevation_m": -2.0,
+        raw["draft_tube"] = {"model": "moc", "runner_elevation_m": -2.0, "friction_model": "steady",
                              "segments": [{"length_m": 38.0, "diameter_m": draft_diameter_m,
                                            "wave_speed_m_s": 1000.0, "darcy_friction": 0.0}]}
     if units is None:

@@ -68,6 +68,30 @@ def test_two_stage_optimum_beats_the_best_linear_closure(optimum):
     assert below[:, 1].min() <= law.max_head_rise
 
 
+def test_the_best_linear_closure_meets_the_limit_when_the_root_lands_past_it(study, monkeypatch):
+    """brentq's root lies within its xtol (1e-6 s) of the crossing, on either side; one just past it gives a speed
+    rise above the limit by about 1e-8, and was dropped for the best grid point (T1 = 15 s, 0.9 points below the
+    limit, a higher head rise). Its neighbour 2 xtol toward the feasible end is taken instead: the closure sits on
+    the limit within 1e-7 (the slope there is 0.014 per second of T1). The failing case: the root itself, just past."""
+    import simulate.studies.closure_opt as closure_opt
+
+    found = {}
+
+    def past(f, a, b, xtol):
+        root = closure_opt_brentq(f, a, b, xtol=1e-9)
+        found["root"] = root + 0.5 * xtol * (1.0 if f(a) < 0 else -1.0)  # on the infeasible side
+        return found["root"]
+
+    closure_opt_brentq = closure_opt.brentq
+    monkeypatch.setattr(closure_opt, "brentq", past)
+    evaluator = ClosureEvaluator(study.plant, study.load_cases[:1])
+    grid = evaluator.evaluate([ClosureLaw(float(t)) for t in np.linspace(3.0, 30.0, 10)], record=False)
+    linear = best_linear(evaluator, "head", 0.50, grid)
+    assert linear.max_speed_rise <= 0.50 and linear.max_speed_rise == pytest.approx(0.50, abs=1e-7)
+    beyond = evaluator.evaluate([ClosureLaw(closing_time_s=found["root"])], record=False)[0]
+    assert beyond.max_speed_rise > 0.50
+
+
 def test_a_poor_two_stage_law_does_not_beat_the_linear_family(study):
     # the failing side of the acceptance check: slow first stage, fast second stage
     evaluator = ClosureEvaluator(study.plant, study.load_cases)
