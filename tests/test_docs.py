@@ -314,6 +314,17 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
             assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
 
 
+def assert_same_to_the_last_digits(rows: list[str], now: list[str]) -> None:
+    """Each line of ``rows`` (a table in the docs) has the labels and layout of its line in ``now`` (what the script
+    prints), and each number is within 2 units of its last printed digit."""
+    number = re.compile(r"[-+]?\d+(?:\.(\d+))?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.finditer(row), number.finditer(fresh)):
+            unit = 10.0 ** -len(old.group(1) or "")
+            assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
+
+
 def test_the_laminar_decay_table_is_what_the_benchmark_prints(capsys):
     """docs/simulator.md's table of the laminar damping case is the output of benchmarks/bench_laminar_decay.py now
     (about 1 s): the same rows and labels, the numbers within 2 units of their last printed digit (deterministic
@@ -327,12 +338,7 @@ def test_the_laminar_decay_table_is_what_the_benchmark_prints(capsys):
     rows = [line for line in block.splitlines() if line.strip()]
     now = [line for line in printed.splitlines() if line.strip()]
     assert len(rows) == len(now) > 10, "rerun PYTHONPATH=$PWD python benchmarks/bench_laminar_decay.py"
-    number = re.compile(r"[-+]?\d+(?:\.(\d+))?")
-    for row, fresh in zip(rows, now):
-        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
-        for old, new in zip(number.finditer(row), number.finditer(fresh)):
-            unit = 10.0 ** -len(old.group(1) or "")
-            assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
+    assert_same_to_the_last_digits(rows, now)
 
 
 @pytest.mark.slow
@@ -350,9 +356,4 @@ def test_the_laminar_decay_tsnet_table_is_what_the_benchmark_prints(capsys):
     rows = [line for line in block.splitlines() if line.strip()]
     now = [line for line in printed.splitlines() if line.strip()]
     assert len(rows) == len(now) == 6, "rerun PYTHONPATH=$PWD python benchmarks/bench_laminar_decay.py --tsnet"
-    number = re.compile(r"[-+]?\d+(?:\.(\d+))?")
-    for row, fresh in zip(rows, now):
-        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
-        for old, new in zip(number.finditer(row), number.finditer(fresh)):
-            unit = 10.0 ** -len(old.group(1) or "")
-            assert abs(float(old.group(0)) - float(new.group(0))) <= 2 * unit, (row, fresh)
+    assert_same_to_the_last_digits(rows, now)
