@@ -246,7 +246,9 @@ def best_linear(evaluator: ClosureEvaluator, mode: str, limit: float, grid: list
     inside = t[i] if meets[i] else t[i + 1]
     candidates = []
     for t1 in (root, root + math.copysign(2.0 * xtol, inside - root)):
-        ev = evaluator.evaluate([ClosureLaw(closing_time_s=float(t1))], record=False)[0]
+        if float(t1) not in cache:  # brentq has run its root already; the step beside it is new
+            excess(t1)
+        ev = cache[float(t1)]
         if ev.feasible_runs and getattr(ev, key) <= limit:
             candidates.append(ev)
             break
