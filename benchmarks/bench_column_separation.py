@@ -29,11 +29,12 @@ valve stays positive at the vapour head. The Darcy friction factor is Blasius's 
 initial velocity (water at 20 degC: the vapour pressure 2.34 kPa; the rig's water temperature is not in the data
 set, and 15 degC would move the vapour pressure by 0.6 kPa).
 
-Prints, for each velocity, friction model, cavity model and step (dt, dt/2): the first peak at the valve, the time
-its first cavity collapsed (the cavity volume's linear extrapolation to zero between the last two steps it was
-open, not the step index) and the largest pressure within 2 L / a after that (the collapse peak) with its time,
-then the collapse peaks beside the figures held. ``--figures DIR`` draws the valve pressure over 0.5 s
-(``column_separation.png``).
+Prints, for each velocity, friction model, cavity model and step (dt, dt/2: 256 and 512 reaches, :data:`REACHES`):
+the first peak at the valve, the time its first cavity collapsed (the cavity volume's linear extrapolation to zero
+between the last two steps it was open, not the step index) and the largest pressure within 2 L / a after that (the
+collapse peak) with its time, then the collapse peaks beside the figures held, the pulses of the measured trace, and
+the defaults (the penstock's: the convolution friction and the discrete gas cavity model) on grids of 32 to 1024
+reaches. ``--figures DIR`` draws the valve pressure over 0.5 s (``column_separation.png``).
 """
 
 from __future__ import annotations
@@ -66,8 +67,14 @@ WATER_VISCOSITY_M2_S = 1.0e-6
 MEASURED = {0.3: 1015.0, 1.4: 2057.0}
 #: The cavity models compared.
 MODELS = ("dvcm", "dgcm")
-#: The runs the figure draws (friction, cavity model).
-FIGURE_RUNS = (("steady", "dvcm"), ("steady", "dgcm"), ("convolution", "dvcm"))
+#: The runs the figure draws (friction, cavity model): the defaults (the convolution and the DGCM) first.
+FIGURE_RUNS = (("convolution", "dgcm"), ("convolution", "dvcm"), ("steady", "dvcm"))
+#: The grid of the runs, MOC reaches (dt = L / (a reaches) = 0.110 ms), and twice as many for dt/2: from 256 reaches
+#: the defaults' collapse peak at 1.4 m/s moves by less than 1 % with the step (:func:`grid_scan`); on coarser grids
+#: a spike of one step, where cavities along the pipe collapse together, moves it by up to 7 %.
+REACHES = 256
+#: The grids of :func:`grid_scan`.
+SCAN_REACHES = (32, 64, 128, 256, 512, 1024)
 
 
 def blasius_friction(velocity_m_s: float) -> float:
@@ -75,11 +82,12 @@ def blasius_friction(velocity_m_s: float) -> float:
     return 0.316 / (velocity_m_s * DIAMETER_M / WATER_VISCOSITY_M2_S) ** 0.25
 
 
-def rig_plant(velocity_m_s: float, *, friction_model: str = "steady", reaches: int = 32,
-              column_separation: str = "dvcm", t_end_s: float = 0.5,
+def rig_plant(velocity_m_s: float, *, friction_model: str | None = None, reaches: int = REACHES,
+              column_separation: str | None = None, t_end_s: float = 0.5,
               tank_head_m: float = TANK_HEAD_M) -> PlantConfig:
     """The rig at initial velocity ``velocity_m_s`` with ``reaches`` MOC reaches (dt = L / (a reaches)) and the tank
-    ``tank_head_m`` above the pipe's upstream end."""
+    ``tank_head_m`` above the pipe's upstream end; the friction and cavity models the penstock's defaults unless
+    given."""
     area = math.pi * DIAMETER_M ** 2 / 4.0
     flow = velocity_m_s * area
     f = blasius_friction(velocity_m_s)
@@ -91,8 +99,9 @@ def rig_plant(velocity_m_s: float, *, friction_model: str = "steady", reaches: i
                             opening_max=1.0, characteristics="ideal")
     seg = PenstockSegment(length_m=LENGTH_M, diameter_m=DIAMETER_M, wave_speed_m_s=WAVE_SPEED_M_S, darcy_friction=f,
                           elevation_start_m=VALVE_ELEVATION_M - RISE_M, elevation_end_m=VALVE_ELEVATION_M)
-    penstock = PenstockConfig(model="moc", static_head_m=static, reaches=reaches, segments=(seg,),
-                              friction_model=friction_model, column_separation=column_separation)
+    models = {key: value for key, value in (("friction_model", friction_model),
+                                            ("column_separation", column_separation)) if value is not None}
+    penstock = PenstockConfig(model="moc", static_head_m=static, reaches=reaches, segments=(seg,), **models)
     governor = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0, servo_time_s=0.2,
                               closing_time_s=10.0, opening_time_s=20.0)
     scenario = ScenarioConfig(kind="closure-law", t_end_s=t_end_s, initial_opening=1.0, event_time_s=EVENT_TIME_S,
@@ -201,7 +210,7 @@ def window_peaks(time_s, pressure_kpa) -> dict:
     return out
 
 
-def trace_table(reaches: int = 32, runs=TRACE_RUNS, label: str = "") -> list[dict]:
+def trace_table(reaches: int = REACHES, runs=TRACE_RUNS, label: str = "") -> list[dict]:
     """The peaks of :data:`TRACE_WINDOWS` measured and computed at 1.4 m/s (each of ``runs``, (friction, cavity
     model), at dt and dt / 2; ``label`` before each computed run's name)."""
     rows = [{"run": "measured", "dt_s": float("nan"), "peaks": window_peaks(*measured_trace())}]
@@ -236,8 +245,8 @@ def trace_markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def table(velocities=(0.3, 1.4), frictions=("steady", "brunone", "convolution"), models=MODELS, reaches: int = 32,
-          tank_head_m: float = TANK_HEAD_M) -> list[dict]:
+def table(velocities=(0.3, 1.4), frictions=("steady", "brunone", "convolution"), models=MODELS,
+          reaches: int = REACHES, tank_head_m: float = TANK_HEAD_M) -> list[dict]:
     """One row per velocity, friction model, cavity model and step (dt, dt/2)."""
     rows = []
     for v in velocities:
@@ -249,6 +258,39 @@ def table(velocities=(0.3, 1.4), frictions=("steady", "brunone", "convolution"),
                     rows.append({"velocity_m_s": v, "friction": friction, "model": model, "dt_s": r.meta["dt_s"],
                                  "peaks": peaks(r), "result": r})
     return rows
+
+
+def grid_scan(reaches=SCAN_REACHES) -> list[dict]:
+    """The defaults on each grid of ``reaches``: the collapse peak at both velocities and, at 1.4 m/s, the time the
+    first collapse's pulse rises through :data:`PULSE_LEVEL_KPA` (s after the start of the closure)."""
+    rows = []
+    for n in reaches:
+        row = {"reaches": n}
+        for v in MEASURED:
+            r = run_simulation(rig_plant(v, reaches=n, t_end_s=TRACE_END_S if v > 1.0 else 0.5))
+            row["dt_s"] = r.meta["dt_s"]
+            row[v] = peaks(r).collapse_kpa
+            if v > 1.0:
+                row["rise_s"] = window_peaks(r.time_s - EVENT_TIME_S, valve_pressure_kpa(r))["first collapse"][1]
+        rows.append(row)
+    return rows
+
+
+def grid_scan_markdown(rows: list[dict]) -> str:
+    """:func:`grid_scan` as a markdown table, each figure beside the measured one and the last column the change of
+    the 1.4 m/s peak from the grid before (half as many reaches)."""
+    rise = window_peaks(*measured_trace())["first collapse"][1]
+    lines = ["| reaches | dt (ms) | collapse peak at 0.3 m/s (kPa) | collapse peak at 1.4 m/s (kPa) | "
+             "first collapse rises at (ms) | 1.4 m/s peak against the grid with half the reaches |",
+             "|---|---|---|---|---|---|"]
+    for i, row in enumerate(rows):
+        before = rows[i - 1] if i and rows[i - 1]["reaches"] * 2 == row["reaches"] else None
+        change = f"{100 * (row[1.4] / before[1.4] - 1):+.1f} %" if before else "-"
+        lines.append(f"| {row['reaches']} | {1e3 * row['dt_s']:.4f} | {row[0.3]:.0f} "
+                     f"({100 * (row[0.3] / MEASURED[0.3] - 1):+.1f} %) | {row[1.4]:.0f} "
+                     f"({100 * (row[1.4] / MEASURED[1.4] - 1):+.1f} %) | {1e3 * row['rise_s']:.1f} "
+                     f"({100 * (row['rise_s'] / rise - 1):+.1f} %) | {change} |")
+    return "\n".join(lines)
 
 
 def figure(rows, path: Path) -> Path:
@@ -314,6 +356,11 @@ def main(argv=None) -> int:
           f"through {PULSE_LEVEL_KPA:g} kPa, to {TRACE_END_S:g} s")
     print()
     print(trace_markdown(trace_table()))
+    print()
+    print("The defaults (the convolution friction, the DGCM) on each grid: the collapse peaks against those held "
+          f"({MEASURED[0.3]:g} and {MEASURED[1.4]:g} kPa) and the first collapse's rise against the trace's")
+    print()
+    print(grid_scan_markdown(grid_scan()))
     if args.figures is not None:
         args.figures.mkdir(parents=True, exist_ok=True)
         print(figure(rows, args.figures / "column_separation.png"))

@@ -72,9 +72,11 @@ PROFILE_KEYS = ("elevation_start_m", "elevation_end_m")
 
 
 def _with_profile(raw: dict) -> None:
-    """A continuous pipe profile on every segment: 100 m at the inlet, 10 m lower per segment."""
+    """A continuous pipe profile on every segment: the inlet 5 m below the reservoir level, 1 m lower per segment
+    (a pipe above its reservoir would boil in steady flow, which the cavity models refuse)."""
+    top = raw["penstock"]["static_head_m"] - 5.0
     for i, segment in enumerate(raw["penstock"]["segments"]):
-        segment["elevation_start_m"], segment["elevation_end_m"] = 100.0 - 10.0 * i, 90.0 - 10.0 * i
+        segment["elevation_start_m"], segment["elevation_end_m"] = top - i, top - i - 1.0
 
 
 def _class(section: str):

@@ -1,5 +1,5 @@
 """Water-column separation in the method-of-characteristics conduits: the keys of the discrete vapour cavity model
-(DVCM, ``penstock.column_separation = "dvcm"``, the default, and the discrete gas cavity model's, ``"dgcm"``), the
+(DVCM, ``penstock.column_separation = "dvcm"``) and of the discrete gas cavity model (``"dgcm"``, the default), the
 vapour pressure of water and the vapour head at the computing nodes. The time-loop functions of the DVCM are the MOC
 penstock's (:func:`simulate.components.hydraulic.penstock.moc_step_dvcm`), written with the compatibility equations
 there.
@@ -53,8 +53,9 @@ from hillchart.errors import InputError
 from simulate.components.parameters import parameter, validate_parameters
 
 #: The ways a MOC conduit treats a head below the vapour head: the discrete vapour cavity model, the discrete gas
-#: cavity model (:mod:`simulate.components.hydraulic.gas_cavity`), or nothing (the head goes on falling; the turbine
-#: boundary stops the run when its net head reaches zero).
+#: cavity model (:mod:`simulate.components.hydraulic.gas_cavity`; the default of ``penstock.column_separation``: its
+#: collapse peaks converge with the step on the Bergant-Simpson rig, the DVCM's spikes grow as the grid is refined),
+#: or nothing (the head goes on falling; the turbine boundary stops the run when its net head reaches zero).
 COLUMN_SEPARATION_MODELS = ("dvcm", "dgcm", "off")
 #: The names the reports give the models.
 MODEL_NAMES = {"dvcm": "discrete vapour cavity model", "dgcm": "discrete gas cavity model"}
@@ -81,7 +82,7 @@ _IF97_N = (0.11670521452767e4, -0.72421316703206e6, -0.17073846940092e2, 0.12020
 
 @dataclass(frozen=True)
 class ColumnSeparationConfig:
-    """The optional ``[penstock]`` keys of the discrete vapour cavity model (``column_separation = "dvcm"``)."""
+    """The optional ``[penstock]`` keys of the cavity models (``column_separation = "dgcm"`` or ``"dvcm"``)."""
 
     water_temperature_c: float | None = parameter(
         None, unit="degC", low=0.0, high=100.0,
@@ -211,6 +212,29 @@ def node_vapour_heads_m(penstock, x_m, settings: VapourSettings) -> np.ndarray:
     z = axis_elevations_m(penstock, x_m)
     z = np.zeros(np.asarray(x_m).shape) if z is None else z
     return z - settings.atmospheric_pressure_head_m + settings.vapour_pressure_head_m  # eq. (C1)
+
+
+def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
+    """A steady head at or below a node's vapour head (eq. (C1); the reservoir node's excepted) is refused: the
+    water would boil in steady flow, which neither cavity model starts from. The error names the node, both heads
+    and the segment's profile keys that put the axis there."""
+    low = np.asarray(heads_m, float)[1:] - np.asarray(vapour_heads_m, float)[1:]
+    if not np.any(low <= 0.0):
+        return
+    j = 1 + int(np.argmin(low))
+    x = float(x_m[j])
+    where = ""
+    if has_profile(penstock):
+        start = 0.0
+        for i, seg in enumerate(penstock.segments, start=1):
+            if x <= start + seg.length_m * (1.0 + 1e-12) or i == len(penstock.segments):
+                where = (f" (the pipe axis there from penstock.segments.elevation_start_m = {seg.elevation_start_m:g}"
+                         f" and penstock.segments.elevation_end_m = {seg.elevation_end_m:g} of segment {i})")
+                break
+            start += seg.length_m
+    raise InputError(f"penstock.column_separation = {penstock.column_separation!r}: the steady head at node {j} "
+                     f"(x = {x:.4g} m), {heads_m[j]:.4g} m, is not above its vapour head {vapour_heads_m[j]:.4g} m"
+                     f"{where}: the water would boil in steady flow; raise the reservoir or lower the pipe")
 
 
 def no_profile_note(penstock) -> str:

@@ -131,10 +131,10 @@ class PenstockConfig:
     :mod:`simulate.components.hydraulic.convolution` with its key ``convolution_viscosity_m2_s``; a friction model's
     keys are refused under another). ``column_separation`` is what the
     method of characteristics does where the head falls to the vapour head
-    (:mod:`simulate.components.hydraulic.cavitation`: ``"dvcm"``, the discrete vapour cavity model, with
-    ``water_temperature_c``, ``atmospheric_pressure_head_m`` and ``cavity_weighting``; ``"dgcm"``, the discrete gas
-    cavity model of :mod:`simulate.components.hydraulic.gas_cavity`, with the same keys and ``gas_void_fraction``;
-    ``"off"``: nothing).
+    (:mod:`simulate.components.hydraulic.cavitation`: ``"dgcm"``, the default, the discrete gas cavity model of
+    :mod:`simulate.components.hydraulic.gas_cavity`, with ``water_temperature_c``, ``atmospheric_pressure_head_m``,
+    ``cavity_weighting`` and ``gas_void_fraction``; ``"dvcm"``, the discrete vapour cavity model, with the same keys
+    but the last; ``"off"``: nothing).
     """
 
     model: str = parameter(unit="", choices=PENSTOCKS, description="the penstock model")
@@ -154,7 +154,7 @@ class PenstockConfig:
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
     convolution_viscosity_m2_s: float | None = borrowed(ConvolutionConfig, "kinematic_viscosity_m2_s")
-    column_separation: str = parameter("dvcm", unit="", choices=COLUMN_SEPARATION_MODELS,
+    column_separation: str = parameter("dgcm", unit="", choices=COLUMN_SEPARATION_MODELS,
                                        description="water-column separation in the method of characteristics: the "
                                                    "discrete vapour cavity model, the discrete gas cavity model, "
                                                    "or off")

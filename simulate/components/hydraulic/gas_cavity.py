@@ -24,6 +24,8 @@ the node, C- line H = C_M + B_R Q_out from the reach downstream of it; dt the st
           a = psi dt / B_L,  b = V_old + (1 - psi) dt (...) + psi dt [Q_out - (C_P - H_v) / B_L]
     (G7)  the relation the turbine boundary solves there, H = C_L + k Q_out: the tangent of (G6) at the last step's
           flow q_0, k = -psi dt / (c_g / y_0^2 + psi dt / B_L),  C_L = H_v + y_0 - k q_0
+    (G8)  the downstream end after the boundary is solved (H, Q_out its head and flow): Q_in = (C_P - H) / B_L and
+          V from (G3), the gas volume that continuity gives at the boundary's head
 
 (G4) has one positive root since a > 0 and c_g > 0, and the two forms take it without cancellation; the node's head
 stays above the vapour head, and with alpha_0 -> 0 the model turns into the DVCM ((C2) while y >> c_g / V, (C3)
@@ -32,7 +34,12 @@ volume beyond the node's volume at the reference pressure, max(V - alpha_0 V_n, 
 absolute gas pressure falls below the atmospheric): the DVCM's cavity volumes in the limit. The node's pipe volume
 V_n is half of each reach beside it (the reservoir node holds no gas; its head is the reservoir's); the gas at each
 node starts from (G2) at the steady head. (G7) is exact where the boundary's flow does not change over the step (a
-shut valve) and exact to first order in the change otherwise; the update solves (G6) at the boundary's flow.
+shut valve) and exact to first order in the change otherwise. The update keeps the head the boundary was solved with
+and the volume continuity gives there, (G8): the pipe's end, the turbine and a manifold's branches share one head
+and one flow at every step, and the gas law (G2) at that node is met to second order in the flow's change over the
+step (each step solves (G4)-(G6) afresh from the volume, so the error does not accumulate). Where the tangent
+overshoots so far that (G8) gives no gas (V <= 0) or a head at or below the vapour head, the update solves (G6) at
+the boundary's flow instead (the gas law exactly, the head then one step's tangent error off the boundary's).
 """
 
 from __future__ import annotations
@@ -83,11 +90,12 @@ def dgcm_outlet_gas_head(c_p, b_l, volume_part, q_out, vapour_head_m, c_g, dt_s,
 
 @numba.njit(cache=True)
 def moc_step_dgcm(heads, flows, inflows, track, totals, impedance, friction, vapour, scal, gas, reservoir_head_m,
-                  outlet_flow_m3_s, step, new_heads, new_flows, new_inflows):
+                  outlet_head_m, outlet_flow_m3_s, step, new_heads, new_flows, new_inflows):
     """One MOC step with the discrete gas cavity model, eqs. (G1)-(G6): ``flows`` at the reaches' upstream ends,
     ``inflows`` at their downstream ends (each node's Q_out and Q_in), ``gas`` = (c_g per node (m^4), the gas volume
     at the reference pressure per node (m^3)), ``scal`` = [dt (s), psi], ``track`` row 0 the gas volumes,
-    ``totals`` = [total cavity volume (m^3), -, nodes with a cavity]; the downstream end takes the boundary's flow."""
+    ``totals`` = [total cavity volume (m^3), -, nodes with a cavity]; the downstream end takes the boundary's head
+    and flow, eq. (G8)."""
     n = heads.size - 1
     dt_s, psi = scal[0], scal[1]
     c_gas, reference = gas[0], gas[1]
@@ -109,13 +117,18 @@ def moc_step_dgcm(heads, flows, inflows, track, totals, impedance, friction, vap
                               part + psi * dt_s * ((vapour[j] - c_m) / br - (c_p - vapour[j]) / bl), c_gas[j])  # (G4)
             h = vapour[j] + y  # eq. (G5)
             new_flows[j] = (h - c_m) / br
+            gas_volume = c_gas[j] / y
         else:
-            y = dgcm_outlet_gas_head(c_p, bl, part, outlet_flow_m3_s, vapour[n], c_gas[n], dt_s, psi)  # eq. (G6)
-            h = vapour[n] + y
+            h = outlet_head_m
+            gas_volume = part + psi * dt_s * (outlet_flow_m3_s - (c_p - h) / bl)  # eq. (G8)
+            if gas_volume <= 0.0 or h <= vapour[n]:  # the tangent (G7) overshot: the gas law at the boundary's flow
+                y = dgcm_outlet_gas_head(c_p, bl, part, outlet_flow_m3_s, vapour[n], c_gas[n], dt_s, psi)  # (G6)
+                h = vapour[n] + y
+                gas_volume = c_gas[n] / y
             new_flows[n] = outlet_flow_m3_s
         new_heads[j] = h
         new_inflows[j] = (c_p - h) / bl  # eq. (G5)
-        cavity = dgcm_record(track, j, c_gas[j] / y, volume, reference[j], step)
+        cavity = dgcm_record(track, j, gas_volume, volume, reference[j], step)
         if cavity > 0.0:
             total += cavity
             count += 1
@@ -146,12 +159,22 @@ def moc_dgcm_relation(p, s, upstream_head_m):
 
 
 @numba.njit(cache=True)
+def moc_dgcm_inlet_relation(p, s):
+    """(C_M, B) of the C- line at the inlet, H = C_M + B Q (a branch's at the manifold): from the flow at the first
+    reach's downstream end, which differs from the flow at its upstream end wherever node 1's gas volume changes
+    (:func:`simulate.components.hydraulic.penstock.moc_inlet_relation` reads it only while a vapour cavity is
+    open)."""
+    c = s[2][0]
+    return moc_inlet_characteristic(s[0][c], s[3][c], p[0], p[1]), p[0][0]
+
+
+@numba.njit(cache=True)
 def moc_dgcm_update(p, s, upstream_head_m, head_m, flow_m3_s):
     heads, flows, cur, inflows, track, totals = s
     c = cur[0]
     step = cur[1] + 1
     moc_step_dgcm(heads[c], flows[c], inflows[c], track, totals, p[0], p[1], p[2], p[3], p[4], upstream_head_m,
-                  flow_m3_s, float(step), heads[1 - c], flows[1 - c], inflows[1 - c])
+                  head_m, flow_m3_s, float(step), heads[1 - c], flows[1 - c], inflows[1 - c])
     cur[0] = 1 - c
     cur[1] = step
     totals[1] = 0.0
@@ -185,18 +208,14 @@ def build_dgcm(penstock, x_m, params, state, friction):
     """The DGCM's functions and parameters for :func:`simulate.components.hydraulic.penstock.build_moc` (registry
     :data:`simulate.components.registry.COLUMN_SEPARATION`): ``params`` gains ``gas`` = (c_g per node, eq. (G2), the
     gas volume at the reference pressure per node); ``state``'s gas volumes (track row 0) start from (G2) at the
-    steady heads. A steady head at or below a node's vapour head is refused (the liquid would be boiling)."""
+    steady heads, which :func:`simulate.components.hydraulic.cavitation.check_steady_heads` has found above the
+    vapour heads."""
     from simulate.components.hydraulic import cavitation
 
     settings = cavitation.vapour_settings(penstock)
     vapour = params[2]
     heads = state[0][0]
     gas_head = heads - vapour  # eq. (G1)
-    if np.any(gas_head[1:] <= 0.0):
-        j = 1 + int(np.argmin(gas_head[1:]))
-        raise InputError(f"penstock.column_separation = 'dgcm': the steady head at node {j} (x = {x_m[j]:.4g} m), "
-                         f"{heads[j]:.4g} m, is not above its vapour head {vapour[j]:.4g} m: the water would boil in "
-                         f"steady flow; raise the reservoir or lower the pipe")
     reference = settings.gas_void_fraction * node_pipe_volumes_m3(penstock, x_m)
     reference[0] = 0.0
     c_gas = settings.atmospheric_pressure_head_m * reference  # eq. (G2)
@@ -206,9 +225,9 @@ def build_dgcm(penstock, x_m, params, state, friction):
     bind.update({f.__name__: friction.bind(f) for f in (moc_cplus, moc_cminus, moc_inlet_characteristic,
                                                           moc_turbine_relation)})
     functions = {"relation": with_friction(moc_dgcm_relation, bind), "update": with_friction(moc_dgcm_update, bind),
-                 "record": moc_dgcm_record}
+                 "record": moc_dgcm_record, "inlet_relation": with_friction(moc_dgcm_inlet_relation, bind)}
     return functions, params + ((c_gas, reference),)
 
 
-__all__ = ["dgcm_gas_head", "moc_step_dgcm", "moc_dgcm_relation", "moc_dgcm_update", "moc_dgcm_record",
-           "node_pipe_volumes_m3", "build_dgcm"]
+__all__ = ["dgcm_gas_head", "moc_step_dgcm", "moc_dgcm_relation", "moc_dgcm_inlet_relation", "moc_dgcm_update",
+           "moc_dgcm_record", "node_pipe_volumes_m3", "build_dgcm"]

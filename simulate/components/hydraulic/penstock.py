@@ -580,6 +580,8 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
              flows2.copy() if dvcm else flows2, track, np.zeros(3))
     params = (grid.impedance_s_m2, friction.arrays, cavitation.node_vapour_heads_m(pen, x, settings),
               np.array([dt_s, settings.cavity_weighting]))
+    if dvcm:
+        cavitation.check_steady_heads(pen, x, heads, params[2])
     if settings.model == "dvcm":
         functions = {"relation": friction.bind(moc_dvcm_relation), "update": friction.bind(moc_dvcm_update),
                      "record": moc_dvcm_record}
@@ -587,8 +589,8 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
         functions, params = COLUMN_SEPARATION.builder(settings.model)(pen, x, params, state, friction)
     else:
         functions = {"relation": friction.bind(moc_relation), "update": friction.bind(moc_update)}
-    functions.update({"inlet_flow": moc_inlet_flow, "inlet_relation": friction.bind(moc_inlet_relation),
-                      "envelope": moc_envelope, "node_heads": moc_node_heads})
+    functions = {"inlet_flow": moc_inlet_flow, "inlet_relation": friction.bind(moc_inlet_relation),
+                 "envelope": moc_envelope, "node_heads": moc_node_heads, **functions}
     record = cavitation.CavityRecord(pen, x, dt_s, settings, track, state[5], params[2])
     return CompiledPart(
         kind="penstock", name="moc", functions=functions, params=params, state=state,

@@ -161,8 +161,10 @@ def valve_plant(characteristics: str, t_end_s: float = 4.2) -> PlantConfig:
     turbine = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=0.4, rated_speed_rpm=1500.0, rated_power_mw=0.36,
                             runner_diameter_m=0.3, opening_max=1.0, characteristics=characteristics)
     seg = PenstockSegment(length_m=LENGTH_M, diameter_m=DIAMETER_M, wave_speed_m_s=WAVE_SPEED_M_S, darcy_friction=0.0)
+    # Joukowsky's rise: the steady loss, and the DVCM (no cavity forms: the plain MOC; the default DGCM's free gas
+    # would soften the front by a part in 1e4)
     penstock = PenstockConfig(model="moc", static_head_m=100.0, reaches=20, segments=(seg,),
-                              friction_model="steady")  # Joukowsky's rise: the steady loss
+                              friction_model="steady", column_separation="dvcm")
     governor = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
                               servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
     scenario = ScenarioConfig(kind="closure-law", t_end_s=t_end_s, initial_opening=0.25, event_time_s=0.1,

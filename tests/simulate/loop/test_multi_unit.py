@@ -31,9 +31,11 @@ def _branch(diameter_m):
 def _raw(scale, t_end_s=20.0):
     return {"turbine": _turbine(scale),
             # the quasi-steady loss: the unsteady friction's weights depend on the diameter, so a branch of twice the
-            # area is not two branches with it (the equivalences below are the junction's algebra)
+            # area is not two branches with it (the equivalences below are the junction's algebra); the DVCM, whose
+            # liquid nodes are the plain MOC: the DGCM's free gas follows each node's pipe volume, which a branching
+            # junction and a series one divide differently
             "penstock": {"model": "moc", "static_head_m": 180.0, "reaches": 8, "segments": [dict(COMMON)],
-                         "friction_model": "steady"},
+                         "friction_model": "steady", "column_separation": "dvcm"},
             "generator": {"inertia_time_s": 9.0, "self_regulation": 1.0}, "governor": dict(GOVERNOR),
             "scenario": {"kind": "load-rejection", "t_end_s": t_end_s, "initial_power_mw": 225.0 * scale,
                          "event_time_s": 1.0},

@@ -28,8 +28,9 @@ def valve_plant(segments, reaches=10, closing_time_s=0.0, t_end_s=7.0):
     """A valve (ideal turbine) at the end of a frictionless pipe, programmatic construction."""
     turbine = TurbineConfig(rated_head_m=100.0, rated_flow_m3_s=10.0, rated_speed_rpm=300.0, rated_power_mw=9.0,
                             runner_diameter_m=2.0, opening_max=1.0, characteristics="ideal")
+    # the analytic references have the steady loss and no free gas (the DVCM: no cavity forms, the plain MOC)
     penstock = PenstockConfig(model="moc", static_head_m=100.0, reaches=reaches, segments=tuple(segments),
-                              friction_model="steady")  # the analytic references have the steady loss
+                              friction_model="steady", column_separation="dvcm")
     governor = GovernorConfig(kp=2.0, ki=0.5, kd=0.0, derivative_filter_s=0.0, permanent_droop=0.0,
                               servo_time_s=0.2, closing_time_s=10.0, opening_time_s=20.0)
     scenario = ScenarioConfig(kind="closure-law", t_end_s=t_end_s, initial_opening=0.25, event_time_s=0.1,

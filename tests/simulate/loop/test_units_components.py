@@ -20,6 +20,7 @@ def _bulb(units=None, t_end_s=12.0, characteristics="synthetic-bulb"):
     """The shipped bulb plant with its 40 m intake as two 20 m pipes: in series (no ``[[units]]``), or the first
     the common conduit and the second each unit's branch."""
     raw = copy.deepcopy(BULB)
+    raw["penstock"]["column_separation"] = "dvcm"  # as in test_multi_unit.py: the junction's algebra
     raw["turbine"]["characteristics"] = characteristics
     raw["scenario"]["t_end_s"] = t_end_s
     half = dict(raw["penstock"]["segments"][0], length_m=20.0)
@@ -72,8 +73,11 @@ def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | N
     raw = {"turbine": {"rated_head_m": 176.0, "rated_flow_m3_s": 142.5 * scale, "rated_speed_rpm": 200.0,
                        "rated_power_mw": 225.0 * scale, "runner_diameter_m": 4.5, "opening_max": 32.0,
                        "characteristics": "ideal"},
-           # the quasi-steady loss (frictionless here): the unsteady friction's weights depend on the diameter
+           # the quasi-steady loss (frictionless here): the unsteady friction's weights depend on the diameter; the
+           # DVCM (no cavity: the plain MOC): the DGCM's free gas follows each node's pipe volume, which a branching
+           # junction and a series one divide differently
            "penstock": {"model": "moc", "static_head_m": 180.0, "reaches": 8, "friction_model": "steady",
+                        "column_separation": "dvcm",
                         "segments": [{"length_m": 320.0, "diameter_m": 8.6, "wave_speed_m_s": 1120.0,
                                       "darcy_friction": 0.0}]},
            "generator": {"inertia_time_s": 9.0, "self_regulation": 1.0}, "governor": dict(GOVERNOR),

@@ -14,7 +14,7 @@ from tests.scripts import load_script
 
 from data_synthetic import PLANT_TWO_UNITS
 from hillchart.errors import InputError
-from simulate.components.hydraulic import penstock
+from simulate.components.hydraulic import gas_cavity, penstock
 from simulate.components.hydraulic.brunone import brunone_reach_loss, segment_k3
 from simulate.components.registry import Bound
 from simulate.config import load_plant
@@ -83,7 +83,8 @@ def test_every_pipe_of_the_plant_and_the_manifolds_lines_call_the_conduits_frict
                                 plant.time_step_s, 179.5)
     pipes = [(common, ("relation", "update")), (branch, ("inlet_relation", "relation", "update"))]
     if friction == "steady":
-        assert branch.functions["inlet_relation"] is penstock.moc_inlet_relation
+        # the default column separation's line (the DGCM's: from the flow at the first reach's downstream end)
+        assert branch.functions["inlet_relation"] is gas_cavity.moc_dgcm_inlet_relation
         assert not any(isinstance(part.functions[role], Bound) for part, roles in pipes for role in roles)
         return
     for part, roles in pipes:

@@ -69,14 +69,20 @@ def test_pressure_head_and_column_separation_warning(nets):
     assert 0.0 <= table_x <= 500.0
     # pipe axis 2 m below the reservoir level, then nearly level: the down-surge of the load rejection (about 30 m of
     # head at the turbine, less upstream) takes the pressure head to the vapour pressure near the inlet, where the
-    # discrete vapour cavity model (the default) holds it at the vapour head and reports the cavities
+    # discrete gas cavity model (the default) holds it just above the vapour head, by the partial pressure of its
+    # free gas (measured 1.2 mm; bound 1 cm: the gas of 1e-7 of a node's volume at the atmospheric pressure, grown to
+    # a cavity of litres, presses with a millionth of the atmosphere), and reports the cavities
     shallow = run_simulation(_profile_plant(2.0), characteristics=nets)
     s = shallow.summary()
     vapour = s["vapour_pressure_head_m"] - s["atmospheric_pressure_head_m"]
-    assert s["min_pressure_head_m"] == pytest.approx(vapour, abs=1e-9)
+    assert vapour < s["min_pressure_head_m"] <= vapour + 0.01
     assert s["column_separation"] is True and s["cavity_nodes"] >= 1
     assert 0.0 < s["max_cavity_x_m"] <= 500.0
-    assert any("vapour cavity formed" in w for w in s["warnings"])
+    assert any("gas cavity formed" in w for w in s["warnings"])
+    # the discrete vapour cavity model holds the vapour head itself
+    dvcm = run_simulation(_profile_plant(2.0, column_separation="dvcm"), characteristics=nets).summary()
+    assert dvcm["min_pressure_head_m"] == pytest.approx(vapour, abs=1e-9)
+    assert any("vapour cavity formed" in w for w in dvcm["warnings"])
     assert not any("does not represent" in w for w in s["warnings"])
     table = envelope_table(shallow)
     assert set(table) == {"x_m", "head_max_m", "head_min_m", "elevation_m", "pressure_head_max_m",
