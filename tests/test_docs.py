@@ -311,7 +311,25 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
     for row, fresh in zip(rows, now):
         assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
         for old, new in zip(number.findall(row), number.findall(fresh)):
-            assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
+            assert abs(float(old) - float(new)) <= _bulb_row_tolerance(row, old), (row, fresh)
+
+
+#: Rows of docs/bulb-extrapolation.md whose figures move more between CPU families than the rest, measured on both
+#: (an AMD EPYC and an Intel Xeon, the page written on the Intel): the out-of-class bulb with two angles held out,
+#: whose band covers 17 of 18 points (17.1 % wide) on the AMD and 9 of 18 (13.5 %) on the Intel (the page says so),
+#: and the real rig's torque with two angles held out (worst -23.5 / -24.2 % of the range). The row's first cells
+#: -> the largest difference of an integer figure (a count) and of a decimal one.
+BULB_CPU_SPREAD = {"| 2 | 9 of 18 | 12 of 18 | 13.5 |": (8.0, 3.6),
+                   "| 2 | 16 | 40 | **what a run reads**": (0.0, 0.7)}
+
+
+def _bulb_row_tolerance(row: str, figure: str) -> float:
+    """The figures of a coverage row (counts, the band's width) within one point, other figures within 0.5;
+    :data:`BULB_CPU_SPREAD`'s rows within their measured spread."""
+    for start, (count, width) in BULB_CPU_SPREAD.items():
+        if row.startswith(start):
+            return count if "." not in figure else width
+    return 1.0 if " of " in row else 0.5
 
 
 def assert_same_to_the_last_digits(rows: list[str], now: list[str]) -> None:
