@@ -49,7 +49,6 @@ import math
 import numba
 import numpy as np
 
-from hillchart.errors import InputError
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import with_friction
 from simulate.components.hydraulic.penstock import moc_cminus, moc_cplus, moc_inlet_characteristic, moc_turbine_relation
