@@ -321,7 +321,9 @@ class CavityRecord:
         not."""
         if self.settings.model == "off" or self.totals[1] != 1.0:
             return ""
-        return (f"a vapour cavity holds the downstream end of the pipe (the turbine inlet) at the vapour head, "
+        about = "" if self.settings.model == "dvcm" else "about "  # the DGCM's gas adds its partial pressure
+        return (f"a {CAVITY_WORDS[self.settings.model]} holds the downstream end of the pipe (the turbine inlet) at "
+                f"{about}the vapour head, "
                 f"{self.vapour_m[-1]:.3g} m above the tailwater datum{no_profile_note(self.penstock)}, from "
                 f"t = {(self.track[6, -1] if self.track[5, -1] > 0 else 0.0) * self.dt_s:.4g} s or this step: the "
                 f"turbine's net head is not positive there, which its characteristics do not cover (the cavity is "

@@ -157,6 +157,11 @@ def test_a_turbine_held_at_a_negative_vapour_head_stops_with_the_cavity_named():
     assert "a vapour cavity holds the downstream end of the pipe (the turbine inlet) at the vapour head, -10.1 m" in \
         r.message
     assert "the pipe axis is taken at the tailwater level" in r.message
+    # the gas cavity model's words: its gas adds a partial pressure to the vapour's
+    gas = run_simulation(horizontal_plant(37.0, "dgcm", profile=False), raise_on_failure=False)
+    assert not gas.success
+    assert "a gas cavity holds the downstream end of the pipe (the turbine inlet) at about the vapour head, -10.1 m" \
+        in gas.message and "discrete gas cavity model" in gas.message
 
 
 @pytest.mark.parametrize("keys,match", [
