@@ -227,6 +227,11 @@ def test_bergant_simpson_rig_with_the_defaults_meets_the_measured_peaks_and_conv
                 rise = rig.window_peaks(run.time_s - rig.EVENT_TIME_S, rig.valve_pressure_kpa(run))[
                     "first collapse"][1]
                 assert abs(rise / measured_rise - 1.0) < 0.05
+            # the cavities' total volume converges (3.52e-5 m^3 on 64 to 1024 reaches; bound 1 %), the largest
+            # cavity of one node does not (9.4 and 8.0 cm^3 at the valve: a zone of cavities shared among more nodes)
+            total = [run.signals["cavity_volume_m3"].max() for run in (coarse, fine)]
+            assert total[0] == pytest.approx(3.52e-5, rel=5e-3) and abs(total[1] / total[0] - 1.0) < 1e-2
+            assert coarse.summary()["max_cavity_volume_m3"] / fine.summary()["max_cavity_volume_m3"] - 1.0 > 0.1
     spike = rig.peaks(rig.run_simulation(rig.rig_plant(1.4, reaches=128))).collapse_kpa
     assert spike / p.collapse_kpa - 1.0 > 0.05
     # the failing case: with column separation off the valve's head falls below its datum and the run stops
