@@ -17,7 +17,15 @@ wave-speed adjustment as the penstock) or ``"rigid"`` (the inelastic column, bac
 The runner-outlet pressure (absolute, as a head of water) is ``H_out + atmospheric_pressure_head_m -
 runner_elevation_m`` (the runner outlet's elevation above the tailwater: negative for a runner set below it, as a
 bulb is); its minimum over the run is ``min_outlet_pressure_head_m`` in the summary, with a warning below the vapour
-pressure head plus the user's margin (the water column would separate in the draft tube: not modelled).
+pressure head plus the user's margin.
+
+Water-column separation in the ``moc`` draft tube (``column_separation``, the penstock's models of
+:mod:`simulate.components.hydraulic.cavitation`: the discrete gas cavity model by default) is the mirrored pipe's:
+its downstream end is the runner outlet, so a cavity below the runner is the cavity the penstock's models open at
+their turbine end. The pipe's axis is taken at the runner outlet's level along the whole draft tube (the segments
+carry no profile; the draft tube descends from the runner, so its lower nodes hold more pressure than this gives
+them: cavities there are taken to form sooner, not later), and the vapour pressure is ``vapour_pressure_head_m``
+(the mirrored pipe's water temperature is the one whose IAPWS-IF97 vapour pressure it is).
 """
 
 from __future__ import annotations
@@ -29,16 +37,21 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from simulate.components.hydraulic.cavitation import DVCM_KEYS
+from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, DVCM_KEYS, MODEL_NAMES,
+                                                      vapour_pressure_head_m)
 from simulate.components.hydraulic.brunone import BrunoneConfig
 from simulate.components.hydraulic.conduit import PenstockConfig, check_friction_keys, read_segments
 from simulate.components.hydraulic.convolution import ConvolutionConfig
-from simulate.components.hydraulic.penstock import iir_relation, iir_update, moc_relation, moc_update
+from simulate.components.hydraulic.penstock import (iir_relation, iir_update, moc_dvcm_record, moc_relation,
+                                                    moc_update)
 from simulate.components.contract import PART, SCALAR, LinearBlock, StateArray
 from simulate.components.parameters import borrowed, parameter, validate_parameters
 from simulate.components.registry import FRICTION, PENSTOCKS
 
 SIGNALS = ("draft_tube_head_m", "outlet_pressure_head_m")
+#: The columns of a draft tube with column separation besides: the volume of all its cavities and of the one below
+#: the runner, m^3.
+CAVITY_SIGNALS = ("draft_tube_cavity_volume_m3", "runner_outlet_cavity_volume_m3")
 #: The tailwater keeps no state (one unused value); the draft tube the state of its conduit (a penstock model's, run
 #: mirrored) and the outlet head of the last step.
 STATES = {"build_tailwater": (StateArray("unused", "", "none: a constant level (one unused value)", SCALAR),),
@@ -93,6 +106,17 @@ def draft_record(p, s, out):
     out[1] = s[1][0] + p[1][0]
 
 
+#: The cavity columns' function of the mirrored conduit, bound per cavity model by :func:`build_draft_tube`.
+conduit_record = moc_dvcm_record
+
+
+@numba.njit(cache=True)
+def draft_cavity_record(p, s, out):
+    """:func:`draft_record`'s columns, then :data:`CAVITY_SIGNALS` (the mirrored conduit's cavity columns)."""
+    draft_record(p, s, out)
+    conduit_record(p[0], s[0], out[2:])
+
+
 def build_tailwater(plant, steady, dt_s: float):
     from simulate.components.registry import CompiledPart
 
@@ -123,6 +147,15 @@ def build_draft_tube(plant, steady, dt_s: float):
     try:
         inner = PENSTOCKS.builder(config.model)(fake_plant, fake_steady, dt_s, 0.0)
     except InputError as exc:
+        boiling = re.search(r"the steady head at node \d+ \(x = [^)]*\), (\S+) m, is not above its vapour head",
+                            str(exc))
+        if boiling:
+            outlet = float(boiling.group(1)) + config.atmospheric_pressure_head_m - config.runner_elevation_m
+            raise InputError(
+                f"draft_tube.runner_elevation_m = {config.runner_elevation_m:g}: the absolute pressure head below the "
+                f"runner in steady flow, {outlet:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
+                f"{config.vapour_pressure_head_m:g}: the water would boil there; set the runner lower (a smaller "
+                f"runner_elevation_m)") from None
         # the grid's message names the mirrored section (its own placeholder reaches); the draft tube has no reaches:
         # its step is the plant's, set by the penstock
         text = re.sub(r"^penstock\.reaches = \d+: segment", "draft_tube.segments: segment", str(exc))
@@ -132,11 +165,14 @@ def build_draft_tube(plant, steady, dt_s: float):
         raise InputError(f"[draft_tube]: {text}") from None
     head0 = config.friction_coefficient_s2_m5 * steady.flow_m3_s * abs(steady.flow_m3_s)
     on_grid = PENSTOCKS.traits(config.model).grid_fixes_time_step  # the draft tube on its MOC grid
+    cavities = on_grid and config.column_separation != "off"
     if on_grid:
         head0 = float(inner.state[0][0, -1])  # the grid's own steady head at the outlet
+        record = (_calling(draft_cavity_record, "conduit_record", inner.functions["record"]) if cavities
+                  else draft_record)
         functions = {"relation": _calling(moc_draft_relation, "moc_relation", inner.functions["relation"]),
                      "update": _calling(moc_draft_update, "moc_update", inner.functions["update"]),
-                     "record": draft_record}
+                     "record": record}
     else:
         functions = {"relation": rigid_draft_relation, "update": rigid_draft_update, "record": draft_record}
     offset = config.atmospheric_pressure_head_m - config.runner_elevation_m
@@ -145,27 +181,57 @@ def build_draft_tube(plant, steady, dt_s: float):
     def summary_after(time_s, signals):
         values = signals["outlet_pressure_head_m"]
         i = int(np.argmin(values))
-        return {"min_outlet_pressure_head_m": float(values[i]), "t_min_outlet_pressure_s": float(time_s[i]),
-                "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"]))}
+        out = {"min_outlet_pressure_head_m": float(values[i]), "t_min_outlet_pressure_s": float(time_s[i]),
+               "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"]))}
+        if cavities:  # the mirrored conduit's cavity figures (its x from the draft tube's outlet)
+            figures = inner.hooks.summary_after(time_s, signals)
+            out.update({f"draft_tube_{key}": value for key, value in figures.items()
+                        if "cavit" in key})
+        return out
 
     def warnings_after(signals):
+        out = []
         low = float(np.min(signals["outlet_pressure_head_m"]))
         if low < limit:
-            return [f"the absolute pressure head at the runner outlet falls to {low:.3g} m, below the vapour "
-                    f"pressure head plus margin ({config.vapour_pressure_head_m:g} + {config.vapour_margin_m:g} m): "
-                    f"the water column may separate in the draft tube (not modelled); close the guide vanes more "
-                    f"slowly, set the runner deeper (draft_tube.runner_elevation_m) or check the draft tube"]
-        return []
+            modelled = (f"the {MODEL_NAMES[config.column_separation]} represents the column's separation there"
+                        if cavities else "the water column may separate in the draft tube (not modelled)")
+            out.append(f"the absolute pressure head at the runner outlet falls to {low:.3g} m, below the vapour "
+                       f"pressure head plus margin ({config.vapour_pressure_head_m:g} + {config.vapour_margin_m:g} "
+                       f"m): {modelled}; close the guide vanes more slowly, set the runner deeper "
+                       f"(draft_tube.runner_elevation_m) or check the draft tube")
+        if cavities:
+            for text in inner.hooks.warnings_after(signals):
+                if text.startswith("water-column separation:"):
+                    out.append(text.replace("water-column separation:", "water-column separation in the draft tube:")
+                               .replace("from the pipe's inlet", "from the draft tube's outlet"))
+        return out
 
     summary = {"draft_tube_model": config.model, "draft_tube_friction_s2_m5": config.friction_coefficient_s2_m5,
-               "draft_tube_friction_model": config.friction_model}
+               "draft_tube_friction_model": config.friction_model,
+               "draft_tube_column_separation": config.column_separation if on_grid else "off"}
     if on_grid:
         summary["draft_tube_moc_reaches"] = inner.hooks.summary["moc_reaches"]
-    hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset), summary_after=summary_after,
-                      warnings_after=warnings_after)
+    hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset) + ((0.0, 0.0) if cavities else ()),
+                      summary_after=summary_after, warnings_after=warnings_after,
+                      failure=_draft_failure(config, inner) if cavities else None)
     return CompiledPart(kind="downstream", name=f"draft_tube ({config.model})", functions=functions,
                         params=(inner.params, np.array([offset])), state=(inner.state, np.array([head0])),
-                        signals=SIGNALS, hooks=hooks)
+                        signals=SIGNALS + (CAVITY_SIGNALS if cavities else ()), hooks=hooks)
+
+
+def _draft_failure(config, inner):
+    """Why a run stopped that had a cavity below the runner: its collapse drives the draft tube's head up, and a
+    turbine whose net head is then not positive is outside its characteristics."""
+    track = inner.state[4]
+
+    def failure() -> str:
+        if track[5, -1] == 0.0:
+            return ""
+        return (f"a cavity below the runner (the {MODEL_NAMES[config.column_separation]} of the draft tube) formed "
+                f"and collapsed: the draft tube's head rose to the turbine inlet's and the turbine's net head is not "
+                f"positive, which its characteristics do not cover; close the guide vanes more slowly or set the "
+                f"runner deeper (draft_tube.runner_elevation_m)")
+    return failure
 
 
 def time_scales(plant, schedules) -> list:
@@ -204,7 +270,8 @@ class DraftTubeConfig:
     ``vapour_margin_m``: warn when the outlet pressure head falls below vapour pressure head + this margin (m).
     ``friction_model`` and its keys: the wall friction of the ``moc`` draft tube, as the penstock's
     (:class:`simulate.components.hydraulic.conduit.PenstockConfig`; a friction model's keys are refused under
-    another). The component: :mod:`simulate.components.hydraulic.draft_tube`.
+    another). ``column_separation``: the ``moc`` draft tube's water-column separation, as the penstock's (the
+    discrete gas cavity model by default). The component: :mod:`simulate.components.hydraulic.draft_tube`.
     """
 
     model: str = parameter(unit="", choices=DRAFT_TUBE_MODELS, description="the conduit model")
@@ -223,30 +290,52 @@ class DraftTubeConfig:
     brunone_k3: float | None = borrowed(BrunoneConfig, "k3")
     brunone_viscosity_m2_s: float | None = borrowed(BrunoneConfig, "kinematic_viscosity_m2_s")
     convolution_viscosity_m2_s: float | None = borrowed(ConvolutionConfig, "kinematic_viscosity_m2_s")
+    column_separation: str = parameter("dgcm", unit="", choices=COLUMN_SEPARATION_MODELS,
+                                       description="water-column separation in the method of characteristics (moc): "
+                                                   "the discrete vapour or gas cavity model, or off")
 
     def __post_init__(self):
         validate_parameters("draft_tube", self)
         object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=False,
                                                           first="runner outlet"))
-        default = next(f.default for f in fields(self) if f.name == "friction_model")
-        if self.friction_model != default and "friction_model" not in PENSTOCKS.traits(self.model).reads:
-            owners = [m for m in DRAFT_TUBE_MODELS if "friction_model" in PENSTOCKS.traits(m).reads]
-            raise InputError(f"draft_tube.friction_model = {self.friction_model!r} is read only by draft_tube.model "
-                             f"= {' or '.join(owners)}; with model = {self.model!r} it would be ignored: set "
-                             f"draft_tube.model or remove the key")
+        for key in ("friction_model", "column_separation"):
+            default = next(f.default for f in fields(self) if f.name == key)
+            if getattr(self, key) != default and key not in PENSTOCKS.traits(self.model).reads:
+                owners = [m for m in DRAFT_TUBE_MODELS if key in PENSTOCKS.traits(m).reads]
+                raise InputError(f"draft_tube.{key} = {getattr(self, key)!r} is read only by draft_tube.model = "
+                                 f"{' or '.join(owners)}; with model = {self.model!r} it would be ignored: set "
+                                 f"draft_tube.model or remove the key")
         check_friction_keys("draft_tube", self)
+        if self.column_separation != "off" and "column_separation" in PENSTOCKS.traits(self.model).reads:
+            low, high = vapour_pressure_head_m(0.0), vapour_pressure_head_m(100.0)
+            if not low <= self.vapour_pressure_head_m <= high:
+                raise InputError(f"draft_tube.vapour_pressure_head_m = {self.vapour_pressure_head_m!r}: with "
+                                 f"draft_tube.column_separation = {self.column_separation!r} it must be water's "
+                                 f"vapour pressure between 0 and 100 degC, [{low:.4g}, {high:.4g}] m; or set "
+                                 f"column_separation = \"off\"")
 
     def mirrored(self) -> PenstockConfig:
         """The conduit as a :class:`simulate.components.hydraulic.conduit.PenstockConfig` from the tailwater to the
         runner outlet (every key the two sections share is passed on; the mirrored pipe has no reservoir head and
-        one reach, the draft tube having none of its own; without column separation: the draft tube's own
-        atmospheric pressure and vapour pressure set its outlet-pressure warning)."""
+        one reach, the draft tube having none of its own). With column separation its segments' axis lies at the
+        runner outlet's level, and its atmospheric pressure and water temperature are the draft tube's atmospheric
+        pressure and the temperature of its vapour pressure (module docstring)."""
         shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig)
                   if hasattr(self, f.name) and f.name not in DVCM_KEYS}
-        if "column_separation" in PENSTOCKS.traits(self.model).reads:  # a key of the models that read it only
-            shared["column_separation"] = "off"
-        return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1,
-                                 "segments": tuple(reversed(self.segments))})
+        segments = tuple(reversed(self.segments))
+        if "column_separation" not in PENSTOCKS.traits(self.model).reads:
+            shared.pop("column_separation")
+        elif self.column_separation != "off":
+            from dataclasses import replace
+
+            from scipy.optimize import brentq
+
+            shared.update(atmospheric_pressure_head_m=self.atmospheric_pressure_head_m,
+                          water_temperature_c=brentq(lambda t: vapour_pressure_head_m(t) - self.vapour_pressure_head_m,
+                                                     0.0, 100.0, xtol=1e-12))
+            z = self.runner_elevation_m
+            segments = tuple(replace(s, elevation_start_m=z, elevation_end_m=z) for s in segments)
+        return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1, "segments": segments})
 
     @property
     def friction_coefficient_s2_m5(self) -> float:

@@ -30,8 +30,11 @@ the node, C- line H = C_M + B_R Q_out from the reach downstream of it; dt the st
 (G4) has one positive root since a > 0 and c_g > 0, and the two forms take it without cancellation; the node's head
 stays above the vapour head, and with alpha_0 -> 0 the model turns into the DVCM ((C2) while y >> c_g / V, (C3)
 while the gas volume is large). The DGCM's columns ``cavity_volume_m3`` and ``outlet_cavity_volume_m3`` are the gas
-volume beyond the node's volume at the reference pressure, max(V - alpha_0 V_n, 0) (a cavity "forms" where the
-absolute gas pressure falls below the atmospheric): the DVCM's cavity volumes in the limit. The node's pipe volume
+volume beyond :data:`CAVITY_EXPANSION` times its volume at the atmospheric pressure, max(V - E alpha_0 V_n, 0): a
+cavity "forms" where the gas's partial pressure falls below H_atm / E (0.1 m of water: the absolute pressure within
+a kPa of the vapour pressure, where the DVCM's liquid would stand at the vapour pressure and open its cavity), the
+DVCM's cavity volumes in the limit. The gas of a pressure merely below the atmospheric (a draft tube's, a siphon's)
+is not a cavity. The node's pipe volume
 V_n is half of each reach beside it (the reservoir node holds no gas; its head is the reservoir's); the gas at each
 node starts from (G2) at the steady head. (G7) is exact where the boundary's flow does not change over the step (a
 shut valve) and exact to first order in the change otherwise. The update keeps the head the boundary was solved with
@@ -52,6 +55,10 @@ import numpy as np
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import with_friction
 from simulate.components.hydraulic.penstock import moc_cminus, moc_cplus, moc_inlet_characteristic, moc_turbine_relation
+
+#: E: the gas of a node is a cavity beyond E times its volume at the atmospheric pressure (its partial pressure below
+#: H_atm / E, 0.1 m of water; module docstring).
+CAVITY_EXPANSION = 100.0
 
 
 @numba.njit(cache=True)
@@ -181,8 +188,8 @@ def moc_dgcm_update(p, s, upstream_head_m, head_m, flow_m3_s):
 
 @numba.njit(cache=True)
 def moc_dgcm_record(p, s, out):
-    """Columns ``cavity_volume_m3`` (the conduit's gas beyond its volume at the reference pressure) and
-    ``outlet_cavity_volume_m3`` (the same at the turbine or valve)."""
+    """Columns ``cavity_volume_m3`` (the conduit's gas beyond :data:`CAVITY_EXPANSION` times its volume at the
+    atmospheric pressure) and ``outlet_cavity_volume_m3`` (the same at the turbine or valve)."""
     track = s[4]
     n = track.shape[1] - 1
     out[0] = s[5][0]
@@ -206,7 +213,8 @@ def node_pipe_volumes_m3(penstock, x_m) -> np.ndarray:
 def build_dgcm(penstock, x_m, params, state, friction):
     """The DGCM's functions and parameters for :func:`simulate.components.hydraulic.penstock.build_moc` (registry
     :data:`simulate.components.registry.COLUMN_SEPARATION`): ``params`` gains ``gas`` = (c_g per node, eq. (G2), the
-    gas volume at the reference pressure per node); ``state``'s gas volumes (track row 0) start from (G2) at the
+    gas volume beyond which a node's gas is a cavity, :data:`CAVITY_EXPANSION` times its volume at the atmospheric
+    pressure); ``state``'s gas volumes (track row 0) start from (G2) at the
     steady heads, which :func:`simulate.components.hydraulic.cavitation.check_steady_heads` has found above the
     vapour heads."""
     from simulate.components.hydraulic import cavitation
@@ -215,9 +223,10 @@ def build_dgcm(penstock, x_m, params, state, friction):
     vapour = params[2]
     heads = state[0][0]
     gas_head = heads - vapour  # eq. (G1)
-    reference = settings.gas_void_fraction * node_pipe_volumes_m3(penstock, x_m)
-    reference[0] = 0.0
-    c_gas = settings.atmospheric_pressure_head_m * reference  # eq. (G2)
+    at_atmosphere = settings.gas_void_fraction * node_pipe_volumes_m3(penstock, x_m)
+    at_atmosphere[0] = 0.0
+    c_gas = settings.atmospheric_pressure_head_m * at_atmosphere  # eq. (G2)
+    reference = CAVITY_EXPANSION * at_atmosphere  # a cavity beyond it
     track = state[4]
     track[0, 1:] = c_gas[1:] / gas_head[1:]
     bind = {"reach_friction_loss": friction.loss, "reach_friction_advance": friction.advance}
@@ -228,5 +237,5 @@ def build_dgcm(penstock, x_m, params, state, friction):
     return functions, params + ((c_gas, reference),)
 
 
-__all__ = ["dgcm_gas_head", "moc_step_dgcm", "moc_dgcm_relation", "moc_dgcm_inlet_relation", "moc_dgcm_update",
-           "moc_dgcm_record", "node_pipe_volumes_m3", "build_dgcm"]
+__all__ = ["CAVITY_EXPANSION", "dgcm_gas_head", "moc_step_dgcm", "moc_dgcm_relation", "moc_dgcm_inlet_relation",
+           "moc_dgcm_update", "moc_dgcm_record", "node_pipe_volumes_m3", "build_dgcm"]

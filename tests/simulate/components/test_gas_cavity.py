@@ -74,9 +74,11 @@ def test_without_gas_it_approaches_the_dvcm_on_the_rig(rig):
         assert abs(gas.cavity_closed_t_s / vapour.cavity_closed_t_s - 1.0) < 2e-2, v
         if v < 1.0:
             assert abs(gas.collapse_kpa / vapour.collapse_kpa - 1.0) < 1e-3
-    much = rig.peaks(run_simulation(with_gas(rig_plant(rig, 0.3), 1e-5)))
-    vapour = rig.peaks(run_simulation(rig_plant(rig, 0.3)))
-    assert abs(much.collapse_kpa / vapour.collapse_kpa - 1.0) > 0.1
+    # the largest pressure at the valve (at 0.3 m/s the collapse peak): so much gas never expands into a cavity
+    # (its partial pressure stays above H_atm / CAVITY_EXPANSION) and cushions the collapse
+    much = rig.valve_pressure_kpa(run_simulation(with_gas(rig_plant(rig, 0.3), 1e-5))).max()
+    vapour = rig.valve_pressure_kpa(run_simulation(rig_plant(rig, 0.3))).max()
+    assert abs(much / vapour - 1.0) > 0.1
 
 
 def test_above_the_vapour_pressure_it_stays_near_the_liquid_run():
