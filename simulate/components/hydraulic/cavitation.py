@@ -217,9 +217,9 @@ def node_vapour_heads_m(penstock, x_m, settings: VapourSettings) -> np.ndarray:
 def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
     """A steady head at or below a node's vapour head (eq. (C1); the reservoir node's excepted) is refused: the
     water would boil in steady flow, which neither cavity model starts from. The error names the node, both heads
-    and the segment's profile keys that put the axis there."""
+    and the segment's profile keys that put the axis there. Nothing to check with ``column_separation = "off"``."""
     low = np.asarray(heads_m, float)[1:] - np.asarray(vapour_heads_m, float)[1:]
-    if not np.any(low <= 0.0):
+    if penstock.column_separation == "off" or not np.any(low <= 0.0):
         return
     j = 1 + int(np.argmin(low))
     x = float(x_m[j])

@@ -580,8 +580,7 @@ def build_moc(plant, steady, dt_s: float, upstream_head_m: float):
              flows2.copy() if dvcm else flows2, track, np.zeros(3))
     params = (grid.impedance_s_m2, friction.arrays, cavitation.node_vapour_heads_m(pen, x, settings),
               np.array([dt_s, settings.cavity_weighting]))
-    if dvcm:
-        cavitation.check_steady_heads(pen, x, heads, params[2])
+    cavitation.check_steady_heads(pen, x, heads, params[2])
     if settings.model == "dvcm":
         functions = {"relation": friction.bind(moc_dvcm_relation), "update": friction.bind(moc_dvcm_update),
                      "record": moc_dvcm_record}
