@@ -214,10 +214,20 @@ def node_vapour_heads_m(penstock, x_m, settings: VapourSettings) -> np.ndarray:
     return z - settings.atmospheric_pressure_head_m + settings.vapour_pressure_head_m  # eq. (C1)
 
 
+class BoilingSteadyState(InputError):
+    """:func:`check_steady_heads`'s refusal, with the node's steady head and vapour head (m above the tailwater
+    datum) for a caller that words it for its own section (the draft tube)."""
+
+    def __init__(self, message: str, head_m: float, vapour_head_m: float):
+        super().__init__(message)
+        self.head_m, self.vapour_head_m = head_m, vapour_head_m
+
+
 def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
-    """A steady head at or below a node's vapour head (eq. (C1); the reservoir node's excepted) is refused: the
-    water would boil in steady flow, which neither cavity model starts from. The error names the node, both heads
-    and the segment's profile keys that put the axis there. Nothing to check with ``column_separation = "off"``."""
+    """A steady head at or below a node's vapour head (eq. (C1); the reservoir node's excepted) is refused
+    (:class:`BoilingSteadyState`): the water would boil in steady flow, which neither cavity model starts from. The
+    error names the node, both heads and the segment's profile keys that put the axis there. Nothing to check with
+    ``column_separation = "off"``."""
     low = np.asarray(heads_m, float)[1:] - np.asarray(vapour_heads_m, float)[1:]
     if penstock.column_separation == "off" or not np.any(low <= 0.0):
         return
@@ -232,9 +242,10 @@ def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
                          f" and penstock.segments.elevation_end_m = {seg.elevation_end_m:g} of segment {i})")
                 break
             start += seg.length_m
-    raise InputError(f"penstock.column_separation = {penstock.column_separation!r}: the steady head at node {j} "
-                     f"(x = {x:.4g} m), {heads_m[j]:.4g} m, is not above its vapour head {vapour_heads_m[j]:.4g} m"
-                     f"{where}: the water would boil in steady flow; raise the reservoir or lower the pipe")
+    raise BoilingSteadyState(
+        f"penstock.column_separation = {penstock.column_separation!r}: the steady head at node {j} (x = {x:.4g} m), "
+        f"{heads_m[j]:.4g} m, is not above its vapour head {vapour_heads_m[j]:.4g} m{where}: the water would boil in "
+        f"steady flow; raise the reservoir or lower the pipe", float(heads_m[j]), float(vapour_heads_m[j]))
 
 
 def no_profile_note(penstock) -> str:

@@ -38,7 +38,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, DVCM_KEYS, MODEL_NAMES,
-                                                      vapour_pressure_head_m)
+                                                      BoilingSteadyState, vapour_pressure_head_m)
 from simulate.components.hydraulic.brunone import BrunoneConfig
 from simulate.components.hydraulic.conduit import PenstockConfig, check_friction_keys, read_segments
 from simulate.components.hydraulic.convolution import ConvolutionConfig
@@ -146,16 +146,14 @@ def build_draft_tube(plant, steady, dt_s: float):
     fake_steady = SimpleNamespace(flow_m3_s=-steady.flow_m3_s)
     try:
         inner = PENSTOCKS.builder(config.model)(fake_plant, fake_steady, dt_s, 0.0)
+    except BoilingSteadyState as exc:
+        outlet = exc.head_m + config.atmospheric_pressure_head_m - config.runner_elevation_m
+        raise InputError(
+            f"draft_tube.runner_elevation_m = {config.runner_elevation_m:g}: the absolute pressure head below the "
+            f"runner in steady flow, {outlet:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
+            f"{config.vapour_pressure_head_m:g}: the water would boil there; set the runner lower (a smaller "
+            f"runner_elevation_m)") from None
     except InputError as exc:
-        boiling = re.search(r"the steady head at node \d+ \(x = [^)]*\), (\S+) m, is not above its vapour head",
-                            str(exc))
-        if boiling:
-            outlet = float(boiling.group(1)) + config.atmospheric_pressure_head_m - config.runner_elevation_m
-            raise InputError(
-                f"draft_tube.runner_elevation_m = {config.runner_elevation_m:g}: the absolute pressure head below the "
-                f"runner in steady flow, {outlet:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
-                f"{config.vapour_pressure_head_m:g}: the water would boil there; set the runner lower (a smaller "
-                f"runner_elevation_m)") from None
         # the grid's message names the mirrored section (its own placeholder reaches); the draft tube has no reaches:
         # its step is the plant's, set by the penstock
         text = re.sub(r"^penstock\.reaches = \d+: segment", "draft_tube.segments: segment", str(exc))
