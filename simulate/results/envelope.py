@@ -79,8 +79,8 @@ def envelope_warnings(summary: dict) -> list[str]:
         return [f"the minimum pressure head {summary['min_pressure_head_m']:.3g} m at x = "
                 f"{summary['min_pressure_head_x_m']:.4g} m is below the vapour pressure "
                 f"({summary['vapour_gauge_head_m']:.3g} m gauge): the water column would separate there, which the "
-                f"model does not represent (penstock.column_separation = \"dvcm\" with penstock.model = \"moc\" "
-                f"does)"]
+                f"model does not represent (penstock.column_separation = \"dgcm\" or \"dvcm\" with penstock.model = "
+                f"\"moc\" does)"]
     return []
 
 

@@ -47,7 +47,7 @@ import numba
 
 OK, NOT_CONVERGED, NO_POSITIVE_HEAD, NAN = 0, 1, 2, 3
 STATUS_TEXT = {OK: "converged", NOT_CONVERGED: "no convergence",
-               NO_POSITIVE_HEAD: "no solution with positive head (water-column separation is not modelled)",
+               NO_POSITIVE_HEAD: "no solution with a positive net head",
                NAN: "the characteristics returned NaN"}
 
 
@@ -171,9 +171,11 @@ FALLBACK_DAMPING = 0.5
 FAILURE_ADVICE = ("try solver.pressure_loop = \"newton\", a smaller solver.relaxation, more solver.max_iterations "
                   "or a looser solver.tolerance")
 #: ... and when the head at the turbine falls towards zero (C_L below this fraction of the rated head).
-SEPARATION_ADVICE = ("the head at the turbine falls to zero, the water column would separate (not modelled): check the "
-                     "closing law, the characteristics where the run went (the extrapolation warnings) and the "
-                     "penstock's size")
+SEPARATION_ADVICE = ("the net head at the turbine falls to zero or below, which its characteristics do not cover; "
+                     "where the head at the turbine inlet reaches the vapour head the water column separates, "
+                     "modelled by an MOC penstock with penstock.column_separation = \"dgcm\" or \"dvcm\" (not by "
+                     "\"off\" or a rigid penstock): check the closing law, the characteristics where the run went "
+                     "(the extrapolation warnings) and the penstock's size")
 SEPARATION_FRACTION = 0.05
 
 
