@@ -314,6 +314,32 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
             assert abs(float(old) - float(new)) <= _bulb_row_tolerance(row, old), (row, fresh)
 
 
+@pytest.mark.external
+def test_the_kaplan_extrapolation_tables_are_what_the_benchmark_prints(capsys):
+    """docs/bulb-extrapolation.md's on-cam Kaplan tables are the output of benchmarks/bench_kaplan_extrapolation.py
+    now (seeded training; about 4 s). The same rows and labels; the numbers within 0.5 percentage points and the
+    coverage counts within one point, as for the bulb's tables (trained nets differ between CPU families). A stale
+    row (a number moved by more, a row lost or added) fails."""
+    from tests.external_charts import require_external
+    from tests.fccm_external import KAPLAN_LISZKA
+
+    require_external(KAPLAN_LISZKA)
+    bench = load_script("bench_kaplan_extrapolation")
+    assert bench.main([]) == 0
+    printed = capsys.readouterr().out
+    page = (DOCS / "bulb-extrapolation.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_kaplan_extrapolation -->\n(.*?)\n<!-- end bench_kaplan_extrapolation -->", page,
+                      re.S).group(1)
+    rows = [line for line in block.splitlines() if line.startswith(("| ", "* k = "))]
+    now = [line for line in printed.splitlines() if line.startswith(("| ", "* k = "))]
+    assert len(rows) == len(now) > 15, "rerun PYTHONPATH=. python benchmarks/bench_kaplan_extrapolation.py --write-docs"
+    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.findall(row), number.findall(fresh)):
+            assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
+
+
 #: Rows of docs/bulb-extrapolation.md whose figures move more between CPU families than the rest, measured on both
 #: (an AMD EPYC and an Intel Xeon, the page written on the Intel): the out-of-class bulb with two angles held out,
 #: whose band covers 17 of 18 points (17.1 % wide) on the AMD and 9 of 18 (13.5 %) on the Intel (the page says so),

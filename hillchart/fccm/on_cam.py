@@ -12,10 +12,16 @@ slower servo (the overspeed of a real rejection depends on it); :data:`ON_CAM_WA
 Below the lowest blade-angle line the cam position stands for the vanes closing with the blades at their stop; the
 chart says nothing there. The samples are extended to the closed cam (Q11 = 0, M11 = 0, as the closed-vane extension
 of :func:`hillchart.fccm.double_regulated.table_unit_samples`), and the nets interpolate between it and the lowest
-line.
+line. How far that answer can be trusted is measured on the chart's own lines (:func:`on_cam_evidence`): its lowest
+line, then its two lowest, are held out, the same answer is made from the lines left, and its misses give the band's
+width below the lowest line, as for a Francis chart (:mod:`hillchart.extension.band`); each ensemble member's samples
+there stand at their place in that band (:func:`train_on_cam_nets`).
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -74,6 +80,195 @@ def closed_cam_angle(blade_deg, n11, q11) -> float:
     return float(np.median(lines[0] - q0 * (lines[1] - lines[0]) / (q1 - q0)))
 
 
+#: The inner folds of :func:`on_cam_evidence`: the j lowest blade-angle lines held out, for each j here that leaves two
+#: lines to place the closed cam.
+HOLD_OUT = (1, 2)
+#: Below the lowest line the efficiency is one of these, weighed by the chart's held-out lines
+#: (:func:`on_cam_evidence`): ``held`` weight of the efficiency held at the lowest line's (:func:`silent_efficiency`).
+EFFICIENCY_HYPOTHESES = {"efficiency linear to zero": 0.0, "efficiency held": 1.0}
+
+
+def silent_efficiency(eta_low, t, held: float):
+    """The efficiency below the lowest line at the cam fraction ``t = c / c_low`` of it, from the lowest line's
+    ``eta_low``: the weighed blend of the two hypotheses of :data:`EFFICIENCY_HYPOTHESES`, linear in the cam down to
+    zero at the closed cam (weight ``1 - held``) and held at the lowest line's (weight ``held``; M11 then linear in
+    the cam, the straight-line baseline)."""
+    return eta_low * ((1.0 - held) * t + held)
+
+
+def line_answer(blade, n11, q11, efficiency, at_blade, at_n11, closed: float | None = None, held: float = 0.0):
+    """What the samples below the lowest line of the chart (``blade``, ``n11``, ``q11``, ``efficiency``) say at
+    (``at_blade``, ``at_n11``): Q11 linear in the cam position from the lowest line (interpolated at ``at_n11``) down
+    to zero at the closed cam placed from the two lowest lines (:func:`closed_cam_angle`; ``closed``, deg, when it
+    is given), the efficiency by :func:`silent_efficiency` (``held``: the weight of the efficiency held), M11 from
+    them (eq. (5) of the BP hill-chart paper), as :func:`on_cam_unit_samples` samples it.
+
+    Returns ``(q11, m11, distance, inside)``: ``distance`` is ``d = 1 - c / c_low`` below the lowest line (0 on it,
+    1 at the closed cam), ``inside`` where ``at_n11`` lies within the lowest line's N11 range (outside it the line
+    is not interpolated but held at its end).
+    """
+    from hillchart.characteristics import unit_torque_from_efficiency
+
+    blade, n11, q11, efficiency = (np.asarray(v, float) for v in (blade, n11, q11, efficiency))
+    closed = closed_cam_angle(blade, n11, q11) if closed is None else float(closed)
+    low = blade == blade.min()
+    order = np.argsort(n11[low])
+    n_low = n11[low][order]
+    t = (np.asarray(at_blade, float) - closed) / (blade.min() - closed)
+    at_n11 = np.asarray(at_n11, float)
+    q = np.interp(at_n11, n_low, q11[low][order]) * t
+    eta = silent_efficiency(np.interp(at_n11, n_low, efficiency[low][order]), t, held)
+    m = np.asarray(unit_torque_from_efficiency(q, at_n11, eta), float)  # eq. (5) of paper 004
+    return q, m, 1.0 - t, (at_n11 >= n_low[0]) & (at_n11 <= n_low[-1])
+
+
+@dataclass(frozen=True)
+class OnCamEvidence:
+    """How well an on-cam chart predicts its own lowest blade-angle lines (:func:`on_cam_evidence`), and the band it
+    gives below its lowest line.
+
+    Attributes
+    ----------
+    folds : tuple of dict
+        Per inner fold: ``held_out_deg`` (the blade angles held out), ``points`` (held-out points inside the lowest
+        kept line's N11 range), ``q11_mean_abs_pct`` and ``q11_worst_pct`` (Q11 error of :func:`line_answer`, % of
+        Q11), ``m11_mean_abs_pct`` and ``m11_worst_pct`` (M11 error, % of the chart's M11 range).
+    band_q11 : tuple of float
+        ``(low, high)``: the half-widths of log Q11 per squared distance below the lowest line
+        (:func:`hillchart.extension.band.band_sides`; :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` on both
+        sides without a fold).
+    band_m11 : tuple of float
+        The same for M11, in units of the chart's M11 range (``m11_scale``), closing as ``1 - d`` at the closed cam
+        (where M11 is zero).
+    m11_scale : float
+        The chart's M11 range (N*m, unit torque).
+    distance_cap : float
+        The band grows as ``d^2`` up to this distance, the furthest the folds tested
+        (:func:`hillchart.extension.band.band_square`).
+    weights : dict
+        The weight of each of :data:`EFFICIENCY_HYPOTHESES` (equal without a fold).
+    """
+
+    folds: tuple
+    band_q11: tuple
+    band_m11: tuple
+    m11_scale: float
+    distance_cap: float
+    weights: dict
+
+    @property
+    def efficiency_held(self) -> float:
+        """The weight of the efficiency held at the lowest line's (:func:`silent_efficiency`)."""
+        return sum(w * EFFICIENCY_HYPOTHESES[h] for h, w in self.weights.items())
+
+    def _growth(self, distance) -> np.ndarray:
+        from hillchart.extension.band import band_square
+
+        return np.array([band_square(float(d), self.distance_cap)[0] for d in np.ravel(distance)])
+
+    def q11_widths(self, distance):
+        """``(low, high)`` of the band at ``distance`` below the lowest line, as log-ratios of Q11 (>= 0)."""
+        h = self._growth(distance)
+        return self.band_q11[0] * h, self.band_q11[1] * h
+
+    def m11_widths(self, distance):
+        """``(low, high)`` of the band at ``distance`` below the lowest line, in M11 (N*m, >= 0)."""
+        d = np.ravel(np.asarray(distance, float))
+        h = self._growth(d) * np.clip(1.0 - d, 0.0, 1.0) * self.m11_scale
+        return self.band_m11[0] * h, self.band_m11[1] * h
+
+    def summary(self) -> str:
+        """What ``hillsim fccm`` prints: the held-out misses and the band at half the lowest line's cam."""
+        low, high = (float(v[0]) for v in self.q11_widths([0.5]))
+        band = (f"efficiency below it weighed {', '.join(f'{h} {w:.2f}' for h, w in self.weights.items())}; the "
+                f"band at half the lowest line's cam spans {100 * math.expm1(-low):+.0f} % to "
+                f"{100 * math.expm1(high):+.0f} % of Q11")
+        if not self.folds:
+            return (f"below the lowest blade-angle line: no held-out evidence (fewer than {HOLD_OUT[0] + 2} lines): "
+                    f"{band}; give more blade-angle lines")
+        said = "; ".join(f"without {', '.join(f'{b:g}' for b in f['held_out_deg'])} deg the rest predicts it within "
+                         f"{f['q11_mean_abs_pct']:.1f} % of Q11 and {f['m11_mean_abs_pct']:.1f} % of the M11 range "
+                         f"(mean; worst {f['q11_worst_pct']:+.1f} % and {f['m11_worst_pct']:+.1f} %, {f['points']} "
+                         f"points)" for f in self.folds)
+        return f"below the lowest blade-angle line: {said}; {band}"
+
+    def to_dict(self) -> dict:
+        return {"folds": [dict(f) for f in self.folds], "band_log_q11": list(self.band_q11),
+                "band_m11_of_range": list(self.band_m11), "m11_scale": self.m11_scale,
+                "distance_cap": self.distance_cap, "efficiency_weights": dict(self.weights),
+                "summary": self.summary()}
+
+
+def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) -> OnCamEvidence:
+    """The chart's evidence below its lowest blade-angle line: for each j of :data:`HOLD_OUT` (while two lines are
+    left), the j lowest lines held out and predicted by :func:`line_answer` from the lines left; the misses at the
+    held-out points inside the lowest kept line's N11 range (log-ratios of Q11; M11 as a share of the chart's M11
+    range), over the squared distance, give the band (:func:`hillchart.extension.band.band_sides`: split-conformal,
+    the held-out lines its units of evidence, neither side under half the other,
+    :data:`hillchart.extension.band.MIN_SIDE_FRACTION_BELOW`; M11's closing as ``1 - d``, as a Francis chart's
+    does). A fold whose lines the closed cam cannot be placed from is left out (``closed``: the closed cam given,
+    deg, held in every fold); with none the band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide and the
+    summary says to give more lines."""
+    from hillchart.characteristics import unit_torque_from_efficiency
+    from hillchart.extension.band import MIN_SIDE_FRACTION_BELOW, NO_EVIDENCE_SCALE, band_sides, log_ratio
+
+    blade, n11, q11, efficiency = (np.asarray(v, float) for v in (blade, n11, q11, efficiency))
+    m11 = np.asarray(unit_torque_from_efficiency(q11, n11, efficiency), float)  # eq. (5) of paper 004
+    scale = max(float(np.ptp(m11)), 1e-12)
+    lines = np.unique(blade)
+    folds, q_res, m_res, distance, held = [], [], {h: [] for h in EFFICIENCY_HYPOTHESES}, [], 0
+    for j in HOLD_OUT:
+        if lines.size - j < 2:
+            break
+        out = blade < lines[j]
+        try:
+            answers = {h: line_answer(blade[~out], n11[~out], q11[~out], efficiency[~out], blade[out], n11[out],
+                                      closed, w) for h, w in EFFICIENCY_HYPOTHESES.items()}
+        except InputError:  # the lines left do not place a closed cam: no evidence from this fold
+            continue
+        q, _, d, inside = next(iter(answers.values()))
+        if not inside.any():
+            continue
+        q_true, m_true = q11[out][inside], m11[out][inside]
+        q_res.append(log_ratio(q[inside], q_true, 1e-9))
+        for h, answer in answers.items():
+            m_res[h].append((answer[1][inside] - m_true) / scale)
+        distance.append(d[inside])
+        held += j
+        folds.append({"held_out_deg": [float(b) for b in lines[:j]], "points": int(inside.sum()),
+                      "q11_error": q[inside] / q_true - 1.0})
+    if not folds:
+        wide = (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
+        equal = {h: 1.0 / len(EFFICIENCY_HYPOTHESES) for h in EFFICIENCY_HYPOTHESES}
+        return OnCamEvidence(folds=(), band_q11=wide, band_m11=wide, m11_scale=scale, distance_cap=1.0,
+                             weights=equal)
+    distance = np.concatenate(distance)
+    # the efficiency's hypotheses weighed by their held-out likelihood, the held-out lines the units of evidence
+    # (pseudo-BMA over errors divided by d^2, as a Francis chart's hypotheses: hillchart.extension.hypotheses.weigh)
+    scores = {h: np.concatenate(r) / np.maximum(distance, 1e-9) ** 2 for h, r in m_res.items()}
+    mse = {h: max(float(np.mean(v ** 2)), 1e-300) for h, v in scores.items()}
+    best = min(mse.values())
+    log_w = {h: -0.5 * held * math.log(v / best) for h, v in mse.items()}
+    total = sum(math.exp(v) for v in log_w.values())
+    weights = {h: math.exp(v) / total for h, v in log_w.items()}
+    blend = sum(weights[h] * np.concatenate(m_res[h]) for h in m_res)
+    start = 0
+    for fold in folds:  # each fold's errors under the weighed efficiency
+        n = fold["points"]
+        q_err, m_err = fold.pop("q11_error"), blend[start:start + n]
+        start += n
+        fold.update({"q11_mean_abs_pct": 100.0 * float(np.mean(np.abs(q_err))),
+                     "q11_worst_pct": 100.0 * float(q_err[np.argmax(np.abs(q_err))]),
+                     "m11_mean_abs_pct": 100.0 * float(np.mean(np.abs(m_err))),
+                     "m11_worst_pct": 100.0 * float(m_err[np.argmax(np.abs(m_err))])})
+    band_q = band_sides(np.concatenate(q_res), distance, held, min_side_fraction=MIN_SIDE_FRACTION_BELOW)
+    band_m = band_sides(blend, distance, held, shape=np.maximum(1.0 - distance, 1e-9),
+                        min_side_fraction=MIN_SIDE_FRACTION_BELOW)
+    return OnCamEvidence(folds=tuple(folds), band_q11=tuple(float(v) for v in band_q),
+                         band_m11=tuple(float(v) for v in band_m), m11_scale=scale,
+                         distance_cap=min(1.0, float(distance.max())), weights=weights)
+
+
 def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_opening_points: int = 200,
                         seed: int = 0) -> tuple[dict, list[str], float]:
     """Unit samples (n11, opening = cam position c = phi - phi_closed in deg, q11, m11; ``measured`` marks the
@@ -82,10 +277,14 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
 
     * M11 from the efficiency, eq. (5) of the BP hill-chart paper (``M11 = rho g Q11 eta / omega11``).
     * phi_closed: ``closed_angle_deg``, or :func:`closed_cam_angle` (a note says so).
-    * Between the closed cam and the lowest line, at the lowest line's N11: Q11 and the efficiency linear in c
-      down to zero (at :data:`SILENT_FRACTIONS` of the lowest line's c; assumed, a note says so).
+    * Between the closed cam and the lowest line, at the lowest line's N11 (at :data:`SILENT_FRACTIONS` of the
+      lowest line's c; assumed, a note says so): Q11 linear in c down to zero, the efficiency by
+      :func:`silent_efficiency` with the weights of the chart's evidence.
     * The extension to the closed cam: ``zero_opening_points`` samples at c = 0 with Q11 = 0, M11 = 0 over N11
       from 0 to :data:`CLOSED_N11_FACTOR` times the table's largest (seeded).
+    * ``evidence``: :func:`on_cam_evidence` (how well this answer predicts the chart's own lowest lines, and the
+      band below the lowest line), ``silent_distance``: each sample's distance below the lowest line (0 on the
+      chart's points; the members of :func:`train_on_cam_nets` move the samples between by the band there).
     """
     from hillchart.characteristics import unit_torque_from_efficiency
 
@@ -113,16 +312,20 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
         notes.append(f"closed cam at blade angle {closed:g} deg (given)")
     m11 = np.asarray(unit_torque_from_efficiency(q11, n11, eta), float)  # eq. (5) of paper 004
     # below the lowest line (vanes closing, blades at their stop) the chart says nothing: at the lowest line's
-    # points, Q11 and the efficiency taken linear in the cam position down to zero at the closed cam (a stated
-    # assumption: flow and efficiency both vanish at closure; M11 again from eq. (5))
+    # points, Q11 taken linear in the cam position down to zero at the closed cam, the efficiency as the chart's
+    # own lowest lines weigh its hypotheses (linear to zero, or held: on_cam_evidence); M11 again from eq. (5)
+    evidence = on_cam_evidence(blade, n11, q11, eta, None if closed_angle_deg is None else closed)
     low = blade == blade.min()
     frac = np.repeat(SILENT_FRACTIONS, int(low.sum()))
     q_s = frac * np.tile(q11[low], len(SILENT_FRACTIONS))
     n_s = np.tile(n11[low], len(SILENT_FRACTIONS))
-    m_s = np.asarray(unit_torque_from_efficiency(q_s, n_s, frac * np.tile(eta[low], len(SILENT_FRACTIONS))), float)
+    eta_s = silent_efficiency(np.tile(eta[low], len(SILENT_FRACTIONS)), frac, evidence.efficiency_held)
+    m_s = np.asarray(unit_torque_from_efficiency(q_s, n_s, eta_s), float)
     c_s = frac * (blade.min() - closed)
-    notes.append(f"below the lowest blade-angle line ({blade.min():g} deg): {q_s.size} samples with Q11 and the "
-                 f"efficiency linear in the cam position down to zero at the closed cam (assumed, not charted)")
+    notes.append(f"below the lowest blade-angle line ({blade.min():g} deg): {q_s.size} samples with Q11 linear in "
+                 f"the cam position down to zero at the closed cam and the efficiency "
+                 f"{100 * evidence.efficiency_held:.0f} % held at the lowest line's, "
+                 f"{100 * (1 - evidence.efficiency_held):.0f} % linear to zero (assumed, not charted)")
     k = int(zero_opening_points)
     rng = np.random.default_rng([seed, 3])
     # the closed cam passes no water at any unit speed: the samples reach twice the chart's largest N11, so that a
@@ -130,7 +333,10 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
     samples = {"n11": np.concatenate([n11, n_s, rng.uniform(0.0, CLOSED_N11_FACTOR * n11.max(), k)]),
                "opening": np.concatenate([blade - closed, c_s, np.zeros(k)]),
                "q11": np.concatenate([q11, q_s, np.zeros(k)]), "m11": np.concatenate([m11, m_s, np.zeros(k)]),
-               "measured": np.concatenate([np.ones(n11.size, bool), np.zeros(q_s.size + k, bool)])}
+               "measured": np.concatenate([np.ones(n11.size, bool), np.zeros(q_s.size + k, bool)]),
+               "silent_distance": np.concatenate([np.zeros(n11.size), 1.0 - frac, np.ones(k)]),
+               "evidence": evidence}
+    notes.append(samples["evidence"].summary())
     notes.append(f"opening = cam position c = blade angle - ({closed:.2f} deg), {blade.max() - closed:.2f} "
                  f"deg at the largest blade angle (turbine.opening_max); extended to the closed cam: {k} samples "
                  f"with Q11 = 0, M11 = 0 over N11 0-{CLOSED_N11_FACTOR * n11.max():.4g} r/min")
@@ -150,10 +356,16 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
     """Two-input nets Q11(N11, c), M11(N11, c) (:class:`hillchart.nets.hill_nets.HillNets`, opening unit
     ``"deg (cam)"``) from :func:`on_cam_unit_samples`, trained as the three-input ones (2-H-1 logsig,
     Levenberg-Marquardt, :class:`hillchart.fccm.net.FCCMNet`; the flow net with ``seed``, the torque net
-    ``seed + 1``), an ensemble of ``members`` (seeds ``seed``, ``seed + 2``, ...; the first is the point nets), the
-    digitized region (convex hull of the samples marked ``measured``: the chart's points) and the plausibility
-    checks on a grid over the samples' box: Q11 falling as the cam opens, efficiency above 1 where Q11 is above 5 %
-    of its largest value, the ensemble's spread (5-95 % of Q11 and M11, as % of their ranges).
+    ``seed + 1``), the digitized region (convex hull of the samples marked ``measured``: the chart's points) and the
+    plausibility checks on a grid over the samples' box: Q11 falling as the cam opens, efficiency above 1 where Q11
+    is above 5 % of its largest value, the ensemble's spread (5-95 % of Q11 and M11, as % of their ranges).
+
+    With ``members`` > 1, an ensemble of ``members`` more pairs (seeds ``seed + 2``, ``seed + 4``, ...), each
+    trained on the samples with those below the lowest line (``silent_distance`` > 0) moved to the member's place
+    in the band of the chart's evidence (``samples["evidence"]``, :class:`OnCamEvidence`; places ``u``,
+    :func:`hillchart.extension.band.member_positions`): Q11 times ``exp(u w(d))`` and M11 plus ``u w_M(d)``, ``w``
+    and ``w_M`` the band's side at the sample's distance, so the members' 5-95 % band below the lowest line is the
+    evidence's. The chart's own points never move.
 
     Returns
     -------
@@ -163,31 +375,48 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
     """
     from scipy.spatial import ConvexHull
 
+    from hillchart.extension.band import member_positions
     from hillchart.fccm.net import FCCMNet
     from hillchart.nets.hill_nets import HillNets
 
     X = np.column_stack([np.asarray(samples[k], float) for k in ON_CAM_INPUTS])
+    evidence = samples.get("evidence")
+    places = [0.0]  # the point nets, on the samples as they are
+    if members > 1:
+        places += [float(u) for u in member_positions(members, seed)]
+    d = np.asarray(samples.get("silent_distance", np.zeros(len(X))), float)
+    if evidence is not None:
+        (q_low, q_high), (m_low, m_high) = evidence.q11_widths(d), evidence.m11_widths(d)
+    else:
+        q_low = q_high = m_low = m_high = np.zeros(len(X))
+    q_low, q_high, m_low, m_high = (np.where(d > 0.0, v, 0.0) for v in (q_low, q_high, m_low, m_high))
     pairs = []
-    for i in range(max(1, members)):
+    for i, u in enumerate(places):
+        moved = {"q11": np.asarray(samples["q11"], float) * np.exp(u * (q_low if u < 0 else q_high)),
+                 "m11": np.asarray(samples["m11"], float) + u * (m_low if u < 0 else m_high)}
         pair = []
         for offset, out in enumerate(("q11", "m11")):
             est = FCCMNet(hidden=hidden, restarts=restarts, seed=seed + 2 * i + offset, split=split).fit(
-                X, np.asarray(samples[out], float), input_names=ON_CAM_INPUTS, output_names=(out,))
+                X, moved[out], input_names=ON_CAM_INPUTS, output_names=(out,))
             pair.append(_net_weights(est.weights_))
         pairs.append(tuple(pair))
     digitized = X[np.asarray(samples["measured"], bool)]
     region = digitized[ConvexHull(digitized).vertices]
     training = {"kind": "on-cam", "hidden": hidden, "restarts": restarts, "split": list(split),
-                "n_samples": int(len(X)), "ensemble_seeds": [seed + 2 * i for i in range(len(pairs))]}
+                "n_samples": int(len(X)), "ensemble_seeds": [seed + 2 * i for i in range(1, len(pairs))],
+                "ensemble_places": places[1:]}
+    if evidence is not None:
+        training["evidence"] = evidence.to_dict()
     nets = HillNets(flow=pairs[0][0], torque=pairs[0][1], opening_unit="deg (cam)", training=training,
-                    ensemble=pairs if len(pairs) > 1 else None, digitized_region=region)
+                    ensemble=pairs[1:] or None, digitized_region=region)
     lo, hi = X.min(axis=0), X.max(axis=0)
     n11, c = (v.ravel() for v in np.meshgrid(*(np.linspace(lo[j], hi[j], 20) for j in range(2)), indexing="ij"))
     q = nets.q11(n11, c)
     dq_dc = nets.q11_grad(n11, c)[1]
     eta = np.where(q > 0.05 * q.max(), nets.efficiency(n11, c), np.nan)  # near-zero flow: a ratio of small numbers
-    q_all = np.array([f.evaluate(n11, c)[0] for f, _ in pairs])
-    m_all = np.array([t.evaluate(n11, c)[0] for _, t in pairs])
+    drawn = pairs[1:] or pairs
+    q_all = np.array([f.evaluate(n11, c)[0] for f, _ in drawn])
+    m_all = np.array([t.evaluate(n11, c)[0] for _, t in drawn])
 
     def spread(values, key):
         band = np.percentile(values, 95, axis=0) - np.percentile(values, 5, axis=0)
@@ -195,7 +424,7 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
 
     p = {"share_dq11_dc_negative": float(np.mean(dq_dc < 0)),
          "share_efficiency_above_1": float(np.mean(np.nan_to_num(eta) > 1.0)), "max_efficiency": float(np.nanmax(eta)),
-         "ensemble_members": len(pairs), "ensemble_spread_q11_pct": spread(q_all, "q11"),
+         "ensemble_members": len(drawn), "ensemble_spread_q11_pct": spread(q_all, "q11"),
          "ensemble_spread_m11_pct": spread(m_all, "m11")}
     warnings = [ON_CAM_WARNING]
     if p["share_dq11_dc_negative"] > 0.05:

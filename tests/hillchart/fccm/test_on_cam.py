@@ -51,18 +51,108 @@ def test_on_cam_samples_count_the_cam_from_the_closed_position(tmp_path):
     assert np.allclose(samples["opening"][measured], table.column("blade_angle_deg") + 10.0, atol=1e-9)
     closed_rows = samples["opening"] == 0.0
     assert closed_rows.sum() == 20 and np.all(samples["q11"][closed_rows] == 0.0)
-    # the assumed samples below the lowest line: efficiency a fraction of the lowest line's, never above it
+    # the assumed samples below the lowest line: this chart's efficiency does not change with the blade angle, so
+    # its own lowest lines weigh the efficiency held at the lowest line's (weight 1 to 1e-6): the samples carry it
     silent = ~measured & ~closed_rows
     from hillchart.characteristics import efficiency_from_unit_torque
 
     eta = efficiency_from_unit_torque(samples["q11"][silent], samples["n11"][silent], samples["m11"][silent])
-    assert silent.sum() == 15 and np.all((eta > 0) & (eta < 0.8))
+    n = samples["n11"][silent]
+    assert silent.sum() == 15 and samples["evidence"].efficiency_held == pytest.approx(1.0, abs=1e-6)
+    assert np.allclose(eta, 0.8 - 1e-5 * (n - 130) ** 2, atol=1e-6)
     assert notes[0] == ON_CAM_WARNING and any("extrapolated linearly" in n for n in notes)
     _, notes_given, closed_given = on_cam_unit_samples(table, closed_angle_deg=-5.0)
     assert closed_given == -5.0 and any("(given)" in n for n in notes_given)
     with pytest.raises(InputError, match=r"--closed-opening 12.0 .* must be below the table's smallest "
                                          r"blade_angle_deg 10.0"):
         on_cam_unit_samples(table, closed_angle_deg=12.0)
+
+
+def _chart(folder, q11, efficiency, lines=(10.0, 20.0, 30.0, 40.0)):
+    return _write_table(folder, [(phi, n11, q11(phi, n11), efficiency(phi, n11)) for phi in lines
+                                 for n11 in (90.0, 110.0, 130.0, 150.0, 170.0)])
+
+
+def _evidence(table):
+    from hillchart.fccm.on_cam import on_cam_evidence
+
+    return on_cam_evidence(*(table.column(k) for k in ("blade_angle_deg", "n11_rpm", "q11_m3_s", "efficiency")))
+
+
+def test_the_chart_s_own_lowest_lines_weigh_the_efficiency_below_them(tmp_path):
+    """The efficiency below the lowest line is weighed by how each hypothesis predicts the chart's own lowest lines
+    from the lines above: a chart whose efficiency falls linearly to zero at the closed cam (-10 deg) gives that
+    hypothesis the weight, one whose efficiency does not change with the blade angle gives the efficiency held."""
+    from hillchart.fccm.on_cam import EFFICIENCY_HYPOTHESES, silent_efficiency
+
+    def q11(phi, n11):  # exactly linear in the blade angle: the folds' Q11 misses are rounding, the band closes
+        return 0.04 * (phi + 10.0) * (1 + 0.001 * n11)
+
+    falling = _evidence(load_test_table(_chart(tmp_path / "a", q11, lambda phi, n: 0.016 * (phi + 10.0))))
+    flat = _evidence(load_test_table(_chart(tmp_path / "b", q11, lambda phi, n: 0.8 - 1e-5 * (n - 130) ** 2)))
+    assert set(falling.weights) == set(EFFICIENCY_HYPOTHESES)
+    # each hypothesis is exact on one chart and misses the other's lines by tens of % of the M11 range
+    assert falling.efficiency_held < 1e-6 and flat.efficiency_held > 1.0 - 1e-6
+    for evidence in (falling, flat):
+        assert [f["held_out_deg"] for f in evidence.folds] == [[10.0], [10.0, 20.0]]
+        assert max(abs(f["q11_worst_pct"]) for f in evidence.folds) < 1e-9
+        assert max(abs(f["m11_worst_pct"]) for f in evidence.folds) < 1e-3
+        assert max(evidence.band_q11) < 1e-9
+    # the blend: linear to zero at the cam fraction t with weight 1 - held
+    assert silent_efficiency(0.8, 0.25, 0.0) == pytest.approx(0.2) and silent_efficiency(0.8, 0.25, 1.0) == 0.8
+
+
+def test_lines_that_bend_widen_the_band_and_the_members_span_it(tmp_path):
+    """Q11 curving in the blade angle: the straight line from the lowest kept line misses the held-out lines, the
+    misses set the band (split-conformal over the squared distance, as a Francis chart's), and the members' samples
+    below the lowest line stand at their places in it, so their 5-95 % spread there is the band's."""
+    from hillchart.extension.band import band_sides, log_ratio
+    from hillchart.fccm.on_cam import line_answer
+
+    def q11(phi, n11):
+        return 0.03 * (phi + 10.0) * (1 + 0.02 * (phi + 10.0)) * (1 + 0.001 * n11)
+
+    table = load_test_table(_chart(tmp_path / "t", q11, lambda phi, n: 0.8 - 1e-5 * (n - 130) ** 2))
+    blade, n11, q, eta = (table.column(k) for k in ("blade_angle_deg", "n11_rpm", "q11_m3_s", "efficiency"))
+    evidence = _evidence(table)
+    # by hand: the two folds' Q11 misses (log-ratios) over d^2, through the same band_sides
+    residuals, distance = [], []
+    for j, top in ((1, 20.0), (2, 30.0)):
+        out = blade < top
+        answer, _, d, inside = line_answer(blade[~out], n11[~out], q[~out], eta[~out], blade[out], n11[out])
+        residuals.append(log_ratio(answer, q[out], 1e-9))
+        distance.append(d)
+        assert inside.all()
+    expected = band_sides(np.concatenate(residuals), np.concatenate(distance), 3, min_side_fraction=0.5)
+    assert evidence.band_q11 == pytest.approx(expected, rel=1e-12)
+    # a flow convex in the blade angle: the straight line from the kept lines falls below the held-out lines, so
+    # the high side is the wide one and the low side its floor, half of it (MIN_SIDE_FRACTION_BELOW)
+    assert evidence.band_q11[1] > 0.5 and evidence.band_q11[0] == pytest.approx(0.5 * evidence.band_q11[1])
+    samples, _, closed = on_cam_unit_samples(table, zero_opening_points=40)
+    nets, _ = train_on_cam_nets(samples, hidden=6, restarts=2, members=9, seed=0)
+    c_half = 0.5 * (10.0 - closed)
+    n = np.array([110.0, 130.0, 150.0])
+    spread = np.array([x.q11(n, np.full(3, c_half)) for x in nets.members()])
+    point = nets.q11(n, np.full(3, c_half))
+    low, high = (np.percentile(spread, p, axis=0) for p in (5.0, 95.0))
+    want_low, want_high = (float(v[0]) for v in evidence.q11_widths([0.5]))
+    # the members' 5-95 % spread at half the lowest cam against the band's log-widths there (0.154 and 0.308;
+    # measured 0.154-0.159 and 0.309-0.310): within 10 % of each, as nets of 6 neurons fit the moved samples to
+    # about 1 % of Q11, a tenth of the narrower side
+    assert np.allclose(np.log(point / low), want_low, rtol=0.1)
+    assert np.allclose(np.log(high / point), want_high, rtol=0.1)
+
+
+def test_a_chart_of_two_lines_has_no_evidence_and_says_so(tmp_path):
+    from hillchart.extension.band import NO_EVIDENCE_SCALE
+
+    evidence = _evidence(load_test_table(_chart(tmp_path / "two", lambda phi, n: 0.04 * (phi + 10.0),
+                                                lambda phi, n: 0.8, lines=(10.0, 20.0))))
+    assert evidence.folds == () and evidence.band_q11 == (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
+    assert "no held-out evidence" in evidence.summary() and "give more blade-angle lines" in evidence.summary()
+    # three lines give one fold: evidence, and the summary gives its misses
+    three = _evidence(load_test_table(_linear_chart(tmp_path / "three")))
+    assert len(three.folds) == 1 and "without 10 deg the rest predicts it within" in three.summary()
 
 
 def test_three_input_path_names_the_on_cam_path(tmp_path):
@@ -174,11 +264,12 @@ relaxation = 1.0
     # speed: the energy of the rejected power while the vanes close (stroke 0.59 in 7 s, power falling about
     # linearly: 3.5 s of full power) into Ta = 6 s gives (n/n0)^2 = 1 + 2 (5.5/6) 3.5/6, a rise of 44 %; the
     # on-cam nets' runaway at the closing cam lies near n11 = 250 r/min, +94 %. 30-65 % brackets the estimate
-    # by a third either side, well below runaway (seed 0 gives 46 %).
+    # by a third either side, well below runaway (seed 0 gives 54 %: below the lowest line the chart weighs its
+    # efficiency held, so the torque falls more slowly than the estimate's power).
     assert 0.30 < s["max_speed_rise"] < 0.65
     # head: rigid water columns, T_w = sum L V / (g H) = (40 x 2.26 + 30 x 2.79) / (9.81 x 15.7) = 1.1 s over a
     # 7 s flow stop gives 16 %; the flow falls faster near closure than on average, so 8-40 % (seed 0: 20 %)
     assert 0.08 < s["max_head_rise"] < 0.40
     # the draft tube's reverse water hammer stays above the vapour pressure plus margin: about 13.4 m at rest
-    # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.9 m)
+    # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.8 m)
     assert 2.24 < s["min_outlet_pressure_head_m"] < 13.4
