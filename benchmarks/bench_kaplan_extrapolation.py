@@ -17,6 +17,8 @@ For k = 1, 2, 3 (the k lowest lines held out; the closed cam placed from the two
   held-out lines give: what the extension samples) and ``quadratic`` (Q11 and the efficiency quadratic in the blade
   angle through the three lowest kept lines at the same N11; with three lines kept or more). Outside a kept line's
   N11 range it is held at its end value;
+* toward overspeed, the highest-N11 point of every line held out, the nets trained without them against a straight
+  continuation of each line through its two last kept points;
 * Q11 relative error, M11 error as % of the chart's M11 range (M11 from the efficiency, eq. (5) of the BP hill-chart
   paper), the members' 5-95 % band and whether it covers each held-out point, and the chart's own evidence below
   its lowest line as ``hillsim fccm`` prints it (:func:`hillchart.fccm.on_cam.on_cam_evidence`).
@@ -131,7 +133,37 @@ def measure(source: Path, folder: Path) -> dict:
                       "m_covered": int(np.sum((m >= m_lo) & (m <= m_hi))),
                       "q_band_median": float(np.median((q_hi - q_lo) / q)),
                       "summary": samples["evidence"].summary()})
-    return {"folds": folds, "m11_range": scale, "points": int(blade.size), "lines": lines.tolist()}
+    # toward overspeed: the highest-N11 point of every line held out, the rest trained on, and the nets (what a run
+    # reads) against a straight continuation of each line through its two last kept points
+    ends = np.array([np.flatnonzero(blade == line)[np.argmax(n11[blade == line])] for line in lines])
+    held = np.zeros(blade.size, bool)
+    held[ends] = True
+    table = load_test_table(_write(folder / "overspeed", source, chart, ~held))
+    samples, _, closed = on_cam_unit_samples(table, seed=SEED)
+    nets, _ = train_on_cam_nets(samples, hidden=HIDDEN, restarts=RESTARTS, seed=SEED, members=MEMBERS)
+    nets = load_nets(nets.save(folder / "overspeed" / "nets.json"))
+    b, n, q, m = blade[held], n11[held], q11[held], m11[held]
+    c = b - closed
+    straight = {"q": [], "m": []}
+    for line, n_end in zip(b, n):
+        on = ~held & (blade == line)
+        last = np.argsort(n11[on])[-2:]
+        for key, y in (("q", q11), ("m", m11)):
+            x0, x1 = n11[on][last]
+            y0, y1 = y[on][last]
+            straight[key].append(y1 + (y1 - y0) / (x1 - x0) * (n_end - x1))
+    members_q = np.array([x.q11(n, c) for x in nets.members()])
+    members_m = np.array([x.m11(n, c) for x in nets.members()])
+    q_lo, q_hi = np.percentile(members_q, [5.0, 95.0], axis=0)
+    m_lo, m_hi = np.percentile(members_m, [5.0, 95.0], axis=0)
+    overspeed = {"points": int(held.sum()), "n11": [float(n.min()), float(n.max())],
+                 "errors": {"straight continuation": {"q": np.array(straight["q"]) / q - 1.0,
+                                                      "m": (np.array(straight["m"]) - m) / scale},
+                            "run": {"q": nets.q11(n, c) / q - 1.0, "m": (nets.m11(n, c) - m) / scale}},
+                 "q_covered": int(np.sum((q >= q_lo) & (q <= q_hi))),
+                 "m_covered": int(np.sum((m >= m_lo) & (m <= m_hi)))}
+    return {"folds": folds, "m11_range": scale, "points": int(blade.size), "lines": lines.tolist(),
+            "overspeed": overspeed}
 
 
 LABELS = {"line": "line (straight-line baseline)", "weighed blend": "weighed blend (what the extension samples)",
@@ -163,6 +195,16 @@ def tables(result: dict) -> str:
             verdicts.append(" / ".join("-" if v is None else ("yes" if v else "**no**") for v in marks))
         out.append(f"| {f['k']} | {f['q_covered']} of {f['points']} | {f['m_covered']} of {f['points']} | "
                    f"{100 * f['q_band_median']:.1f} | {verdicts[0]} | {verdicts[1]} |")
+    o = result["overspeed"]
+    out += ["", f"Toward overspeed ({o['points']} points, the highest N11 of each line, {o['n11'][0]:.0f}-"
+                f"{o['n11'][1]:.0f} r/min; the members' 5-95 % band covers {o['q_covered']} of Q11 and "
+                f"{o['m_covered']} of M11):", "",
+            "| candidate | Q11 mean abs err % | Q11 worst % | M11 mean abs err (% of range) | M11 worst (% of range) |",
+            "|---|---|---|---|---|"]
+    for name, e in o["errors"].items():
+        out.append(f"| {LABELS.get(name, name)} | {100 * np.mean(np.abs(e['q'])):.1f} | "
+                   f"{100 * e['q'][np.argmax(np.abs(e['q']))]:+.1f} | {100 * np.mean(np.abs(e['m'])):.1f} | "
+                   f"{100 * e['m'][np.argmax(np.abs(e['m']))]:+.1f} |")
     out += ["", "What `hillsim fccm --simulator-nets` prints of each reduced chart's own evidence:", ""]
     out += [f"* k = {f['k']}: {f['summary']}" for f in result["folds"]]
     return "\n".join(out) + "\n"
