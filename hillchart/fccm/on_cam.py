@@ -184,8 +184,9 @@ class OnCamEvidence:
                 f"band at half the lowest line's cam spans {100 * math.expm1(-low):+.0f} % to "
                 f"{100 * math.expm1(high):+.0f} % of Q11")
         if not self.folds:
-            return (f"below the lowest blade-angle line: no held-out evidence (fewer than {HOLD_OUT[0] + 2} lines): "
-                    f"{band}; give more blade-angle lines")
+            return (f"below the lowest blade-angle line: no held-out evidence (it needs {HOLD_OUT[0] + 2} blade-angle "
+                    f"lines or more, the lines left by a hold-out placing a closed cam): {band}; give more "
+                    f"blade-angle lines")
         said = "; ".join(f"without {', '.join(f'{b:g}' for b in f['held_out_deg'])} deg the rest predicts it within "
                          f"{f['q11_mean_abs_pct']:.1f} % of Q11 and {f['m11_mean_abs_pct']:.1f} % of the M11 range "
                          f"(mean; worst {f['q11_worst_pct']:+.1f} % and {f['m11_worst_pct']:+.1f} %, {f['points']} "
