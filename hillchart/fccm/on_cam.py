@@ -270,6 +270,67 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
                          distance_cap=min(1.0, float(distance.max())), weights=weights)
 
 
+#: Toward overspeed: samples continue each line beyond its last point at these fractions of the gap cap
+#: (:func:`overspeed_evidence`: the largest relative N11 gap its hold-outs tested, times
+#: :data:`hillchart.extension.hypotheses.OVERSPEED_GAP_CAP`).
+OVERSPEED_FRACTIONS = (0.5, 1.0)
+
+
+def continuation(n11, values, at_n11) -> float:
+    """A line's straight continuation in N11 through its two points of highest N11 (``n11``, ``values`` of one
+    line, two points or more), at ``at_n11``."""
+    n11, values = np.asarray(n11, float), np.asarray(values, float)
+    two = np.argsort(n11)[-2:]
+    x, y = n11[two], values[two]
+    slope = (y[1] - y[0]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
+    return float(y[1] + slope * (at_n11 - x[1]))
+
+
+def overspeed_evidence(blade, n11, q11, m11) -> dict | None:
+    """How well each line's straight continuation (:func:`continuation`) predicts the line's own highest-N11 point
+    from the points below it (lines of 3 points or more; the lines are the units of evidence), and the band toward
+    overspeed from those misses per relative N11 gap ``(N11 - N11_last) / N11_last``: log-ratios of Q11 and M11 as
+    a share of the chart's M11 range, growing linearly with the gap (:func:`hillchart.extension.band.band_sides`),
+    as a Francis chart's torque band toward runaway, up to ``gap_cap``. None when no line has 3 points."""
+    from hillchart.extension.band import band_sides, log_ratio
+    from hillchart.extension.hypotheses import OVERSPEED_GAP_CAP
+
+    blade, n11, q11, m11 = (np.asarray(v, float) for v in (blade, n11, q11, m11))
+    scale = max(float(np.ptp(m11)), 1e-12)
+    q_res, m_res, gaps = [], [], []
+    for line in np.unique(blade):
+        on = np.flatnonzero(blade == line)
+        if on.size < 3:
+            continue
+        end = on[np.argmax(n11[on])]
+        rest = on[on != end]
+        last = float(n11[rest].max())
+        q_res.append(float(log_ratio(continuation(n11[rest], q11[rest], n11[end]), q11[end], 1e-9)))
+        m_res.append((continuation(n11[rest], m11[rest], n11[end]) - m11[end]) / scale)
+        gaps.append((n11[end] - last) / last)
+    if not gaps:
+        return None
+    gaps, q_res, m_res = np.array(gaps), np.array(q_res), np.array(m_res)
+    band_q = band_sides(q_res, gaps, lines=gaps.size, growth=1.0)
+    band_m = band_sides(m_res, gaps, lines=gaps.size, growth=1.0)
+    return {"points": int(gaps.size), "gap_cap": OVERSPEED_GAP_CAP * float(gaps.max()),
+            "band_log_q11_per_gap": [float(v) for v in band_q], "band_m11_per_gap": [float(v) for v in band_m],
+            "m11_scale": scale, "q11_rms": float(np.sqrt(np.mean(np.expm1(q_res) ** 2))),
+            "m11_rms": float(np.sqrt(np.mean(m_res ** 2)))}
+
+
+def overspeed_summary(over: dict | None) -> str:
+    """What ``hillsim fccm`` prints of :func:`overspeed_evidence`."""
+    if over is None:
+        return "toward overspeed: no held-out evidence (no line of 3 points or more); the nets alone beyond the lines"
+    low, high = over["band_log_q11_per_gap"]
+    return (f"toward overspeed each line's straight continuation predicts its own highest-N11 point within "
+            f"{100 * over['q11_rms']:.1f} % (Q11) and {100 * over['m11_rms']:.1f} % of the M11 range (RMS, "
+            f"{over['points']} lines); samples continue each line up to {100 * over['gap_cap']:.0f} % beyond its "
+            f"last N11, where the band spans {100 * math.expm1(-low * over['gap_cap']):+.1f} % to "
+            f"{100 * math.expm1(high * over['gap_cap']):+.1f} % of Q11")
+
+
 def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_opening_points: int = 200,
                         seed: int = 0) -> tuple[dict, list[str], float]:
     """Unit samples (n11, opening = cam position c = phi - phi_closed in deg, q11, m11; ``measured`` marks the
@@ -327,16 +388,35 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
                  f"the cam position down to zero at the closed cam and the efficiency "
                  f"{100 * evidence.efficiency_held:.0f} % held at the lowest line's, "
                  f"{100 * (1 - evidence.efficiency_held):.0f} % linear to zero (assumed, not charted)")
+    # toward overspeed: each line continued straight beyond its last point, as far as its hold-outs were tested
+    over = overspeed_evidence(blade, n11, q11, m11)
+    n_o, c_o, q_o, m_o, gap_o = [], [], [], [], []
+    if over is not None:
+        for line in np.unique(blade):
+            on = blade == line
+            if on.sum() < 2:
+                continue
+            last = float(n11[on].max())
+            for f in OVERSPEED_FRACTIONS:
+                gap = f * over["gap_cap"]
+                n_o.append(last * (1.0 + gap))
+                c_o.append(line - closed)
+                q_o.append(continuation(n11[on], q11[on], n_o[-1]))
+                m_o.append(continuation(n11[on], m11[on], n_o[-1]))
+                gap_o.append(gap)
+    notes.append(overspeed_summary(over))
     k = int(zero_opening_points)
     rng = np.random.default_rng([seed, 3])
     # the closed cam passes no water at any unit speed: the samples reach twice the chart's largest N11, so that a
     # closing transient whose head falls (N11 = n D / sqrt(H) rises) meets no flow the nets invent past the chart
-    samples = {"n11": np.concatenate([n11, n_s, rng.uniform(0.0, CLOSED_N11_FACTOR * n11.max(), k)]),
-               "opening": np.concatenate([blade - closed, c_s, np.zeros(k)]),
-               "q11": np.concatenate([q11, q_s, np.zeros(k)]), "m11": np.concatenate([m11, m_s, np.zeros(k)]),
-               "measured": np.concatenate([np.ones(n11.size, bool), np.zeros(q_s.size + k, bool)]),
-               "silent_distance": np.concatenate([np.zeros(n11.size), 1.0 - frac, np.ones(k)]),
-               "evidence": evidence}
+    n_o, c_o, q_o, m_o, gap_o = (np.array(v, float) for v in (n_o, c_o, q_o, m_o, gap_o))
+    samples = {"n11": np.concatenate([n11, n_s, n_o, rng.uniform(0.0, CLOSED_N11_FACTOR * n11.max(), k)]),
+               "opening": np.concatenate([blade - closed, c_s, c_o, np.zeros(k)]),
+               "q11": np.concatenate([q11, q_s, q_o, np.zeros(k)]), "m11": np.concatenate([m11, m_s, m_o, np.zeros(k)]),
+               "measured": np.concatenate([np.ones(n11.size, bool), np.zeros(q_s.size + n_o.size + k, bool)]),
+               "silent_distance": np.concatenate([np.zeros(n11.size), 1.0 - frac, np.zeros(n_o.size), np.ones(k)]),
+               "overspeed_gap": np.concatenate([np.zeros(n11.size + q_s.size), gap_o, np.zeros(k)]),
+               "evidence": evidence, "overspeed": over}
     notes.append(samples["evidence"].summary())
     notes.append(f"opening = cam position c = blade angle - ({closed:.2f} deg), {blade.max() - closed:.2f} "
                  f"deg at the largest blade angle (turbine.opening_max); extended to the closed cam: {k} samples "
@@ -358,8 +438,10 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
     ``"deg (cam)"``) from :func:`on_cam_unit_samples`, trained as the three-input ones (2-H-1 logsig,
     Levenberg-Marquardt, :class:`hillchart.fccm.net.FCCMNet`; the flow net with ``seed``, the torque net
     ``seed + 1``), the digitized region (convex hull of the samples marked ``measured``: the chart's points) and the
-    plausibility checks on a grid over the samples' box: Q11 falling as the cam opens, efficiency above 1 where Q11
-    is above 5 % of its largest value, the ensemble's spread (5-95 % of Q11 and M11, as % of their ranges).
+    plausibility checks on a grid over the cam's range and the N11 of the samples off the closed cam
+    (``n11_checked``; the closed cam's zero-flow samples reach twice the chart's N11, where nothing else constrains
+    the nets): Q11 falling as the cam opens, efficiency above 1 where Q11 is above 5 % of its largest value, the
+    ensemble's spread (5-95 % of Q11 and M11, as % of their ranges).
 
     With ``members`` > 1, an ensemble of ``members`` more pairs (seeds ``seed + 2``, ``seed + 4``, ...), each
     trained on the samples with those below the lowest line (``silent_distance`` > 0) moved to the member's place
@@ -391,6 +473,12 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
     else:
         q_low = q_high = m_low = m_high = np.zeros(len(X))
     q_low, q_high, m_low, m_high = (np.where(d > 0.0, v, 0.0) for v in (q_low, q_high, m_low, m_high))
+    over, gap = samples.get("overspeed"), np.asarray(samples.get("overspeed_gap", np.zeros(len(X))), float)
+    if over is not None:  # toward overspeed: the band of the lines' own last points, linear in the gap
+        (ql, qh), (ml, mh) = over["band_log_q11_per_gap"], over["band_m11_per_gap"]
+        scale = over["m11_scale"]
+        q_low, q_high = q_low + ql * gap, q_high + qh * gap
+        m_low, m_high = m_low + ml * scale * gap, m_high + mh * scale * gap
     pairs = []
     for i, u in enumerate(places):
         moved = {"q11": np.asarray(samples["q11"], float) * np.exp(u * (q_low if u < 0 else q_high)),
@@ -408,9 +496,16 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
                 "ensemble_places": places[1:]}
     if evidence is not None:
         training["evidence"] = evidence.to_dict()
+    if samples.get("overspeed") is not None:
+        training["overspeed_evidence"] = dict(samples["overspeed"], summary=overspeed_summary(samples["overspeed"]))
     nets = HillNets(flow=pairs[0][0], torque=pairs[0][1], opening_unit="deg (cam)", training=training,
                     ensemble=pairs[1:] or None, digitized_region=region)
-    lo, hi = X.min(axis=0), X.max(axis=0)
+    # the checks' box: the cam from closed to open, N11 over the chart's points and the samples that continue them
+    # (below the lowest line, toward overspeed); the closed cam's zero-flow samples reach twice the chart's N11, where
+    # nothing else constrains the nets and a run reading them is warned of leaving the digitized region
+    informed = np.asarray(samples["opening"], float) > 0.0
+    lo = np.array([X[informed, 0].min(), X[:, 1].min()])
+    hi = np.array([X[informed, 0].max(), X[:, 1].max()])
     n11, c = (v.ravel() for v in np.meshgrid(*(np.linspace(lo[j], hi[j], 20) for j in range(2)), indexing="ij"))
     q = nets.q11(n11, c)
     dq_dc = nets.q11_grad(n11, c)[1]
@@ -423,18 +518,18 @@ def train_on_cam_nets(samples: dict, *, hidden: int = 8, restarts: int = 3, seed
         band = np.percentile(values, 95, axis=0) - np.percentile(values, 5, axis=0)
         return 100.0 * float(np.median(band) / max(np.ptp(samples[key]), 1e-12))
 
-    p = {"share_dq11_dc_negative": float(np.mean(dq_dc < 0)),
+    p = {"n11_checked": [float(lo[0]), float(hi[0])], "share_dq11_dc_negative": float(np.mean(dq_dc < 0)),
          "share_efficiency_above_1": float(np.mean(np.nan_to_num(eta) > 1.0)), "max_efficiency": float(np.nanmax(eta)),
          "ensemble_members": len(drawn), "ensemble_spread_q11_pct": spread(q_all, "q11"),
          "ensemble_spread_m11_pct": spread(m_all, "m11")}
     warnings = [ON_CAM_WARNING]
     if p["share_dq11_dc_negative"] > 0.05:
-        warnings.append(f"Q11 falls as the cam opens on {100 * p['share_dq11_dc_negative']:.0f} % of the table's box: "
+        warnings.append(f"Q11 falls as the cam opens on {100 * p['share_dq11_dc_negative']:.0f} % of the checked box: "
                         "the nets fit noise or the table is thin there; check the table, fewer hidden neurons "
                         "(--hidden)")
     if p["share_efficiency_above_1"] > 0:
         warnings.append(f"the nets' efficiency exceeds 1 on {100 * p['share_efficiency_above_1']:.1f} % of the "
-                        f"table's box (max {p['max_efficiency']:.3f}): implausible; check the table's efficiency "
+                        f"checked box (max {p['max_efficiency']:.3f}): implausible; check the table's efficiency "
                         "column (a fraction) and --closed-opening")
     nets.training["plausibility"] = p
     return nets, {"plausibility": p, "warnings": warnings}

@@ -53,7 +53,7 @@ def test_on_cam_samples_count_the_cam_from_the_closed_position(tmp_path):
     assert closed_rows.sum() == 20 and np.all(samples["q11"][closed_rows] == 0.0)
     # the assumed samples below the lowest line: this chart's efficiency does not change with the blade angle, so
     # its own lowest lines weigh the efficiency held at the lowest line's (weight 1 to 1e-6): the samples carry it
-    silent = ~measured & ~closed_rows
+    silent = (samples["silent_distance"] > 0) & ~closed_rows
     from hillchart.characteristics import efficiency_from_unit_torque
 
     eta = efficiency_from_unit_torque(samples["q11"][silent], samples["n11"][silent], samples["m11"][silent])
@@ -153,6 +153,38 @@ def test_a_chart_of_two_lines_has_no_evidence_and_says_so(tmp_path):
     # three lines give one fold: evidence, and the summary gives its misses
     three = _evidence(load_test_table(_linear_chart(tmp_path / "three")))
     assert len(three.folds) == 1 and "without 10 deg the rest predicts it within" in three.summary()
+
+
+def test_toward_overspeed_each_line_continues_as_its_own_last_points_say(tmp_path):
+    """Each line's highest-N11 point held out and predicted by the straight continuation through the two below it:
+    this chart's Q11 is linear in N11 (the continuation exact, its band closed), its efficiency parabolic (the
+    torque's continuation misses, and the misses set the torque's band, linear in the gap). The samples continue
+    each line to half and all of the gap cap beyond its last point, on the continuation, and the members move them
+    by the band there."""
+    from hillchart.characteristics import unit_torque_from_efficiency
+    from hillchart.extension.band import band_sides
+    from hillchart.extension.hypotheses import OVERSPEED_GAP_CAP
+    from hillchart.fccm.on_cam import OVERSPEED_FRACTIONS, continuation
+
+    table = load_test_table(_linear_chart(tmp_path / "t"))
+    samples, notes, closed = on_cam_unit_samples(table, zero_opening_points=20)
+    over = samples["overspeed"]
+    assert over["points"] == 3 and over["band_log_q11_per_gap"] == pytest.approx([0.0, 0.0], abs=1e-9)
+    # by hand: the lines' points at 90-170 r/min, the last gap (170 - 150) / 150 on each line
+    eta = lambda n: 0.8 - 1e-5 * (n - 130) ** 2  # noqa: E731
+    m = {phi: [float(unit_torque_from_efficiency(0.04 * (phi + 10) * (1 + 0.001 * n), n, eta(n)))
+               for n in (90.0, 110.0, 130.0, 150.0, 170.0)] for phi in (10.0, 20.0, 30.0)}
+    scale = np.ptp(np.concatenate(list(m.values())))
+    misses = [(continuation([130.0, 150.0], m[phi][2:4], 170.0) - m[phi][4]) / scale for phi in m]
+    assert max(misses) < -0.005  # every line's torque misses on the same side, by 1-2 % of the range
+    assert over["band_m11_per_gap"] == pytest.approx(band_sides(misses, [20 / 150] * 3, lines=3, growth=1.0))
+    assert over["gap_cap"] == pytest.approx(OVERSPEED_GAP_CAP * 20 / 150)
+    gap = samples["overspeed_gap"]
+    assert np.count_nonzero(gap) == 3 * len(OVERSPEED_FRACTIONS)
+    n, c, q = samples["n11"][gap > 0], samples["opening"][gap > 0], samples["q11"][gap > 0]
+    assert np.allclose(n, 170.0 * (1.0 + gap[gap > 0]), rtol=1e-12)
+    assert np.allclose(q, 0.04 * c * (1 + 0.001 * n), rtol=1e-12)  # on the exact Q11: the chart is linear in N11
+    assert any(note.startswith("toward overspeed each line's straight continuation") for note in notes)
 
 
 def test_three_input_path_names_the_on_cam_path(tmp_path):
@@ -264,12 +296,12 @@ relaxation = 1.0
     # speed: the energy of the rejected power while the vanes close (stroke 0.59 in 7 s, power falling about
     # linearly: 3.5 s of full power) into Ta = 6 s gives (n/n0)^2 = 1 + 2 (5.5/6) 3.5/6, a rise of 44 %; the
     # on-cam nets' runaway at the closing cam lies near n11 = 250 r/min, +94 %. 30-65 % brackets the estimate
-    # by a third either side, well below runaway (seed 0 gives 54 %: below the lowest line the chart weighs its
+    # by a third either side, well below runaway (seed 0 gives 52 %: below the lowest line the chart weighs its
     # efficiency held, so the torque falls more slowly than the estimate's power).
     assert 0.30 < s["max_speed_rise"] < 0.65
     # head: rigid water columns, T_w = sum L V / (g H) = (40 x 2.26 + 30 x 2.79) / (9.81 x 15.7) = 1.1 s over a
-    # 7 s flow stop gives 16 %; the flow falls faster near closure than on average, so 8-40 % (seed 0: 20 %)
+    # 7 s flow stop gives 16 %; the flow falls faster near closure than on average, so 8-40 % (seed 0: 21 %)
     assert 0.08 < s["max_head_rise"] < 0.40
     # the draft tube's reverse water hammer stays above the vapour pressure plus margin: about 13.4 m at rest
-    # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.8 m)
+    # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.7 m)
     assert 2.24 < s["min_outlet_pressure_head_m"] < 13.4
