@@ -288,6 +288,27 @@ def test_the_real_chart_tables_are_what_the_benchmark_prints(capsys):
             assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
 
 
+def _page_and_script_rows(script: str, page: str, starts: tuple, capsys) -> tuple[list[str], list[str]]:
+    """The lines starting with one of ``starts`` between the ``<!-- script -->`` markers of ``docs/page`` and in what
+    ``benchmarks/script.py`` prints now (run with no argument)."""
+    assert load_script(script).main([]) == 0
+    printed = capsys.readouterr().out
+    text = (DOCS / page).read_text(encoding="utf-8")
+    block = re.search(rf"<!-- {script} -->\n(.*?)\n<!-- end {script} -->", text, re.S).group(1)
+    return ([line for line in block.splitlines() if line.startswith(starts)],
+            [line for line in printed.splitlines() if line.startswith(starts)])
+
+
+def assert_within(rows: list[str], now: list[str], tolerance) -> None:
+    """Each line of ``rows`` (a table in the docs) has the labels and layout of its line in ``now`` (what the script
+    prints), and each number is within ``tolerance(row, figure)`` of its fresh value."""
+    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
+    for row, fresh in zip(rows, now):
+        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
+        for old, new in zip(number.findall(row), number.findall(fresh)):
+            assert abs(float(old) - float(new)) <= tolerance(row, old), (row, fresh)
+
+
 @pytest.mark.external
 @pytest.mark.slow
 def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
@@ -298,20 +319,9 @@ def test_the_bulb_extrapolation_tables_are_what_the_benchmark_prints(capsys):
     from tests.fccm_external import BULB_137KW
 
     require_external(BULB_137KW)
-    bench = load_script("bench_bulb_extrapolation")
-    assert bench.main([]) == 0
-    printed = capsys.readouterr().out
-    page = (DOCS / "bulb-extrapolation.md").read_text(encoding="utf-8")
-    block = re.search(r"<!-- bench_bulb_extrapolation -->\n(.*?)\n<!-- end bench_bulb_extrapolation -->", page,
-                      re.S).group(1)
-    rows = [line for line in block.splitlines() if line.startswith("| ")]
-    now = [line for line in printed.splitlines() if line.startswith("| ")]
+    rows, now = _page_and_script_rows("bench_bulb_extrapolation", "bulb-extrapolation.md", ("| ",), capsys)
     assert len(rows) == len(now) > 60, "rerun PYTHONPATH=. python benchmarks/bench_bulb_extrapolation.py --write-docs"
-    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
-    for row, fresh in zip(rows, now):
-        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
-        for old, new in zip(number.findall(row), number.findall(fresh)):
-            assert abs(float(old) - float(new)) <= _bulb_row_tolerance(row, old), (row, fresh)
+    assert_within(rows, now, _bulb_row_tolerance)
 
 
 @pytest.mark.external
@@ -324,20 +334,10 @@ def test_the_kaplan_extrapolation_tables_are_what_the_benchmark_prints(capsys):
     from tests.fccm_external import KAPLAN_LISZKA
 
     require_external(KAPLAN_LISZKA)
-    bench = load_script("bench_kaplan_extrapolation")
-    assert bench.main([]) == 0
-    printed = capsys.readouterr().out
-    page = (DOCS / "bulb-extrapolation.md").read_text(encoding="utf-8")
-    block = re.search(r"<!-- bench_kaplan_extrapolation -->\n(.*?)\n<!-- end bench_kaplan_extrapolation -->", page,
-                      re.S).group(1)
-    rows = [line for line in block.splitlines() if line.startswith(("| ", "* k = ", "Toward"))]
-    now = [line for line in printed.splitlines() if line.startswith(("| ", "* k = ", "Toward"))]
+    rows, now = _page_and_script_rows("bench_kaplan_extrapolation", "bulb-extrapolation.md",
+                                      ("| ", "* k = ", "Toward"), capsys)
     assert len(rows) == len(now) > 15, "rerun PYTHONPATH=. python benchmarks/bench_kaplan_extrapolation.py --write-docs"
-    number = re.compile(r"[-+]?\d+(?:\.\d+)?")
-    for row, fresh in zip(rows, now):
-        assert number.sub("#", row) == number.sub("#", fresh), (row, fresh)
-        for old, new in zip(number.findall(row), number.findall(fresh)):
-            assert abs(float(old) - float(new)) <= (1.0 if " of " in row else 0.5), (row, fresh)
+    assert_within(rows, now, lambda row, figure: 1.0 if " of " in row else 0.5)
 
 
 #: Rows of docs/bulb-extrapolation.md whose figures move more between CPU families than the rest, measured on both
