@@ -26,8 +26,10 @@ region               ``below_lowest_line``: the opening is below the lowest digi
 The evidence is read from the nets' training record (nets.json ``training.extrapolation`` and the ``silent_model``
 band): below the lowest line the hypotheses' weights, each one's held-out Q11 and M11 errors on the chart's own
 lowest line(s) and the band's two sides at the point; toward runaway the held-out line ends and the torque band at
-the point's gap; in the digitized region the fit's RMS errors at the measured samples. A nets.json without that
-record says so: no held-out evidence is made up.
+the point's gap; in the digitized region the fit's RMS errors at the measured samples. The nets of an on-cam chart
+(:mod:`hillchart.fccm.on_cam`) are quoted from their own records (``training.evidence`` below the lowest line,
+``training.overspeed_evidence`` beyond the lines' ends). A nets.json without that record says so: no held-out
+evidence is made up.
 """
 
 from __future__ import annotations
@@ -110,6 +112,29 @@ NOT_READ = ("the characteristics' own extrapolation", {
     "kind": "not_read", "text": "these characteristics keep their extrapolation and its evidence in another form (a "
                                 "double-regulated table's held-out angles, hillsim fccm), which this report does not "
                                 "read"})
+
+
+#: What an on-cam chart's nets (:mod:`hillchart.fccm.on_cam`) answer with outside the chart, per region, and the key of
+#: their held-out record in ``training``.
+ON_CAM = {"below_lowest_line": ("the on-cam extension below the lowest blade-angle line (Q11 linear in the cam to the "
+                                "closed cam, the efficiency weighed by the chart's own lowest lines)", "evidence"),
+          "toward_runaway": ("the on-cam lines' straight continuation beyond their last points",
+                             "overspeed_evidence")}
+
+
+def _on_cam(characteristics, region: str) -> tuple[str, dict] | None:
+    """``(decided by, evidence)`` of on-cam nets in a region :data:`ON_CAM` names (the record's own summary, as
+    ``hillsim fccm`` printed it), or None for other characteristics or regions."""
+    training = getattr(characteristics, "training", None) or {}
+    if training.get("kind") != "on-cam" or region not in ON_CAM:
+        return None
+    decided, key = ON_CAM[region]
+    record = training.get(key)
+    if not isinstance(record, dict) or "summary" not in record:
+        return decided, {"kind": "none", "text": f"no held-out evidence: this on-cam nets.json has no "
+                                                 f"training.{key} record (a file of an earlier version: train it "
+                                                 f"again with hillsim fccm --simulator-nets)"}
+    return decided, {"kind": "on_cam_held_out", "record": key, "text": record["summary"]}
 
 
 def lowest_opening(characteristics, hull) -> tuple[float | None, str]:
@@ -283,6 +308,9 @@ def region_evidence(characteristics, member, region: str, details: dict, point: 
         return "not placed", {"kind": "not_placed", "text": "the nets record no digitized region (and no flow.csv "
                                                             "lies beside them), so the point cannot be placed on the "
                                                             "chart nor its evidence read"}
+    on_cam = _on_cam(characteristics, region)
+    if on_cam is not None:
+        return on_cam
     if region in ("below_lowest_line", "toward_runaway") and _other_kind(characteristics):
         return NOT_READ[0], dict(NOT_READ[1])
     if region == "below_lowest_line":

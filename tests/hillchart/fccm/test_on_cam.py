@@ -187,6 +187,27 @@ def test_toward_overspeed_each_line_continues_as_its_own_last_points_say(tmp_pat
     assert any(note.startswith("toward overspeed each line's straight continuation") for note in notes)
 
 
+def test_the_guarantee_report_reads_an_on_cam_chart_s_evidence(tmp_path):
+    """Where a banded figure was decided below the lowest line or beyond the lines' ends, the report quotes the
+    held-out record the on-cam nets carry (what hillsim fccm printed); nets without it say they have none."""
+    from hillchart.nets.hill_nets import load_nets
+    from simulate.studies.figure_origin import region_evidence
+
+    table = load_test_table(_linear_chart(tmp_path / "t"))
+    samples, _, _ = on_cam_unit_samples(table, zero_opening_points=40)
+    nets, _ = train_on_cam_nets(samples, hidden=5, restarts=1, members=2, seed=0)
+    nets = load_nets(nets.save(tmp_path / "nets.json"))
+    point = {"opening": 5.0}
+    decided, evidence = region_evidence(nets, None, "below_lowest_line", {}, point)
+    assert decided.startswith("the on-cam extension") and evidence["kind"] == "on_cam_held_out"
+    assert evidence["text"] == samples["evidence"].summary()
+    decided, evidence = region_evidence(nets, None, "toward_runaway", {}, point)
+    assert evidence["text"].startswith("toward overspeed each line's straight continuation predicts")
+    del nets.training["evidence"]  # a file of an earlier version
+    _, evidence = region_evidence(nets, None, "below_lowest_line", {}, point)
+    assert evidence["kind"] == "none" and "no training.evidence record" in evidence["text"]
+
+
 def test_three_input_path_names_the_on_cam_path(tmp_path):
     from hillchart.fccm.double_regulated import table_unit_samples
 
