@@ -1,6 +1,7 @@
 """The band around an answer the data do not reach: how wide each side is from held-out residuals (split-conformal,
-:func:`band_scale`, :func:`band_sides`), how it grows with the distance from the data (:func:`band_square`), and
-where each ensemble member stands in it (:func:`member_positions`).
+:func:`band_scale`, :func:`band_sides`), how it grows with the distance from the data (:func:`band_square`),
+where each ensemble member stands in it (:func:`member_positions`); and the straight continuation of a line toward
+runaway whose misses are the evidence there (:func:`continuation`).
 
 Below a Francis chart's lowest digitized line (:mod:`hillchart.extension.hypotheses`) and below a double-regulated
 table's smallest guide-vane angle (:mod:`hillchart.fccm.evidence`) alike, the residuals of the weighed hypotheses at
@@ -34,6 +35,24 @@ MIN_SIDE_FRACTION_BELOW = 0.5
 #: (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter to a half of the lowest opening below
 #: it).
 NO_EVIDENCE_SCALE = 1.2
+
+
+def continuation(n11, values, at_n11) -> float:
+    """A line's straight continuation in N11 through its two points of highest N11 (``n11``, ``values`` of one
+    line, two points or more), at ``at_n11``; flat where those two share their N11. Toward runaway its misses at
+    each line's held-out last point are a chart's evidence (:func:`hillchart.extension.hypotheses.overspeed_evidence`,
+    :func:`hillchart.fccm.evidence.overspeed_evidence`, :func:`hillchart.fccm.on_cam.overspeed_evidence`).
+
+    Examples
+    --------
+    >>> round(continuation([100.0, 120.0, 140.0], [0.5, 0.6, 0.8], 150.0), 12)
+    0.9
+    """
+    n11, values = np.asarray(n11, float), np.asarray(values, float)
+    two = np.argsort(n11)[-2:]
+    x, y = n11[two], values[two]
+    slope = (y[1] - y[0]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
+    return float(y[1] + slope * (at_n11 - x[1]))
 
 
 def band_square(distance, cap):

@@ -58,8 +58,8 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_SIDE_FRACTION, MIN_SIDE_FRACTION_BELOW,
-                                      NO_EVIDENCE_SCALE, band_scale, band_sides, band_square, log_ratio,
-                                      member_positions)
+                                      NO_EVIDENCE_SCALE, band_scale, band_sides, band_square, continuation,
+                                      log_ratio, member_positions)
 
 #: The hypotheses, in the order of every weight vector.
 HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-form-model", "line", "offset-line",
@@ -645,12 +645,10 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     q_line, m_line, gaps = [], [], []
     for k in ends:
         on = np.flatnonzero((chart.flow_opening == chart.flow_opening[k]) & ~held)
-        two = on[np.argsort(chart.flow_n11[on])[-2:]]
-        x = chart.flow_n11[two]  # x[1]: the line's last kept point
-        for values, out in ((chart.flow_q11, q_line), (torque, m_line)):
-            slope = (values[two[1]] - values[two[0]]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
-            out.append(values[two[1]] + slope * (chart.flow_n11[k] - x[1]))
-        gaps.append((chart.flow_n11[k] - x[1]) / x[1])
+        n_on, last = chart.flow_n11[on], float(chart.flow_n11[on].max())  # the line's last kept point
+        q_line.append(continuation(n_on, chart.flow_q11[on], chart.flow_n11[k]))
+        m_line.append(continuation(n_on, torque[on], chart.flow_n11[k]))
+        gaps.append((chart.flow_n11[k] - last) / last)
     # the band toward runaway: the model's signed M11 misses per relative N11 gap beyond the line's last kept point
     # (one point per line: the lines are the units of evidence), growing linearly with the gap; calibrated on the
     # far half of the gaps (a miss over a tiny gap is reading noise, not a steep growth), and growing no further
@@ -686,4 +684,5 @@ __all__ = ["HYPOTHESES", "OTHER_FORM", "WITHOUT_OTHER_FORM", "CURVATURE_LINES", 
            "offset_line", "fit_hypotheses", "HeldOut",
            "sub_chart", "hold_out", "Evidence", "weigh", "chart_evidence", "Extrapolation", "overspeed_evidence",
            "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "MIN_SIDE_FRACTION_BELOW",
-           "NO_EVIDENCE_SCALE", "band_square", "log_ratio", "band_scale", "band_sides", "member_positions"]
+           "NO_EVIDENCE_SCALE", "band_square", "log_ratio", "band_scale", "band_sides", "member_positions",
+           "continuation"]

@@ -50,6 +50,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.extension.band import continuation
 from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, band_square, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
@@ -512,11 +513,8 @@ def overspeed_evidence(samples: dict, *, opening_closed: float | None = None, se
     q_line, m_line = [], []
     for end, index in zip(ends, settings):
         on = index[index != end]
-        two = on[np.argsort(n[on])[-2:]]
-        x = n[two]
-        for values, out in ((q, q_line), (m, m_line)):
-            slope = (values[two[1]] - values[two[0]]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
-            out.append(values[two[1]] + slope * (n[end] - x[1]))
+        q_line.append(continuation(n[on], q[on], n[end]))
+        m_line.append(continuation(n[on], m[on], n[end]))
     nh, ah, bh, qh, mh = n[ends], a[ends], b[ends], q[ends], m[ends]
     e = {"model_q11": model.q11(nh, ah, bh) / qh - 1.0, "model_m11": (model.m11(nh, ah, bh) - mh) / scale,
          "line_q11": np.array(q_line) / qh - 1.0, "line_m11": (np.array(m_line) - mh) / scale}

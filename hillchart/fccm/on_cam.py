@@ -222,11 +222,12 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
         if lines.size - j < 2:
             break
         out = blade < lines[j]
-        try:
-            answers = {h: line_answer(blade[~out], n11[~out], q11[~out], efficiency[~out], blade[out], n11[out],
-                                      closed, w) for h, w in EFFICIENCY_HYPOTHESES.items()}
+        try:  # the fold's closed cam, placed once for both efficiencies
+            fold_closed = closed_cam_angle(blade[~out], n11[~out], q11[~out]) if closed is None else closed
         except InputError:  # the lines left do not place a closed cam: no evidence from this fold
             continue
+        answers = {h: line_answer(blade[~out], n11[~out], q11[~out], efficiency[~out], blade[out], n11[out],
+                                  fold_closed, w) for h, w in EFFICIENCY_HYPOTHESES.items()}
         q, _, d, inside = next(iter(answers.values()))
         if not inside.any():
             continue
@@ -276,23 +277,14 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
 OVERSPEED_FRACTIONS = (0.5, 1.0)
 
 
-def continuation(n11, values, at_n11) -> float:
-    """A line's straight continuation in N11 through its two points of highest N11 (``n11``, ``values`` of one
-    line, two points or more), at ``at_n11``."""
-    n11, values = np.asarray(n11, float), np.asarray(values, float)
-    two = np.argsort(n11)[-2:]
-    x, y = n11[two], values[two]
-    slope = (y[1] - y[0]) / (x[1] - x[0]) if x[1] != x[0] else 0.0
-    return float(y[1] + slope * (at_n11 - x[1]))
-
-
 def overspeed_evidence(blade, n11, q11, m11) -> dict | None:
-    """How well each line's straight continuation (:func:`continuation`) predicts the line's own highest-N11 point
-    from the points below it (lines of 3 points or more; the lines are the units of evidence), and the band toward
+    """How well each line's straight continuation (:func:`hillchart.extension.band.continuation`) predicts
+    the line's own highest-N11 point from the points below it (lines of 3 points or more; the lines are the units
+    of evidence), and the band toward
     overspeed from those misses per relative N11 gap ``(N11 - N11_last) / N11_last``: log-ratios of Q11 and M11 as
     a share of the chart's M11 range, growing linearly with the gap (:func:`hillchart.extension.band.band_sides`),
     as a Francis chart's torque band toward runaway, up to ``gap_cap``. None when no line has 3 points."""
-    from hillchart.extension.band import band_sides, log_ratio
+    from hillchart.extension.band import band_sides, continuation, log_ratio
     from hillchart.extension.hypotheses import OVERSPEED_GAP_CAP
 
     blade, n11, q11, m11 = (np.asarray(v, float) for v in (blade, n11, q11, m11))
@@ -389,6 +381,8 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
                  f"{100 * evidence.efficiency_held:.0f} % held at the lowest line's, "
                  f"{100 * (1 - evidence.efficiency_held):.0f} % linear to zero (assumed, not charted)")
     # toward overspeed: each line continued straight beyond its last point, as far as its hold-outs were tested
+    from hillchart.extension.band import continuation
+
     over = overspeed_evidence(blade, n11, q11, m11)
     n_o, c_o, q_o, m_o, gap_o = [], [], [], [], []
     if over is not None:
@@ -417,7 +411,7 @@ def on_cam_unit_samples(table, *, closed_angle_deg: float | None = None, zero_op
                "silent_distance": np.concatenate([np.zeros(n11.size), 1.0 - frac, np.zeros(n_o.size), np.ones(k)]),
                "overspeed_gap": np.concatenate([np.zeros(n11.size + q_s.size), gap_o, np.zeros(k)]),
                "evidence": evidence, "overspeed": over}
-    notes.append(samples["evidence"].summary())
+    notes.append(evidence.summary())
     notes.append(f"opening = cam position c = blade angle - ({closed:.2f} deg), {blade.max() - closed:.2f} "
                  f"deg at the largest blade angle (turbine.opening_max); extended to the closed cam: {k} samples "
                  f"with Q11 = 0, M11 = 0 over N11 0-{CLOSED_N11_FACTOR * n11.max():.4g} r/min")

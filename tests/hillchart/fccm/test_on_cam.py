@@ -164,7 +164,8 @@ def test_toward_overspeed_each_line_continues_as_its_own_last_points_say(tmp_pat
     from hillchart.characteristics import unit_torque_from_efficiency
     from hillchart.extension.band import band_sides
     from hillchart.extension.hypotheses import OVERSPEED_GAP_CAP
-    from hillchart.fccm.on_cam import OVERSPEED_FRACTIONS, continuation
+    from hillchart.extension.band import continuation
+    from hillchart.fccm.on_cam import OVERSPEED_FRACTIONS
 
     table = load_test_table(_linear_chart(tmp_path / "t"))
     samples, notes, closed = on_cam_unit_samples(table, zero_opening_points=20)
