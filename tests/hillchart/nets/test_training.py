@@ -1,0 +1,69 @@
+"""The point net a run reads: distilled from the ensemble members' median, as large as it must be to follow it."""
+
+import numpy as np
+import pytest
+
+from hillchart.nets.training import DISTILL_FLOOR, DISTILL_FRACTION, _distill
+
+
+def bumpy(n11, a):
+    """A surface with two bumps in N11 that one logsig unit cannot follow (m^3/s)."""
+    return 0.5 * a / 32.0 + 0.03 * np.sin(n11 / 12.0)
+
+
+def distill_case(noise=0.004):
+    rng = np.random.default_rng(5)
+    X = np.column_stack([rng.uniform(20.0, 130.0, 60), rng.uniform(5.0, 30.0, 60)])
+    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, noise, 60)  # the measured samples, with reading noise
+    grid = np.stack(np.meshgrid(np.linspace(0.0, 150.0, 21), np.linspace(0.0, 32.0, 21)), axis=-1).reshape(-1, 2)
+    X_d = np.vstack([X, grid])
+    return X_d, bumpy(X_d[:, 0], X_d[:, 1]), X, y  # the "median" is the exact surface
+
+
+def test_the_point_net_grows_until_it_follows_the_members_median():
+    X_d, y_d, X, y = distill_case()
+    est, record = _distill(X_d, y_d, X, y, np.ones(60, bool), 1, 0, {})
+    miss = record["median_rms_miss_of_measured"]
+    assert miss == pytest.approx(0.004, rel=0.25)  # the median misses the samples by their noise
+    first, last = record["tried"][0], record["tried"][-1]
+    # failing case beside: one unit misses the two bumps by more than the bound (the size the members had)
+    assert first["hidden"] == 1 and first["rms_from_median"] > DISTILL_FRACTION * miss
+    assert last["hidden"] > 1 and last["rms_from_median"] <= DISTILL_FRACTION * miss
+    assert est.hidden == record["hidden"] == last["hidden"]
+
+
+def test_a_hidden_size_the_user_gave_is_kept():
+    X_d, y_d, X, y = distill_case()
+    est, record = _distill(X_d, y_d, X, y, np.ones(60, bool), 1, 0, {}, grow=False)
+    assert est.hidden == 1 and [t["hidden"] for t in record["tried"]] == [1]
+
+
+def test_a_noise_free_chart_keeps_the_members_size():
+    """Without reading noise the median misses the samples by nothing; the floor (a thousandth of the range) keeps
+    a size that follows a plane from growing to the largest net."""
+    X_d, _, X, _ = distill_case()
+
+    def plane(x):
+        return 0.5 * x[:, 1] / 32.0 + 1e-3 * x[:, 0]
+
+    est, record = _distill(X_d, plane(X_d), X, plane(X), np.ones(60, bool), 2, 0, {})
+    assert record["median_rms_miss_of_measured"] == 0.0
+    assert record["bound"] == pytest.approx(DISTILL_FLOOR * np.ptp(plane(X)))
+    assert [t["hidden"] for t in record["tried"]] == [2] and est.hidden == 2
+
+
+def test_train_says_when_the_point_net_grew():
+    from types import SimpleNamespace
+
+    from hillsim.commands.train import format_training_table
+
+    X_d, y_d, X, y = distill_case()
+    _, grown = _distill(X_d, y_d, X, y, np.ones(60, bool), 1, 0, {})
+    _, kept = _distill(X_d, y_d, X, y, np.ones(60, bool), 1, 0, {}, grow=False)
+    rec = {"selection": {"hidden": 1}, "measured_rms_error": 0.004, "measured_max_abs_error": 0.01}
+    nets = SimpleNamespace(training={"flow": {**rec, "distillation": grown}, "torque": {**rec, "distillation": kept}},
+                           ensemble=[None] * 10)
+    text = format_training_table(nets)
+    assert f"flow: the point net has H = {grown['hidden']}: with H = 1 it followed the members' median only" in text
+    assert "torque: the point net" not in text  # failing case beside: a size kept as given is not reported
+
