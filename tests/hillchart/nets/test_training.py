@@ -67,3 +67,22 @@ def test_train_says_when_the_point_net_grew():
     assert f"flow: the point net has H = {grown['hidden']}: with H = 1 it followed the members' median only" in text
     assert "torque: the point net" not in text  # failing case beside: a size kept as given is not reported
 
+
+
+def test_train_nets_records_the_point_nets_size():
+    """Through train_nets: the record starts at the selected size and ends at the point net's."""
+    from hillchart.nets.training import train_nets
+
+    rng = np.random.default_rng(2)
+    X = np.column_stack([rng.uniform(20.0, 130.0, 120), rng.uniform(5.0, 30.0, 120)])
+    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, 0.002, 120)
+    table = {"target": np.array(["q11"] * 120 + ["m11"] * 120), "origin": np.array(["measured"] * 240),
+             "n11": np.concatenate([X[:, 0], X[:, 0]]), "opening": np.concatenate([X[:, 1], X[:, 1]]),
+             "value": np.concatenate([y, 900 * y - 100])}
+    nets = train_nets(table, opening_unit="mm", ensemble=3, boundary_weight=1.0, regularization=0.0)
+    for key, weights in (("flow", nets.flow), ("torque", nets.torque)):
+        record = nets.training[key]["distillation"]
+        assert record["tried"][0]["hidden"] == nets.training[key]["selection"]["hidden"]
+        assert weights.hidden == record["hidden"]
+    plain = train_nets(table, opening_unit="mm", restarts=1, boundary_weight=1.0, regularization=0.0, hidden=3)
+    assert "distillation" not in plain.training["flow"]  # no ensemble: no point net to distil
