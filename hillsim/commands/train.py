@@ -188,5 +188,5 @@ def format_training_table(nets) -> str:
             kept = nets.training[key]["distillation"]["hidden"]
             lines.append(f"{key}: the point net has H = {kept}: with H = {first['hidden']} it followed "
                          f"the members' median only within {first['rms_from_median']:.3g} {units[key]} RMS "
-                         f"(bound {bound:.3g})")
+                         f"(bound {bound:.3g} {units[key]})")
     return "\n".join(lines)
