@@ -101,6 +101,7 @@ def candidates(chart: dict, keep, closed: float, blade, n11, held: float) -> dic
 
 def measure(source: Path, folder: Path) -> dict:
     from hillchart.characteristics import unit_torque_from_efficiency
+    from hillchart.extension.band import continuation
     from hillchart.fccm.on_cam import on_cam_unit_samples, train_on_cam_nets
     from hillchart.fccm.table import load_test_table
     from hillchart.nets.hill_nets import load_nets
@@ -147,11 +148,8 @@ def measure(source: Path, folder: Path) -> dict:
     straight = {"q": [], "m": []}
     for line, n_end in zip(b, n):
         on = ~held & (blade == line)
-        last = np.argsort(n11[on])[-2:]
-        for key, y in (("q", q11), ("m", m11)):
-            x0, x1 = n11[on][last]
-            y0, y1 = y[on][last]
-            straight[key].append(y1 + (y1 - y0) / (x1 - x0) * (n_end - x1))
+        straight["q"].append(continuation(n11[on], q11[on], n_end))
+        straight["m"].append(continuation(n11[on], m11[on], n_end))
     members_q = np.array([x.q11(n, c) for x in nets.members()])
     members_m = np.array([x.m11(n, c) for x in nets.members()])
     q_lo, q_hi = np.percentile(members_q, [5.0, 95.0], axis=0)
