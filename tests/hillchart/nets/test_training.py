@@ -26,7 +26,8 @@ def test_the_point_net_grows_until_it_follows_the_members_median():
     miss = record["median_rms_miss_of_measured"]
     assert miss == pytest.approx(0.004, rel=0.25)  # the median misses the samples by their noise
     first, last = record["tried"][0], record["tried"][-1]
-    # failing case beside: one unit misses the two bumps by more than the bound (the size the members had)
+    # failing case beside: one unit misses the two bumps by more than the bound (the size the members had).
+    # Measured: 10.7 x the bound with 1 unit, 0.03 x with the 4 kept; margins far beyond what another CPU moves
     assert first["hidden"] == 1 and first["rms_from_median"] > DISTILL_FRACTION * miss
     assert last["hidden"] > 1 and last["rms_from_median"] <= DISTILL_FRACTION * miss
     assert est.hidden == record["hidden"] == last["hidden"]
@@ -47,7 +48,8 @@ def test_a_noise_free_chart_keeps_the_members_size():
         return 0.5 * x[:, 1] / 32.0 + 1e-3 * x[:, 0]
 
     est, record = _distill(X_d, plane(X_d), X, plane(X), np.ones(60, bool), 2, 0, {})
-    assert record["median_rms_miss_of_measured"] == 0.0
+    assert record["median_rms_miss_of_measured"] == 0.0  # the median is the samples themselves
+    # measured: the 2-unit net follows the plane within 0.05 x the floor
     assert record["bound"] == pytest.approx(DISTILL_FLOOR * np.ptp(plane(X)))
     assert [t["hidden"] for t in record["tried"]] == [2] and est.hidden == 2
 
