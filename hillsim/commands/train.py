@@ -9,7 +9,7 @@ import time
 from hillsim.commands.extend import (add_extension_arguments, extension_options,
                                      load_chart_reporting_warnings)
 
-#: Allowed ``--hidden`` values (the selection itself tries 3-10).
+#: Allowed ``--hidden`` values (the selection itself tries 5-10).
 HIDDEN_RANGE = (1, 30)
 #: Allowed ``--ensemble`` sizes.
 ENSEMBLE_RANGE = (0, 100)
@@ -31,7 +31,7 @@ def register(subparsers) -> None:
     parser.add_argument("--out", required=True, help="nets.json to write")
     parser.add_argument("--hidden", default="auto",
                         help=f"hidden logsig neurons per net, an integer in [{HIDDEN_RANGE[0]}, {HIDDEN_RANGE[1]}] "
-                             "(5 = the paper's 2-5-1 net), or 'auto' (default): chosen among 3-10 by cross-validation")
+                             "(5 = the paper's 2-5-1 net), or 'auto' (default): chosen among 5-10 by cross-validation")
     parser.add_argument("--boundary-weight", default="auto",
                         help="weight of the derived boundary samples in (0, 1], or 'auto' (default: chosen by "
                              "cross-validation on the measured samples)")

@@ -65,12 +65,14 @@ def test_default_selection_is_recorded_in_nets_json():
     doc = json.loads((FRANCIS_DIR / "nets.json").read_text())
     for key in ("flow", "torque"):
         sel = doc["training"][key]["selection"]
-        assert 3 <= sel["hidden"] <= 10 and sel["boundary_weight"] in (0.03, 0.1, 0.3, 1.0)
+        assert 5 <= sel["hidden"] <= 10 and sel["boundary_weight"] in (0.03, 0.1, 0.3, 1.0)
         assert sel["regularization"] in (0.0, 1e-5, 1e-4) and "CV" in sel["rule"]
-        # 4 boundary weights + 6 hidden sizes + 3 regularizations, each scored by 5-fold CV
-        assert len(sel["candidates"]) == 13
+        # 4 boundary weights + 4 hidden sizes + 3 regularizations, each scored by 5-fold CV
+        assert len(sel["candidates"]) == 11
         assert sel["cv_mse_best"] == min(c["cv_mse"] for c in sel["candidates"])
-        assert len(doc["flow"]["W1"]) == doc["training"]["flow"]["selection"]["hidden"]
+        # the point net starts at the members' size and grows only while it cannot follow their median
+        distilled = doc["training"][key]["distillation"]
+        assert distilled["tried"][0]["hidden"] == sel["hidden"] and len(doc[key]["W1"]) == distilled["hidden"]
     assert len(doc["ensemble"]) == 10 and doc["training"]["extension"]["boundaries"] == "model"
 
 

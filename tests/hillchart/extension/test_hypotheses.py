@@ -170,12 +170,12 @@ def test_band_sides_are_one_sided_conformal_bounds_on_the_signed_scores():
 @pytest.mark.external
 def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_line(tmp_path, monkeypatch):
     """Sayano with its lowest line, then its two and its three lowest, held out and trained with the defaults on the
-    rest: what a run reads is within the straight line's mean error (measured 1.7, 3.9 and 4.4 % against 4.0, 7.2
-    and 6.1 %), its worst error within 8 % for one and two lines (measured -3.8 and +6.5 %; the straight line's +7.9
+    rest: what a run reads is within the straight line's mean error (measured 1.3, 4.2 and 4.6 % against 4.0, 7.2
+    and 6.1 %), its worst error within 8 % for one and two lines (measured -3.4 and +6.7 %; the straight line's +7.9
     and +13.2 % show the bound can fail; the nets move by up to 0.4 % between CPU families), and for every k the band
-    covers at least 80 % of the held-out Q11 and M11 (measured Q11 3/3, 7/7, 12/12, M11 3/3, 6/7, 12/12). The failing
-    sides: with the band's narrow side floored at a quarter of the wide one below the lowest line (as toward runaway)
-    a point of the 10 mm line lies 1.9 % of its Q11 above the band with one line held out (2 of 3 covered); with
+    covers at least 80 % of the held-out Q11 and M11 (measured Q11 3/3, 6/7, 11/12, M11 3/3, 6/7, 12/12). The failing
+    sides: without a floor under the band's narrow side below the lowest line a point of the 10 mm line lies 2.3 % of
+    its Q11 above the band with one line held out (2 of 3 covered; 0.4 % with the floor at a quarter); with
     three lines held out the F-test does not keep the throat foot (p = 0.0104), and the model it chose misses by
     11.4 % (mean), where the weighed forms miss by 4.4 %; the physical model without its throat foot misses the two
     lowest lines by 14 % (mean)."""
@@ -195,15 +195,15 @@ def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_lin
     assert results[2]["rows"]["model"]["q11_mean_abs_pct"] > 10.0  # the chosen form alone (measured 11.4 %)
     for result in results:
         assert result["m11_covered"] >= 0.8 * result["points"]
-    for result in results[1:]:  # one point may leave the band (each k's nearest lies 0.4 and 0.6 % inside)
+    for result in results[1:]:  # one point may leave the band (one of 7 and one of 12 does, 0.2 and 0.3 % outside)
         assert result["q11_covered"] >= 0.8 * result["points"]
-    # k = 1: all three points must be inside, the nearest edge's lies 0.5 % of its Q11 inside it: its margin is
+    # k = 1: all three points must be inside, the nearest edge's lies 2.0 % of its Q11 inside it: its margin is
     # asserted, with the nets' 0.4 % spread between CPU families as the tolerance
     assert results[0]["q11_margin_pct"] > -0.4
     import hillchart.extension.hypotheses as hypotheses
 
-    monkeypatch.setattr(hypotheses, "MIN_SIDE_FRACTION_BELOW", hypotheses.MIN_SIDE_FRACTION)
-    assert bench.hold_out_lines(chart, 1)["q11_margin_pct"] < -1.0  # measured -1.9 %
+    monkeypatch.setattr(hypotheses, "MIN_SIDE_FRACTION_BELOW", 0.0)
+    assert bench.hold_out_lines(chart, 1)["q11_margin_pct"] < -1.0  # measured -2.3 %
     # the model with the foot and without it (the test at level 0 never keeps it), at the two lowest lines
     import hillchart.extension.turbine_model as turbine_model
 

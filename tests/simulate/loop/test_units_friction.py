@@ -32,7 +32,7 @@ def bench():
 
 @pytest.fixture(scope="module")
 def runs(bench):
-    """The shipped plant's rejections (60 s, closure over at 10.64-10.66 s) by (units, friction, k3, reaches)."""
+    """The shipped plant's rejections (60 s, closure over at 10.62-10.64 s) by (units, friction, k3, reaches)."""
     cache = {}
 
     def get(units, friction, k3=None, reaches=8):
@@ -142,8 +142,8 @@ def test_the_manifold_balances_the_flows_with_brunone_at_every_step(runs, units)
 
 
 @pytest.mark.parametrize("units, closure_end_s, ratio_steady, ratio_brunone, late", [
-    (ONE, 10.66, 0.7656, 0.7166, 0.9297),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
-    (ALL, 10.64, 1.0038, 0.9716, 0.9634),  # the conduit and both branches ring, flow about zero
+    (ONE, 10.64, 0.7661, 0.7172, 0.9297),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
+    (ALL, 10.62, 1.0038, 0.9716, 0.9634),  # the conduit and both branches ring, flow about zero
 ])
 def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, units, closure_end_s, ratio_steady,
                                                                   ratio_brunone, late):
@@ -162,12 +162,12 @@ def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, u
     assert a_b[-1] / a_b[0] < a_s[-1] / a_s[0] - 0.03
 
 
-@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0019, -0.0110), (ALL, 0.0022, -0.0049)])
+@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0018, -0.0071), (ALL, 0.0024, -0.0045)])
 def test_halving_the_step_moves_the_extreme_heads_by_less_than_0_1_percent(bench, runs, units, max_pct, min_pct):
     """8 reaches (dt = 0.0191 s) against 16: the largest and the smallest head of any unit and of the manifold move
     by ``max_pct`` and ``min_pct`` per cent with Brunone (pinned to 0.002 percentage points; the acceptance is
     0.1 %). The failing case: the late ringing (the test above), read after 40 s of ringing, carries the first-order
-    error of the explicit form's damping, and moves by 1.0 % (one unit) between the two steps."""
+    error of the explicit form's damping, and moves by 1.1 % (one unit) between the two steps."""
     def extremes(result):
         heads = np.concatenate([u["head_m"] for u in result.units.values()] + [result.signals["manifold_head_m"]])
         return heads.max(), heads.min()
@@ -181,4 +181,4 @@ def test_halving_the_step_moves_the_extreme_heads_by_less_than_0_1_percent(bench
     if units == ONE:
         late8 = bench.window_amplitudes(runs(units, "brunone"))[1][-1]
         late16 = bench.window_amplitudes(runs(units, "brunone", reaches=16))[1][-1]
-        assert 100.0 * (late16 / late8 - 1.0) == pytest.approx(1.06, abs=0.05)
+        assert 100.0 * (late16 / late8 - 1.0) == pytest.approx(1.11, abs=0.05)
