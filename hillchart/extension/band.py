@@ -115,7 +115,7 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
 
 def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE, *, growth: float = GROWTH,
                far_fraction: float = FAR_FRACTION, shape=None,
-               min_side_fraction: float = MIN_SIDE_FRACTION) -> tuple[float, float]:
+               min_side_fraction: float = MIN_SIDE_FRACTION, folds=None) -> tuple[float, float]:
     """``(low, high)``: the band's half-widths per squared distance below and above the prediction, each a one-sided
     split-conformal bound at ``(1 + coverage) / 2`` on the signed scores ``r / d^2`` of the far half of the distances
     tested (:func:`band_scale` says why ``d^2`` and the far half). ``r`` is prediction minus truth (a log-ratio for
@@ -125,10 +125,13 @@ def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE,
     of them for the quantile (``ceil((n + 1) q) > n``), a side is its largest score times ``(lines + 1) / lines``,
     so a chart with one held-out line gets twice the width its one line showed. Neither side is narrower than
     ``min_side_fraction`` of the other (:data:`MIN_SIDE_FRACTION`; below the lowest line
-    :data:`MIN_SIDE_FRACTION_BELOW`). ``growth`` and ``far_fraction``: the power of the distance and the part
-    of the distances calibrated on (toward runaway, :func:`hillchart.extension.hypotheses.overspeed_evidence`: 1 and
-    0); ``shape``, a further factor of the band's growth at each point (M11 below the lowest line: ``1 - d``, the
-    band closing at the closed vanes).
+    :data:`MIN_SIDE_FRACTION_BELOW`). ``folds`` (one label per residual: the hold-out it comes from): where the
+    far half holds one fold only, or folds whose mean scores take both signs, the evidence has not shown on which
+    side the error falls, and both sides are the wider one (an on-cam chart's band,
+    :func:`hillchart.fccm.on_cam.on_cam_evidence`). ``growth`` and ``far_fraction``: the power of the distance and
+    the part of the distances calibrated on (toward runaway,
+    :func:`hillchart.extension.hypotheses.overspeed_evidence`: 1 and 0); ``shape``, a further factor of the band's
+    growth at each point (M11 below the lowest line: ``1 - d``, the band closing at the closed vanes).
 
     Examples
     --------
@@ -151,6 +154,11 @@ def band_sides(residuals, distance, lines: int, coverage: float = BAND_COVERAGE,
         width = float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (lines + 1) / lines
         sides.append(max(width, 0.0))
     widest = max(sides)
+    if folds is not None:
+        labels = np.asarray(folds)[far]
+        means = np.array([np.mean(score[labels == f]) for f in np.unique(labels)])
+        if means.size < 2 or (np.any(means > 0.0) and np.any(means < 0.0)):
+            min_side_fraction = 1.0
     return tuple(max(v, min_side_fraction * widest) for v in sides)
 
 

@@ -206,10 +206,11 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
     held-out points inside the lowest kept line's N11 range (log-ratios of Q11; M11 as a share of the chart's M11
     range), over the squared distance, give the band (:func:`hillchart.extension.band.band_sides`: split-conformal,
     the held-out lines its units of evidence, neither side under half the other,
-    :data:`hillchart.extension.band.MIN_SIDE_FRACTION_BELOW`; M11's closing as ``1 - d``, as a Francis chart's
-    does). A fold whose lines the closed cam cannot be placed from is left out (``closed``: the closed cam given,
-    deg, held in every fold); with none the band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide and the
-    summary says to give more lines."""
+    :data:`hillchart.extension.band.MIN_SIDE_FRACTION_BELOW`, and both as wide as the wider where the folds
+    calibrated on disagree on the side of the error or are one fold; M11's closing as ``1 - d``, as a Francis
+    chart's does). A fold whose lines the closed cam cannot be placed from is left out (``closed``: the closed cam
+    given, deg, held in every fold); with none the band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide
+    and the summary says to give more lines."""
     from hillchart.characteristics import unit_torque_from_efficiency
     from hillchart.extension.band import MIN_SIDE_FRACTION_BELOW, NO_EVIDENCE_SCALE, band_sides, log_ratio
 
@@ -217,7 +218,7 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
     m11 = np.asarray(unit_torque_from_efficiency(q11, n11, efficiency), float)  # eq. (5) of paper 004
     scale = max(float(np.ptp(m11)), 1e-12)
     lines = np.unique(blade)
-    folds, q_res, m_res, distance, held = [], [], {h: [] for h in EFFICIENCY_HYPOTHESES}, [], 0
+    folds, q_res, m_res, distance, held, fold_of = [], [], {h: [] for h in EFFICIENCY_HYPOTHESES}, [], 0, []
     for j in HOLD_OUT:
         if lines.size - j < 2:
             break
@@ -236,6 +237,7 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
         for h, answer in answers.items():
             m_res[h].append((answer[1][inside] - m_true) / scale)
         distance.append(d[inside])
+        fold_of.append(np.full(int(inside.sum()), j))
         held += j
         folds.append({"held_out_deg": [float(b) for b in lines[:j]], "points": int(inside.sum()),
                       "q11_error": q[inside] / q_true - 1.0})
@@ -263,9 +265,11 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
                      "q11_worst_pct": 100.0 * float(q_err[np.argmax(np.abs(q_err))]),
                      "m11_mean_abs_pct": 100.0 * float(np.mean(np.abs(m_err))),
                      "m11_worst_pct": 100.0 * float(m_err[np.argmax(np.abs(m_err))])})
-    band_q = band_sides(np.concatenate(q_res), distance, held, min_side_fraction=MIN_SIDE_FRACTION_BELOW)
+    fold_of = np.concatenate(fold_of)
+    band_q = band_sides(np.concatenate(q_res), distance, held, min_side_fraction=MIN_SIDE_FRACTION_BELOW,
+                        folds=fold_of)
     band_m = band_sides(blend, distance, held, shape=np.maximum(1.0 - distance, 1e-9),
-                        min_side_fraction=MIN_SIDE_FRACTION_BELOW)
+                        min_side_fraction=MIN_SIDE_FRACTION_BELOW, folds=fold_of)
     return OnCamEvidence(folds=tuple(folds), band_q11=tuple(float(v) for v in band_q),
                          band_m11=tuple(float(v) for v in band_m), m11_scale=scale,
                          distance_cap=min(1.0, float(distance.max())), weights=weights)

@@ -167,6 +167,28 @@ def test_band_sides_are_one_sided_conformal_bounds_on_the_signed_scores():
     assert H.band_sides([0.02, 0.04, -0.01], [0.5] * 3, lines=3) == pytest.approx((0.16 * 4 / 3, 0.04 * 4 / 3))
 
 
+def test_folds_that_disagree_on_the_sign_give_a_symmetric_band():
+    """With the hold-out of each residual given: two folds whose mean misses take both signs (one overshot, one
+    undershot), or a single fold, have not shown on which side the error falls, and both sides are the wider one;
+    two folds that agree keep the narrow side at its floor. The Kaplan chart of the bulb page, its lowest line held
+    out: its inner folds missed by +3.4 % and -2.4 % (mean), the held-out line lay 3-5 % below the answer, and the
+    band with a narrow low side covered 5 of its 10 points (docs/bulb-extrapolation.md)."""
+    residuals = np.array([0.04, 0.03, 0.05, -0.02, -0.01, -0.03])
+    distance = np.array([0.2, 0.2, 0.2, 0.4, 0.4, 0.4])
+    # the failing side: without the folds, the narrow (high) side is half the wide one
+    asymmetric = H.band_sides(residuals, distance, lines=3, min_side_fraction=0.5)
+    wide = max(asymmetric)
+    assert asymmetric == pytest.approx((wide, 0.5 * wide)) and wide > 1.0
+    disagree = H.band_sides(residuals, distance, lines=3, min_side_fraction=0.5, folds=[1, 1, 1, 2, 2, 2])
+    assert disagree == pytest.approx((wide, wide))
+    one = H.band_sides(residuals[3:], distance[3:], lines=1, min_side_fraction=0.5, folds=[2, 2, 2])
+    assert one[0] == pytest.approx(one[1]) and one[1] > 0
+    same_sign = np.abs(residuals)
+    agree = H.band_sides(same_sign, distance, lines=3, min_side_fraction=0.5, folds=[1, 1, 1, 2, 2, 2])
+    assert agree == pytest.approx(H.band_sides(same_sign, distance, lines=3, min_side_fraction=0.5))
+    assert agree[1] == pytest.approx(0.5 * agree[0])
+
+
 @pytest.mark.external
 def test_the_real_chart_predicts_its_held_out_lines_no_worse_than_a_straight_line(tmp_path, monkeypatch):
     """Sayano with its lowest line, then its two and its three lowest, held out and trained with the defaults on the

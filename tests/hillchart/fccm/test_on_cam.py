@@ -116,14 +116,16 @@ def test_lines_that_bend_widen_the_band_and_the_members_span_it(tmp_path):
     blade, n11, q, eta = (table.column(k) for k in ("blade_angle_deg", "n11_rpm", "q11_m3_s", "efficiency"))
     evidence = _evidence(table)
     # by hand: the two folds' Q11 misses (log-ratios) over d^2, through the same band_sides
-    residuals, distance = [], []
+    residuals, distance, folds = [], [], []
     for j, top in ((1, 20.0), (2, 30.0)):
         out = blade < top
         answer, _, d, inside = line_answer(blade[~out], n11[~out], q[~out], eta[~out], blade[out], n11[out])
         residuals.append(log_ratio(answer, q[out], 1e-9))
         distance.append(d)
+        folds.append(np.full(d.size, j))
         assert inside.all()
-    expected = band_sides(np.concatenate(residuals), np.concatenate(distance), 3, min_side_fraction=0.5)
+    expected = band_sides(np.concatenate(residuals), np.concatenate(distance), 3, min_side_fraction=0.5,
+                          folds=np.concatenate(folds))
     assert evidence.band_q11 == pytest.approx(expected, rel=1e-12)
     # a flow convex in the blade angle: the straight line from the kept lines falls below the held-out lines, so
     # the high side is the wide one and the low side its floor, half of it (MIN_SIDE_FRACTION_BELOW)
