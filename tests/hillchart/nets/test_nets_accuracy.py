@@ -86,10 +86,11 @@ def test_shipped_nets_regenerate_on_any_cpu(tmp_path, capsys):
 
     Training is deterministic, but not bit-identical across CPUs: the compiled Levenberg-Marquardt loop and LAPACK's
     Cholesky sum in an order that depends on the CPU's vector unit (AVX2, AVX-512, NEON), and the optimisation
-    amplifies those last-bit differences. Measured on two CPU families against the file (written on an AMD EPYC):
-    3e-5 of the range on another AMD EPYC, 3.7e-3 on an Intel CPU (AVX-512). The bound, 1e-2 of each quantity's
-    range over the whole extended domain, is 2.7x the Intel figure and 5x below what a change of seed moves (5e-2;
-    the failing case below), so a changed selection, seed or extension still fails it.
+    amplifies those last-bit differences. Measured on two CPU families against an earlier file written on an AMD
+    EPYC: 3e-5 of the range on another AMD EPYC, 3.7e-3 on an Intel CPU (AVX-512); the file shipped now is written
+    on an Intel Xeon, so the AMD family sees the larger figure. The bound, 1e-2 of each quantity's range over the
+    whole extended domain, is 2.7x that figure and 5x below what a change of seed moves (5e-2; the failing case
+    below), so a changed selection, seed or extension still fails it.
     """
     from hillsim.cli import main
 
