@@ -52,8 +52,8 @@ ORIGIN_COLOURS = {"measured": "tab:blue", "runaway": "tab:red", "zero-opening": 
                   "silent-region": "tab:purple"}
 #: Openings of the small-opening samples, fractions of the lowest digitized opening line: only where the nets are
 #: read, above :data:`hillchart.nets.silent_model.BLEND_START_FRACTION` (0.5) of it. Below, the extrapolation table
-#: answers alone; samples there (0.1, 0.25, 0.45) only bent the nets' fit, and out of class they cost the band its
-#: coverage (84 % against 90 % without them; docs/guarantee-benchmark.md, step 11).
+#: answers alone; samples there (0.1, 0.25, 0.45) only bent the nets' fit: out of class the band covered 84 % with
+#: them, 90 % without them and with the hidden sizes from 5 (docs/guarantee-benchmark.md, step 11).
 SMALL_OPENING_FRACTIONS = (0.7,)
 #: N11 values per small opening (0 to the largest sampled N11) and per line between its end and runaway.
 SMALL_OPENING_SPEEDS = 12

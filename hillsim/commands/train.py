@@ -182,11 +182,10 @@ def format_training_table(nets) -> str:
     lines.append("(H, boundary weight, lambda: chosen by 5-fold CV on the measured samples unless given; CV MSE on "
                  "outputs mapped to [-1, 1]; errors of the point net at the measured samples in physical units)")
     for key in ("flow", "torque"):
-        tried = nets.training[key].get("distillation", {}).get("tried", [])
-        if len(tried) > 1:
-            first, bound = tried[0], nets.training[key]["distillation"]["bound"]
-            kept = nets.training[key]["distillation"]["hidden"]
-            lines.append(f"{key}: the point net has H = {kept}: with H = {first['hidden']} it followed "
-                         f"the members' median only within {first['rms_from_median']:.3g} {units[key]} RMS "
-                         f"(bound {bound:.3g} {units[key]})")
+        distilled = nets.training[key].get("distillation") or {"tried": []}
+        if len(distilled["tried"]) > 1:
+            first = distilled["tried"][0]
+            lines.append(f"{key}: the point net has H = {distilled['hidden']}: with H = {first['hidden']} it "
+                         f"followed the members' median only within {first['rms_from_median']:.3g} {units[key]} "
+                         f"RMS (bound {distilled['bound']:.3g} {units[key]})")
     return "\n".join(lines)

@@ -70,7 +70,6 @@ def test_train_says_when_the_point_net_grew():
     assert "torque: the point net" not in text  # failing case beside: a size kept as given is not reported
 
 
-
 def test_train_nets_records_the_point_nets_size():
     """Through train_nets: the record starts at the selected size and ends at the point net's."""
     from hillchart.nets.training import train_nets
