@@ -285,8 +285,8 @@ def plant_file_page() -> str:
     section("[blade_servo]", BladeServoConfig,
             note="With `combinator.relation` `cam`, `model` or `table`.")
     section("[draft_tube]", config.DraftTubeConfig, skip=("segments",),
-            note="`[[draft_tube.segments]]` take the keys of `[[penstock.segments]]` (without the elevations), "
-                 "runner outlet first.")
+            note="`[[draft_tube.segments]]` take the keys of `[[penstock.segments]]` (the elevations with "
+                 "`model = \"moc\"` only), runner outlet first.")
     section("[excitation]", ExcitationConfig,
             note='With `generator.model = "subtransient"` only.')
     section("[grid]", GridConfig, note='With `generator.model = "subtransient"` only.')

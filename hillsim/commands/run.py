@@ -291,6 +291,8 @@ def _add_uncertainty(band: dict, summary_path: Path) -> None:
           f"{100 * band['max_head_rise']['low']:.2f}-{100 * band['max_head_rise']['high']:.2f} %, min head drop "
           f"{100 * band['min_head_drop']['low']:.2f}-{100 * band['min_head_drop']['high']:.2f} % (5-95 %)"
           + ("".join(f", {label} {band[name]['low']:.2f}-{band[name]['high']:.2f} {unit}"
-                     for name, label, unit in (("max_reverse_speed_pct", "max reverse speed", "% of rated"),
+                     for name, label, unit in (("min_draft_tube_pressure_head_m", "min draft-tube pressure head",
+                                                "m absolute"),
+                                               ("max_reverse_speed_pct", "max reverse speed", "% of rated"),
                                                ("max_reverse_flow_m3_s", "max reverse flow", "m^3/s"),
                                                ("t_runaway_s", "runaway at", "s")) if name in band)))

@@ -10,6 +10,7 @@ names)::
     max_head_rise = 0.45            # max(H)/H0 - 1 at the turbine, fraction
     max_head_m = 260.0              # head at the turbine inlet, m
     min_pressure_head_m = 5.0       # along the penstock (needs the simulator's head envelope)
+    min_draft_tube_pressure_head_m = 2.0  # absolute, below the runner and along the draft tube (needs [draft_tube])
     max_reverse_speed_pct = 30.0    # against the initial rotation, % of n_r (four-quadrant characteristics)
     max_reverse_flow_m3_s = 12.0    # against the initial flow, m^3/s (four-quadrant characteristics)
 
@@ -52,6 +53,9 @@ class Limits:
     # -10.4 m: vacuum, water
     min_pressure_head_m: float | None = parameter(None, unit="m", low=-10.4, low_open=True, high=1e4,
                                                   description="smallest pressure head along the penstock")
+    min_draft_tube_pressure_head_m: float | None = parameter(
+        None, unit="m of water, absolute", low=0.0, high=1e4,
+        description="smallest absolute pressure head below the runner and, with the draft tube's profile, along it")
     max_reverse_speed_pct: float | None = parameter(
         None, unit="% of the rated speed", low=0.0, high=500.0,
         description="largest speed against the initial rotation (characteristics over all four quadrants)")
@@ -64,6 +68,10 @@ class Limits:
     JUDGED = (("max_speed_rise", True, "a run"), ("max_head_rise", True, "a run"), ("max_head_m", True, "a run"),
               ("min_pressure_head_m", False, "the head envelope along a penstock with its profile (an MOC "
                                              "penstock, [[penstock.segments]] elevation_start_m/elevation_end_m)"),
+              ("min_draft_tube_pressure_head_m", False, "a [draft_tube] section (the runner outlet's absolute "
+                                                        "pressure; along the draft tube with draft_tube.model = "
+                                                        "\"moc\" and [[draft_tube.segments]] elevation_start_m/"
+                                                        "elevation_end_m)"),
               ("max_reverse_speed_pct", True, "characteristics over all four quadrants (a pump-turbine's)"),
               ("max_reverse_flow_m3_s", True, "characteristics over all four quadrants (a pump-turbine's)"))
 

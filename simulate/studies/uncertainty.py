@@ -20,8 +20,8 @@ BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m"
 #: Figures a run computes only with the head envelope (e.g. not on a rigid penstock), or only for characteristics
 #: that can reverse (:mod:`simulate.results.reversal`; a time only where the flow reversed or the unit ran away):
 #: banded when every member that ran has it.
-OPTIONAL_BAND_FIGURES = ("min_pressure_head_m", "max_reverse_speed_pct", "max_reverse_flow_m3_s",
-                         "t_flow_reversal_s", "t_runaway_s")
+OPTIONAL_BAND_FIGURES = ("min_pressure_head_m", "min_draft_tube_pressure_head_m", "max_reverse_speed_pct",
+                         "max_reverse_flow_m3_s", "t_flow_reversal_s", "t_runaway_s")
 #: Time series whose band over the members is drawn on ``transient.png`` (SimulationResult attributes).
 BAND_TRACES = ("speed_rpm", "head_m", "flow_m3_s", "opening")
 #: The members' spread is widened by this factor about their median (see :func:`figure_band`).

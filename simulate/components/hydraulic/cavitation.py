@@ -216,11 +216,12 @@ def node_vapour_heads_m(penstock, x_m, settings: VapourSettings) -> np.ndarray:
 
 class BoilingSteadyState(InputError):
     """:func:`check_steady_heads`'s refusal, with the node's steady head and vapour head (m above the tailwater
-    datum) for a caller that words it for its own section (the draft tube)."""
+    datum) and its distance from the pipe's inlet ``x_m`` (m) for a caller that words it for its own section (the
+    draft tube)."""
 
-    def __init__(self, message: str, head_m: float, vapour_head_m: float):
+    def __init__(self, message: str, head_m: float, vapour_head_m: float, x_m: float = 0.0):
         super().__init__(message)
-        self.head_m, self.vapour_head_m = head_m, vapour_head_m
+        self.head_m, self.vapour_head_m, self.x_m = head_m, vapour_head_m, x_m
 
 
 def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
@@ -245,7 +246,7 @@ def check_steady_heads(penstock, x_m, heads_m, vapour_heads_m) -> None:
     raise BoilingSteadyState(
         f"penstock.column_separation = {penstock.column_separation!r}: the steady head at node {j} (x = {x:.4g} m), "
         f"{heads_m[j]:.4g} m, is not above its vapour head {vapour_heads_m[j]:.4g} m{where}: the water would boil in "
-        f"steady flow; raise the reservoir or lower the pipe", float(heads_m[j]), float(vapour_heads_m[j]))
+        f"steady flow; raise the reservoir or lower the pipe", float(heads_m[j]), float(vapour_heads_m[j]), x)
 
 
 def no_profile_note(penstock) -> str:

@@ -22,10 +22,14 @@ pressure head plus the user's margin.
 Water-column separation in the ``moc`` draft tube (``column_separation``, the penstock's models of
 :mod:`simulate.components.hydraulic.cavitation`: the discrete gas cavity model by default) is the mirrored pipe's:
 its downstream end is the runner outlet, so a cavity below the runner is the cavity the penstock's models open at
-their turbine end. The pipe's axis is taken at the runner outlet's level along the whole draft tube (the segments
-carry no profile; the draft tube descends from the runner, so its lower nodes hold more pressure than this gives
-them: cavities there are taken to form sooner, not later), and the vapour pressure is ``vapour_pressure_head_m``
-(the mirrored pipe's water temperature is the one whose IAPWS-IF97 vapour pressure it is).
+their turbine end. The pipe's axis is the segments' profile where they carry one (``elevation_start_m`` /
+``elevation_end_m``, runner outlet first, ``moc`` only), else the runner outlet's level along the whole draft tube
+(a draft tube descends from the runner, so its lower nodes hold more pressure than this gives them: cavities there
+are taken to form sooner, not later); the vapour pressure is ``vapour_pressure_head_m`` (the mirrored pipe's water
+temperature is the one whose IAPWS-IF97 vapour pressure it is).
+
+The guarantee's figure ``min_draft_tube_pressure_head_m`` (absolute, m of water) is the lowest over every node of
+every step along a profile (from the mirrored conduit's lowest head per node), else the runner outlet's minimum.
 """
 
 from __future__ import annotations
@@ -40,10 +44,10 @@ from hillchart.errors import InputError
 from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, DVCM_KEYS, MODEL_NAMES,
                                                       BoilingSteadyState, vapour_pressure_head_m)
 from simulate.components.hydraulic.brunone import BrunoneConfig
-from simulate.components.hydraulic.conduit import PenstockConfig, check_friction_keys, read_segments
+from simulate.components.hydraulic.conduit import PROFILE_KEYS, PenstockConfig, check_friction_keys, read_segments
 from simulate.components.hydraulic.convolution import ConvolutionConfig
 from simulate.components.hydraulic.penstock import (iir_relation, iir_update, moc_dvcm_record, moc_relation,
-                                                    moc_update)
+                                                    moc_track_lowest, moc_update)
 from simulate.components.contract import PART, SCALAR, LinearBlock, StateArray
 from simulate.components.parameters import borrowed, parameter, validate_parameters
 from simulate.components.registry import FRICTION, PENSTOCKS
@@ -84,6 +88,7 @@ def moc_draft_relation(p, s):
 @numba.njit(cache=True)
 def moc_draft_update(p, s, outlet_head_m, flow_m3_s):
     moc_update(p[0], s[0], 0.0, outlet_head_m, -flow_m3_s)
+    moc_track_lowest(s[0])  # every node's lowest head: the minimum pressure along a draft tube with a profile
     s[1][0] = outlet_head_m
 
 
@@ -147,10 +152,18 @@ def build_draft_tube(plant, steady, dt_s: float):
     try:
         inner = PENSTOCKS.builder(config.model)(fake_plant, fake_steady, dt_s, 0.0)
     except BoilingSteadyState as exc:
-        outlet = exc.head_m + config.atmospheric_pressure_head_m - config.runner_elevation_m
+        # the node's absolute pressure head: H - z + atmospheric, its vapour head z - atmospheric + vapour (eq. (C1))
+        absolute = exc.head_m - exc.vapour_head_m + config.vapour_pressure_head_m
+        from_runner_m = mirrored.length_m - exc.x_m
+        if config.has_profile and from_runner_m > 1e-9 * mirrored.length_m:
+            raise InputError(
+                f"draft_tube.segments: the absolute pressure head in the draft tube {from_runner_m:.4g} m from the "
+                f"runner outlet in steady flow, {absolute:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
+                f"{config.vapour_pressure_head_m:g}: the water would boil there; lower the draft tube there (the "
+                f"segments' elevation_start_m/elevation_end_m) or set the runner lower") from None
         raise InputError(
             f"draft_tube.runner_elevation_m = {config.runner_elevation_m:g}: the absolute pressure head below the "
-            f"runner in steady flow, {outlet:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
+            f"runner in steady flow, {absolute:.3g} m, is not above draft_tube.vapour_pressure_head_m = "
             f"{config.vapour_pressure_head_m:g}: the water would boil there; set the runner lower (a smaller "
             f"runner_elevation_m)") from None
     except InputError as exc:
@@ -175,12 +188,30 @@ def build_draft_tube(plant, steady, dt_s: float):
         functions = {"relation": rigid_draft_relation, "update": rigid_draft_update, "record": draft_record}
     offset = config.atmospheric_pressure_head_m - config.runner_elevation_m
     limit = config.vapour_pressure_head_m + config.vapour_margin_m
+    profile = on_grid and config.has_profile
+
+    def lowest_along():
+        """The lowest absolute pressure head along the draft tube's profile (m of water), its distance from the
+        runner outlet (m) and its step: from every node's lowest head (the mirrored conduit's track)."""
+        track = inner.state[4]
+        absolute = track[4] - mirrored.axis_elevations_m(inner.node_x_m) + config.atmospheric_pressure_head_m
+        j = int(np.argmin(absolute))
+        x = float(mirrored.length_m - inner.node_x_m[j])
+        return float(absolute[j]), (0.0 if x <= 1e-9 * mirrored.length_m else x), int(track[3, j])
 
     def summary_after(time_s, signals):
         values = signals["outlet_pressure_head_m"]
         i = int(np.argmin(values))
         out = {"min_outlet_pressure_head_m": float(values[i]), "t_min_outlet_pressure_s": float(time_s[i]),
                "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"]))}
+        # the guarantee's figure: along the profile where there is one (every step), else below the runner
+        if profile:
+            low, x, step = lowest_along()
+            out.update(min_draft_tube_pressure_head_m=low, min_draft_tube_pressure_x_m=x,
+                       t_min_draft_tube_pressure_s=step * dt_s)
+        else:
+            out.update(min_draft_tube_pressure_head_m=float(values[i]), min_draft_tube_pressure_x_m=0.0,
+                       t_min_draft_tube_pressure_s=float(time_s[i]))
         if cavities:  # the mirrored conduit's cavity figures (its x from the draft tube's outlet)
             figures = inner.hooks.summary_after(time_s, signals)
             out.update({f"draft_tube_{key}": value for key, value in figures.items()
@@ -189,11 +220,14 @@ def build_draft_tube(plant, steady, dt_s: float):
 
     def warnings_after(signals):
         out = []
-        low = float(np.min(signals["outlet_pressure_head_m"]))
+        low, x = float(np.min(signals["outlet_pressure_head_m"])), 0.0
+        if profile:
+            low, x, _ = min((low, x, 0), lowest_along())
+        where = "at the runner outlet" if x == 0.0 else f"in the draft tube {x:.4g} m from the runner outlet"
         if low < limit:
             modelled = (f"the {MODEL_NAMES[config.column_separation]} represents the column's separation there"
                         if cavities else "the water column may separate in the draft tube (not modelled)")
-            out.append(f"the absolute pressure head at the runner outlet falls to {low:.3g} m, below the vapour "
+            out.append(f"the absolute pressure head {where} falls to {low:.3g} m, below the vapour "
                        f"pressure head plus margin ({config.vapour_pressure_head_m:g} + {config.vapour_margin_m:g} "
                        f"m): {modelled}; close the guide vanes more slowly, set the runner deeper "
                        f"(draft_tube.runner_elevation_m) or check the draft tube")
@@ -211,24 +245,33 @@ def build_draft_tube(plant, steady, dt_s: float):
         summary["draft_tube_moc_reaches"] = inner.hooks.summary["moc_reaches"]
     hooks = PartHooks(summary=summary, initial_signals=(head0, head0 + offset) + ((0.0, 0.0) if cavities else ()),
                       summary_after=summary_after, warnings_after=warnings_after,
-                      failure=_draft_failure(config, inner) if cavities else None)
+                      failure=_draft_failure(config, inner, mirrored.length_m) if cavities else None)
     return CompiledPart(kind="downstream", name=f"draft_tube ({config.model})", functions=functions,
                         params=(inner.params, np.array([offset])), state=(inner.state, np.array([head0])),
                         signals=SIGNALS + (CAVITY_SIGNALS if cavities else ()), hooks=hooks)
 
 
-def _draft_failure(config, inner):
-    """Why a run stopped that had a cavity below the runner: its collapse drives the draft tube's head up, and a
-    turbine whose net head is then not positive is outside its characteristics."""
+def _draft_failure(config, inner, length_m: float):
+    """Why a run stopped that had a cavity in the draft tube: its collapse drives the draft tube's head up, and a
+    turbine whose net head then falls toward zero is outside its characteristics. The cavity below the runner when
+    one formed there, else the largest (at a high point of the draft tube's profile)."""
     track = inner.state[4]
 
     def failure() -> str:
-        if track[5, -1] == 0.0:
+        formed = np.flatnonzero(track[5] > 0)
+        if formed.size == 0:
             return ""
-        return (f"a cavity below the runner (the {MODEL_NAMES[config.column_separation]} of the draft tube) formed "
-                f"and collapsed: the draft tube's head rose to the turbine inlet's and the turbine's net head is not "
-                f"positive, which its characteristics do not cover; close the guide vanes more slowly or set the "
-                f"runner deeper (draft_tube.runner_elevation_m)")
+        model = MODEL_NAMES[config.column_separation]
+        if track[5, -1] > 0:
+            return (f"a cavity below the runner (the {model} of the draft tube) formed and collapsed: the draft "
+                    f"tube's head rose to the turbine inlet's and the turbine's net head is not positive, which its "
+                    f"characteristics do not cover; close the guide vanes more slowly or set the runner deeper "
+                    f"(draft_tube.runner_elevation_m)")
+        j = int(formed[np.argmax(track[1, formed])])
+        return (f"a cavity in the draft tube {length_m - inner.node_x_m[j]:.4g} m from the runner outlet (the {model}) "
+                f"formed and collapsed: the draft tube's head rose toward the turbine inlet's and drove the turbine's "
+                f"net head toward zero, beyond its characteristics; lower the draft tube there "
+                f"([[draft_tube.segments]] elevations), close the guide vanes more slowly or set the runner deeper")
     return failure
 
 
@@ -262,7 +305,9 @@ class DraftTubeConfig:
     """``[draft_tube]``: the conduit from the runner outlet to the tailwater.
 
     ``model`` ``"moc"`` or ``"rigid"``; ``[[draft_tube.segments]]`` with the penstock's segment keys
-    (``length_m``, ``diameter_m``, ``wave_speed_m_s``, ``darcy_friction``), runner outlet first;
+    (``length_m``, ``diameter_m``, ``wave_speed_m_s``, ``darcy_friction``; with ``moc`` also the profile
+    ``elevation_start_m``/``elevation_end_m``, m above the tailwater level, on every segment or none, the first
+    starting at ``runner_elevation_m``), runner outlet first;
     ``atmospheric_pressure_head_m`` (m of water, 10.33 at sea level); ``runner_elevation_m`` the runner outlet above
     the tailwater level (m, negative below it); ``vapour_pressure_head_m`` (m of water, 0.24 at 20 C);
     ``vapour_margin_m``: warn when the outlet pressure head falls below vapour pressure head + this margin (m).
@@ -294,8 +339,22 @@ class DraftTubeConfig:
 
     def __post_init__(self):
         validate_parameters("draft_tube", self)
-        object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=False,
+        # a profile only where there are nodes along the conduit to take it (the method of characteristics)
+        on_grid = PENSTOCKS.traits(self.model).grid_fixes_time_step
+        if not on_grid and isinstance(self.segments, (list, tuple)):
+            given = [k for seg in self.segments for k in PROFILE_KEYS
+                     if (seg.get(k) if isinstance(seg, dict) else getattr(seg, k, None)) is not None]
+            if given:
+                raise InputError(f"draft_tube.segments.{given[0]} is read only by draft_tube.model = \"moc\" (the "
+                                 f"pressure along the draft tube at its nodes); with model = {self.model!r} it would "
+                                 f"be ignored: set draft_tube.model = \"moc\" or remove the segments' elevations")
+        object.__setattr__(self, "segments", read_segments(self.segments, "draft_tube.segments", profile=on_grid,
                                                           first="runner outlet"))
+        if self.has_profile and abs(self.segments[0].elevation_start_m - self.runner_elevation_m) > 1e-9:
+            raise InputError(f"draft_tube.segments[0].elevation_start_m = {self.segments[0].elevation_start_m:g} "
+                             f"but draft_tube.runner_elevation_m = {self.runner_elevation_m:g}: the profile starts "
+                             f"at the runner outlet (m above the tailwater level); set runner_elevation_m = "
+                             f"{self.segments[0].elevation_start_m:g} or correct the first segment's elevation")
         for key in ("friction_model", "column_separation"):
             default = next(f.default for f in fields(self) if f.name == key)
             if getattr(self, key) != default and key not in PENSTOCKS.traits(self.model).reads:
@@ -318,22 +377,31 @@ class DraftTubeConfig:
         one reach, the draft tube having none of its own). With column separation its segments' axis lies at the
         runner outlet's level, and its atmospheric pressure and water temperature are the draft tube's atmospheric
         pressure and the temperature of its vapour pressure (module docstring)."""
+        from dataclasses import replace
+
         shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig)
                   if hasattr(self, f.name) and f.name not in DVCM_KEYS}
-        segments = tuple(reversed(self.segments))
+        # from the tailwater to the runner: each segment's ends swap with the direction
+        segments = tuple(replace(s, elevation_start_m=s.elevation_end_m, elevation_end_m=s.elevation_start_m)
+                         for s in reversed(self.segments))
         if "column_separation" not in PENSTOCKS.traits(self.model).reads:
             shared.pop("column_separation")
         elif self.column_separation != "off":
-            from dataclasses import replace
-
             from scipy.optimize import brentq
 
             shared.update(atmospheric_pressure_head_m=self.atmospheric_pressure_head_m,
                           water_temperature_c=brentq(lambda t: vapour_pressure_head_m(t) - self.vapour_pressure_head_m,
                                                      0.0, 100.0, xtol=1e-12))
-            z = self.runner_elevation_m
-            segments = tuple(replace(s, elevation_start_m=z, elevation_end_m=z) for s in segments)
+            if not self.has_profile:
+                z = self.runner_elevation_m
+                segments = tuple(replace(s, elevation_start_m=z, elevation_end_m=z) for s in segments)
         return PenstockConfig(**{**shared, "static_head_m": 1.0, "reaches": 1, "segments": segments})
+
+    @property
+    def has_profile(self) -> bool:
+        """Whether the segments carry the draft tube's axis (``elevation_start_m``/``elevation_end_m``, runner outlet
+        first, m above the tailwater level)."""
+        return all(s.elevation_start_m is not None for s in self.segments)
 
     @property
     def friction_coefficient_s2_m5(self) -> float:

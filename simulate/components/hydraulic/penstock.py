@@ -504,13 +504,21 @@ def moc_envelope(p, s, upstream_head_m, head_m, env_max, env_min):
             env_max[j] = h
         lower |= h < env_min[j]
     if lower:
-        track = s[4]
         for j in range(heads.size):
-            h = heads[j]
-            if h < env_min[j]:
-                env_min[j] = h
-                track[3, j] = s[2][1]
-                track[4, j] = h
+            if heads[j] < env_min[j]:
+                env_min[j] = heads[j]
+        moc_track_lowest(s)
+
+
+@numba.njit(cache=True)
+def moc_track_lowest(s):
+    """Every node's lowest head (track row 4, m) and the step of it (row 3): :func:`moc_envelope`'s, whose
+    ``env_min`` starts from the same steady heads; a draft tube keeps no envelope and calls it each step."""
+    heads, track = s[0][s[2][0]], s[4]
+    for j in range(heads.size):
+        if heads[j] < track[4, j]:
+            track[4, j] = heads[j]
+            track[3, j] = s[2][1]
 
 
 @numba.njit(cache=True)

@@ -1,6 +1,7 @@
 """``hillsim run --uncertainty``: the scenario once per ensemble member of the nets."""
 
 import json
+import tomllib
 
 import numpy as np
 import pytest
@@ -9,7 +10,8 @@ from data_synthetic import FRANCIS_DIR, PLANT_HLA339
 from hillchart.errors import InputError
 from hillchart.nets.hill_nets import HillNets, load_nets
 from hillsim.cli import main
-from simulate.config import load_plant
+from simulate.config import load_plant, plant_from_dict
+from simulate.loop.engine import run_simulation
 from simulate.studies import uncertainty
 
 SHORT = {"scenario.t_end_s": 8.0}  # the speed and head peaks of the load rejection come within 8 s
@@ -96,3 +98,33 @@ def test_cli_draws_the_band(tmp_path, capsys):
     assert main(["run", str(PLANT_HLA339), "--out", str(out), "--set", "scenario.t_end_s=8.0", "--uncertainty"]) == 0
     assert (out / "transient.png").stat().st_size > 20_000
     assert "uncertainty" in json.loads((out / "summary.json").read_text())
+
+
+def test_the_band_of_the_draft_tube_s_lowest_pressure_decides_its_limit():
+    """A draft tube under the HLA339-like unit (runner outlet 2 m below the tailwater, 20 m down to 6 m below it):
+    every member gives ``min_draft_tube_pressure_head_m``, so it is banded, and the limit is judged on the band's
+    low end, never milder than the point nets' figure."""
+    from simulate.studies.case_results import case_from_result
+    from simulate.studies.cases import Limits
+
+    raw = tomllib.loads(PLANT_HLA339.read_text(encoding="utf-8"))
+    raw["scenario"]["t_end_s"] = 8.0
+    raw["draft_tube"] = {"model": "moc", "runner_elevation_m": -2.0, "segments": [
+        {"length_m": 20.0, "diameter_m": 4.0, "wave_speed_m_s": 1000.0, "darcy_friction": 0.014,
+         "elevation_start_m": -2.0, "elevation_end_m": -6.0}]}
+    plant = plant_from_dict(raw, base_dir=PLANT_HLA339.parent)
+    band = uncertainty.run_members(plant)
+    figure = band["min_draft_tube_pressure_head_m"]
+    assert len(figure["values"]) == band["members"] == 10
+    point = run_simulation(plant)
+    value = point.summary()["min_draft_tube_pressure_head_m"]
+    # measured: the point nets 8.66 m, the band 8.32-8.86 m (the members' speed rises differ, and with them the
+    # water column's deceleration below the runner); the band's low end lies 0.1 m or more below the point figure
+    assert figure["low"] < value - 0.1 < value < figure["high"]
+    # a limit between the band's low end and the point figure fails on the band, passes on the point nets
+    allowed = 0.5 * (figure["low"] + value)
+    case = case_from_result(0, {}, plant, point)
+    (on_band,) = Limits(min_draft_tube_pressure_head_m=allowed).check(case, band)
+    (on_point,) = Limits(min_draft_tube_pressure_head_m=allowed).check(case)
+    assert on_band["judged"] == "band" and on_band["verdict"] == "FAIL"
+    assert on_point["judged"] == "point" and on_point["verdict"] == "PASS"
