@@ -151,6 +151,24 @@ def nets_domain(characteristics, plant: PlantConfig | None = None) -> tuple[np.n
             np.minimum(np.asarray(flow.x_max, float), np.asarray(torque.x_max, float)))
 
 
+def worst_over_units(figures: dict, name: str):
+    """The figure ``name`` of ``figures`` (a summary or a case's component figures), or for a plant with several
+    units, whose figures are named ``unit.name``, the worst of theirs: the smallest of a ``min_`` figure, the largest
+    of a ``max_`` one; None when there is none.
+
+    >>> worst_over_units({"U1.min_draft_tube_pressure_head_m": 3.0, "U2.min_draft_tube_pressure_head_m": 2.5},
+    ...                  "min_draft_tube_pressure_head_m")
+    2.5
+    """
+    if figures.get(name) is not None:
+        return figures[name]
+    values = [float(v) for k, v in figures.items() if k.endswith("." + name) and isinstance(v, (int, float))
+              and not isinstance(v, bool) and math.isfinite(v)]
+    if not values or not name.startswith(("min_", "max_")):
+        return None
+    return min(values) if name.startswith("min_") else max(values)
+
+
 def case_from_result(index: int, values: dict, plant: PlantConfig, result, domain=None,
                      keep_series: bool = False) -> CaseResult:
     """The :class:`CaseResult` of one finished run (``result`` a :class:`simulate.results.result.SimulationResult`)."""

@@ -36,6 +36,7 @@ from typing import Any
 from hillchart.errors import InputError
 from simulate.components.parameters import parameter, read_section, validate_parameters
 from simulate.studies.batch import _EXCLUSIVE, CaseResult, check_key, check_value, variant_overrides
+from simulate.studies.case_results import worst_over_units
 from simulate.config import (STUDY_SECTIONS, PlantConfig, apply_overrides, plant_from_dict, read_plant_toml,
                              split_study_sections, to_dict)
 
@@ -100,7 +101,7 @@ class Limits:
             allowed = getattr(self, figure)
             if allowed is None:
                 continue
-            value = getattr(case, figure) if hasattr(case, figure) else case.components.get(figure)
+            value = getattr(case, figure) if hasattr(case, figure) else worst_over_units(case.components, figure)
             row = {"limit": figure, "allowed": allowed, "value": value, "judged": "point"}
             judged = value
             if band is not None and isinstance(band.get(figure), dict) and value is not None:

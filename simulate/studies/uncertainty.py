@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hillchart.errors import HillsimError, InputError
+from simulate.studies.case_results import worst_over_units
 
 #: Summary figures whose band is reported (fractions of the initial values, see SimulationResult.summary).
 BAND_FIGURES = ("max_speed_rise", "max_head_rise", "min_head_drop", "max_head_m")
@@ -146,9 +147,10 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0), workers: int | No
         summary = result.summary()
         for name in BAND_FIGURES:
             values[name].append(float(summary[name]))
-        for name in OPTIONAL_BAND_FIGURES:
-            if summary.get(name) is not None:
-                values[name].append(float(summary[name]))
+        for name in OPTIONAL_BAND_FIGURES:  # with several units, the worst unit's
+            value = worst_over_units(summary, name)
+            if value is not None:
+                values[name].append(float(value))
         time_s = result.time_s  # the same plant: the same time grid for every member that ran to the end
         for name in BAND_TRACES:
             traces[name].append(np.asarray(getattr(result, name), dtype=float))

@@ -65,10 +65,10 @@ GOVERNOR = {"kp": 2.0, "ki": 0.4, "kd": 0.5, "derivative_filter_s": 0.2, "perman
             "servo_time_s": 0.2, "closing_time_s": 12.0, "opening_time_s": 20.0}
 
 
-def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | None, units=None):
+def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | None, units=None, own=None):
     """Ideal Francis units of ``scale`` x the rated flow and power on a 320 m common pipe, with a 180 m branch each
     (or, without ``units``, the branch as the penstock's second segment) and a 38 m draft tube each (two reaches of
-    the grid)."""
+    the grid); ``own``: a unit's own sections by its name (``{"U2": {"governor": {...}}}``)."""
     branch = {"length_m": 180.0, "diameter_m": branch_diameter_m, "wave_speed_m_s": 1180.0, "darcy_friction": 0.0}
     raw = {"turbine": {"rated_head_m": 176.0, "rated_flow_m3_s": 142.5 * scale, "rated_speed_rpm": 200.0,
                        "rated_power_mw": 225.0 * scale, "runner_diameter_m": 4.5, "opening_max": 32.0,
@@ -91,7 +91,7 @@ def _francis(scale: float, branch_diameter_m: float, draft_diameter_m: float | N
     if units is None:
         raw["penstock"]["segments"].append(branch)
     else:
-        raw["units"] = [{"name": name, "branch": [dict(branch)]} for name in units]
+        raw["units"] = [{"name": name, "branch": [dict(branch)], **(own or {}).get(name, {})} for name in units]
     return plant_from_dict(raw)
 
 
@@ -159,3 +159,25 @@ def test_the_shipped_bulb_plant_as_two_units_runs_and_each_units_blades_follow_t
     held = run_simulation(_bulb_two_units("held"))
     blade, cam = held.signals["U1.blade_angle_deg"], held.signals["U1.blade_angle_cam_deg"]
     assert np.ptp(blade) == 0.0 and abs(blade[-1] - cam[-1]) > 5.0
+
+
+def test_the_draft_tubes_lowest_pressure_limit_takes_the_worst_unit():
+    """Two units with draft tubes, U2's vanes closing in 8 s (U1's in 12 s): each gives its
+    ``U.min_draft_tube_pressure_head_m`` and U2's is the lower (its draft tube's column decelerates faster); the
+    guarantee's limit judges that one, the worst, where before it found no figure; the ensemble band reads the same
+    (``worst_over_units``)."""
+    from simulate.studies.case_results import case_from_result, worst_over_units
+    from simulate.studies.cases import Limits
+
+    plant = _francis(1.0, 4.0, 4.0, ["U1", "U2"], own={"U2": {"governor": {"closing_time_s": 8.0}}})
+    result = run_simulation(plant)
+    figures = result.component_figures
+    u1, u2 = (figures[f"{u}.min_draft_tube_pressure_head_m"] for u in ("U1", "U2"))
+    assert u2 < u1 - 0.1  # measured 5.89 against 6.81 m: far more than round-off apart
+    assert u2 == pytest.approx(figures["U2.min_outlet_pressure_head_m"], rel=1e-12)  # no profile: the runner's
+    case = case_from_result(0, {}, plant, result)
+    assert "min_draft_tube_pressure_head_m" not in case.components  # the plant-level name alone finds nothing
+    for allowed, verdict in ((u2 - 0.01, "PASS"), (u2 + 0.01, "FAIL")):  # U1 alone would pass the second
+        (row,) = Limits(min_draft_tube_pressure_head_m=allowed).check(case)
+        assert row["verdict"] == verdict and row["value"] == pytest.approx(u2, rel=1e-12)
+    assert worst_over_units(result.summary(), "min_draft_tube_pressure_head_m") == pytest.approx(u2, rel=1e-12)

@@ -380,11 +380,12 @@ def test_the_components_figures_are_columns_of_results_csv(tmp_path):
     # the MOC penstock's figures (its cavities), then the draft tube's (its cavities too: none formed)
     assert batch.component_figures == ("max_cavity_volume_m3", "cavity_nodes", "t_envelope_min_head_s",
                                        "min_outlet_pressure_head_m", "t_min_outlet_pressure_s",
-                                       "min_draft_tube_head_m", "draft_tube_max_cavity_volume_m3",
-                                       "draft_tube_cavity_nodes")
+                                       "min_draft_tube_head_m", "min_draft_tube_pressure_head_m",
+                                       "min_draft_tube_pressure_x_m", "t_min_draft_tube_pressure_s",
+                                       "draft_tube_max_cavity_volume_m3", "draft_tube_cavity_nodes")
     batch.to_csv(tmp_path / "results.csv")
     rows = list(csv.DictReader((tmp_path / "results.csv").open()))
     single = run_simulation(plant.with_overrides({"governor.closing_time_s": 6.0})).summary()
     assert float(rows[0]["min_outlet_pressure_head_m"]) == single["min_outlet_pressure_head_m"]  # repr: exact
     assert rows[1]["min_outlet_pressure_head_m"] == ""
-    assert list(rows[0])[-8:] == list(batch.component_figures)
+    assert list(rows[0])[-11:] == list(batch.component_figures)
