@@ -334,13 +334,16 @@ class CavityRecord:
         if self.settings.model == "off" or self.totals[1] != 1.0:
             return ""
         about = "" if self.settings.model == "dvcm" else "about "  # the DGCM's gas adds its partial pressure
+        # above the tailwater datum the net head may still be positive (a draft tube's head aside): the boundary
+        # then found no point at that head, which the characteristics' own words (after this) say
+        why = ("the turbine's net head is not positive there, which its characteristics do not cover"
+               if self.vapour_m[-1] <= 0.0 else "the turbine boundary found no operating point at that head")
         return (f"a {CAVITY_WORDS[self.settings.model]} holds the downstream end of the pipe (the turbine inlet) at "
                 f"{about}the vapour head, "
                 f"{self.vapour_m[-1]:.3g} m above the tailwater datum{no_profile_note(self.penstock)}, from "
-                f"t = {(self.track[6, -1] if self.track[5, -1] > 0 else 0.0) * self.dt_s:.4g} s or this step: the "
-                f"turbine's net head is not positive there, which its characteristics do not cover (the cavity is "
-                f"modelled by the {MODEL_NAMES[self.settings.model]}; close the guide vanes more slowly or set the "
-                f"turbine lower)")
+                f"t = {(self.track[6, -1] if self.track[5, -1] > 0 else 0.0) * self.dt_s:.4g} s or this step: {why} "
+                f"(the cavity is modelled by the {MODEL_NAMES[self.settings.model]}; close the guide vanes more "
+                f"slowly or set the turbine lower)")
 
     def warnings(self) -> list[str]:
         """One warning per node where a cavity formed (the largest :data:`MAX_CAVITY_WARNINGS`): where, when first,

@@ -52,6 +52,9 @@ import numpy as np
 TABLE, NETS = 0, 1
 TWO_PI = 2.0 * math.pi
 
+#: The halvings of a bracketing step that landed where the curves give no point, on each side of the walk
+#: (:func:`solve_shifted_flow`): 2^-60 of the step, far below any tolerance on w.
+MAX_SHRINKS = 60
 #: Step statuses (0: converged).
 NOT_BRACKETED, NOT_CONVERGED, INVALID_POINT, OPENING_OUTSIDE = 1, 2, 3, 4
 STATUS_TEXT = {NOT_BRACKETED: "found no sign change of h(w) - (C_L + k Q(w)) / H_r (no root bracketed)",
@@ -216,32 +219,49 @@ def solve_shifted_flow(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, w0, tol, ma
     """``(w, status, iterations)``: the root of F(w) = h(w) - (c + b q(w)) next to ``w0`` (relative head relation
     h = c + b q, b <= 0). Bracketed from w0 outward: first toward where |F| falls (the side of the previous
     solution's branch), the step growing 1.6-fold, at most 80 steps each way (the guard: a run that leaves the
-    curves' branch stops with :data:`NOT_BRACKETED`); then the Illinois method to |dw| < tol (1 + |w|)."""
+    curves' branch stops with :data:`NOT_BRACKETED`); then the Illinois method to |dw| < tol (1 + |w|). A step that
+    lands where the curves give no point (:data:`INVALID_POINT`: no finite positive head, e.g. past the reverse
+    flow a pump brakes) is halved back toward the last valid point, up to :data:`MAX_SHRINKS` times on each side,
+    and the walk goes on from there without growing: a root between the two is found, not stepped over; a side with
+    no valid point left ends, and with no root on either side the status is the invalid point's."""
     f0, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0, v, y, c, b)
     if st != 0:
         return w0, st, 0
     if f0 == 0.0:
         return w0, 0, 0
     delta = 1e-3 * (1.0 + abs(w0) + abs(v))
-    fp, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 + delta, v, y, c, b)
-    if st != 0:
-        return w0, st, 0
-    fm, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 - delta, v, y, c, b)
-    if st != 0:
-        return w0, st, 0
-    first = 1.0 if (fp - fm) * f0 < 0.0 else -1.0  # toward a smaller |F|
+    fp, sp = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 + delta, v, y, c, b)
+    fm, sm = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, w0 - delta, v, y, c, b)
+    if sp != 0 and sm != 0:
+        return w0, sp, 2
+    if sp != 0 or sm != 0:
+        first = -1.0 if sp != 0 else 1.0  # the side with a point
+    else:
+        first = 1.0 if (fp - fm) * f0 < 0.0 else -1.0  # toward a smaller |F|
     iterations = 2
+    invalid = 0
     lo, flo, hi, fhi = w0, f0, w0, f0
     found = False
     for direction in (first, -first):
         step = delta
         a, fa = w0, f0
+        shrinks = 0
         for _ in range(80):
             bnext = a + direction * step
             fb, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, bnext, v, y, c, b)
             iterations += 1
+            grow = 1.6
+            while st != 0 and shrinks < MAX_SHRINKS:  # the curves end between a and bnext: a shorter step
+                invalid = st
+                shrinks += 1
+                step *= 0.5
+                bnext = a + direction * step
+                fb, st = _gap(cs, wh_t, wm_t, w1h, w1m, vh, vm, bnext, v, y, c, b)
+                iterations += 1
+                grow = 1.0
             if st != 0:
-                return bnext, st, iterations
+                invalid = st
+                break
             if fb == 0.0:
                 return bnext, 0, iterations
             if fb * fa < 0.0:
@@ -249,11 +269,11 @@ def solve_shifted_flow(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, w0, tol, ma
                 found = True
                 break
             a, fa = bnext, fb
-            step *= 1.6
+            step *= grow
         if found:
             break
     if not found:
-        return w0, NOT_BRACKETED, iterations
+        return w0, invalid if invalid != 0 else NOT_BRACKETED, iterations
     w, status, more = _illinois(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y, c, b, lo, flo, hi, fhi, tol, max_iter)
     return w, status, iterations + more
 
