@@ -5,12 +5,9 @@ papers' transfer functions, the turbine-inlet relation they give for a step and 
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from hillchart.errors import InputError
 
 
 def zdomain_original(travel_time_s: float, water_time_s: float, feedback: float = 0.0):
@@ -49,35 +46,30 @@ def zdomain_coefficients(travel_time_s: float, water_time_s: float, step_s: floa
     return a_coef / c_coef, b_coef / c_coef, d_coef / c_coef, e_coef / c_coef
 
 
-def iir_coefficients(model: str, *, water_time_s: float, travel_time_s: float, step_s: float,
-                     lumped_alpha: float = 4.0 / math.pi ** 2, zdomain_feedback: float = 0.0) -> np.ndarray:
-    """``[b0, b1, b2, a1, a2]`` of h[k] = b0 q[k] + b1 q[k-1] + b2 q[k-2] - a1 h[k-1] - a2 h[k-2] (per unit).
+def lumped_coefficients(water_time_s: float, travel_time_s: float, step_s: float, lumped_alpha: float) -> np.ndarray:
+    """``[b0, b1, b2, a1, a2]`` (per unit) of the ``lumped`` model: scipy's bilinear (Tustin) transform of
+    -Tw s / (1 + alpha Te^2 s^2) (paper 000 eq. (15)); Tustin keeps the undamped resonance undamped."""
+    from scipy import signal  # lazy: scipy.signal costs about 1 s of start-up and only this model needs it
 
-    ``zdomain``: eq. (20) (b1 = 0). ``lumped``: scipy's bilinear (Tustin) transform of -Tw s / (1 + alpha Te^2 s^2)
-    (paper 000 eq. (15)): Tustin keeps the undamped resonance undamped. ``rigid``: backward Euler of h = -Tw dq/dt,
-    b0 = -Tw/dt, b1 = Tw/dt (the trapezoidal rule would make the algebraic head alternate +-h forever once the
-    vanes are shut, backward Euler does not).
+    tw, te = water_time_s, travel_time_s
+    num, den, _ = signal.cont2discrete(([-tw, 0.0], [lumped_alpha * te ** 2, 0.0, 1.0]), step_s, method="bilinear")
+    num = np.ravel(num)
+    num = np.concatenate((np.zeros(3 - num.size), num)) / den[0]
+    den = np.asarray(den, float) / den[0]
+    return np.array([num[0], num[1], num[2], den[1], den[2]])
+
+
+def rigid_coefficients(water_time_s: float, step_s: float) -> np.ndarray:
+    """``[b0, b1, b2, a1, a2]`` (per unit) of the ``rigid`` model: backward Euler of h = -Tw dq/dt, b0 = -Tw/dt,
+    b1 = Tw/dt (the trapezoidal rule would make the algebraic head alternate +-h forever once the vanes are shut,
+    backward Euler does not).
 
     Examples
     --------
-    >>> iir_coefficients("rigid", water_time_s=2.0, travel_time_s=0.5, step_s=0.01).tolist()
+    >>> rigid_coefficients(2.0, 0.01).tolist()
     [-200.0, 200.0, 0.0, 0.0, 0.0]
     """
-    tw, te, dt = water_time_s, travel_time_s, step_s
-    if model == "zdomain":
-        a_c, b_c, d_c, e_c = zdomain_coefficients(te, tw, dt, zdomain_feedback)
-        return np.array([a_c, 0.0, b_c, d_c, e_c])
-    if model == "lumped":
-        from scipy import signal  # lazy: scipy.signal costs about 1 s of start-up and only this model needs it
-
-        num, den, _ = signal.cont2discrete(([-tw, 0.0], [lumped_alpha * te ** 2, 0.0, 1.0]), dt, method="bilinear")
-        num = np.ravel(num)
-        num = np.concatenate((np.zeros(3 - num.size), num)) / den[0]
-        den = np.asarray(den, float) / den[0]
-        return np.array([num[0], num[1], num[2], den[1], den[2]])
-    if model == "rigid":
-        return np.array([-tw / dt, tw / dt, 0.0, 0.0, 0.0])
-    raise InputError(f"penstock.model must be one of zdomain, lumped, rigid for a difference equation, got {model!r}")
+    return np.array([-water_time_s / step_s, water_time_s / step_s, 0.0, 0.0, 0.0])
 
 
 @numba.njit(cache=True)

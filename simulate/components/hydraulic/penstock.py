@@ -25,6 +25,7 @@ gain at zero frequency, so friction is carried only by the K Q|Q| term and the s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba
@@ -36,9 +37,9 @@ from simulate.components.contract import ENTRIES, ENTRIES_BY_NODE, LEVELS_BY_NOD
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import steady_reach_loss as reach_friction_loss
 # the zdomain, lumped and rigid models' equations, read here by their components and by name from here
-from simulate.components.hydraulic.difference_equations import (iir_coefficients, iir_step,  # noqa: F401
-                                                                iir_turbine_relation, zdomain_coefficients,
-                                                                zdomain_original)
+from simulate.components.hydraulic.difference_equations import (iir_step, iir_turbine_relation,  # noqa: F401
+                                                                lumped_coefficients, rigid_coefficients,
+                                                                zdomain_coefficients, zdomain_original)
 
 #: Largest relative change of a segment's wave speed accepted to fit a whole number of reaches.
 MAX_WAVE_SPEED_ADJUSTMENT = 0.05
@@ -305,6 +306,27 @@ def moc_step_dvcm(heads, flows, inflows, track, totals, impedance, friction, vap
     reach_friction_advance(friction, flows, new_flows)
     totals[0] = total
     totals[2] = count
+
+
+def iir_coefficients(model: str, *, water_time_s: float, travel_time_s: float, step_s: float,
+                     lumped_alpha: float = 4.0 / math.pi ** 2, zdomain_feedback: float = 0.0) -> np.ndarray:
+    """``[b0, b1, b2, a1, a2]`` of h[k] = b0 q[k] + b1 q[k-1] + b2 q[k-2] - a1 h[k-1] - a2 h[k-2] (per unit) of
+    the ``zdomain`` (eq. (20), b1 = 0), ``lumped`` or ``rigid`` model (:mod:`simulate.components.hydraulic.
+    difference_equations`).
+
+    Examples
+    --------
+    >>> iir_coefficients("rigid", water_time_s=2.0, travel_time_s=0.5, step_s=0.01).tolist()
+    [-200.0, 200.0, 0.0, 0.0, 0.0]
+    """
+    if model == "zdomain":
+        a_c, b_c, d_c, e_c = zdomain_coefficients(travel_time_s, water_time_s, step_s, zdomain_feedback)
+        return np.array([a_c, 0.0, b_c, d_c, e_c])
+    if model == "lumped":
+        return lumped_coefficients(water_time_s, travel_time_s, step_s, lumped_alpha)
+    if model == "rigid":
+        return rigid_coefficients(water_time_s, step_s)
+    raise InputError(f"penstock.model must be one of zdomain, lumped, rigid for a difference equation, got {model!r}")
 
 
 # --- Components for the time loop (registry kind "penstock"; see simulate.components.registry) -----------------
