@@ -156,7 +156,7 @@ def moc_dgcm_relation(p, s, upstream_head_m):
     b_l = -k
     dt_s, psi = p[3][0], p[3][1]
     c_g = p[4][0][n]
-    q0 = flows[n]
+    q0 = 2.0 * flows[n] - s[1][1 - c][n]  # the tangent at the last step's boundary flow continued by its last change
     part = track[0, n] + (1.0 - psi) * dt_s * (flows[n] - inflows[n])
     y0 = dgcm_outlet_gas_head(c_p, b_l, part, q0, p[2][n], c_g, dt_s, psi)
     slope = -psi * dt_s / (c_g / (y0 * y0) + psi * dt_s / b_l)  # eq. (G7)

@@ -198,15 +198,16 @@ def dvcm_record(track, j, volume, old_volume, step):
 
 
 @numba.njit(cache=True)
-def dvcm_outlet_cavity(c_p, b, q_out_old, q_in_old, volume, vapour_head_m, dt_s, psi):
+def dvcm_outlet_cavity(c_p, b, q_out, q_out_old, q_in_old, volume, vapour_head_m, dt_s, psi):
     """Whether the downstream-end node (the turbine or valve) is a cavity this step, decided before its boundary is
-    solved from the last step's boundary flow ``q_out_old``: a cavity that (C4) keeps open, or a liquid node whose C+
-    line at that flow would fall below the vapour head (eqs. (C3)-(C5) of
-    :mod:`simulate.components.hydraulic.cavitation`). A wrong guess is corrected by the update (one step late)."""
+    solved from the boundary flow foreseen for it, ``q_out`` (the last step's ``q_out_old`` continued by the last
+    change): a cavity that (C4) keeps open, or a liquid node whose C+ line at that flow would fall below the vapour
+    head (eqs. (C3)-(C5) of :mod:`simulate.components.hydraulic.cavitation`). A wrong guess is corrected by the update
+    (one step late)."""
     if volume > 0.0:
         q_in = (c_p - vapour_head_m) / b  # eq. (C3), C+
-        return dvcm_volume(volume, q_out_old, q_in, q_out_old, q_in_old, dt_s, psi) > 0.0
-    return c_p - b * q_out_old < vapour_head_m
+        return dvcm_volume(volume, q_out, q_in, q_out_old, q_in_old, dt_s, psi) > 0.0
+    return c_p - b * q_out < vapour_head_m
 
 
 @numba.njit(cache=True)
@@ -362,10 +363,11 @@ def moc_dvcm_relation(p, s, upstream_head_m):
     n = flows.size - 1
     c_p, k = moc_turbine_relation(s[0][c], flows, p[0], p[1])
     vapour = p[2][n]
-    if s[5][2] == 0.0 and c_p + k * flows[n] >= vapour:  # no cavity open, and the C+ line stays above H_v
+    foreseen = 2.0 * flows[n] - s[1][1 - c][n]  # the last step's boundary flow continued by its last change
+    if s[5][2] == 0.0 and c_p + k * foreseen >= vapour:  # no cavity open, and the C+ line stays above H_v
         return c_p, k
     inflows = s[3][c] if s[5][2] > 0.0 else flows  # kept only while a cavity is open
-    if dvcm_outlet_cavity(c_p, -k, flows[n], inflows[n], s[4][0, n], vapour, p[3][0], p[3][1]):
+    if dvcm_outlet_cavity(c_p, -k, foreseen, flows[n], inflows[n], s[4][0, n], vapour, p[3][0], p[3][1]):
         s[5][1] = 1.0  # for the update, and for the failure message should the boundary find no solution
         return vapour, 0.0
     return c_p, k

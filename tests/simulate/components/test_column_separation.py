@@ -199,9 +199,10 @@ def test_bergant_simpson_rig_with_the_defaults_meets_the_measured_peaks_and_conv
     bound 5 %). dt and dt/2 agree on the collapse peaks to 0.06 % and 0.07 % (bound 1 %), on the first peak to 0.01 %
     (bound 0.1 %) and on the time the valve's first cavity closed (interpolated within the step) to 0.05 % (bound
     1 %). The first peak lies above Joukowsky's rho a V0 over the initial pressure: the line packing of the friction
-    adds to it. The failing cases: on a coarser grid (128 reaches) a spike of one step where cavities along the pipe
-    collapse together gives 2195 kPa at 1.4 m/s, 6.5 % off the 256 reaches' (the benchmark's grid scan); with column
-    separation off the valve's head falls below its datum and the run stops."""
+    adds to it. On a coarser grid (128 reaches) the 1.4 m/s collapse peak is 2074 kPa, 0.6 % off the 256 reaches'
+    (bound 2 %; the benchmark's grid scan): the valve's cavity decided from the boundary flow foreseen, not from the
+    last step's, leaves no spike of one step there (2195 kPa, +6.5 %, when it was decided from the last step's).
+    The failing case: with column separation off the valve's head falls below its datum and the run stops."""
     rig = _rig()
     measured_rise = rig.window_peaks(*rig.measured_trace())["first collapse"][1]
     for v in (0.3, 1.4):
@@ -232,8 +233,8 @@ def test_bergant_simpson_rig_with_the_defaults_meets_the_measured_peaks_and_conv
             total = [run.signals["cavity_volume_m3"].max() for run in (coarse, fine)]
             assert total[0] == pytest.approx(3.52e-5, rel=5e-3) and abs(total[1] / total[0] - 1.0) < 1e-2
             assert coarse.summary()["max_cavity_volume_m3"] / fine.summary()["max_cavity_volume_m3"] - 1.0 > 0.1
-    spike = rig.peaks(rig.run_simulation(rig.rig_plant(1.4, reaches=128))).collapse_kpa
-    assert spike / p.collapse_kpa - 1.0 > 0.05
+    coarser = rig.peaks(rig.run_simulation(rig.rig_plant(1.4, reaches=128))).collapse_kpa
+    assert abs(coarser / p.collapse_kpa - 1.0) < 0.02
     # the failing case: with column separation off the valve's head falls below its datum and the run stops
     off = rig.run_simulation(rig.rig_plant(1.4, column_separation="off"), raise_on_failure=False)
     assert not off.success and "no solution with a positive net head" in off.message

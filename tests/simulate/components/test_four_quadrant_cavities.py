@@ -46,31 +46,43 @@ def runs():
 
 
 def test_a_cavity_at_the_pump_turbine_s_inlet_is_modelled_to_the_end(runs):
-    """Both cavity models run to 20 s (the walk above stopped them at 11.65 s): one cavity at the turbine end, from
-    the S-zone's flow drop (11.62 s) to its collapse (12.6 s), the head held at the vapour head meanwhile. Its largest
-    volume 0.356 m^3 by the gas model and 0.357 by the vapour model (their difference is the gas's 1e-7 void
-    fraction: within 2 %); without a model the head falls 6 m below the vapour head there. The runaway's largest
-    speed is unchanged to 1e-6 (it comes at 5.7 s, before the cavity)."""
+    """Both cavity models run to 20 s (the walk above stopped them at 11.65 s): a cavity opens at the turbine end
+    at the S-zone's flow drop (11.62 s) and holds the head at the vapour head (within 5 mm from the next step on: the
+    jump itself is not foreseen, its one step falls to the liquid run's 142.8 m) until its collapse at 12.3-12.7 s.
+    Its largest volume is 0.358 m^3 with the gas model and 0.360 with the vapour model (their difference is the
+    gas's 1e-7 void fraction: within 2 %); without a model the head falls 6 m below the vapour head there. The
+    runaway's largest speed and head (5.7 s, before the cavity) are the run without a model's (1e-6: the gas's
+    compliance); after the collapse the heads stay below that peak (without a model a later one is 0.04 % higher)."""
     gas, vapour, off = runs["dgcm"], runs["dvcm"], runs["off"]
     vapour_head_m = LEVEL_M - 10.33 + 0.24
-    for run in (gas, vapour):
+    volumes = {}
+    for model, run in (("dgcm", gas), ("dvcm", vapour)):
         s = run.summary()
         assert run.success and run.time_s[-1] == pytest.approx(20.0, abs=0.02)
-        assert s["cavity_nodes"] >= 1 and s["max_cavity_x_m"] == pytest.approx(600.0)
-        assert s["max_cavity_volume_m3"] == pytest.approx(0.356, rel=0.02)
-        held = (run.time_s > 11.7) & (run.time_s < 12.5)
-        np.testing.assert_allclose(run.head_m[held], vapour_head_m, atol=0.05)
+        assert s["first_cavity_x_m"] == pytest.approx(600.0) and s["t_first_cavity_s"] == pytest.approx(11.62, abs=0.01)
+        outlet = run.signals["outlet_cavity_volume_m3"]
+        volumes[model] = outlet.max()
+        assert 12.2 < run.time_s[np.argmax(outlet)] < 12.8
+        held = (run.time_s > 11.63) & (run.time_s < 12.2)
+        np.testing.assert_allclose(run.head_m[held], vapour_head_m, atol=0.005)
         assert run.speed_rpm.max() == pytest.approx(off.speed_rpm.max(), rel=1e-6)
-    assert gas.summary()["max_cavity_volume_m3"] == pytest.approx(vapour.summary()["max_cavity_volume_m3"], rel=0.02)
+        before = off.head_m[off.time_s < 11.0].max()
+        assert run.head_m.max() == pytest.approx(before, rel=1e-6)
+    assert volumes["dgcm"] == pytest.approx(0.358, rel=0.02) and volumes["dvcm"] == pytest.approx(0.360, rel=0.02)
+    assert volumes["dgcm"] == pytest.approx(volumes["dvcm"], rel=0.02)
     assert off.success and off.head_m.min() < vapour_head_m - 5.0
 
 
 @pytest.mark.slow
 def test_the_cavity_converges_with_the_step(runs):
-    """At half the step (80 reaches) the largest cavity and the largest head move by under 1 % (measured 0.4 % and
-    0.02 %)."""
-    fine = run_simulation(level_penstock("dgcm", reaches=80))
+    """At half and a quarter of the step (80, 160 reaches) the cavity at the turbine and the largest head move by
+    under 1 % (measured 0.4 % and 0.02 %). After the collapse the wave the S-zone sends back opens cavities along the
+    level pipe on some grids and not on others (the 40 reaches' gas model opens one near the reservoir at 14.4 s, the
+    80 reaches' does not): the cavity figures of the whole pipe are the turbine's only where the grid agrees."""
     coarse = runs["dgcm"]
-    assert fine.success
-    assert fine.summary()["max_cavity_volume_m3"] == pytest.approx(coarse.summary()["max_cavity_volume_m3"], rel=0.01)
-    assert fine.head_m.max() == pytest.approx(coarse.head_m.max(), rel=0.01)
+    for reaches in (80, 160):
+        fine = run_simulation(level_penstock("dgcm", reaches=reaches))
+        assert fine.success
+        assert fine.signals["outlet_cavity_volume_m3"].max() == pytest.approx(
+            coarse.signals["outlet_cavity_volume_m3"].max(), rel=0.01)
+        assert fine.head_m.max() == pytest.approx(coarse.head_m.max(), rel=0.01)
