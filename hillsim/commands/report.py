@@ -495,8 +495,9 @@ def write_html(report: dict, out: Path, closure_dir: Path | None, sweep_dir: Pat
         r.table(("load case", "limit", "allowed", "point nets", "band low", "band high",
                  "run outside the chart up to it", "decided", "verdict"), rows,
                 caption=f"PASS/FAIL per load case (overall: {report['overall_verdict']}), judged on "
-                        f"{report['judged_on']}; n/a = not computed by this simulator version (min pressure head "
-                        f"needs the penstock envelope) or the run failed; 'run outside the chart up to it': the "
+                        f"{report['judged_on']}; n/a = the run gives no such figure (the warnings say what it "
+                        f"needs: a penstock's profile, a draft tube, ...) or the run failed; 'run outside the chart "
+                        f"up to it': the "
                         f"share of the run up to the figure spent outside the digitized chart (its extrapolation "
                         f"share: what the chart did not show of what decided it); 'decided': the region of the "
                         f"chart where the figure's conservative end was decided (next section)")

@@ -306,6 +306,34 @@ def test_a_double_regulated_plant_reports_on_its_cam(tmp_path):
         view.inner.q11(np.array([150.0]), np.array([45.0]))
 
 
+def test_the_draft_tube_s_lowest_pressure_is_judged_and_a_missing_profile_is_named(tmp_path, capsys):
+    """The bulb plant with limits on both minimum pressures: the draft tube's (absolute, below the runner: 8.23 m)
+    passes 8 m and fails 9 m; the penstock's needs its profile, which the plant does not give: not judged, and the
+    warning says what it needs."""
+    from data_synthetic import PLANT_BULB
+
+    nets = (PLANT_BULB.parent / "bulb" / "nets.json").as_posix()
+    text = PLANT_BULB.read_text(encoding="utf-8").replace('characteristics = "bulb/nets.json"',
+                                                          f'characteristics = "{nets}"')
+    verdicts = {}
+    for allowed in (8.0, 9.0):
+        plant = tmp_path / f"plant_{allowed:g}.toml"
+        limits = f"\n[limits]\nmin_draft_tube_pressure_head_m = {allowed}\nmin_pressure_head_m = 2.0\n"
+        plant.write_text(text + limits, encoding="utf-8")
+        out = tmp_path / f"rep_{allowed:g}"
+        code = main(["report", str(plant), "--out", str(out), "--set", "scenario.t_end_s=8"])
+        doc = json.loads((out / "report.json").read_text())
+        rows = {v["limit"]: v for v in doc["cases"][0]["verdicts"]}
+        verdicts[allowed] = (code, rows["min_draft_tube_pressure_head_m"]["verdict"])
+        assert rows["min_draft_tube_pressure_head_m"]["value"] == pytest.approx(8.23, abs=0.01)
+        assert rows["min_pressure_head_m"]["verdict"] == "n/a"
+        assert any("limit min_pressure_head_m not judged" in w and "a penstock with its profile" in w
+                   for w in doc["warnings"])
+    assert verdicts == {8.0: (0, "PASS"), 9.0: (3, "FAIL")}  # exit 3: a limit failed
+    assert re.search(r"FAIL: plant scenario: min_draft_tube_pressure_head_m 8\.22\d* against the limit 9",
+                     capsys.readouterr().err)
+
+
 @pytest.mark.slow
 def test_the_hill_chart_of_a_plant_with_several_units_draws_every_unit():
     from data_synthetic import PLANT_TWO_UNITS
