@@ -172,9 +172,12 @@ class OnCamEvidence:
         return self.band_q11[0] * h, self.band_q11[1] * h
 
     def m11_widths(self, distance):
-        """``(low, high)`` of the band at ``distance`` below the lowest line, in M11 (N*m, >= 0)."""
+        """``(low, high)`` of the band at ``distance`` below the lowest line, in M11 (N*m, >= 0): closing as ``1 - d``
+        toward the closed cam where folds placed it and tested the torque there, not where there is no fold (the
+        closed cam then placed from the two lowest lines alone, and the torque near it untested)."""
         d = np.ravel(np.asarray(distance, float))
-        h = self._growth(d) * np.clip(1.0 - d, 0.0, 1.0) * self.m11_scale
+        closing = np.clip(1.0 - d, 0.0, 1.0) if self.folds else 1.0
+        h = self._growth(d) * closing * self.m11_scale
         return self.band_m11[0] * h, self.band_m11[1] * h
 
     def summary(self) -> str:
@@ -208,9 +211,9 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
     the held-out lines its units of evidence, neither side under half the other,
     :data:`hillchart.extension.band.MIN_SIDE_FRACTION_BELOW`, and both as wide as the wider where the folds
     calibrated on disagree on the side of the error or are one fold; M11's closing as ``1 - d``, as a Francis
-    chart's does). A fold whose lines the closed cam cannot be placed from is left out (``closed``: the closed cam
-    given, deg, held in every fold); with none the band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide
-    and the summary says to give more lines."""
+    chart's does, where there is a fold: :meth:`OnCamEvidence.m11_widths`). A fold whose lines the closed cam
+    cannot be placed from is left out (``closed``: the closed cam given, deg, held in every fold); with none the
+    band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide and the summary says to give more lines."""
     from hillchart.characteristics import unit_torque_from_efficiency
     from hillchart.extension.band import MIN_SIDE_FRACTION_BELOW, NO_EVIDENCE_SCALE, band_sides, log_ratio
 

@@ -238,7 +238,7 @@ class HillNets:
                                      "a top-level silent_model")
                 member_silent.append(silent.member_from_dict(member["silent_model"], key))
         region = _region(doc["digitized_region"], "nets.json: digitized_region") if "digitized_region" in doc else None
-        _check_members(flow, torque, ensemble)
+        _check_members(flow, torque, ensemble, region)
         if member_silent and (silent is None or len(member_silent) != len(ensemble)):
             raise InputError("nets.json: ensemble members carry silent_model blocks, so every member must, and the "
                              "file must have a top-level silent_model")
@@ -356,22 +356,35 @@ def load_nets(path) -> HillNets:
         raise InputError(f"{path}: {message}") from None
 
 
-#: Largest median departure of an ensemble member from the point net over the training box, as a fraction of the
-#: output range: members trained on other splits of the same samples depart by 0.1-0.5 % in the median on the shipped
-#: chart (their largest departures, in the box's corners far from any sample, reach 32 % on a sparse real Kaplan
-#: table, so the median, not the largest, is judged); a member 25 % off in the median is not a member of this
-#: ensemble (a corrupted or foreign block).
+#: Largest median departure of an ensemble member from the point net where the chart has data (its digitized region;
+#: the training box for nets that record none), as a fraction of the output range: members trained on other splits of
+#: the same samples depart by 0.1-0.5 % in the median on the shipped chart (their largest departures, in the box's
+#: corners far from any sample, reach 32 % on a sparse real Kaplan table, so the median, not the largest, is judged);
+#: a member 25 % off in the median is not a member of this ensemble (a corrupted or foreign block). Outside the
+#: digitized region members may stand apart: that is their band where the chart gives little evidence.
 MEMBER_DEPARTURE = 0.25
+#: The grid points (of 15 x 15 over the training box) that must fall in the digitized region for it to be judged.
+MIN_REGION_POINTS = 9
 
 
-def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
-    """Refuse an ensemble member whose median departure from the point nets on a 7 x 7 grid over the training box
-    exceeds :data:`MEMBER_DEPARTURE` of their output range, naming the member (49 points: evaluated in Python, so
+def _check_members(flow: NetWeights, torque: NetWeights, ensemble, region=None) -> None:
+    """Refuse an ensemble member whose median departure from the point nets exceeds :data:`MEMBER_DEPARTURE` of their
+    output range, naming the member: over the points of a 15 x 15 grid of the training box inside the digitized
+    ``region`` (at least :data:`MIN_REGION_POINTS`), else over a 7 x 7 grid of the whole box (evaluated in Python, so
     loading nets loads no compiled kernel)."""
     if not ensemble:
         return
+    where = "the training box"
     n11, opening = np.meshgrid(np.linspace(flow.x_min[0], flow.x_max[0], 7),
                                np.linspace(flow.x_min[1], flow.x_max[1], 7))
+    if region is not None:
+        from hillchart.io.samples import measured_region_mask
+
+        fine_n11, fine_opening = (v.ravel() for v in np.meshgrid(np.linspace(flow.x_min[0], flow.x_max[0], 15),
+                                                                  np.linspace(flow.x_min[1], flow.x_max[1], 15)))
+        inside = measured_region_mask(region[:, 0], region[:, 1], fine_n11, fine_opening)
+        if inside.sum() >= MIN_REGION_POINTS:
+            n11, opening, where = fine_n11[inside], fine_opening[inside], "the digitized region"
     references = {"flow": flow.evaluate(n11, opening)[0], "torque": torque.evaluate(n11, opening)[0]}
     for i, pair in enumerate(ensemble):
         for name, point, member in (("flow", flow, pair[0]), ("torque", torque, pair[1])):
@@ -380,6 +393,6 @@ def _check_members(flow: NetWeights, torque: NetWeights, ensemble) -> None:
                               / (point.y_max - point.y_min))
             if not departure <= MEMBER_DEPARTURE:
                 raise InputError(f"nets.json: ensemble[{i}].{name} departs from the point net by {departure:.0%} of "
-                                 f"its output range in the median over the training box (members of one ensemble "
+                                 f"its output range in the median over {where} (members of one ensemble "
                                  f"depart by well under 1 %, allowed {MEMBER_DEPARTURE:.0%}): a corrupted or foreign "
                                  f"member; train the nets again (hillsim train) or remove the member")

@@ -329,3 +329,54 @@ relaxation = 1.0
     # the draft tube's reverse water hammer stays above the vapour pressure plus margin: about 13.4 m at rest
     # (10.33 + 3 m of submergence) minus about the same 16 % of 15.7 m (seed 0: 11.7 m)
     assert 2.24 < s["min_outlet_pressure_head_m"] < 13.4
+
+
+@pytest.mark.external
+def test_members_stand_apart_below_a_chart_of_two_lines_and_the_file_loads(tmp_path):
+    """The real Kaplan chart with its three lowest lines held out (two left, 30 and 38 deg: no fold). Its M11 band
+    does not close toward the closed cam, which only those two lines place. So the members stand apart below the
+    lowest line (the box reaches down to the closed cam at -17 deg).
+    - Over the whole training box the worst member's torque departs 28 % from the point net in the median. The
+      corrupted-member guard (25 %) refused that file when it judged the box.
+    - Over the digitized region, where the chart constrains every member, it departs under 2 %, and the file loads.
+    - The failing twin: a member damaged inside the region is still refused."""
+    import csv as _csv
+
+    from hillchart.fccm.on_cam import on_cam_unit_samples, train_on_cam_nets
+    from hillchart.io.samples import measured_region_mask
+    from hillchart.nets.hill_nets import MEMBER_DEPARTURE, HillNets, load_nets
+    from tests.fccm_external import write_kaplan_table
+
+    source = write_kaplan_table(tmp_path / "kaplan")
+    with (source / "table.csv").open(newline="", encoding="utf-8") as handle:
+        rows = list(_csv.DictReader(handle))
+    kept = [r for r in rows if float(r["blade_angle_deg"]) >= 30.0]
+    _write_table(tmp_path / "two", [(r["blade_angle_deg"], r["n11_rpm"], r["q11_m3_s"], r["efficiency"])
+                                    for r in kept])
+    samples, _, _ = on_cam_unit_samples(load_test_table(tmp_path / "two"), seed=0)
+    assert samples["evidence"].folds == ()
+    nets, _ = train_on_cam_nets(samples, hidden=8, restarts=5, seed=0, members=5)
+    loaded = load_nets(nets.save(tmp_path / "nets.json"))
+
+    def departure(member, grid):
+        n11, opening = grid
+        point = loaded.torque
+        return float(np.median(np.abs(member.torque.evaluate(n11, opening)[0] - point.evaluate(n11, opening)[0]))
+                     / (point.y_max - point.y_min))
+
+    box = np.meshgrid(np.linspace(loaded.flow.x_min[0], loaded.flow.x_max[0], 7),
+                      np.linspace(loaded.flow.x_min[1], loaded.flow.x_max[1], 7))
+    fine = [v.ravel() for v in np.meshgrid(np.linspace(loaded.flow.x_min[0], loaded.flow.x_max[0], 15),
+                                           np.linspace(loaded.flow.x_min[1], loaded.flow.x_max[1], 15))]
+    region = loaded.digitized_region
+    inside = measured_region_mask(region[:, 0], region[:, 1], *fine)
+    members = loaded.members()
+    assert max(departure(m, box) for m in members) > MEMBER_DEPARTURE  # measured 0.28
+    assert max(departure(m, (fine[0][inside], fine[1][inside])) for m in members) < 0.02
+    # the failing twin: the first member's strongest hidden torque unit times 10 departs inside the region too
+    doc = json.loads((tmp_path / "nets.json").read_text())
+    w2 = doc["ensemble"][0]["torque"]["W2"]
+    w2[int(np.argmax(np.abs(w2)))] *= 10.0
+    with pytest.raises(InputError, match=r"ensemble\[0\].torque departs from the point net by \d+% of its output "
+                                         r"range in the median over the digitized region"):
+        HillNets.from_dict(doc)
