@@ -54,7 +54,8 @@ import numpy as np
 
 from simulate.components.hydraulic.friction import steady_advance as reach_friction_advance
 from simulate.components.hydraulic.friction import with_friction
-from simulate.components.hydraulic.penstock import moc_cminus, moc_cplus, moc_inlet_characteristic, moc_turbine_relation
+from simulate.components.hydraulic.penstock import (foreseen_outlet_flow, moc_cminus, moc_cplus,
+                                                    moc_inlet_characteristic, moc_turbine_relation)
 
 #: E: the gas of a node is a cavity beyond E times its volume at the atmospheric pressure (its partial pressure below
 #: H_atm / E, 0.1 m of water; module docstring).
@@ -156,7 +157,7 @@ def moc_dgcm_relation(p, s, upstream_head_m):
     b_l = -k
     dt_s, psi = p[3][0], p[3][1]
     c_g = p[4][0][n]
-    q0 = 2.0 * flows[n] - s[1][1 - c][n]  # the tangent at the last step's boundary flow continued by its last change
+    q0 = foreseen_outlet_flow(s)  # the tangent at the boundary flow foreseen for the step
     part = track[0, n] + (1.0 - psi) * dt_s * (flows[n] - inflows[n])
     y0 = dgcm_outlet_gas_head(c_p, b_l, part, q0, p[2][n], c_g, dt_s, psi)
     slope = -psi * dt_s / (c_g / (y0 * y0) + psi * dt_s / b_l)  # eq. (G7)

@@ -211,6 +211,15 @@ def dvcm_outlet_cavity(c_p, b, q_out, q_out_old, q_in_old, volume, vapour_head_m
 
 
 @numba.njit(cache=True)
+def foreseen_outlet_flow(s):
+    """The downstream end's boundary flow foreseen for this step, m^3/s: the last step's continued by its last change,
+    ``2 Q_n - Q_(n-1)`` (the MOC state's two levels; the cavity models decide their end with it)."""
+    c = s[2][0]
+    n = s[1].shape[1] - 1
+    return 2.0 * s[1][c][n] - s[1][1 - c][n]
+
+
+@numba.njit(cache=True)
 def moc_liquid_below_vapour(heads, flows, impedance, friction, vapour, reservoir_head_m, new_heads, new_flows):
     """The liquid step of the inlet and the interior nodes (:func:`moc_step`'s equations, eq. (C2) of
     :mod:`simulate.components.hydraulic.cavitation`) where no cavity is open; returns whether a node fell below its
@@ -363,7 +372,7 @@ def moc_dvcm_relation(p, s, upstream_head_m):
     n = flows.size - 1
     c_p, k = moc_turbine_relation(s[0][c], flows, p[0], p[1])
     vapour = p[2][n]
-    foreseen = 2.0 * flows[n] - s[1][1 - c][n]  # the last step's boundary flow continued by its last change
+    foreseen = foreseen_outlet_flow(s)
     if s[5][2] == 0.0 and c_p + k * foreseen >= vapour:  # no cavity open, and the C+ line stays above H_v
         return c_p, k
     inflows = s[3][c] if s[5][2] > 0.0 else flows  # kept only while a cavity is open
