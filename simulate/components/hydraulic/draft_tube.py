@@ -28,8 +28,9 @@ their turbine end. The pipe's axis is the segments' profile where they carry one
 are taken to form sooner, not later); the vapour pressure is ``vapour_pressure_head_m`` (the mirrored pipe's water
 temperature is the one whose IAPWS-IF97 vapour pressure it is).
 
-The guarantee's figure ``min_draft_tube_pressure_head_m`` (absolute, m of water) is the lowest over every node of
-every step along a profile (from the mirrored conduit's lowest head per node), else the runner outlet's minimum.
+The guarantee's figure ``min_draft_tube_pressure_head_m`` (absolute, m of water) is the runner outlet's minimum and,
+along a profile, the lowest over every node of every step where that is lower (the mirrored conduit's lowest head
+per node): never above ``min_outlet_pressure_head_m``.
 """
 
 from __future__ import annotations
@@ -190,28 +191,30 @@ def build_draft_tube(plant, steady, dt_s: float):
     limit = config.vapour_pressure_head_m + config.vapour_margin_m
     profile = on_grid and config.has_profile
 
-    def lowest_along():
-        """The lowest absolute pressure head along the draft tube's profile (m of water), its distance from the
-        runner outlet (m) and its step: from every node's lowest head (the mirrored conduit's track)."""
-        track = inner.state[4]
-        absolute = track[4] - mirrored.axis_elevations_m(inner.node_x_m) + config.atmospheric_pressure_head_m
-        j = int(np.argmin(absolute))
-        x = float(mirrored.length_m - inner.node_x_m[j])
-        return float(absolute[j]), (0.0 if x <= 1e-9 * mirrored.length_m else x), int(track[3, j])
+    def lowest(signals, time_s=None):
+        """The guarantee's figure: the lowest absolute pressure head (m of water), its distance from the runner outlet
+        (m) and its time (s; None without ``time_s``): the runner outlet's recorded pressure, and along a profile
+        every node's lowest head of every step (the mirrored conduit's track) where that is lower or the same."""
+        values = signals["outlet_pressure_head_m"]
+        i = int(np.argmin(values))
+        out = (float(values[i]), 0.0, None if time_s is None else float(time_s[i]))
+        if profile:
+            track = inner.state[4]
+            absolute = track[4] - mirrored.axis_elevations_m(inner.node_x_m) + config.atmospheric_pressure_head_m
+            j = int(np.argmin(absolute))
+            if absolute[j] <= out[0]:
+                x = float(mirrored.length_m - inner.node_x_m[j])
+                out = (float(absolute[j]), 0.0 if x <= 1e-9 * mirrored.length_m else x, float(track[3, j] * dt_s))
+        return out
 
     def summary_after(time_s, signals):
         values = signals["outlet_pressure_head_m"]
         i = int(np.argmin(values))
+        low, x, t = lowest(signals, time_s)
         out = {"min_outlet_pressure_head_m": float(values[i]), "t_min_outlet_pressure_s": float(time_s[i]),
-               "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"]))}
-        # the guarantee's figure: along the profile where there is one (every step), else below the runner
-        if profile:
-            low, x, step = lowest_along()
-            out.update(min_draft_tube_pressure_head_m=low, min_draft_tube_pressure_x_m=x,
-                       t_min_draft_tube_pressure_s=step * dt_s)
-        else:
-            out.update(min_draft_tube_pressure_head_m=float(values[i]), min_draft_tube_pressure_x_m=0.0,
-                       t_min_draft_tube_pressure_s=float(time_s[i]))
+               "min_draft_tube_head_m": float(np.min(signals["draft_tube_head_m"])),
+               "min_draft_tube_pressure_head_m": low, "min_draft_tube_pressure_x_m": x,
+               "t_min_draft_tube_pressure_s": t}
         if cavities:  # the mirrored conduit's cavity figures (its x from the draft tube's outlet)
             figures = inner.hooks.summary_after(time_s, signals)
             out.update({f"draft_tube_{key}": value for key, value in figures.items()
@@ -220,9 +223,7 @@ def build_draft_tube(plant, steady, dt_s: float):
 
     def warnings_after(signals):
         out = []
-        low, x = float(np.min(signals["outlet_pressure_head_m"])), 0.0
-        if profile:
-            low, x, _ = min((low, x, 0), lowest_along())
+        low, x, _ = lowest(signals)
         where = "at the runner outlet" if x == 0.0 else f"in the draft tube {x:.4g} m from the runner outlet"
         if low < limit:
             modelled = (f"the {MODEL_NAMES[config.column_separation]} represents the column's separation there"

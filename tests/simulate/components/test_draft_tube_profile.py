@@ -66,6 +66,7 @@ def test_the_lowest_pressure_is_found_at_the_high_point_of_the_profile(plain, ov
     rigid = 20.0 / 30.0 * s["min_draft_tube_head_m"] - 5.0 + ATMOSPHERE_M
     assert s["min_draft_tube_pressure_head_m"] == pytest.approx(rigid, abs=0.15)
     assert s["min_draft_tube_pressure_head_m"] == pytest.approx(1.21, abs=0.01)
+    assert s["min_draft_tube_pressure_head_m"] <= s["min_outlet_pressure_head_m"]  # the runner outlet is in the tube
     assert s["t_min_draft_tube_pressure_s"] == pytest.approx(s["t_min_outlet_pressure_s"], abs=0.05)
     # the runner outlet itself barely changes (the draft tube's column is the same length and section)
     assert s["min_outlet_pressure_head_m"] == pytest.approx(plain.summary()["min_outlet_pressure_head_m"], abs=0.01)
