@@ -43,7 +43,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from simulate.components.hydraulic.cavitation import (COLUMN_SEPARATION_MODELS, DVCM_KEYS, MODEL_NAMES,
-                                                      BoilingSteadyState, vapour_pressure_head_m)
+                                                      BoilingSteadyState, has_profile, vapour_pressure_head_m)
 from simulate.components.hydraulic.brunone import BrunoneConfig
 from simulate.components.hydraulic.conduit import PROFILE_KEYS, PenstockConfig, check_friction_keys, read_segments
 from simulate.components.hydraulic.convolution import ConvolutionConfig
@@ -375,9 +375,10 @@ class DraftTubeConfig:
     def mirrored(self) -> PenstockConfig:
         """The conduit as a :class:`simulate.components.hydraulic.conduit.PenstockConfig` from the tailwater to the
         runner outlet (every key the two sections share is passed on; the mirrored pipe has no reservoir head and
-        one reach, the draft tube having none of its own). With column separation its segments' axis lies at the
-        runner outlet's level, and its atmospheric pressure and water temperature are the draft tube's atmospheric
-        pressure and the temperature of its vapour pressure (module docstring)."""
+        one reach, the draft tube having none of its own), its segments reversed with their ends swapped. With column
+        separation and no profile its segments' axis lies at the runner outlet's level; with column separation its
+        atmospheric pressure and water temperature are the draft tube's atmospheric pressure and the temperature of
+        its vapour pressure (module docstring)."""
         from dataclasses import replace
 
         shared = {f.name: getattr(self, f.name) for f in fields(PenstockConfig)
@@ -402,7 +403,7 @@ class DraftTubeConfig:
     def has_profile(self) -> bool:
         """Whether the segments carry the draft tube's axis (``elevation_start_m``/``elevation_end_m``, runner outlet
         first, m above the tailwater level)."""
-        return all(s.elevation_start_m is not None for s in self.segments)
+        return has_profile(self)
 
     @property
     def friction_coefficient_s2_m5(self) -> float:
