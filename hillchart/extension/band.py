@@ -1,7 +1,7 @@
 """The band around an answer the data do not reach: how wide each side is from held-out residuals (split-conformal,
-:func:`band_scale`, :func:`band_sides`), how it grows with the distance from the data (:func:`band_square`),
-where each ensemble member stands in it (:func:`member_positions`); and the straight continuation of a line toward
-runaway whose misses are the evidence there (:func:`continuation`).
+:func:`band_scale`, :func:`band_sides`), how it grows with the distance from the data (:func:`band_square`,
+:func:`band_envelope`), where each ensemble member stands in it (:func:`member_positions`); and the straight
+continuation of a line toward runaway whose misses are the evidence there (:func:`continuation`).
 
 Below a Francis chart's lowest digitized line (:mod:`hillchart.extension.hypotheses`) and below a double-regulated
 table's smallest guide-vane angle (:mod:`hillchart.fccm.evidence`) alike, the residuals of the weighed hypotheses at
@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.extending import register_jitable
 
 #: The band grows as the distance below the lowest line to this power (:func:`band_square`).
 GROWTH = 2.0
@@ -55,6 +56,7 @@ def continuation(n11, values, at_n11) -> float:
     return float(y[1] + slope * (at_n11 - x[1]))
 
 
+@register_jitable
 def band_square(distance, cap):
     """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^p``
     (``p`` = :data:`GROWTH`) up to ``cap``, continued C1 to a plateau at ``2 cap`` (the slope falls linearly to 0
@@ -75,13 +77,35 @@ def band_square(distance, cap):
     return cap ** GROWTH + slope * (e - e * e / (2.0 * cap)), slope * (1.0 - e / cap)
 
 
+@register_jitable
+def band_envelope(distance, cap, crossover):
+    """``(h, dh/dd)``: :func:`band_square` with a straight start, ``crossover d`` up to ``d = crossover`` (above ``d^2``
+    there, and equal to it at the crossover), then :func:`band_square`. With ``kappa`` the quadratic scale and
+    ``crossover = kappa_1 / kappa`` (``kappa_1`` the scale of the same held-out residuals over ``d``,
+    :func:`band_scale` with ``growth = 1``), the half-width ``kappa h`` is the larger of the two bands: an error in
+    the slope below the lowest kept line grows as ``d``, one in the curvature as ``d^2``, and held-out lines at a
+    few distances do not say which, so near the data, where ``d^2`` would shrink a band calibrated further down to
+    nothing, the band follows the slope's error. ``crossover = 0``: :func:`band_square`. Scalars; compiled by the
+    simulator's kernels (both functions are jitable where they are called from compiled code). Continuous; its slope
+    steps from ``crossover`` to ``2 crossover`` at the crossover.
+
+    Examples
+    --------
+    >>> band_envelope(0.05, 0.5, 0.1)[0] == 0.1 * 0.05, band_envelope(0.2, 0.5, 0.1)[0] == band_square(0.2, 0.5)[0]
+    (True, True)
+    """
+    if 0.0 < distance < crossover:
+        return crossover * distance, crossover
+    return band_square(distance, cap)
+
+
 def log_ratio(predicted, actual, floor):
     """``log(predicted / actual)`` of two positive quantities, each floored at ``floor`` (a sign change counts as
     a large error, not as an undefined one)."""
     return np.log(np.maximum(predicted, floor) / np.maximum(actual, floor))
 
 
-def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
+def band_scale(residuals, distance, coverage: float = BAND_COVERAGE, growth: float = GROWTH) -> float:
     """Half-width per squared distance that covers ``coverage`` of the held-out residuals: split-conformal on the
     scores ``|r| / d^2`` (the ``ceil((n + 1) coverage)``-th smallest; with too few points for that, the largest
     times ``(n + 1) / n``, so a thin record gives a wider band, never a narrower one).
@@ -90,7 +114,8 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
     the slope grows as ``d``, one in the curvature as ``d^2``. The inner hold-outs reach only one or two line
     spacings below the lowest kept line, where the curvature error is still small; scaling their scores by ``d^2``
     rather than ``d`` widens the band faster with the distance, which is what the real chart shows (its lowest lines
-    bend away from every hypothesis fitted above them).
+    bend away from every hypothesis fitted above them). ``growth``: the power of ``d`` the scores are divided by (1
+    for the straight start of :func:`band_envelope`).
 
     Examples
     --------
@@ -102,7 +127,7 @@ def band_scale(residuals, distance, coverage: float = BAND_COVERAGE) -> float:
     # calibrated where the hold-outs reach furthest (the far half of their distances): near the lowest line the
     # residuals are reading noise, which divided by a small d^p would pass for a steep growth
     far = distance >= FAR_FRACTION * distance.max()
-    score = residuals[far] / distance[far] ** GROWTH
+    score = residuals[far] / distance[far] ** growth
     n = score.size
     if n == 0:
         return NO_EVIDENCE_SCALE

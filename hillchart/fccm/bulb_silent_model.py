@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.fccm.evidence import (HANDOVER_FRACTION, BulbExtrapolation, band_square_compiled,
+from hillchart.fccm.evidence import (HANDOVER_FRACTION, HANDOVER_STEPS, BulbExtrapolation, band_envelope_compiled,
                                      hypothesis_value)
 from hillchart.fccm.net import FCCMWeights
 from hillchart.nets.silent_model import _smoothstep
@@ -89,7 +89,7 @@ def weighed_point(net, blend, n11, opening, blade, which):
     guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
     member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``, the band multiplies
     Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d))``, each by its own offset (``h`` of
-    :func:`hillchart.extension.band.band_square` at ``d = 1 - t``)."""
+    :func:`hillchart.extension.band.band_envelope` at ``d = 1 - t``)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]
     t = min(max((opening - closed) / (a_low - closed), 0.0), 1.0)
@@ -109,7 +109,7 @@ def weighed_point(net, blend, n11, opening, blade, which):
         if w > 0.0:
             y += w * hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
             dy += w * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
-    f = math.exp(blend[25 + which] * band_square_compiled(1.0 - t, blend[27])[0])
+    f = math.exp(blend[25 + which] * band_envelope_compiled(1.0 - t, blend[27], blend[28 + which])[0])
     return y_0 + (y - y_0) * f, dy_0 + (dy - dy_0) * f
 
 
@@ -234,14 +234,18 @@ class BulbSilentModel:
 
     @classmethod
     def from_fitted(cls, model, opening_min: float, residual: bool = False,
-                    extrapolation: BulbExtrapolation | None = None) -> "BulbSilentModel":
+                    extrapolation: BulbExtrapolation | None = None, step: float | None = None) -> "BulbSilentModel":
         """From a :class:`hillchart.extension.bulb_model.FittedBulbModel` and the table's smallest guide-vane angle
         (with ``extrapolation`` the hand-over starts at :data:`hillchart.fccm.evidence.HANDOVER_FRACTION` of the gap
-        from the closed vane, else at :data:`BLEND_START_FRACTION`)."""
+        from the closed vane, or :data:`hillchart.fccm.evidence.HANDOVER_STEPS` times ``step`` (the table's angle
+        step, deg, :func:`hillchart.fccm.evidence.angle_step`) below the smallest angle where that is nearer; else at
+        :data:`BLEND_START_FRACTION`)."""
         closed = model.opening_closed
         fraction = BLEND_START_FRACTION if extrapolation is None else HANDOVER_FRACTION
-        return cls(model.params, (closed + fraction * (opening_min - closed), float(opening_min)),
-                   residual=residual, extrapolation=extrapolation)
+        start = closed + fraction * (opening_min - closed)
+        if extrapolation is not None and step is not None:
+            start = max(start, float(opening_min) - HANDOVER_STEPS * float(step))
+        return cls(model.params, (start, float(opening_min)), residual=residual, extrapolation=extrapolation)
 
     def at(self, position: float) -> "BulbSilentModel":
         """The same model and hypotheses at ``position`` in the band (an ensemble member's)."""

@@ -193,6 +193,11 @@ def extend_unit_samples(samples: dict, *, opening_closed: float | None = None, s
             f"{model.m11_rms_pct:.2g} % of the largest measured value; {closed_text}, K = "
             f"{model.k_zero_opening:.3g} N*m/(r/min)^2): " + ", ".join(f"{n} {o}" for o, n in counts.items())
             + " samples")
+    if model.closed_at_limit:
+        note += (f"; the table does not place the closed vane: the fit put it at the model's limit, "
+                 f"{model.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle), and "
+                 "below the smallest tested angle the answer rests on it: give opening_closed (the angle at which "
+                 "the vanes touch, from the guide-vane drawing) if it is known")
     return out, note, model
 
 
@@ -248,11 +253,12 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     evidence = None
     if model is not None:  # the nets are the residual to the model; below the table the weighed hypotheses answer
         from hillchart.extension.band import member_positions
-        from hillchart.fccm.evidence import table_evidence
+        from hillchart.fccm.evidence import angle_step, table_evidence
 
         evidence = table_evidence({k: np.asarray(samples[k], float)[measured] for k in arrays}, model, seed=seed)
         point = BulbSilentModel.from_fitted(model, float(X["opening"][measured].min()), residual=True,
-                                            extrapolation=BulbExtrapolation.of_evidence(evidence))
+                                            extrapolation=BulbExtrapolation.of_evidence(evidence),
+                                            step=angle_step(*(X[k][measured] for k in NET3_INPUTS)))
         member_silent = [point.at(float(u)) for u in member_positions(count, seed)] if count > 1 else [point]
         for member, silent in zip(ensemble, member_silent):
             member.silent_model = silent

@@ -29,12 +29,14 @@ implementation the simulator's kernel runs as well):
 ``y_low(N11, phi)`` is the value at the lowest kept angle: the model there plus the sweep's own residual against it
 at that angle. In the simulator it is the nets' value at the table's smallest angle, which fit it.
 
-The weights are pseudo-BMA on the held-out errors (:func:`pseudo_bma`, as :func:`hillchart.extension.hypotheses.weigh`
-does for the Francis chart: one piece of evidence per held-out angle, the errors divided by the squared distance
-``d = 1 - t``), never the fit; the band is split-conformal on the weighed blend's held-out residuals of each
-fold (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's, :func:`fold_band`), growing as ``d^2``
-(:func:`hillchart.extension.hypotheses.band_square`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles
-(a scattered campaign) gives no evidence: the fitted model answers alone (no other hypothesis has earned a weight;
+The weights are pseudo-BMA on the held-out errors (:func:`pseudo_bma`, as
+:func:`hillchart.extension.hypotheses.weigh` does for the Francis chart: one piece of evidence per held-out angle,
+the errors divided by the squared distance ``d = 1 - t``), never the fit; the band is split-conformal on the weighed
+blend's held-out residuals of each fold (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's,
+:func:`fold_band`), growing as ``d^2`` (:func:`hillchart.extension.hypotheses.band_square`) after a straight start
+near the smallest angle, where ``d^2`` would shrink a band calibrated further down to nothing
+(:func:`hillchart.extension.band.band_envelope`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles (a
+scattered campaign) gives no evidence: the fitted model answers alone (no other hypothesis has earned a weight;
 weighed equally, the straight line and the quadratic, 15-35 % off on every table measured, took a synthetic bulb's
 rejection 1.6 points of speed off the exact one) and the band is the wide
 :data:`hillchart.extension.hypotheses.NO_EVIDENCE_SCALE`, and the summary says so. Toward overspeed the table's
@@ -50,8 +52,8 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import continuation
-from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, band_square, log_ratio
+from hillchart.extension.band import band_envelope, continuation
+from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
 HYPOTHESES = ("model", "anchored-model", "line", "quadratic")
@@ -66,8 +68,27 @@ CURVATURE_ANGLES = 4
 N11_GAP_FRACTION = 0.01
 BLADE_GAP_DEG = 0.1
 #: Below the table's smallest angle, the weighed hypotheses alone answer from this fraction of the gap between the
-#: closed vane and that angle; above it they hand over to the nets (a C1 smoothstep, reaching the nets at the angle).
+#: closed vane and that angle, or from :data:`HANDOVER_STEPS` of the table's angle step below it where that is
+#: nearer (:func:`angle_step`); above it they hand over to the nets (a C1 smoothstep, reaching the nets at the angle).
+#: The step bounds the hand-over where the closed vane lies far below the table: on the 137 kW rig's table (closed
+#: vane 60 deg below its smallest angle) a fifth of the gap let the nets answer alone-ish 12 deg below the table,
+#: over both angles its own hold-outs test, and the run missed them by 3 times the hypotheses' error there.
 HANDOVER_FRACTION = 0.8
+HANDOVER_STEPS = 0.5
+
+
+def angle_step(n11, opening, blade) -> float | None:
+    """The table's guide-vane step at its smallest angles: the median over its sweeps (:func:`sweeps`) of the gap
+    between their two smallest angles, deg; None without sweeps.
+
+    Examples
+    --------
+    >>> angle_step([100.0, 100.0, 100.0, 120.0, 120.0], [35.0, 37.5, 45.0, 40.0, 42.0], [0.0] * 5)
+    2.25
+    """
+    opening = np.asarray(opening, float).ravel()
+    gaps = [float(np.diff(np.unique(opening[s])[:2])[0]) for s in sweeps(n11, opening, blade)]
+    return float(np.median(gaps)) if gaps else None
 
 
 @numba.njit(cache=True)
@@ -348,7 +369,8 @@ class TableEvidence:
         every fold together (Q11 log-ratios, M11 fractions of ``m11_scale``).
     band : dict
         ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h(d)`` (:func:`band_scale`) as log-ratios of
-        Q11 and of the hydraulic torque ``M11 + K N11^2``.
+        Q11 and of the hydraulic torque ``M11 + K N11^2``, ``h`` of
+        :func:`hillchart.extension.band.band_envelope`.
     points : int
         Held-out points behind the weights (0: none; the band is ``NO_EVIDENCE_SCALE``).
     m11_scale : float
@@ -357,6 +379,9 @@ class TableEvidence:
         The band grows as ``d^2`` up to the largest distance the hold-outs tested, then levels off.
     curvature : (float, float)
         ``c`` of the quadratic hypothesis for Q11 and M11, fitted to the whole table.
+    crossover : dict
+        ``{"q11": x, "m11": x}``: where the band's straight start meets its square
+        (:func:`hillchart.extension.band.band_envelope`, :func:`fold_band`); 0 without evidence.
     overspeed : dict or None
         :func:`overspeed_evidence`.
     notes : list of str
@@ -370,6 +395,7 @@ class TableEvidence:
     m11_scale: float
     distance_cap: float
     curvature: tuple = (0.0, 0.0)
+    crossover: dict = field(default_factory=lambda: {"q11": 0.0, "m11": 0.0})
     overspeed: dict | None = None
     notes: list = field(default_factory=list)
 
@@ -402,20 +428,20 @@ class TableEvidence:
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "held_out_points": self.points,
                 "held_out_angles": [f.angles for f in self.folds], "weights": self.weights, "errors": self.errors,
-                "band_per_distance_squared": self.band, "m11_scale": self.m11_scale,
+                "band_per_distance_squared": self.band, "band_crossover": self.crossover, "m11_scale": self.m11_scale,
                 "distance_cap": self.distance_cap, "curvature": list(self.curvature), "overspeed": self.overspeed,
                 "notes": list(self.notes), "summary": self.summary()}
 
 
-def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int]:
-    """Weights, error statistics, band and distance cap of the hypotheses from held-out folds (None entries
-    skipped); ``points`` 0 when there are none."""
+def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, dict]:
+    """Weights, error statistics, band, distance cap, points and the band's crossover of the hypotheses from
+    held-out folds (None entries skipped); ``points`` 0 when there are none."""
     folds = [f for f in folds if f is not None]
     points = int(sum(f.n11.size for f in folds))
     if not points:
         alone = {h: float(h == "model") for h in HYPOTHESES}  # the prior: the physical model (module docstring)
         return ({"q11": dict(alone), "m11": dict(alone)}, {"q11": {}, "m11": {}},
-                {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, 1.0, 0)
+                {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, 1.0, 0, {"q11": 0.0, "m11": 0.0})
     per_fold = [fold_errors(f, m11_scale) for f in folds]
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
     pieces = sum(f.angles for f in folds)
@@ -428,6 +454,8 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int]:
         stats[target]["blend"] = _stats(blended)
     # the band of a member moves Q11 and the hydraulic torque M11 - M_0 by factors (so it vanishes at the closed vanes):
     # calibrated on the log-ratios of the weighed blend's Q11 and hydraulic torque at each fold's points
+    cap = min(1.0, float(distance.max()))
+    crossover = {}
     for target, index in (("q11", 0), ("m11", 1)):
         residuals = []
         for f in folds:
@@ -435,18 +463,22 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int]:
             base = 0.0 if index == 0 else f.m11_closed
             actual = (f.q11 if index == 0 else f.m11) - base
             residuals.append(log_ratio(blended - base, actual, 1e-3 * float(np.max(np.abs(actual)))))
-        band[target] = fold_band(folds, residuals)
-    return weights, stats, band, min(1.0, float(distance.max())), points
+        band[target], crossover[target] = fold_band(folds, residuals, cap)
+    return weights, stats, band, cap, points, crossover
 
 
-def fold_band(folds, residuals) -> float:
-    """``kappa`` of the band: :func:`hillchart.extension.hypotheses.band_scale` of each fold's blended residuals at
-    its own distances, the largest. Pooled, the calibration on the far half of all distances left out the nearer
-    fold: on the 137 kW rig's table without its lowest angle, the fold one angle down (d = 0.18, errors -1.3 to -3.8 %)
-    fell below the far half of the two-angle fold's distances (0.27-0.40, errors within 3 %), the band came out 3.5
-    times narrower than that fold's own, and it covered none of the 8 points at the angle held out (the benchmark).
-    Each fold is a test at its own distance; the band covers what each one saw."""
-    return max(band_scale(r, f.distance) for f, r in zip(folds, residuals))
+def fold_band(folds, residuals, cap: float = 1.0) -> tuple[float, float]:
+    """``(kappa, crossover)`` of the band: ``kappa`` is :func:`hillchart.extension.hypotheses.band_scale` of each
+    fold's blended residuals at its own distances, the largest, and ``crossover`` (at most ``cap``) the same scale
+    over ``d`` (``growth = 1``) divided by ``kappa``: the band's straight start
+    (:func:`hillchart.extension.band.band_envelope`). Pooled, the calibration on the far half of all distances left
+    out the nearer fold: on the 137 kW rig's table without its lowest angle, the fold one angle down (d = 0.18, errors
+    -1.3 to -3.8 %) fell below the far half of the two-angle fold's distances (0.27-0.40, errors within 3 %), the band
+    came out 3.5 times narrower than that fold's own, and it covered none of the 8 points at the angle held out (the
+    benchmark). Each fold is a test at its own distance; the band covers what each one saw."""
+    kappa = max(band_scale(r, f.distance) for f, r in zip(folds, residuals))
+    slope = max(band_scale(r, f.distance, growth=1.0) for f, r in zip(folds, residuals))
+    return kappa, (min(slope / kappa, cap) if kappa > 0.0 else 0.0)
 
 
 def table_evidence(samples: dict, model, *, hold_out=HOLD_OUT, seed: int = 0) -> TableEvidence:
@@ -462,14 +494,14 @@ def table_evidence(samples: dict, model, *, hold_out=HOLD_OUT, seed: int = 0) ->
     m11_scale = float(np.ptp(m)) or 1.0
     closed = model.opening_closed
     folds = [hold_out_angles(samples, k, opening_closed=closed, seed=seed) for k in hold_out]
-    weights, stats, band, cap, points = weigh_folds(folds, m11_scale)
+    weights, stats, band, cap, points, crossover = weigh_folds(folds, m11_scale)
     lines = sweeps(n, a, b)
     anchors = _anchors(model, n, a, b, q, m, lines, np.ones(n.size, bool))
     curvature = fit_curvature(model, n, a, b, q, m, anchors) if anchors else (0.0, 0.0)
     notes = [] if points else ["no held-out evidence: no guide-vane sweep keeps "
                                f"{MIN_ANGLES_LEFT} angles after a hold-out"]
     return TableEvidence(folds=[f for f in folds if f is not None], weights=weights, errors=stats, band=band,
-                         points=points, m11_scale=m11_scale, distance_cap=cap, curvature=curvature,
+                         points=points, m11_scale=m11_scale, distance_cap=cap, curvature=curvature, crossover=crossover,
                          overspeed=overspeed_evidence(samples, opening_closed=closed, seed=seed), notes=notes)
 
 
@@ -526,8 +558,8 @@ def overspeed_evidence(samples: dict, *, opening_closed: float | None = None, se
 
 
 #: The band's growth ``h(d)`` compiled for the simulator's kernel (one implementation:
-#: :func:`hillchart.extension.hypotheses.band_square`).
-band_square_compiled = numba.njit(cache=True)(band_square)
+#: :func:`hillchart.extension.band.band_envelope`).
+band_envelope_compiled = numba.njit(cache=True)(band_envelope)
 
 
 @dataclass(frozen=True)
@@ -547,6 +579,9 @@ class BulbExtrapolation:
         Q11 = 0 and M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes.
     distance_cap : float
         Where the band's growth levels off (:func:`hillchart.extension.hypotheses.band_square`).
+    crossover_q11, crossover_m11 : float
+        Where the band's straight start meets its square (:func:`hillchart.extension.band.band_envelope`); 0 (files
+        written without them) for the square alone.
     position : float
         The member's place in the band (0: the point nets; +-1 the 5-95 % edges).
     """
@@ -559,6 +594,8 @@ class BulbExtrapolation:
     band_m11: float
     distance_cap: float
     position: float = 0.0
+    crossover_q11: float = 0.0
+    crossover_m11: float = 0.0
 
     def __post_init__(self):
         for name in ("weights_q11", "weights_m11"):
@@ -569,7 +606,8 @@ class BulbExtrapolation:
                                  f"{', '.join(HYPOTHESES)} summing to 1, got {list(np.ravel(w))!r}")
             object.__setattr__(self, name, tuple(float(v) for v in w))
         limits = {"curvature_q11": (-1.0, 1.0), "curvature_m11": (-1.0, 1.0), "band_q11": (0.0, 1e3),
-                  "band_m11": (0.0, 1e3), "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0)}
+                  "band_m11": (0.0, 1e3), "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0),
+                  "crossover_q11": (0.0, 1.0), "crossover_m11": (0.0, 1.0)}
         for name, (lo, hi) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= value <= hi):
@@ -581,27 +619,31 @@ class BulbExtrapolation:
         q, m = evidence.weight_vectors()
         return cls(weights_q11=tuple(q), weights_m11=tuple(m), curvature_q11=evidence.curvature[0],
                    curvature_m11=evidence.curvature[1], band_q11=float(evidence.band["q11"]),
-                   band_m11=float(evidence.band["m11"]), distance_cap=evidence.distance_cap, position=float(position))
+                   band_m11=float(evidence.band["m11"]), distance_cap=evidence.distance_cap, position=float(position),
+                   crossover_q11=float(evidence.crossover["q11"]), crossover_m11=float(evidence.crossover["m11"]))
 
     def packed(self) -> np.ndarray:
-        """13 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
-        ``position band_m11``, the distance cap."""
+        """15 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        ``position band_m11``, the distance cap, the Q11 and M11 crossovers."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
-                         self.position * self.band_q11, self.position * self.band_m11, self.distance_cap])
+                         self.position * self.band_q11, self.position * self.band_m11, self.distance_cap,
+                         self.crossover_q11, self.crossover_m11])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
                 "weights_m11": list(self.weights_m11), "curvature_q11": self.curvature_q11,
                 "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
-                "distance_cap": self.distance_cap, "position": self.position}
+                "distance_cap": self.distance_cap, "position": self.position,
+                "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
                  "band_m11", "distance_cap", "position"}
-        if not isinstance(doc, dict) or set(doc) != names:
-            raise InputError(f"{key} must be an object with exactly the keys {', '.join(sorted(names))}, got "
-                             f"{sorted(doc) if isinstance(doc, dict) else doc!r}")
+        optional = {"crossover_q11", "crossover_m11"}  # absent from files written before the band's straight start
+        if not isinstance(doc, dict) or not names <= set(doc) <= names | optional:
+            raise InputError(f"{key} must be an object with the keys {', '.join(sorted(names))} (and optionally "
+                             f"{', '.join(sorted(optional))}), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
         if doc["hypotheses"] != list(HYPOTHESES):
             raise InputError(f"{key}.hypotheses must be {list(HYPOTHESES)}, got {doc['hypotheses']!r}")
         try:

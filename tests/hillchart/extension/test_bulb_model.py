@@ -57,6 +57,20 @@ def test_a_given_closed_vane_is_kept(water_system_samples):
     assert not model.closed_fitted and model.opening_closed == 34.5
     with pytest.raises(InputError, match="must be below the table's smallest guide_vane_deg"):
         _fit(water_system_samples, opening_closed=41.0)
+    # guide vanes turn the flow toward the runner's rotation: a flow angle of 90 deg at the largest tested angle
+    # (78 deg here) is the model's limit, so a closed vane at or below -12 deg is refused, one just above is kept
+    top = float(np.max(water_system_samples["opening"]))
+    with pytest.raises(InputError, match=rf"closed guide-vane angle -12.0 must be above {top - 90.0:g} deg"):
+        _fit(water_system_samples, opening_closed=top - 90.0)
+    assert _fit(water_system_samples, opening_closed=top - 89.0).opening_closed == top - 89.0
+
+
+def test_the_fit_places_an_in_class_closed_vane_whatever_the_seed(water_system_samples):
+    # the truth's closed vane lies inside the admitted range, so the fit is not at the limit, and every seed finds
+    # the same fit (closed vane to 1e-4 deg: the least-squares tolerances)
+    fits = [_fit(water_system_samples, seed=seed) for seed in range(3)]
+    assert not any(f.closed_at_limit for f in fits)
+    assert max(f.opening_closed for f in fits) - min(f.opening_closed for f in fits) < 1e-4
 
 
 def test_a_table_the_model_cannot_represent_is_refused(water_system_samples):
