@@ -74,8 +74,8 @@ class FittedTurbineModel:
         Upper N11 (r/min) of the model's valid range (beyond it: the pumping region), inf when unbounded.
     foot_p_value : float
         p-value of the throat foot's F-test (:func:`fit_turbine_model`); the foot is in the model when it is below
-        :data:`FOOT_SIGNIFICANCE`; 1 when not tried (fewer than :data:`FOOT_MIN_LINES` lines), NaN when the form was
-        given (``throat_foot_mm``: a held-out fold's refit).
+        :data:`FOOT_SIGNIFICANCE`; 1 when not tried (fewer than :data:`FOOT_MIN_LINES` lines: no ``other_form``) or
+        when the footed fit came no closer, NaN when the form was given (``throat_foot_mm``: a held-out fold's refit).
     other_form : FittedTurbineModel or None
         The form the test did not choose, fitted to the same samples (without the foot when it was kept, with it
         when it was not): a hypothesis of its own below the lowest line
@@ -121,7 +121,7 @@ class FittedTurbineModel:
         elif self.throat_foot_mm > 0:
             foot = (f"throat foot a_0 = {self.throat_foot_mm:.3g} (chart opening units; F-test p = "
                     f"{self.foot_p_value:.3g})")
-        elif self.foot_p_value < 1.0:
+        elif self.foot_p_value < 1.0 or self.other_form is not None:  # p = 1: the footed fit was no closer
             foot = f"no throat foot (F-test p = {self.foot_p_value:.3g}, kept below {FOOT_SIGNIFICANCE:g})"
         else:
             foot = f"no throat foot (not tried: fewer than {FOOT_MIN_LINES} opening lines)"

@@ -121,6 +121,10 @@ def test_three_lines_are_too_few_to_try_a_foot(footed):
     model = fit_turbine_model(three, _torque(three))
     assert model.foot_p_value == 1.0 and model.throat_foot_mm == 0.0
     assert model.other_form is None and model.form_probability == 1.0
+    assert "not tried: fewer than 4 opening lines" in model.describe()
+    # tried on four lines or more but no closer with the foot (p = 1): the line says the test, not "not tried"
+    tried = replace(model, other_form=replace(model, form_probability=0.1))
+    assert "no throat foot (F-test p = 1, kept below 0.01)" in tried.describe()
 
 
 def test_a_given_form_is_refitted_not_tested(footed):
