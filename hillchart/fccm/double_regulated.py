@@ -253,11 +253,18 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     evidence = None
     if model is not None:  # the nets are the residual to the model; below the table the weighed hypotheses answer
         from hillchart.extension.band import member_positions
-        from hillchart.fccm.evidence import angle_step, table_evidence
+        from hillchart.fccm.evidence import angle_step, low_band, table_evidence
 
         evidence = table_evidence({k: np.asarray(samples[k], float)[measured] for k in arrays}, model, seed=seed)
-        point = BulbSilentModel.from_fitted(model, float(X["opening"][measured].min()), residual=True,
-                                            extrapolation=BulbExtrapolation.of_evidence(evidence),
+        # the point nets' own miss at the smallest angle, where a run takes every hypothesis' y_low from them
+        a_low = float(X["opening"][measured].min())
+        at_low = measured & (np.asarray(X["opening"], float) == a_low)
+        x_low = [np.asarray(X[k], float)[at_low] for k in NET3_INPUTS]
+        low = low_band(model.q11(*x_low) + ensemble[0].q11(*x_low), model.m11(*x_low) + ensemble[0].m11(*x_low),
+                       np.asarray(samples["q11"], float)[at_low], np.asarray(samples["m11"], float)[at_low],
+                       -model.k_zero_opening * x_low[0] ** 2)
+        point = BulbSilentModel.from_fitted(model, a_low, residual=True,
+                                            extrapolation=BulbExtrapolation.of_evidence(evidence, low=low),
                                             step=angle_step(*(X[k][measured] for k in NET3_INPUTS)))
         member_silent = [point.at(float(u)) for u in member_positions(count, seed)] if count > 1 else [point]
         for member, silent in zip(ensemble, member_silent):

@@ -481,6 +481,31 @@ def fold_band(folds, residuals, cap: float = 1.0) -> tuple[float, float]:
     return kappa, (min(slope / kappa, cap) if kappa > 0.0 else 0.0)
 
 
+def low_band(nets_q11, nets_m11, q11, m11, m11_closed, coverage: float = 0.90) -> tuple[float, float]:
+    """``(low_q11, low_m11)``: the nets' miss at the measured points of the table's smallest angles (arrays: the nets'
+    Q11 and M11 there, the measured ones, and ``-K N11^2``), as log-ratios of Q11 and of the hydraulic torque
+    ``M11 + K N11^2``: split-conformal, the ``ceil((n + 1) (1 + coverage) / 2)``-th smallest absolute log-ratio (the
+    largest times ``(n + 1) / n`` with too few points), as each side of the band is a one-sided bound.
+
+    Examples
+    --------
+    >>> [round(v, 4) for v in low_band([1.02, 0.99], [9.0, 10.0], [1.0, 1.0], [10.0, 10.0], [0.0, 0.0])]
+    [0.0297, 0.158]
+    """
+    floor = 1e-3 * float(np.max(np.abs(q11)))
+    r_q = np.abs(log_ratio(np.asarray(nets_q11, float), np.asarray(q11, float), floor))
+    base = np.asarray(m11_closed, float)
+    hydraulic = np.asarray(m11, float) - base
+    r_m = np.abs(log_ratio(np.asarray(nets_m11, float) - base, hydraulic, 1e-3 * float(np.max(np.abs(hydraulic)))))
+    out = []
+    for r in (r_q, r_m):
+        n = r.size
+        rank = math.ceil((n + 1) * 0.5 * (1.0 + coverage))
+        ordered = np.sort(r)
+        out.append(float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (n + 1) / max(n, 1))
+    return out[0], out[1]
+
+
 def table_evidence(samples: dict, model, *, hold_out=HOLD_OUT, seed: int = 0) -> TableEvidence:
     """The evidence of a table's measured unit samples (dict of n11, opening, blade_angle, q11, m11; r/min, deg, deg,
     m^3/s, N*m) for ``model`` (the bulb model fitted to all of them): the folds of ``hold_out``, weighed, the band,
@@ -582,6 +607,10 @@ class BulbExtrapolation:
     crossover_q11, crossover_m11 : float
         Where the band's straight start meets its square (:func:`hillchart.extension.band.band_envelope`); 0 (files
         written without them) for the square alone.
+    low_q11, low_m11 : float
+        The nets' own miss at the table's smallest angles, where every hypothesis takes its ``y_low`` (the half-width
+        of :func:`low_band`, the same log-ratios): added to ``kappa h`` below the smallest angle. The held-out folds
+        take ``y_low`` from the measured points, a run from the nets; 0 in files written without them.
     position : float
         The member's place in the band (0: the point nets; +-1 the 5-95 % edges).
     """
@@ -596,6 +625,8 @@ class BulbExtrapolation:
     position: float = 0.0
     crossover_q11: float = 0.0
     crossover_m11: float = 0.0
+    low_q11: float = 0.0
+    low_m11: float = 0.0
 
     def __post_init__(self):
         for name in ("weights_q11", "weights_m11"):
@@ -607,7 +638,8 @@ class BulbExtrapolation:
             object.__setattr__(self, name, tuple(float(v) for v in w))
         limits = {"curvature_q11": (-1.0, 1.0), "curvature_m11": (-1.0, 1.0), "band_q11": (0.0, 1e3),
                   "band_m11": (0.0, 1e3), "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0),
-                  "crossover_q11": (0.0, 1.0), "crossover_m11": (0.0, 1.0)}
+                  "crossover_q11": (0.0, 1.0), "crossover_m11": (0.0, 1.0), "low_q11": (0.0, 1.0),
+                  "low_m11": (0.0, 1.0)}
         for name, (lo, hi) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= value <= hi):
@@ -615,32 +647,38 @@ class BulbExtrapolation:
                                  f"got {value!r}")
 
     @classmethod
-    def of_evidence(cls, evidence: TableEvidence, position: float = 0.0) -> "BulbExtrapolation":
+    def of_evidence(cls, evidence: TableEvidence, position: float = 0.0, low=(0.0, 0.0)) -> "BulbExtrapolation":
+        """From the table's evidence; ``low``: ``(low_q11, low_m11)`` (:func:`low_band`)."""
         q, m = evidence.weight_vectors()
         return cls(weights_q11=tuple(q), weights_m11=tuple(m), curvature_q11=evidence.curvature[0],
                    curvature_m11=evidence.curvature[1], band_q11=float(evidence.band["q11"]),
                    band_m11=float(evidence.band["m11"]), distance_cap=evidence.distance_cap, position=float(position),
-                   crossover_q11=float(evidence.crossover["q11"]), crossover_m11=float(evidence.crossover["m11"]))
+                   crossover_q11=float(evidence.crossover["q11"]), crossover_m11=float(evidence.crossover["m11"]),
+                   low_q11=float(low[0]), low_m11=float(low[1]))
 
     def packed(self) -> np.ndarray:
-        """15 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
-        ``position band_m11``, the distance cap, the Q11 and M11 crossovers."""
+        """17 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        ``position band_m11``, the distance cap, the Q11 and M11 crossovers, the member's offsets ``position
+        low_q11`` and ``position low_m11``."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
                          self.position * self.band_q11, self.position * self.band_m11, self.distance_cap,
-                         self.crossover_q11, self.crossover_m11])
+                         self.crossover_q11, self.crossover_m11, self.position * self.low_q11,
+                         self.position * self.low_m11])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
                 "weights_m11": list(self.weights_m11), "curvature_q11": self.curvature_q11,
                 "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
                 "distance_cap": self.distance_cap, "position": self.position,
-                "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11}
+                "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11, "low_q11": self.low_q11,
+                "low_m11": self.low_m11}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
                  "band_m11", "distance_cap", "position"}
-        optional = {"crossover_q11", "crossover_m11"}  # absent from files written before the band's straight start
+        # absent from files written before the band's straight start and its term at the smallest angles
+        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11"}
         if not isinstance(doc, dict) or not names <= set(doc) <= names | optional:
             raise InputError(f"{key} must be an object with the keys {', '.join(sorted(names))} (and optionally "
                              f"{', '.join(sorted(optional))}), got {sorted(doc) if isinstance(doc, dict) else doc!r}")

@@ -10,7 +10,7 @@ from hillchart.extension.band import band_envelope
 from hillchart.extension.hypotheses import NO_EVIDENCE_SCALE, band_scale, band_square
 from hillchart.fccm.double_regulated import (BulbSilentModel, DoubleRegulatedNets, load_double_regulated_nets,
                                              table_unit_samples)
-from hillchart.fccm.evidence import (HYPOTHESES, BulbExtrapolation, fold_band, fold_errors, held_out_mask,
+from hillchart.fccm.evidence import (HYPOTHESES, BulbExtrapolation, fold_band, fold_errors, held_out_mask, low_band,
                                      hold_out_angles, hypothesis_value, overspeed_evidence, pseudo_bma, sweeps,
                                      table_evidence)
 from hillchart.fccm.table import load_test_table
@@ -149,6 +149,21 @@ def test_an_in_class_sweep_table_weighs_the_model_and_bands_it_narrowly(sweep_sa
     assert over["held_out_points"] == 27 and over["model_q11_rms"] < 0.01  # measured 0.3 %
 
 
+def test_the_nets_miss_at_the_smallest_angle_is_a_conformal_bound():
+    # three points: a 95 % one-sided rank of ceil(4 x 0.95) = 4 > 3, so the largest miss times 4 / 3 (by hand)
+    q = np.array([1.0, 2.0, 4.0])
+    nets_q = q * np.exp([0.01, -0.02, 0.05])
+    m_closed = np.array([-1.0, -1.0, -1.0])
+    m = np.array([9.0, 19.0, 39.0])  # hydraulic torques 10, 20, 40
+    nets_m = m_closed + (m - m_closed) * np.exp([0.03, -0.01, 0.0])
+    low_q, low_m = low_band(nets_q, nets_m, q, m, m_closed)
+    assert low_q == pytest.approx(0.05 * 4 / 3, rel=1e-12) and low_m == pytest.approx(0.03 * 4 / 3, rel=1e-12)
+    # 19 points: the rank ceil(20 x 0.95) = 19 is the largest itself (the failing case of a tighter rank: 18th)
+    misses = np.linspace(0.001, 0.019, 19)
+    ones = np.ones(19)
+    assert low_band(np.exp(misses), ones, ones, ones, np.zeros(19))[0] == pytest.approx(0.019, rel=1e-12)
+
+
 def test_extrapolation_records_are_validated_and_round_trip():
     good = dict(weights_q11=(0.5, 0.5, 0.0, 0.0), weights_m11=(0.25,) * 4, curvature_q11=-0.4, curvature_m11=0.1,
                 band_q11=1.0, band_m11=0.5, distance_cap=0.4)
@@ -166,11 +181,13 @@ def test_extrapolation_records_are_validated_and_round_trip():
     del doc["curvature_m11"]
     with pytest.raises(InputError, match="silent_model.extrapolation must be an object with the keys"):
         BulbExtrapolation.from_dict(doc)
-    # a record written before the band's straight start: the square alone
-    doc = record.to_dict()
-    del doc["crossover_q11"], doc["crossover_m11"]
+    # a record written before the band's straight start and its term at the smallest angle: the square alone
+    doc = BulbExtrapolation(**{**good, "position": 1.0}).to_dict()
+    for key in ("crossover_q11", "crossover_m11", "low_q11", "low_m11"):
+        del doc[key]
     old = BulbExtrapolation.from_dict(doc)
-    assert old.crossover_q11 == old.crossover_m11 == 0.0 and old.packed()[-2:].tolist() == [0.0, 0.0]
+    assert old.crossover_q11 == old.crossover_m11 == old.low_q11 == old.low_m11 == 0.0
+    assert old.packed()[-4:].tolist() == [0.0, 0.0, 0.0, 0.0]
     with pytest.raises(InputError, match="needs residual nets"):
         BulbSilentModel(SyntheticBulb().point_parameters(), (38.0, 40.0), residual=False, extrapolation=record)
 
@@ -185,7 +202,7 @@ def weighed():
     plain = load_double_regulated_nets(BULB_DIR / "nets.json")
     record = BulbExtrapolation(weights_q11=(0.1, 0.2, 0.3, 0.4), weights_m11=(0.4, 0.3, 0.2, 0.1),
                                curvature_q11=-0.3, curvature_m11=0.2, band_q11=0.8, band_m11=1.5,
-                               distance_cap=0.5, crossover_q11=0.3, crossover_m11=0.1)
+                               distance_cap=0.5, crossover_q11=0.3, crossover_m11=0.1, low_q11=0.02, low_m11=0.03)
     params = SyntheticBulb().point_parameters()
     silent = BulbSilentModel(params, (39.0, LOW), residual=True, extrapolation=record)
     point = DoubleRegulatedNets(plain.flow, plain.torque, silent_model=silent)
@@ -222,10 +239,11 @@ def test_the_kernel_reads_the_weighed_hypotheses_below_the_table(weighed):
         np.testing.assert_allclose(point.m11(n11, gv, blade), m, rtol=1e-12, atol=1e-12)
         # each target's own straight start (at 39 deg, d = 0.2: Q11's straight, M11's square)
         h_q, h_m = (np.array([band_envelope(float(1.0 - v), 0.5, x)[0] for v in t]) for x in (0.3, 0.1))
-        # the member at +1 in the band: Q11 and the hydraulic torque M11 + K N11^2 times exp(kappa h), each its own
-        np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h_q), rtol=1e-12, atol=1e-14)
-        np.testing.assert_allclose(member.m11(n11, gv, blade), m_0 + (m - m_0) * np.exp(1.5 * h_m), rtol=1e-12,
-                                   atol=1e-12)
+        # the member at +1 in the band: Q11 and the hydraulic torque M11 + K N11^2 times exp(kappa h + low), each its
+        # own (low: the nets' own miss at the smallest angle)
+        np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h_q + 0.02), rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(member.m11(n11, gv, blade), m_0 + (m - m_0) * np.exp(1.5 * h_m + 0.03),
+                                   rtol=1e-12, atol=1e-12)
     # shut vanes pass no flow and the torque is the disc friction's -K N11^2 (eq. (8)), for every member
     k = SyntheticBulb().point_parameters()[POINT_PARAMETERS.index("k_disc_friction")]
     # (the model's flow at its flow angle floor of 1e-9 deg: below 1e-9 of full flow, never reverse)
@@ -256,7 +274,7 @@ def test_nets_with_the_weighed_hypotheses_round_trip_and_old_files_read_as_befor
     assert again.silent_model.extrapolation == record
     x = (np.array([130.0, 200.0]), np.array([36.0, 37.0]), np.array([-3.0, 5.0]))
     np.testing.assert_array_equal(again.q11(*x), point.q11(*x))
-    assert point.blend_packed().size == 30 and point.blend_packed()[14] == 2.0
+    assert point.blend_packed().size == 32 and point.blend_packed()[14] == 2.0
     # a file written before (no extrapolation block): 15 numbers, the model alone below the blend
     legacy = BulbSilentModel(SyntheticBulb().point_parameters(), (37.5, LOW), residual=True)
     assert "extrapolation" not in legacy.to_dict() and legacy.packed().size == 15
