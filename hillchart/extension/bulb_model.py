@@ -343,7 +343,8 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
     if params is None:
         raise InputError(f"{source}: no start of the bulb model's fit reached parameters the model admits (a unique "
                          "flow root, blade angles within 2-88 deg, flow angles below 90 deg); check the table's "
-                         "columns, or give opening_closed from the guide-vane drawing")
+                         "columns, or give the closed vane (--closed-opening, opening_closed in Python) from the "
+                         "guide-vane drawing")
     qq, mm = unit_values(params, n, a, b)
     # misfit as % of the largest measured value: a fixed-blade table swept over a few heads spans a narrow M11 range
     # (the 137 kW rig's: 830-1000 N*m), against which a 3 % torque error would read as 15 %

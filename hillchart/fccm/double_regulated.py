@@ -196,8 +196,9 @@ def extend_unit_samples(samples: dict, *, opening_closed: float | None = None, s
     if model.closed_at_limit:
         note += (f"; the table does not place the closed vane: the fit put it at the model's limit, "
                  f"{model.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle), and "
-                 "below the smallest tested angle the answer rests on it: give opening_closed (the angle at which "
-                 "the vanes touch, from the guide-vane drawing) if it is known")
+                 "below the smallest tested angle the answer rests on it: give it with --closed-opening "
+                 "(opening_closed in Python), the angle at which the vanes touch, from the guide-vane drawing, if it "
+                 "is known")
     return out, note, model
 
 

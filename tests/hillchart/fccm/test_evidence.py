@@ -294,7 +294,7 @@ def test_the_real_bulb_tables_evidence(tmp_path):
     samples, notes, model = table_unit_samples(load_test_table(write_bulb_137kw_table(tmp_path / "bulb137")))
     # the limit, and the note that says the table did not place it (a least-squares fit, 1e-4 deg)
     assert model.closed_at_limit and model.opening_closed == pytest.approx(70.0 - 90.0, abs=1e-4)
-    assert any("does not place the closed vane" in note and "give opening_closed" in note for note in notes)
+    assert any("does not place the closed vane" in note and "--closed-opening" in note for note in notes)
     measured = samples["origin"] == "measured"
     arrays = [np.asarray(samples[k], float)[measured] for k in ("n11", "opening", "blade_angle", "q11", "m11")]
     # every seed the same fit (its starts span the admitted closed vanes): closed vane to 1e-3 deg, misfit to 1e-5
