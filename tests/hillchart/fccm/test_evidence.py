@@ -85,12 +85,15 @@ def test_pseudo_bma_weighs_by_held_out_error_and_the_number_of_held_out_angles()
     assert sum(w1.values()) == pytest.approx(1.0, rel=1e-12)
 
 
-def test_each_fold_calibrates_the_band_at_its_own_distance():
-    class Fold:
-        def __init__(self, distance):
-            self.distance = np.asarray(distance, float)
+class _Fold:
+    """What :func:`fold_band` reads of a held-out fold: its distances."""
 
-    near, far = Fold([0.15]), Fold([0.4])
+    def __init__(self, distance):
+        self.distance = np.asarray(distance, float)
+
+
+def test_each_fold_calibrates_the_band_at_its_own_distance():
+    near, far = _Fold([0.15]), _Fold([0.4])
     residuals = [np.array([0.04]), np.array([0.01])]
     # pooled, the far half of the distances (>= 0.2) leaves out the near fold: 0.01 / 0.4^2 x (n + 1) / n = 0.125
     pooled = band_scale(np.concatenate(residuals), np.concatenate([near.distance, far.distance]))
@@ -102,11 +105,7 @@ def test_each_fold_calibrates_the_band_at_its_own_distance():
 
 
 def test_the_band_starts_straight_where_a_farther_fold_saw_a_larger_slope():
-    class Fold:
-        def __init__(self, distance):
-            self.distance = np.asarray(distance, float)
-
-    near, far = Fold([0.1]), Fold([0.4])
+    near, far = _Fold([0.1]), _Fold([0.4])
     residuals = [np.array([0.005]), np.array([0.04])]
     # by hand (one point a fold: twice its score): over d^2 the near fold's 0.01 / 0.01 = 1.0 against 0.08 / 0.16;
     # over d the far fold's 0.08 / 0.4 = 0.2 against 0.01 / 0.1
