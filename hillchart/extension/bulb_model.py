@@ -151,9 +151,6 @@ class FittedBulbModel:
         The fit's scaled residuals.
     cost : float
         Half the sum of squares of the scaled residuals at the fit.
-    closed_limit : float
-        The lowest closed vane the model admits for the table (deg): its largest tested angle less
-        :data:`MAX_FLOW_ANGLE_DEG`.
     """
 
     params: np.ndarray
@@ -163,7 +160,6 @@ class FittedBulbModel:
     x: np.ndarray
     objective: "_Objective"
     cost: float
-    closed_limit: float = -math.inf
 
     @property
     def opening_closed(self) -> float:
@@ -172,11 +168,10 @@ class FittedBulbModel:
 
     @property
     def closed_at_limit(self) -> bool:
-        """True when the fitted closed vane lies at the model's limit (within 1 % of the gaps it admits): the table
-        did not place it, the flow-angle limit did."""
-        gap = self.opening_closed - self.closed_limit
-        return self.closed_fitted and math.isfinite(self.closed_limit) and gap <= 0.01 * max(
-            self.closed_limit + MAX_FLOW_ANGLE_DEG, gap)
+        """True when the fitted closed vane lies at the model's limit (its gap to the smallest tested angle at 99 % or
+        more of the largest the model admits, :func:`max_closed_gap`): the table did not place it, the flow-angle limit
+        did."""
+        return self.closed_fitted and _logistic(float(self.x[PARAMETER_NAMES.index("closed_gap_deg")])) >= 0.99
 
     @property
     def k_zero_opening(self) -> float:
@@ -358,7 +353,6 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
             "degrees), or train without the extension (--no-extension) and keep the simulation inside the table's "
             "range")
     return FittedBulbModel(params=params, q11_rms_pct=q_rms, m11_rms_pct=m_rms, closed_fitted=opening_closed is None,
-                           closed_limit=float(a.max()) - MAX_FLOW_ANGLE_DEG,
                            x=np.array(best.x), objective=residuals, cost=float(best.cost))
 
 
