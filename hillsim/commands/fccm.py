@@ -200,6 +200,11 @@ def _run_simulator_nets(args) -> int:
         print(f"note: {line}")
     for line in report["warnings"]:
         print(f"warning: {line}")
+    if model is not None and model.closed_at_limit:  # the plant's stroke and everything below the table rest on it
+        print(f"warning: the table does not place the closed vane: the fit put it at the model's limit, "
+              f"{model.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle); the "
+              "plant's stroke (turbine.opening_max) and the answer below the smallest tested angle rest on it: give "
+              "--closed-opening (the angle at which the vanes touch, from the guide-vane drawing) if it is known")
     if "extrapolation" in nets.training:  # the table's own held-out angles: how far below it to trust the answer
         print(nets.training["extrapolation"]["summary"])
     if model is not None:
@@ -208,7 +213,8 @@ def _run_simulator_nets(args) -> int:
                   if box["blade_angle"][0] == box["blade_angle"][1] else
                   'combinator.relation = "model" (the cam of the fitted model; "table" with the unit\'s measured '
                   'cam is better)')
-        print(f"plant: combinator.opening_at_zero_stroke = {model.opening_closed:.4g} (the closed vane, deg), "
+        where = " at the model's limit, see the warning" if model.closed_at_limit else ""
+        print(f"plant: combinator.opening_at_zero_stroke = {model.opening_closed:.4g} (the closed vane, deg{where}), "
               f"turbine.opening_max = {box['opening'][1] - model.opening_closed:.4g} (to the largest tested angle), "
               f"{blades}")
     print(f"wrote {Path(args.out) / 'nets.json'}, {Path(args.out) / 'plausibility.json'}")

@@ -333,6 +333,9 @@ def test_the_command_prints_and_records_the_real_tables_evidence(tmp_path, capsy
     printed = capsys.readouterr().out
     assert ("below the lowest guide-vane angle this table predicts its own held-out angles within 0.5 % (Q11)"
             in printed)
+    # the closed vane at the model's limit: a warning that names the fix, and the plant line points to it
+    assert "warning: the table does not place the closed vane" in printed and "give --closed-opening" in printed
+    assert "opening_at_zero_stroke = -20 (the closed vane, deg at the model's limit, see the warning)" in printed
     doc = json.loads((tmp_path / "out" / "nets.json").read_text())
     record = doc["training"]["extrapolation"]
     assert record["held_out_points"] == 24 and record["held_out_angles"] == [1, 2]

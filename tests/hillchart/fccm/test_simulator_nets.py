@@ -57,6 +57,9 @@ def test_cli_writes_the_nets_the_simulator_reads(bulb_table, tmp_path, capsys):
                  "--out", str(extended)]) == 0
     printed = capsys.readouterr().out
     assert "extended by the physical bulb model" in printed and "combinator.opening_at_zero_stroke = 35" in printed
+    # the synthetic bulb's closed vane (35 deg) lies inside the range the model admits: no warning about it (the
+    # real rig's, at the limit, warns: tests/hillchart/fccm/test_evidence.py)
+    assert "does not place the closed vane" not in printed and "model's limit" not in printed
     doc = json.loads((extended / "nets.json").read_text())
     assert doc["silent_model"]["kind"] == "bulb-1d" and "boundary_model" in doc["training"]
     # a best-efficiency campaign measures one N11 per setting: no guide-vane sweep to hold out, and it says so
