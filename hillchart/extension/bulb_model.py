@@ -117,7 +117,7 @@ def _point_parameters(x, opening_min: float, opening_max: float, opening_closed:
     return np.array([values[name] for name in POINT_PARAMETERS])
 
 
-def _valid(params, blade_range, opening_max: float = -math.inf) -> bool:
+def _valid(params, blade_range, opening_max: float) -> bool:
     """The model's own validity: a unique flow root (k_incidence + k_swirl < 2), blade angles inside
     :data:`BLADE_ANGLE_LIMITS_DEG` over ``blade_range``, and guide vanes that turn the flow toward the runner's
     rotation up to ``opening_max`` (deg; the flow angle ``alpha = a - a_c`` below :data:`MAX_FLOW_ANGLE_DEG`)."""
@@ -172,6 +172,12 @@ class FittedBulbModel:
         more of the largest the model admits, :func:`max_closed_gap`): the table did not place it, the flow-angle limit
         did."""
         return self.closed_fitted and _logistic(float(self.x[PARAMETER_NAMES.index("closed_gap_deg")])) >= 0.99
+
+    @property
+    def closed_limit_text(self) -> str:
+        """What the fccm note and warning say of a closed vane at the model's limit (:attr:`closed_at_limit`)."""
+        return (f"the table does not place the closed vane: the fit put it at the model's limit, "
+                f"{self.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle)")
 
     @property
     def k_zero_opening(self) -> float:
@@ -289,7 +295,7 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
     n, a, b, q, m = (np.ascontiguousarray(np.asarray(v, float).ravel()) for v in (n11, opening, blade, q11, m11))
     if not (np.ptp(q) > 0 and np.ptp(m) > 0):
         raise InputError(f"{source}: the measured Q11 or M11 has no range; the bulb model cannot be fitted")
-    a_min = float(a.min())
+    a_min, a_max = float(a.min()), float(a.max())
     blade_range = (float(b.min()), float(b.max()))
     residuals = _Objective(n, a, b, q, m, opening_closed)
     shift = 0.5 * (blade_range[0] + blade_range[1])  # the start's blade angles at the table's mid blade angle
@@ -297,7 +303,7 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
     total = start["k_incidence"] + start["k_swirl"]
     start.update(incidence_swirl_sum=_logit(total / INCIDENCE_SWIRL_LIMIT),
                  incidence_share=_logit(start["k_incidence"] / total), hub_ratio=_logit(start["hub_ratio"]))
-    largest_gap = max_closed_gap(a_min, float(a.max()))
+    largest_gap = max_closed_gap(a_min, a_max)
     if not largest_gap > 0.0:
         raise InputError(f"{source}: its guide-vane angles span {float(np.ptp(a)):g} deg; the bulb model's flow angle "
                          f"spans less than {MAX_FLOW_ANGLE_DEG:g} deg (guide_vane_deg must be in degrees)")
@@ -310,7 +316,6 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
         if not opening_closed < a_min:
             raise InputError(f"the closed guide-vane angle {opening_closed!r} must be below {source}'s smallest "
                              f"guide_vane_deg {a_min!r}")
-        a_max = float(a.max())
         if not a_max - opening_closed < MAX_FLOW_ANGLE_DEG:
             raise InputError(f"the closed guide-vane angle {opening_closed!r} must be above "
                              f"{a_max - MAX_FLOW_ANGLE_DEG:g} deg ({source}'s largest guide_vane_deg {a_max:g} less "

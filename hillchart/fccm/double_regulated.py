@@ -194,11 +194,9 @@ def extend_unit_samples(samples: dict, *, opening_closed: float | None = None, s
             f"{model.k_zero_opening:.3g} N*m/(r/min)^2): " + ", ".join(f"{n} {o}" for o, n in counts.items())
             + " samples")
     if model.closed_at_limit:
-        note += (f"; the table does not place the closed vane: the fit put it at the model's limit, "
-                 f"{model.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle), and "
-                 "below the smallest tested angle the answer rests on it: give it with --closed-opening "
-                 "(opening_closed in Python), the angle at which the vanes touch, from the guide-vane drawing, if it "
-                 "is known")
+        note += (f"; {model.closed_limit_text}, and below the smallest tested angle the answer rests on it: give it "
+                 "with --closed-opening (opening_closed in Python), the angle at which the vanes touch, from the "
+                 "guide-vane drawing, if it is known")
     return out, note, model
 
 
@@ -259,8 +257,8 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
         evidence = table_evidence({k: np.asarray(samples[k], float)[measured] for k in arrays}, model, seed=seed)
         # the point nets' own miss at the smallest angle, where a run takes every hypothesis' y_low from them
         a_low = float(X["opening"][measured].min())
-        at_low = measured & (np.asarray(X["opening"], float) == a_low)
-        x_low = [np.asarray(X[k], float)[at_low] for k in NET3_INPUTS]
+        at_low = measured & (X["opening"] == a_low)
+        x_low = [X[k][at_low] for k in NET3_INPUTS]
         low = low_band(model.q11(*x_low) + ensemble[0].q11(*x_low), model.m11(*x_low) + ensemble[0].m11(*x_low),
                        np.asarray(samples["q11"], float)[at_low], np.asarray(samples["m11"], float)[at_low],
                        -model.k_zero_opening * x_low[0] ** 2)

@@ -485,8 +485,9 @@ def fold_band(folds, residuals, cap: float = 1.0) -> tuple[float, float]:
 def low_band(nets_q11, nets_m11, q11, m11, m11_closed, coverage: float = 0.90) -> tuple[float, float]:
     """``(low_q11, low_m11)``: the nets' miss at the measured points of the table's smallest angles (arrays: the nets'
     Q11 and M11 there, the measured ones, and ``-K N11^2``), as log-ratios of Q11 and of the hydraulic torque
-    ``M11 + K N11^2``: split-conformal, the ``ceil((n + 1) (1 + coverage) / 2)``-th smallest absolute log-ratio (the
-    largest times ``(n + 1) / n`` with too few points), as each side of the band is a one-sided bound.
+    ``M11 + K N11^2``: split-conformal (:func:`hillchart.extension.hypotheses.band_scale` at one distance), the
+    ``ceil((n + 1) (1 + coverage) / 2)``-th smallest absolute log-ratio (the largest times ``(n + 1) / n`` with too
+    few points), as each side of the band is a one-sided bound.
 
     Examples
     --------
@@ -498,13 +499,8 @@ def low_band(nets_q11, nets_m11, q11, m11, m11_closed, coverage: float = 0.90) -
     base = np.asarray(m11_closed, float)
     hydraulic = np.asarray(m11, float) - base
     r_m = np.abs(log_ratio(np.asarray(nets_m11, float) - base, hydraulic, 1e-3 * float(np.max(np.abs(hydraulic)))))
-    out = []
-    for r in (r_q, r_m):
-        n = r.size
-        rank = math.ceil((n + 1) * 0.5 * (1.0 + coverage))
-        ordered = np.sort(r)
-        out.append(float(ordered[rank - 1]) if rank <= n else float(ordered[-1]) * (n + 1) / max(n, 1))
-    return out[0], out[1]
+    level = 0.5 * (1.0 + coverage)  # one-sided, as each side of the band
+    return tuple(band_scale(r, np.ones(r.size), coverage=level) for r in (r_q, r_m))
 
 
 def table_evidence(samples: dict, model, *, hold_out=HOLD_OUT, seed: int = 0) -> TableEvidence:

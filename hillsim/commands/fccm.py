@@ -201,10 +201,9 @@ def _run_simulator_nets(args) -> int:
     for line in report["warnings"]:
         print(f"warning: {line}")
     if model is not None and model.closed_at_limit:  # the plant's stroke and everything below the table rest on it
-        print(f"warning: the table does not place the closed vane: the fit put it at the model's limit, "
-              f"{model.opening_closed:.4g} deg (the flow angle reaching 90 deg at the largest tested angle); the "
-              "plant's stroke (turbine.opening_max) and the answer below the smallest tested angle rest on it: give "
-              "--closed-opening (the angle at which the vanes touch, from the guide-vane drawing) if it is known")
+        print(f"warning: {model.closed_limit_text}; the plant's stroke (turbine.opening_max) and the answer below "
+              "the smallest tested angle rest on it: give --closed-opening (the angle at which the vanes touch, from "
+              "the guide-vane drawing) if it is known")
     if "extrapolation" in nets.training:  # the table's own held-out angles: how far below it to trust the answer
         print(nets.training["extrapolation"]["summary"])
     if model is not None:
