@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.extension.residual import continued_residual
 from hillchart.fccm.bulb_silent_model import (BLEND_START_FRACTION, NET3_INPUTS, NO_BLEND, SILENT_KIND, WEIGHED,
                                               BulbSilentModel, blended_point, blended_value, net3_point,
                                               packed_net3, weighed_point)
@@ -210,7 +211,9 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
     at -1, 0, +1) so the net's scaling is defined; the nets do not depend on it.
 
     With ``model`` (the fitted bulb model :func:`table_unit_samples` returns), the nets learn the residual to the
-    model (what it misses at the measured samples, zero at its own extension samples), and the model is stored with
+    model (what it misses at the measured samples; at its samples between the table and the boundaries that residual
+    carried from the table and faded out, :func:`hillchart.extension.residual.continued_residual`; zero at the
+    boundaries: the closed vane, runaway, zero speed), and the model is stored with
     them (:class:`BulbSilentModel`, ``residual``): the characteristics are the model's plus the nets' residual. Below
     the table's smallest guide-vane angle the hypotheses weighed by the table's own held-out angles answer
     (:func:`hillchart.fccm.evidence.table_evidence`, recorded in ``training["extrapolation"]``); the point nets read
@@ -239,12 +242,17 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
                 fitted[k] = fitted[k] + np.repeat([-1.0, 0.0, 1.0], size)
         return fitted
 
-    measured = np.asarray(samples.get("origin", np.full(X["n11"].size, "measured"))) == "measured"
+    origin = np.asarray(samples.get("origin", np.full(X["n11"].size, "measured")))
+    measured = origin == "measured"
     fitted = samples
-    if model is not None:  # what the model misses (0 where the model sampled)
-        n, a, b = (np.asarray(samples[k], float) for k in NET3_INPUTS)
-        fitted = {**samples, "q11": np.asarray(samples["q11"], float) - model.q11(n, a, b),
-                  "m11": np.asarray(samples["m11"], float) - model.m11(n, a, b)}
+    if model is not None:  # what the model misses: the table's, carried into the region between it and the bounds
+        x = np.column_stack([X[k] for k in NET3_INPUTS])
+        fitted = {**samples, "q11": np.asarray(samples["q11"], float) - model.q11(*x.T),
+                  "m11": np.asarray(samples["m11"], float) - model.m11(*x.T)}
+        silent = origin == "silent-region"
+        if silent.any() and measured.sum() > 2:
+            for key in ("q11", "m11"):
+                fitted[key][silent] = continued_residual(x[measured], fitted[key][measured], x[silent])
     count = max(1, members)
     ensemble = [train_double_regulated_nets(widened(fitted), hidden=hidden, restarts=restarts, seed=seed + 2 * i,
                                             split=split) for i in range(count)]

@@ -368,3 +368,57 @@ def test_members_and_table_rows_are_bounded_before_any_training(bulb_table, tmp_
     assert main(["fccm", str(big), "--simulator-nets", "--out", str(out)]) == 2
     assert ("table.csv: 20001 rows; --simulator-nets trains on at most 20000" in capsys.readouterr().err)
     assert not out.exists()
+
+
+def _sweep_points():
+    """A fixed-blade sweep table's settings: 8 unit speeds 85-103 r/min x 9 guide-vane angles 35-70 deg."""
+    n11 = np.repeat(np.linspace(85.0, 103.0, 8), 9)
+    return np.column_stack([n11, np.tile(np.linspace(35.0, 70.0, 9), 8), np.zeros(n11.size)])
+
+
+def test_the_tables_residual_is_carried_a_span_and_fades_to_the_model():
+    from hillchart.extension.residual import continued_residual
+
+    x = _sweep_points()
+    trend = 20.0 * (x[:, 0] - 94.0) / 9.0  # a torque slope the model misses: -20 to +20 N*m across the table
+    beyond = np.array([[n, 50.0, 0.0] for n in (103.0, 112.0, 121.0, 130.0, 148.0)])  # span 18 r/min
+    r = continued_residual(x, trend, beyond)
+    # at the edge the trend (1e-3 of it: the GP's white noise), half a span beyond still the edge's value (never
+    # more: the clip), 1.5 spans beyond mostly faded (2.5 here), 3 spans beyond the model alone (0.002 here);
+    # 0 at once (the failing behaviour before) would be 20 N*m off a grid step beyond the edge
+    assert abs(r[0] - 20.0) < 0.02 and abs(r[1] - 20.0) < 0.02
+    assert r[2] < 20.0 and r[3] < 0.2 * 20.0 and abs(r[4]) < 0.01
+    # reading noise alone (the model in its class) carries nothing: within a tenth of its standard deviation
+    noise = np.random.default_rng(0).normal(0.0, 1.0, x.shape[0])
+    far = np.array([[110.0, 50.0, 0.0], [94.0, 20.0, 0.0], [94.0, 52.0, 0.0]])
+    assert np.all(np.abs(continued_residual(x, noise, far)) < 0.1)
+    # no residual, or no input that varies: nothing to carry
+    assert np.all(continued_residual(x, np.zeros(x.shape[0]), far) == 0.0)
+    assert np.all(continued_residual(x[:1].repeat(3, 0), np.ones(3), far) == 0.0)
+
+
+@pytest.mark.external
+def test_the_real_rigs_nets_fit_its_table_where_the_model_misses_the_torque_slope(tmp_path, monkeypatch):
+    import hillchart.fccm.double_regulated as dr
+    from tests.fccm_external import write_bulb_137kw_table
+
+    table = load_test_table(write_bulb_137kw_table(tmp_path / "bulb137"))
+    samples, _, model = table_unit_samples(table, seed=0)
+    measured = samples["origin"] == "measured"
+    x = [samples[k][measured] for k in ("n11", "opening", "blade_angle")]
+    m, span = samples["m11"][measured], np.ptp(samples["m11"][measured])
+
+    def fit():
+        nets, _ = train_table_nets(samples, hidden=30, restarts=5, members=1, seed=0, model=model)
+        err = (nets.m11(*x) - m) / span
+        return np.sqrt(np.mean(err ** 2)), np.max(np.abs(err))
+
+    # the fitted model misses the rig's torque by up to 28 % of its measured range (its slope in N11)
+    assert np.max(np.abs(model.m11(*x) - m)) > 0.2 * span
+    rms, worst = fit()
+    # 1.8 % and 4.7 % of the range on this machine; 2.5 % and 7 % leave room for another machine's LM path
+    assert rms < 0.025 and worst < 0.07
+    # the failing case: a residual of 0 at the model's samples a grid step beyond the table (5.6 % and 21 % here)
+    monkeypatch.setattr(dr, "continued_residual", lambda xm, r, xs: np.zeros(len(xs)))
+    rms_zero, worst_zero = fit()
+    assert rms_zero > 0.04 and worst_zero > 0.15
