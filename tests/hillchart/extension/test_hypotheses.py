@@ -78,14 +78,15 @@ def test_the_weights_sum_to_one_and_favour_what_predicted_the_held_out_lines(shi
     assert ev.errors["q11"]["model"] < 0.01 < 0.05 < ev.errors["q11"]["line"]
     assert ev.errors["q11"]["other-form-model"] < 0.01
     assert sum(ev.weights["q11"][h] for h in ("model", "anchored-model", *H.OTHER_FORM)) > 0.8  # measured 0.90
-    # the weighed answer is within 3 % of the exact turbine at 2-8 mm below the lowest line, and at 2 mm below it
-    # (measured -2.3 %: this turbine has no throat foot, but its chart's F-test, p = 0.014, leaves the foot 0.64
-    # likely and the held-out lines cannot tell the forms apart; less flow there is the safe side of a head rise)
+    # the weighed answer is within 4 % of the exact turbine at 2-8 mm below the lowest line, and below it at 2 mm
+    # (measured -3.8 %: this turbine has no throat foot, but its chart's F-test, p = 0.014, leaves the foot 0.64
+    # likely and the held-out lines cannot tell the forms apart, so the weighed median follows the footed form, whose
+    # two hypotheses weigh 0.62; the weighed mean read -2.3 %; less flow there is the safe side of a head rise)
     exact = SyntheticFrancis()
     n11, a = np.meshgrid(np.linspace(40.0, 100.0, 13), [2.0, 4.0, 6.0, 8.0])
     q, _ = shipped.extrapolation.values(n11, a)
     error = q / exact.q11(n11, a) - 1.0
-    assert np.max(np.abs(error)) < 0.03 and np.all(error[0] < 0.0)
+    assert np.max(np.abs(error)) < 0.04 and np.all(error[0] < 0.0)
 
 
 def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
@@ -318,3 +319,32 @@ def test_the_members_move_only_derived_overspeed_torque_samples(shipped):
         np.testing.assert_allclose(move, [0.0, u * width[1], 0.0, u * width[3]], rtol=1e-12, atol=0.0)
     assert max(abs(m[1]) for m in moves) > 1.0  # N*m: the band is not empty here
     assert _overspeed_moves(shipped, "flow", X, groups, derived, 10, 0) is None
+
+
+def test_the_weighed_median_follows_the_hypotheses_that_agree_where_the_mean_falls_between(tmp_path):
+    """The out-of-class family's worst chart for the max head rise (medium-x, sparse: 4 lines, noise 0.3 %, seed 0):
+    one held-out line leaves the weights spread, and the quadratic (weight 0.24) lies 16-18 % above the exact Q11 at
+    half the lowest opening where the model and its anchored form (0.34, 0.32) lie within 2.5 %. The weighed median
+    answers within 3 % there; the weighed mean (the failing case: the answer before) lies 5-8 % above."""
+    from simulate.studies.guarantee import benchmark_turbine, digitization, synthetic_chart_texts
+
+    member = benchmark_turbine("medium-x")
+    texts = synthetic_chart_texts(seed=0, turbine=member, options=digitization("sparse", noise_pct=0.3, runaway=True,
+                                                                              seed=0))
+    for name, text in texts.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ext = extend_samples(load_chart(tmp_path))
+    ev, hyp = ext.extrapolation.evidence, ext.extrapolation.hypotheses
+    n11 = np.array([60.0, 70.0, 80.0])
+    a = np.full(3, 0.5 * hyp.lowest.opening)
+    exact = member.turbine().q11(n11, a)
+    median = ext.extrapolation.values(n11, a)[0] / exact - 1.0
+    mean = sum(ev.weights["q11"][h] * hyp.predict(h, n11, a)[0] for h in hyp.names) / exact - 1.0
+    assert np.all(np.abs(median) < 0.03) and np.all(mean > 0.05)
+    # the median is one of the hypotheses at every point, and moves with the weights: all weight on the quadratic
+    # gives the quadratic
+    assert np.allclose(H.weighed_median([hyp.predict(h, n11, a)[0] for h in hyp.names],
+                                        [float(h == "quadratic") for h in hyp.names]),
+                       hyp.predict("quadratic", n11, a)[0], rtol=0, atol=0)
