@@ -32,7 +32,7 @@ def bench():
 
 @pytest.fixture(scope="module")
 def runs(bench):
-    """The shipped plant's rejections (60 s, closure over at 10.62-10.64 s) by (units, friction, k3, reaches)."""
+    """The shipped plant's rejections (60 s, closure over at 10.64 s) by (units, friction, k3, reaches)."""
     cache = {}
 
     def get(units, friction, k3=None, reaches=8):
@@ -142,8 +142,8 @@ def test_the_manifold_balances_the_flows_with_brunone_at_every_step(runs, units)
 
 
 @pytest.mark.parametrize("units, closure_end_s, ratio_steady, ratio_brunone, late", [
-    (ONE, 10.64, 0.7661, 0.7172, 0.9297),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
-    (ALL, 10.62, 1.0038, 0.9716, 0.9634),  # the conduit and both branches ring, flow about zero
+    (ONE, 10.64, 0.7503, 0.7022, 0.9299),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
+    (ALL, 10.64, 1.0034, 0.9713, 0.9635),  # the conduit and both branches ring, flow about zero
 ])
 def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, units, closure_end_s, ratio_steady,
                                                                   ratio_brunone, late):
@@ -151,7 +151,8 @@ def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, u
     ``bench_friction_decay.window_amplitudes``): the last window over the first falls to ``ratio_brunone`` with
     Brunone, ``ratio_steady`` with the steady loss, and the last window's ringing is ``late`` times the steady
     one's (7.0 % less with one unit rejecting, 3.7 % less with both). Pinned to 0.002: the runs are deterministic,
-    and twice Vardy and Brown's k3 (0.003) moves the one-unit ratio to 0.677 and the all-unit one to 0.943."""
+    and twice Vardy and Brown's k3 (0.003) moved the one-unit ratio to 0.677 and the all-unit one to 0.943 (on the
+    shipped nets of that time, whose ratios were 0.717 and 0.972)."""
     steady, brunone = runs(units, "steady"), runs(units, "brunone")
     assert bench.closure_end_s(steady) == pytest.approx(closure_end_s, abs=0.01)
     a_s, a_b = bench.window_amplitudes(steady)[1], bench.window_amplitudes(brunone)[1]
@@ -162,7 +163,7 @@ def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, u
     assert a_b[-1] / a_b[0] < a_s[-1] / a_s[0] - 0.03
 
 
-@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0018, -0.0071), (ALL, 0.0024, -0.0045)])
+@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0014, -0.0074), (ALL, 0.0022, -0.0169)])
 def test_halving_the_step_moves_the_extreme_heads_by_less_than_0_1_percent(bench, runs, units, max_pct, min_pct):
     """8 reaches (dt = 0.0191 s) against 16: the largest and the smallest head of any unit and of the manifold move
     by ``max_pct`` and ``min_pct`` per cent with Brunone (pinned to 0.002 percentage points; the acceptance is

@@ -292,10 +292,10 @@ def test_a_case_of_a_plant_with_several_units_reads_every_unit(tmp_path):
     case = run_batch(plant, [{}], mechanism="serial").cases[0]
     assert summary["max_speed_rise_unit"] == "U1" and summary["min_head_m_unit"] == "U2"
     # the figures are the single run's, worst over the units (the lead unit U1's series held the lowest head
-    # 0.16 m higher, and N11 5.4 r/min higher at its lowest)
+    # 0.095 m higher, and N11 more than 1 r/min higher at its lowest)
     for name in ("max_speed_rise", "max_head_m", "max_head_rise", "min_head_m", "min_head_drop"):
         assert getattr(case, name) == summary[name], name
-    assert case.min_head_m < result.head_m.min() - 0.1
+    assert case.min_head_m < result.head_m.min() - 0.05
     n11 = {name: series["speed_rpm"] * plant.units[i].turbine.runner_diameter_m / np.sqrt(series["head_m"])
            for i, (name, series) in enumerate(result.units.items())}
     assert case.min_unit_speed_rpm == min(v.min() for v in n11.values()) < n11["U1"].min() - 1.0
