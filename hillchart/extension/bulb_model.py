@@ -333,7 +333,8 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
     best = None
     with np.errstate(all="ignore"):
         for i in range(starts):
-            xs = x0 if i == 0 else x0 + np.where(angle, rng.normal(0.0, 4.0, x0.size), rng.normal(0.0, 0.3, x0.size))
+            xs = x0.copy() if i == 0 else x0 + np.where(angle, rng.normal(0.0, 4.0, x0.size),
+                                                        rng.normal(0.0, 0.3, x0.size))
             if gaps is not None:
                 xs[gap_index] = gaps[i]
             result = least_squares(residuals, xs, method="trf", max_nfev=600)
