@@ -203,10 +203,12 @@ def member_positions(members: int, seed: int) -> np.ndarray:
     return np.random.default_rng([seed, 7]).permutation(positions)
 
 
-def weighed_median(values, weights):
+def weighed_median(values, weights, *, index: bool = False):
     """The weighed median of the hypotheses' ``values`` (a sequence of arrays of one shape, or numbers) with
     ``weights`` (one per hypothesis, >= 0, not all 0): at each point the value of the hypothesis at which the weights,
-    taken in the order of the values, first reach half their sum.
+    taken in the order of the values, first reach half their sum. With ``index``, that hypothesis' position in
+    ``values`` instead (ints of the values' shape): the median is one hypothesis at every point, and a guarantee
+    report names the one that decided a figure.
 
     The weighed hypotheses answer by it rather than by their weighed mean: with the evidence of one or two held-out
     lines the weights stay spread (pseudo-BMA), and a minority of hypotheses that diverge below the data pulled the
@@ -224,6 +226,8 @@ def weighed_median(values, weights):
     2.0
     >>> weighed_median([[1.0, 5.0], [2.0, 0.0]], [0.6, 0.4]).tolist()
     [1.0, 5.0]
+    >>> weighed_median([[1.0, 5.0], [2.0, 0.0], [3.0, 1.0]], [0.3, 0.3, 0.4], index=True).tolist()
+    [1, 2]
     """
     stacked = np.array(np.broadcast_arrays(*[np.asarray(v, float) for v in values]))
     w = np.asarray(weights, float)
@@ -231,4 +235,6 @@ def weighed_median(values, weights):
     order = np.argsort(flat, axis=0, kind="stable")
     reached = np.cumsum(w[order], axis=0) >= 0.5 * w.sum()
     pick = np.take_along_axis(order, np.argmax(reached, axis=0)[None, :], axis=0)
+    if index:
+        return pick[0].reshape(stacked.shape[1:])
     return np.take_along_axis(flat, pick, axis=0)[0].reshape(stacked.shape[1:])

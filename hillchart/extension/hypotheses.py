@@ -399,13 +399,14 @@ class Evidence:
     band_folds: list = field(default_factory=list)
     names: tuple = HYPOTHESES
 
-    def blend(self, hypotheses: Hypotheses, n11, opening):
+    def blend(self, hypotheses: Hypotheses, n11, opening, *, deciding: bool = False):
         """``(Q11, M11)`` of the weighed hypotheses at (``n11``, ``opening``): their weighed median
-        (:func:`weighed_median`)."""
+        (:func:`weighed_median`); with ``deciding``, the name of the hypothesis it takes at each point instead."""
         answers = {h: hypotheses.predict(h, n11, opening) for h in HYPOTHESES
                    if self.weights["q11"][h] > 0 or self.weights["m11"][h] > 0}
-        return tuple(weighed_median([v[j] for v in answers.values()], [self.weights[t][h] for h in answers])
-                     for j, t in enumerate(("q11", "m11")))
+        out = tuple(weighed_median([v[j] for v in answers.values()], [self.weights[t][h] for h in answers],
+                                   index=deciding) for j, t in enumerate(("q11", "m11")))
+        return tuple(np.array(list(answers))[i] for i in out) if deciding else out
 
     def summary(self) -> str:
         """What ``hillsim train`` prints: how well this chart predicts its own held-out lines, and the weights."""

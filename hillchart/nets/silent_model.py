@@ -256,6 +256,28 @@ def _band_pair(value):
     return low, high
 
 
+def table_grid(lowest_opening: float, n11_top: float, n11_nodes: int = N11_NODES, opening_nodes: int = OPENING_NODES):
+    """``(N11, opening)`` at the table's nodes (arrays ``(n11_nodes, opening_nodes)``, N11 first): N11 = 0 ..
+    ``n11_top`` r/min x opening = 0 .. ``lowest_opening`` (chart units), both uniform."""
+    return np.meshgrid(np.linspace(0.0, float(n11_top), n11_nodes), np.linspace(0.0, float(lowest_opening),
+                                                                                   opening_nodes), indexing="ij")
+
+
+def median_of(extrapolation) -> dict:
+    """Which hypothesis the weighed median takes at each node of the table
+    (:meth:`hillchart.extension.hypotheses.Evidence.blend` with ``deciding``): ``{"q11": [[i, ...], ...], "m11":
+    ..., "lowest_opening", "n11_top"}``, ``i`` the hypothesis' index in the record's ``hypotheses``, N11 first as
+    the table. nets.json keeps it beside the evidence, and a guarantee report names the hypothesis that decided a
+    figure from it (:mod:`simulate.studies.figure_origin`)."""
+    from hillchart.extension.hypotheses import HYPOTHESES
+
+    nn, aa = table_grid(extrapolation.lowest_opening, extrapolation.n11_top)
+    names = extrapolation.evidence.blend(extrapolation.hypotheses, nn, aa, deciding=True)
+    index = {h: i for i, h in enumerate(HYPOTHESES)}
+    return {"lowest_opening": float(extrapolation.lowest_opening), "n11_top": float(extrapolation.n11_top),
+            **{t: [[index[h] for h in row] for row in np.asarray(v).tolist()] for t, v in zip(("q11", "m11"), names)}}
+
+
 @dataclass(frozen=True, eq=False)
 class SilentRegionModel:
     """The tabulated extrapolation below the lowest digitized line and where it answers instead of the nets.
@@ -336,9 +358,7 @@ class SilentRegionModel:
                  n11_nodes: int = N11_NODES, opening_nodes: int = OPENING_NODES, **band) -> "SilentRegionModel":
         """The table of ``values(n11, opening) -> (Q11, M11)`` (arrays of the grid's shape) below the lowest
         digitized opening ``lowest_opening``, N11 from 0 to ``n11_top`` (r/min)."""
-        n11 = np.linspace(0.0, float(n11_top), n11_nodes)
-        opening = np.linspace(0.0, float(lowest_opening), opening_nodes)
-        nn, aa = np.meshgrid(n11, opening, indexing="ij")
+        nn, aa = table_grid(lowest_opening, n11_top, n11_nodes, opening_nodes)
         q, m = values(nn, aa)
         q, m = np.broadcast_to(np.asarray(q, float), nn.shape), np.broadcast_to(np.asarray(m, float), nn.shape)
         return cls(q11=np.maximum(q, 0.0), m11=np.array(m), n11_top=float(n11_top),

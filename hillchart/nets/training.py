@@ -275,7 +275,9 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
     silent, member_silent = silent_region_models(extended, ensemble, seed)
     extrapolation = getattr(extended, "extrapolation", None)
     if extrapolation is not None:
-        record["extrapolation"] = extrapolation.to_dict()
+        from hillchart.nets.silent_model import median_of
+
+        record["extrapolation"] = {**extrapolation.to_dict(), "median_of": median_of(extrapolation)}
     nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
                     ensemble=ensemble_pairs, silent_model=silent, member_silent_models=member_silent or None)
     nets.estimators = estimators

@@ -604,8 +604,9 @@ def _decided_section(r: Report, cases: list) -> None:
                     "figure (its time series in cases/<n>/member_<k>_timeseries.csv); at its extremum, N11 = n D1 / "
                     "sqrt(H) and the opening (chart units) place it in the chart: inside the digitized chart the "
                     "measured chart decides (the nets' fit error stated), below the lowest digitized opening line "
-                    "the blend of extrapolation hypotheses with the held-out evidence that weighed them and the band "
-                    "there, beyond the last digitized N11 the extension toward runaway with its held-out line ends")
+                    "the weighed median of the extrapolation hypotheses (the hypothesis it takes there named) with "
+                    "the held-out evidence that weighed them and the band there, beyond the last digitized N11 the "
+                    "extension toward runaway with its held-out line ends")
 
 
 def _esc(text: str) -> str:

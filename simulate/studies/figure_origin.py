@@ -25,11 +25,12 @@ region               ``below_lowest_line``: the opening is below the lowest digi
 
 The evidence is read from the nets' training record (nets.json ``training.extrapolation`` and the ``silent_model``
 band): below the lowest line the hypotheses' weights, each one's held-out Q11 and M11 errors on the chart's own
-lowest line(s) and the band's two sides at the point; toward runaway the held-out line ends and the torque band at
-the point's gap; in the digitized region the fit's RMS errors at the measured samples. The nets of an on-cam chart
-(:mod:`hillchart.fccm.on_cam`) are quoted from their own records (``training.evidence`` below the lowest line,
-``training.overspeed_evidence`` beyond the lines' ends). A nets.json without that record says so: no held-out
-evidence is made up.
+lowest line(s), the hypothesis whose value their weighed median takes at the point (``median_of``, for Q11 and for
+M11: the one that decided the figure there, :func:`median_hypotheses`) and the band's two sides at the point; toward
+runaway the held-out line ends and the torque band at the point's gap; in the digitized region the fit's RMS errors
+at the measured samples. The nets of an on-cam chart (:mod:`hillchart.fccm.on_cam`) are quoted from their own
+records (``training.evidence`` below the lowest line, ``training.overspeed_evidence`` beyond the lines' ends). A
+nets.json without that record says so: no held-out evidence is made up.
 """
 
 from __future__ import annotations
@@ -209,7 +210,39 @@ def _pct(x: float) -> str:
     return f"{100.0 * x:.2f} %"
 
 
-def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, dict]:
+def median_hypotheses(record: dict, n11: float, opening: float) -> dict | None:
+    """``{"q11": names, "m11": names}``: the hypotheses whose values the weighed median takes at the nodes of the
+    table's cell around (``n11`` r/min, ``opening``) (the table interpolates between them), heaviest first, from the
+    record's ``median_of`` (:func:`hillchart.nets.silent_model.median_of`); None where the record does not hold it
+    (a nets.json of an earlier version).
+
+    Examples
+    --------
+    >>> record = {"hypotheses": ["model", "line"], "weights": {"q11": {"model": 0.6, "line": 0.4},
+    ...           "m11": {"model": 0.6, "line": 0.4}}, "median_of": {"n11_top": 100.0, "lowest_opening": 10.0,
+    ...           "q11": [[0, 0], [0, 1], [1, 1]], "m11": [[0, 0], [0, 0], [0, 0]]}}
+    >>> median_hypotheses(record, 20.0, 5.0)
+    {'q11': ['model', 'line'], 'm11': ['model']}
+    >>> median_hypotheses(record, 150.0, 5.0)["q11"], median_hypotheses({}, 20.0, 5.0)
+    (['line'], None)
+    """
+    table = record.get("median_of")
+    if not isinstance(table, dict):
+        return None
+    out = {}
+    for target in ("q11", "m11"):
+        grid = np.asarray(table[target], int)
+        at = [np.clip(x / top, 0.0, 1.0) * (size - 1) for x, top, size in
+              ((n11, table["n11_top"], grid.shape[0]), (opening, table["lowest_opening"], grid.shape[1]))]
+        i, j = (int(min(math.floor(x), size - 2)) for x, size in zip(at, grid.shape))
+        # the nodes that bound the point (one node's neighbour at the table's edge, where the point is the node)
+        cell = grid[i + (at[0] >= grid.shape[0] - 1):i + 2, j + (at[1] >= grid.shape[1] - 1):j + 2].ravel()
+        weights = record["weights"][target]
+        out[target] = sorted({record["hypotheses"][k] for k in cell}, key=lambda h: -weights[h])
+    return out
+
+
+def _below_lowest_line(characteristics, member, details, opening, n11) -> tuple[str, dict]:
     record, table = held_out_record(characteristics), _silent_table(characteristics)
     if record is None:
         if table is not None:  # a file of an earlier version: the fitted physical model itself, tabulated
@@ -243,7 +276,17 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
             f"points): "
             + ", ".join(f"{h} {weights['q11'][h]:.2f}/{weights['m11'][h]:.2f} ({_pct(errors['q11'][h])}/"
                         f"{_pct(errors['m11'][h])})" for h in ranked)
-            + f"; the blend {_pct(errors['q11']['blend'])}/{_pct(errors['m11']['blend'])}")
+            + f"; their weighed median {_pct(errors['q11']['blend'])}/{_pct(errors['m11']['blend'])}")
+    median = median_hypotheses(record, n11, opening)
+    evidence["median_of"] = median
+    if median is not None:
+        text += ("; here the median is " + " and ".join(
+            f"{' / '.join(median[t])}'s {label} (held-out "
+            + " / ".join(_pct(errors[t][h]) if h in errors[t] else "untested" for h in median[t]) + ")"
+            for t, label in (("q11", "Q11"), ("m11", "M11"))))
+    else:
+        text += ("; which hypothesis the median takes here this nets.json does not record (written by an earlier "
+                 "version: retrain with hillsim train to record it)")
     if table is not None:
         text += (f"; the band here: Q11 {100 * sides['q11'][0]:+.1f} % to {100 * sides['q11'][1]:+.1f} %, M11 "
                  f"{sides['m11_nm'][0]:+.4g} to {sides['m11_nm'][1]:+.4g} N*m; the nets' weight in the blend "
@@ -251,7 +294,10 @@ def _below_lowest_line(characteristics, member, details, opening) -> tuple[str, 
     if position is not None:
         text += f"; this member stands at {position:+.2f} in the band (+-1: its 5-95 % edges)"
     evidence["text"] = text
-    return "the blend of extrapolation hypotheses (weighed by the chart's held-out lines)", evidence
+    decided = "the weighed median of the extrapolation hypotheses (weighed by the chart's held-out lines)"
+    if median is not None:
+        decided += f": here the {' / '.join(median['q11'])} (Q11) and the {' / '.join(median['m11'])} (M11)"
+    return decided, evidence
 
 
 def _toward_runaway(characteristics, details) -> tuple[str, dict]:
@@ -314,7 +360,7 @@ def region_evidence(characteristics, member, region: str, details: dict, point: 
     if region in ("below_lowest_line", "toward_runaway") and _other_kind(characteristics):
         return NOT_READ[0], dict(NOT_READ[1])
     if region == "below_lowest_line":
-        return _below_lowest_line(characteristics, member, details, point["opening"])
+        return _below_lowest_line(characteristics, member, details, point["opening"], point["n11_rpm"])
     if region == "toward_runaway":
         return _toward_runaway(characteristics, details)
     if region == "digitized":

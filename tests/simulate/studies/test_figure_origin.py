@@ -99,6 +99,25 @@ def test_a_load_rejection_max_speed_is_decided_below_the_lowest_line(rejection):
     # the member's own place in the band (0.76 with the shipped nets: its upper half, a Q11 above the median)
     assert chars.members()[k].silent_model.position == evidence["member_position"] > 0.0
     assert "other-form-model 0.41/0.43" in evidence["text"] and "anchored-model 0.10/0.13" in evidence["text"]
+    # the hypothesis the weighed median takes there, by hand from the chart: each hypothesis' value at the point
+    # and the weights (the median is one of them); the report names it for Q11 and M11
+    from hillchart.extension.extend import extend_samples
+    from hillchart.io.samples import load_chart
+
+    extrapolation = extend_samples(load_chart(FRANCIS_DIR)).extrapolation
+    answers = {h: extrapolation.hypotheses.predict(h, n11, origin["opening"]) for h in RECORD["hypotheses"]}
+    for j, target in enumerate(("q11", "m11")):
+        order = sorted(answers, key=lambda h: float(answers[h][j]))
+        cumulative = np.cumsum([RECORD["weights"][target][h] for h in order])
+        by_hand = order[int(np.argmax(cumulative >= 0.5 * cumulative[-1]))]
+        assert by_hand in evidence["median_of"][target] and len(evidence["median_of"][target]) <= 2
+        # failing case beside: the weighed mean stands where no hypothesis does here (Q11 4 % from the nearest,
+        # M11 0.39 N*m, measured), so it could name none
+        mean = sum(RECORD["weights"][target][h] * float(v[j]) for h, v in answers.items())
+        nearest = min(abs(mean - float(v[j])) for v in answers.values())
+        assert nearest > (0.01 * mean if target == "q11" else 0.1)
+    assert origin["decided_by"].startswith("the weighed median of the extrapolation hypotheses")
+    assert f"here the {' / '.join(evidence['median_of']['q11'])} (Q11)" in origin["decided_by"]
 
 
 def test_a_deciding_member_that_does_not_repeat_its_figure_is_an_error(rejection):
@@ -216,9 +235,30 @@ def test_an_extrapolation_of_another_kind_is_not_read_as_missing():
     nets beside it give their held-out lines."""
     from types import SimpleNamespace
 
-    point = {"opening": 5.0, "q11_m3_s": 0.2}
+    point = {"opening": 5.0, "q11_m3_s": 0.2, "n11_rpm": 80.0}
     details = {"lowest_opening": 10.0, "distance": 0.5}
     other = SimpleNamespace(silent_model=object(), training={"extrapolation": {"summary": "angles held out"}})
     decided, evidence = region_evidence(other, None, "below_lowest_line", details, point)
     assert evidence["kind"] == "not_read" and "does not read" in evidence["text"]
-    assert region_evidence(_chars(_plant()), None, "below_lowest_line", details, point)[1]["kind"] == "held_out_lines"
+    decided, evidence = region_evidence(_chars(_plant()), None, "below_lowest_line", details, point)
+    assert evidence["kind"] == "held_out_lines" and evidence["median_of"] is not None
+    assert decided.startswith("the weighed median of the extrapolation hypotheses (weighed by the chart's held-out "
+                              "lines): here the ")
+
+
+def test_a_record_without_the_median_of_says_so_and_names_no_hypothesis():
+    """A nets.json written before the record kept which hypothesis the weighed median takes: the evidence says it
+    is not recorded and the figure is decided by the weighed median without a name; the shipped record names one."""
+    import copy
+
+    chars = _chars(_plant())
+    old = copy.copy(chars)
+    old.training = copy.deepcopy(chars.training)
+    del old.training["extrapolation"]["median_of"]
+    point = {"opening": 5.0, "q11_m3_s": 0.2, "n11_rpm": 80.0}
+    details = {"lowest_opening": 10.0, "distance": 0.5}
+    decided, evidence = region_evidence(old, None, "below_lowest_line", details, point)
+    assert decided == "the weighed median of the extrapolation hypotheses (weighed by the chart's held-out lines)"
+    assert evidence["median_of"] is None and "does not record (written by an earlier version" in evidence["text"]
+    decided, evidence = region_evidence(chars, None, "below_lowest_line", details, point)
+    assert "here the median is " in evidence["text"] and "does not record" not in evidence["text"]
