@@ -196,11 +196,12 @@ def _run_simulator_nets(args) -> int:
     print(f"plausibility: dQ11/da < 0 on {100 * p['share_dq11_da_negative']:.1f} % of the box, efficiency up to "
           f"{p['max_efficiency']:.3f}, ensemble spread Q11 {p['ensemble_spread_q11_pct']:.2f} %, "
           f"M11 {p['ensemble_spread_m11_pct']:.2f} % of their ranges")
-    for line in notes:
-        print(f"note: {line}")
+    at_limit = model is not None and model.closed_at_limit
+    for line in notes:  # nets.json keeps each note whole; the closed vane at the limit is printed once, as a warning
+        print(f"note: {line.split(f'; {model.closed_limit_text}')[0] if at_limit else line}")
     for line in report["warnings"]:
         print(f"warning: {line}")
-    if model is not None and model.closed_at_limit:  # the plant's stroke and everything below the table rest on it
+    if at_limit:  # the plant's stroke and everything below the table rest on it
         print(f"warning: {model.closed_limit_text}; the plant's stroke (turbine.opening_max) and the answer below "
               "the smallest tested angle rest on it: give --closed-opening (the angle at which the vanes touch, from "
               "the guide-vane drawing) if it is known")
