@@ -122,14 +122,15 @@ def _errors(q, m, q_true, m_true, scale) -> dict:
             "m_mean": float(np.mean(np.abs(em))), "m_worst": float(em[np.argmax(np.abs(em))])}
 
 
-def _band(nets, n, a, b, q, m):
+def _band(nets, n, a, b, q, m, scale):
+    """Points the members' 5-95 % band covers (Q11, M11) and its median width (a share of Q11, of the M11 range)."""
     members = nets.members()
     qs = np.array([x.q11(n, a, b) for x in members])
     ms = np.array([x.m11(n, a, b) for x in members])
     q_lo, q_hi = np.percentile(qs, [5.0, 95.0], axis=0)
     m_lo, m_hi = np.percentile(ms, [5.0, 95.0], axis=0)
     return (int(np.sum((q >= q_lo) & (q <= q_hi))), int(np.sum((m >= m_lo) & (m <= m_hi))),
-            float(np.median((q_hi - q_lo) / q)))
+            float(np.median((q_hi - q_lo) / q)), float(np.median((m_hi - m_lo) / scale)))
 
 
 def measure(samples, folder: Path, restarts: int = RESTARTS) -> dict:
@@ -157,10 +158,10 @@ def measure(samples, folder: Path, restarts: int = RESTARTS) -> dict:
         rows["weighed blend"] = _errors(blend_q, blend_m, fold.q11, fold.m11, scale)
         x = (fold.n11, fold.opening, fold.blade_angle)
         rows["run"] = _errors(nets.q11(*x), nets.m11(*x), fold.q11, fold.m11, scale)
-        q_cov, m_cov, width = _band(nets, *x, fold.q11, fold.m11)
+        q_cov, m_cov, width, m_width = _band(nets, *x, fold.q11, fold.m11, scale)
         folds.append({"k": k, "points": int(fold.n11.size), "lowest_kept": float(np.min(a[~held])),
                       "distance": [float(fold.distance.min()), float(fold.distance.max())], "rows": rows,
-                      "q_covered": q_cov, "m_covered": m_cov, "q_band_median": width,
+                      "q_covered": q_cov, "m_covered": m_cov, "q_band_median": width, "m_band_median": m_width,
                       "summary": nets.training["extrapolation"]["summary"]})
     ends, _ = overspeed_ends(n, a, b)
     over = None
@@ -195,9 +196,9 @@ def tables(name: str, result: dict) -> str:
             out.append(f"| {f['k']} | {f['points']} | {f['lowest_kept']:g} | {LABELS.get(h, h)} | "
                        f"{100 * r['q_mean']:.1f} | {100 * r['q_worst']:+.1f} | {100 * r['m_mean']:.1f} | "
                        f"{100 * r['m_worst']:+.1f} |")
-    out += ["", "| k held out | 5-95 % band covers Q11 | covers M11 | median Q11 band width % | bounds Q11: mean <= "
-                "line's, worst <= 8 % (k = 1, 2), covered >= 80 % | bounds M11 (% of range): the same |",
-            "|---|---|---|---|---|---|"]
+    out += ["", "| k held out | 5-95 % band covers Q11 | covers M11 | median band width Q11 % / M11 (% of range) | "
+                "bounds Q11: mean <= line's, worst <= 8 % (k = 1, 2), covered >= 80 % | bounds M11 (% of range): the "
+                "same |", "|---|---|---|---|---|---|"]
     for f in result["folds"]:
         verdicts = []
         for t, covered in (("q", f["q_covered"]), ("m", f["m_covered"])):
@@ -207,7 +208,8 @@ def tables(name: str, result: dict) -> str:
                      covered >= COVERAGE_BOUND * f["points"]]
             verdicts.append(" / ".join("-" if v is None else ("yes" if v else "**no**") for v in marks))
         out.append(f"| {f['k']} | {f['q_covered']} of {f['points']} | {f['m_covered']} of {f['points']} | "
-                   f"{100 * f['q_band_median']:.1f} | {verdicts[0]} | {verdicts[1]} |")
+                   f"{100 * f['q_band_median']:.1f} / {100 * f['m_band_median']:.1f} | {verdicts[0]} | "
+                   f"{verdicts[1]} |")
     o = result["overspeed"]
     if o:
         e = o["evidence"]

@@ -87,10 +87,11 @@ WEIGHED = 2.0
 def weighed_point(net, blend, n11, opening, blade, which):
     """``(y, dy/dN11)`` of the weighed hypotheses (:mod:`hillchart.fccm.evidence`) below the table's smallest
     guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
-    member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``, the band multiplies
-    Q11 and the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d) + low)``, each by its own offsets (``h`` of
-    :func:`hillchart.extension.band.band_envelope` at ``d = 1 - t``; ``low`` the member's share of the nets' own miss
-    at the smallest angles, :func:`hillchart.fccm.evidence.low_band`)."""
+    member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``; the band multiplies
+    Q11 by ``exp(offset h(d) + low)`` and adds ``(offset h(d) + low) t m11_scale`` to M11 (``blend[32]``, N*m; with
+    0, a file written before, it multiplies the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d) + low)``),
+    each target by its own offsets (``h`` of :func:`hillchart.extension.band.band_envelope` at ``d = 1 - t``; ``low``
+    the member's share of the nets' own miss at the smallest angles, :func:`hillchart.fccm.evidence.low_band`)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]
     t = min(max((opening - closed) / (a_low - closed), 0.0), 1.0)
@@ -110,8 +111,10 @@ def weighed_point(net, blend, n11, opening, blade, which):
         if w > 0.0:
             y += w * hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
             dy += w * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
-    f = math.exp(blend[25 + which] * band_envelope_compiled(1.0 - t, blend[27], blend[28 + which])[0]
-                 + blend[30 + which])
+    shift = blend[25 + which] * band_envelope_compiled(1.0 - t, blend[27], blend[28 + which])[0] + blend[30 + which]
+    if which == 1 and blend[32] > 0.0:  # a share of the M11 range, closing as t toward the closed vanes
+        return y + shift * t * blend[32], dy
+    f = math.exp(shift)
     return y_0 + (y - y_0) * f, dy_0 + (dy - dy_0) * f
 
 

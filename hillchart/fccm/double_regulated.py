@@ -269,7 +269,7 @@ def train_table_nets(samples: dict, *, hidden: int = 15, restarts: int = 3, seed
         x_low = [X[k][at_low] for k in NET3_INPUTS]
         low = low_band(model.q11(*x_low) + ensemble[0].q11(*x_low), model.m11(*x_low) + ensemble[0].m11(*x_low),
                        np.asarray(samples["q11"], float)[at_low], np.asarray(samples["m11"], float)[at_low],
-                       -model.k_zero_opening * x_low[0] ** 2)
+                       evidence.m11_scale)
         point = BulbSilentModel.from_fitted(model, a_low, residual=True,
                                             extrapolation=BulbExtrapolation.of_evidence(evidence, low=low),
                                             step=angle_step(*(X[k][measured] for k in NET3_INPUTS)))

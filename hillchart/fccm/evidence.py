@@ -240,9 +240,6 @@ class AngleHoldOut:
         ``1 - t`` of each point below the lowest kept angle of its sweep.
     predictions : dict
         hypothesis -> ``(Q11, M11)`` arrays.
-    m11_closed : ndarray (P,)
-        ``-K N11^2`` of the refitted model at the points (N*m): M11 at the closed vanes, so that ``M11 - m11_closed``
-        is the hydraulic torque.
     """
 
     angles: int
@@ -254,7 +251,6 @@ class AngleHoldOut:
     m11: np.ndarray
     distance: np.ndarray
     predictions: dict
-    m11_closed: np.ndarray
 
 
 SAMPLE_KEYS = ("n11", "opening", "blade_angle", "q11", "m11")
@@ -319,7 +315,7 @@ def hold_out_angles(samples: dict, angles: int, *, opening_closed: float | None 
     predictions = {h: anchor.values(h, n[idx], a[idx], b[idx], curvature) for h in HYPOTHESES}
     return AngleHoldOut(angles=int(angles), sweeps=len(lines), n11=n[idx], opening=a[idx], blade_angle=b[idx],
                         q11=q[idx], m11=m[idx], distance=1.0 - opening_ratio(a[idx], model.opening_closed, low),
-                        predictions=predictions, m11_closed=-model.k_zero_opening * n[idx] ** 2)
+                        predictions=predictions)
 
 
 def pseudo_bma(errors: dict, distance, pieces: int) -> dict:
@@ -369,8 +365,8 @@ class TableEvidence:
         ``{"q11": {hypothesis or "blend": {"rms", "mean_abs", "worst"}}, "m11": {...}}`` at the held-out points of
         every fold together (Q11 log-ratios, M11 fractions of ``m11_scale``).
     band : dict
-        ``{"q11": kappa, "m11": kappa}``: the band's half-width ``kappa h(d)`` (:func:`band_scale`) as log-ratios of
-        Q11 and of the hydraulic torque ``M11 + K N11^2``, ``h`` of
+        ``{"q11": kappa, "m11": kappa}``: the band's half-width (:func:`band_scale`) ``kappa h(d)`` as a log-ratio
+        of Q11 and ``kappa h(d) (1 - d)`` as a share of the M11 range ``m11_scale``, ``h`` of
         :func:`hillchart.extension.band.band_envelope`.
     points : int
         Held-out points behind the weights (0: none; the band is ``NO_EVIDENCE_SCALE``).
@@ -453,17 +449,20 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, 
         blended = sum(weights[target][h] * errors[h] for h in HYPOTHESES)
         stats[target] = {h: _stats(e) for h, e in errors.items()}
         stats[target]["blend"] = _stats(blended)
-    # the band of a member moves Q11 and the hydraulic torque M11 - M_0 by factors (so it vanishes at the closed vanes):
-    # calibrated on the log-ratios of the weighed blend's Q11 and hydraulic torque at each fold's points
+    # the band of a member moves Q11 by a factor (so it vanishes at the closed vanes) and M11 by a share of the
+    # table's M11 range that closes as 1 - d toward them (the weights' measure of the torque's error, and the Francis
+    # chart's band): calibrated on the log-ratios of the weighed blend's Q11 and its M11 misses over (1 - d) at each
+    # fold's points
     cap = min(1.0, float(distance.max()))
     crossover = {}
     for target, index in (("q11", 0), ("m11", 1)):
         residuals = []
         for f in folds:
             blended = sum(weights[target][h] * f.predictions[h][index] for h in HYPOTHESES)
-            base = 0.0 if index == 0 else f.m11_closed
-            actual = (f.q11 if index == 0 else f.m11) - base
-            residuals.append(log_ratio(blended - base, actual, 1e-3 * float(np.max(np.abs(actual)))))
+            if index == 0:
+                residuals.append(log_ratio(blended, f.q11, 1e-3 * float(np.max(np.abs(f.q11)))))
+            else:
+                residuals.append((blended - f.m11) / m11_scale / np.maximum(1.0 - f.distance, 1e-9))
         band[target], crossover[target] = fold_band(folds, residuals, cap)
     return weights, stats, band, cap, points, crossover
 
@@ -482,23 +481,21 @@ def fold_band(folds, residuals, cap: float = 1.0) -> tuple[float, float]:
     return kappa, (min(slope / kappa, cap) if kappa > 0.0 else 0.0)
 
 
-def low_band(nets_q11, nets_m11, q11, m11, m11_closed, coverage: float = 0.90) -> tuple[float, float]:
+def low_band(nets_q11, nets_m11, q11, m11, m11_scale: float, coverage: float = 0.90) -> tuple[float, float]:
     """``(low_q11, low_m11)``: the nets' miss at the measured points of the table's smallest angles (arrays: the nets'
-    Q11 and M11 there, the measured ones, and ``-K N11^2``), as log-ratios of Q11 and of the hydraulic torque
-    ``M11 + K N11^2``: split-conformal (:func:`hillchart.extension.hypotheses.band_scale` at one distance), the
-    ``ceil((n + 1) (1 + coverage) / 2)``-th smallest absolute log-ratio (the largest times ``(n + 1) / n`` with too
+    Q11 and M11 there and the measured ones), as log-ratios of Q11 and as shares of the table's M11 range
+    ``m11_scale`` (N*m): split-conformal (:func:`hillchart.extension.hypotheses.band_scale` at one distance), the
+    ``ceil((n + 1) (1 + coverage) / 2)``-th smallest absolute miss (the largest times ``(n + 1) / n`` with too
     few points), as each side of the band is a one-sided bound.
 
     Examples
     --------
-    >>> [round(v, 4) for v in low_band([1.02, 0.99], [9.0, 10.0], [1.0, 1.0], [10.0, 10.0], [0.0, 0.0])]
-    [0.0297, 0.158]
+    >>> [round(v, 4) for v in low_band([1.02, 0.99], [9.0, 10.0], [1.0, 1.0], [10.0, 10.0], 20.0)]
+    [0.0297, 0.075]
     """
     floor = 1e-3 * float(np.max(np.abs(q11)))
     r_q = np.abs(log_ratio(np.asarray(nets_q11, float), np.asarray(q11, float), floor))
-    base = np.asarray(m11_closed, float)
-    hydraulic = np.asarray(m11, float) - base
-    r_m = np.abs(log_ratio(np.asarray(nets_m11, float) - base, hydraulic, 1e-3 * float(np.max(np.abs(hydraulic)))))
+    r_m = np.abs(np.asarray(nets_m11, float) - np.asarray(m11, float)) / m11_scale
     level = 0.5 * (1.0 + coverage)  # one-sided, as each side of the band
     return tuple(band_scale(r, np.ones(r.size), coverage=level) for r in (r_q, r_m))
 
@@ -596,9 +593,13 @@ class BulbExtrapolation:
     curvature_q11, curvature_m11 : float
         ``c`` of the quadratic hypothesis.
     band_q11, band_m11 : float
-        ``kappa``: the band's half-width is ``kappa h(d)`` as a log-ratio of Q11 and of the hydraulic torque
-        ``M11 + K N11^2``: a member multiplies both by ``exp(position kappa h)``, so at the closed vanes, where
-        Q11 = 0 and M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes.
+        ``kappa``: the band's half-width is ``kappa h(d)`` as a log-ratio of Q11, and ``kappa h(d) (1 - d)`` as a
+        share of the table's M11 range (``m11_scale``): a member multiplies Q11 by ``exp(position kappa h)`` and
+        adds ``position kappa h (1 - d) m11_scale`` to M11, so at the closed vanes (``d = 1``), where Q11 = 0 and
+        M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes. In files written
+        without ``m11_scale`` (0), ``band_m11`` is a log-ratio of the hydraulic torque ``M11 + K N11^2``, which the
+        member multiplied: near runaway that torque is the disc friction's alone and the band was a few tenths of a
+        percent of the range wide where the held-out angles missed by 2 % (docs/bulb-extrapolation.md).
     distance_cap : float
         Where the band's growth levels off (:func:`hillchart.extension.hypotheses.band_square`).
     crossover_q11, crossover_m11 : float
@@ -606,8 +607,11 @@ class BulbExtrapolation:
         written without them) for the square alone.
     low_q11, low_m11 : float
         The nets' own miss at the table's smallest angles, where every hypothesis takes its ``y_low`` (the half-width
-        of :func:`low_band`, the same log-ratios): added to ``kappa h`` below the smallest angle. The held-out folds
-        take ``y_low`` from the measured points, a run from the nets; 0 in files written without them.
+        of :func:`low_band`, in the band's measures): added to ``kappa h`` below the smallest angle. The held-out
+        folds take ``y_low`` from the measured points, a run from the nets; 0 in files written without them.
+    m11_scale : float
+        N*m: the table's measured M11 range, the unit of the M11 band; 0 in files written before (the band a
+        log-ratio of the hydraulic torque).
     position : float
         The member's place in the band (0: the point nets; +-1 the 5-95 % edges).
     """
@@ -624,6 +628,7 @@ class BulbExtrapolation:
     crossover_m11: float = 0.0
     low_q11: float = 0.0
     low_m11: float = 0.0
+    m11_scale: float = 0.0
 
     def __post_init__(self):
         for name in ("weights_q11", "weights_m11"):
@@ -636,7 +641,7 @@ class BulbExtrapolation:
         limits = {"curvature_q11": (-1.0, 1.0), "curvature_m11": (-1.0, 1.0), "band_q11": (0.0, 1e3),
                   "band_m11": (0.0, 1e3), "distance_cap": (1e-9, 1.0), "position": (-5.0, 5.0),
                   "crossover_q11": (0.0, 1.0), "crossover_m11": (0.0, 1.0), "low_q11": (0.0, 1.0),
-                  "low_m11": (0.0, 1.0)}
+                  "low_m11": (0.0, 1.0), "m11_scale": (0.0, 1e12)}
         for name, (lo, hi) in limits.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= value <= hi):
@@ -651,16 +656,16 @@ class BulbExtrapolation:
                    curvature_m11=evidence.curvature[1], band_q11=float(evidence.band["q11"]),
                    band_m11=float(evidence.band["m11"]), distance_cap=evidence.distance_cap, position=float(position),
                    crossover_q11=float(evidence.crossover["q11"]), crossover_m11=float(evidence.crossover["m11"]),
-                   low_q11=float(low[0]), low_m11=float(low[1]))
+                   low_q11=float(low[0]), low_m11=float(low[1]), m11_scale=float(evidence.m11_scale))
 
     def packed(self) -> np.ndarray:
-        """17 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        """18 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
         ``position band_m11``, the distance cap, the Q11 and M11 crossovers, the member's offsets ``position
-        low_q11`` and ``position low_m11``."""
+        low_q11`` and ``position low_m11``, ``m11_scale``."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
                          self.position * self.band_q11, self.position * self.band_m11, self.distance_cap,
                          self.crossover_q11, self.crossover_m11, self.position * self.low_q11,
-                         self.position * self.low_m11])
+                         self.position * self.low_m11, self.m11_scale])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
@@ -668,14 +673,15 @@ class BulbExtrapolation:
                 "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
                 "distance_cap": self.distance_cap, "position": self.position,
                 "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11, "low_q11": self.low_q11,
-                "low_m11": self.low_m11}
+                "low_m11": self.low_m11, "m11_scale": self.m11_scale}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
                  "band_m11", "distance_cap", "position"}
-        # absent from files written before the band's straight start and its term at the smallest angles
-        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11"}
+        # absent from files written before the band's straight start, its term at the smallest angles and the M11
+        # band in shares of the table's range
+        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11", "m11_scale"}
         if not isinstance(doc, dict) or not names <= set(doc) <= names | optional:
             raise InputError(f"{key} must be an object with the keys {', '.join(sorted(names))} (and optionally "
                              f"{', '.join(sorted(optional))}), got {sorted(doc) if isinstance(doc, dict) else doc!r}")

@@ -152,15 +152,14 @@ def test_the_nets_miss_at_the_smallest_angle_is_a_conformal_bound():
     # three points: a 95 % one-sided rank of ceil(4 x 0.95) = 4 > 3, so the largest miss times 4 / 3 (by hand)
     q = np.array([1.0, 2.0, 4.0])
     nets_q = q * np.exp([0.01, -0.02, 0.05])
-    m_closed = np.array([-1.0, -1.0, -1.0])
-    m = np.array([9.0, 19.0, 39.0])  # hydraulic torques 10, 20, 40
-    nets_m = m_closed + (m - m_closed) * np.exp([0.03, -0.01, 0.0])
-    low_q, low_m = low_band(nets_q, nets_m, q, m, m_closed)
-    assert low_q == pytest.approx(0.05 * 4 / 3, rel=1e-12) and low_m == pytest.approx(0.03 * 4 / 3, rel=1e-12)
+    m = np.array([9.0, 19.0, 39.0])
+    nets_m = m + np.array([0.3, -0.6, 0.0])  # M11 misses in N*m, shares of a 30 N*m range: 0.01, 0.02, 0
+    low_q, low_m = low_band(nets_q, nets_m, q, m, 30.0)
+    assert low_q == pytest.approx(0.05 * 4 / 3, rel=1e-12) and low_m == pytest.approx(0.02 * 4 / 3, rel=1e-12)
     # 19 points: the rank ceil(20 x 0.95) = 19 is the largest itself (the failing case of a tighter rank: 18th)
     misses = np.linspace(0.001, 0.019, 19)
     ones = np.ones(19)
-    assert low_band(np.exp(misses), ones, ones, ones, np.zeros(19))[0] == pytest.approx(0.019, rel=1e-12)
+    assert low_band(np.exp(misses), ones, ones, ones, 1.0)[0] == pytest.approx(0.019, rel=1e-12)
 
 
 def test_extrapolation_records_are_validated_and_round_trip():
@@ -256,6 +255,45 @@ def test_the_kernel_reads_the_weighed_hypotheses_below_the_table(weighed):
                                    SyntheticBulb().q11(n11, gv, blade) + plain.q11(n11, gv, blade), rtol=1e-12)
 
 
+def test_the_torque_band_is_a_share_of_the_tables_m11_range_closing_at_the_closed_vanes(weighed):
+    """With ``m11_scale`` (files written now) a member adds ``(kappa h + low) t m11_scale`` to M11: the band is a
+    share of the table's M11 range, as the held-out angles measure the torque's error, and closes as ``t`` at the
+    closed vanes. The file written before (``m11_scale`` 0, the fixture) multiplied the hydraulic torque
+    ``M11 + K N11^2``, which near runaway is the disc friction's alone: there its band is narrower by that ratio."""
+    import dataclasses
+
+    plain, _, _, record = weighed
+    additive = dataclasses.replace(record, m11_scale=500.0)
+    silent = BulbSilentModel(SyntheticBulb().point_parameters(), (39.0, LOW), residual=True, extrapolation=additive)
+    point = DoubleRegulatedNets(plain.flow, plain.torque, silent_model=silent)
+    member = DoubleRegulatedNets(plain.flow, plain.torque, silent_model=silent.at(1.0))
+    n11, blade = np.array([120.0, 160.0, 240.0]), np.array([-12.0, 0.0, 9.0])
+    for gv in (34.0, 35.5, 37.0, 39.0):
+        q, m, m_0, t = _by_hand(plain, record, n11, np.full(3, gv), blade)
+        h_m = np.array([band_envelope(float(1.0 - v), 0.5, 0.1)[0] for v in t])
+        np.testing.assert_allclose(point.m11(n11, gv, blade), m, rtol=1e-12, atol=1e-12)  # the band's middle
+        # by hand, 1e-12 relative: the same arithmetic in another order
+        np.testing.assert_allclose(member.m11(n11, gv, blade), m + (1.5 * h_m + 0.03) * t * 500.0, rtol=1e-12,
+                                   atol=1e-12)
+        # Q11's band is unchanged (a factor)
+        h_q = np.array([band_envelope(float(1.0 - v), 0.5, 0.3)[0] for v in t])
+        np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h_q + 0.02), rtol=1e-12, atol=1e-14)
+    # at the closed vanes (34 deg: t = 0) the member is the disc friction's -K N11^2, as the point
+    np.testing.assert_allclose(member.m11(n11, 34.0, blade), point.m11(n11, 34.0, blade), rtol=0, atol=1e-12)
+    # the failing case beside: the old form's width follows the hydraulic torque M11 + K N11^2 (small toward
+    # runaway), the new one does not depend on it
+    old = DoubleRegulatedNets(plain.flow, plain.torque, silent_model=BulbSilentModel(
+        SyntheticBulb().point_parameters(), (39.0, LOW), residual=True, extrapolation=record).at(1.0))
+    k = SyntheticBulb().point_parameters()[POINT_PARAMETERS.index("k_disc_friction")]
+    n11, zeros = np.array([120.0, 240.0]), np.zeros(2)
+    middle = point.m11(n11, 37.0, zeros)
+    hydraulic = middle + k * n11 ** 2
+    old_width, new_width = old.m11(n11, 37.0, zeros) - middle, member.m11(n11, 37.0, zeros) - middle
+    assert abs(hydraulic[1] / hydraulic[0] - 1.0) > 0.2  # the two speeds differ in hydraulic torque
+    np.testing.assert_allclose(old_width / hydraulic, old_width[0] / hydraulic[0], rtol=1e-9)
+    np.testing.assert_allclose(new_width, new_width[0], rtol=1e-9)
+
+
 def test_the_weighed_kernels_derivatives_are_those_of_its_values(weighed):
     _, point, member, _ = weighed
     n11, gv, blade = np.array([150.0, 210.0, 190.0]), np.array([36.5, 39.3, 39.8]), np.array([-6.0, 8.0, 0.0])
@@ -273,7 +311,7 @@ def test_nets_with_the_weighed_hypotheses_round_trip_and_old_files_read_as_befor
     assert again.silent_model.extrapolation == record
     x = (np.array([130.0, 200.0]), np.array([36.0, 37.0]), np.array([-3.0, 5.0]))
     np.testing.assert_array_equal(again.q11(*x), point.q11(*x))
-    assert point.blend_packed().size == 32 and point.blend_packed()[14] == 2.0
+    assert point.blend_packed().size == 33 and point.blend_packed()[14] == 2.0
     # a file written before (no extrapolation block): 15 numbers, the model alone below the blend
     legacy = BulbSilentModel(SyntheticBulb().point_parameters(), (37.5, LOW), residual=True)
     assert "extrapolation" not in legacy.to_dict() and legacy.packed().size == 15
