@@ -232,11 +232,10 @@ def median_hypotheses(record: dict, n11: float, opening: float) -> dict | None:
     out = {}
     for target in ("q11", "m11"):
         grid = np.asarray(table[target], int)
-        at = [np.clip(x / top, 0.0, 1.0) * (size - 1) for x, top, size in
-              ((n11, table["n11_top"], grid.shape[0]), (opening, table["lowest_opening"], grid.shape[1]))]
-        i, j = (int(min(math.floor(x), size - 2)) for x, size in zip(at, grid.shape))
-        # the nodes that bound the point (one node's neighbour at the table's edge, where the point is the node)
-        cell = grid[i + (at[0] >= grid.shape[0] - 1):i + 2, j + (at[1] >= grid.shape[1] - 1):j + 2].ravel()
+        # the nodes that bound the point along each axis (one, where the point lies on a node or beyond the table)
+        at = (np.clip(x / top, 0.0, 1.0) * (size - 1) for x, top, size in
+              ((n11, table["n11_top"], grid.shape[0]), (opening, table["lowest_opening"], grid.shape[1])))
+        cell = grid[np.ix_(*(sorted({math.floor(x), math.ceil(x)}) for x in at))].ravel()
         weights = record["weights"][target]
         out[target] = sorted({record["hypotheses"][k] for k in cell}, key=lambda h: -weights[h])
     return out
