@@ -21,7 +21,7 @@ For k = 1, 2, 3 (the k lowest angles of every sweep that keeps 3):
   5 members, seed 0; the closed vane held at the whole table's fitted one, as the evidence's refits hold it), saved and
   read back, so the answer is what a run reads;
 * each hypothesis of :mod:`hillchart.fccm.evidence` refitted on the kept points (``line`` is the straight-line
-  baseline: Q11 = 0 at the closed vane to the lowest kept angle at the same N11 and blade angle), the weighed blend
+  baseline: Q11 = 0 at the closed vane to the lowest kept angle at the same N11 and blade angle), their weighed median
   (the weights the reduced table's own hold-outs give), and what a run reads, at the held-out points: Q11 relative
   error, M11 error as % of the table's measured M11 range;
 * the ensemble's 5-95 % band and whether it covers each held-out point.
@@ -136,6 +136,7 @@ def _band(nets, n, a, b, q, m, scale):
 def measure(samples, folder: Path, restarts: int = RESTARTS) -> dict:
     """Every fold of one table's measured unit samples (dict of arrays)."""
     from hillchart.fccm.double_regulated import extend_unit_samples
+    from hillchart.extension.band import weighed_median
     from hillchart.fccm.evidence import (HYPOTHESES, held_out_mask, hold_out_angles, overspeed_ends,
                                          overspeed_evidence, table_evidence)
 
@@ -153,9 +154,9 @@ def measure(samples, folder: Path, restarts: int = RESTARTS) -> dict:
         nets = _train(kept, closed, folder, f"k{k}", restarts)
         weights = nets.training["extrapolation"]["weights"]
         rows = {h: _errors(*fold.predictions[h], fold.q11, fold.m11, scale) for h in HYPOTHESES}
-        blend_q = sum(weights["q11"][h] * fold.predictions[h][0] for h in HYPOTHESES)
-        blend_m = sum(weights["m11"][h] * fold.predictions[h][1] for h in HYPOTHESES)
-        rows["weighed blend"] = _errors(blend_q, blend_m, fold.q11, fold.m11, scale)
+        blend_q, blend_m = (weighed_median([fold.predictions[h][i] for h in HYPOTHESES],
+                                           [weights[t][h] for h in HYPOTHESES]) for i, t in enumerate(("q11", "m11")))
+        rows["weighed median"] = _errors(blend_q, blend_m, fold.q11, fold.m11, scale)
         x = (fold.n11, fold.opening, fold.blade_angle)
         rows["run"] = _errors(nets.q11(*x), nets.m11(*x), fold.q11, fold.m11, scale)
         q_cov, m_cov, width, m_width = _band(nets, *x, fold.q11, fold.m11, scale)
@@ -191,7 +192,7 @@ def tables(name: str, result: dict) -> str:
            "", "| k held out | points | lowest kept | candidate | Q11 mean abs err % | Q11 worst % | "
                "M11 mean abs err (% of range) | M11 worst (% of range) |", "|---|---|---|---|---|---|---|---|"]
     for f in result["folds"]:
-        for h in (*HYPOTHESES, "weighed blend", "run"):
+        for h in (*HYPOTHESES, "weighed median", "run"):
             r = f["rows"][h]
             out.append(f"| {f['k']} | {f['points']} | {f['lowest_kept']:g} | {LABELS.get(h, h)} | "
                        f"{100 * r['q_mean']:.1f} | {100 * r['q_worst']:+.1f} | {100 * r['m_mean']:.1f} | "

@@ -5,7 +5,7 @@ out), the extension of the kept lines weighs its hypotheses by its *inner* hold-
 two lowest, :func:`hillchart.extension.hypotheses.chart_evidence`). This script prints, per held-out line, the
 distance ``d = 1 - a / a_low`` below the lowest kept line and every hypothesis' mean signed Q11 error there (log-ratio,
 %), for the inner folds (what the weights saw) and for the outer held-out lines (what was asked), with the weights
-and the weighed blend; and how far the lowest kept line, as the hypotheses read it (:class:`LowestLine`), is from its
+and the weighed median; and how far the lowest kept line, as the hypotheses read it (:class:`LowestLine`), is from its
 own digitized points (0 when it passes through them).
 
 The same for the EGAT 137 kW bulb table of ``benchmarks/bench_bulb_extrapolation.py`` (the k lowest guide-vane
@@ -62,6 +62,7 @@ def lowest_line_miss(chart, torque, fit_model) -> float:
 def diagnose(chart, k: int) -> str:
     """The tables of one k (module docstring)."""
     from benchmarks.bench_extrapolation import reduced_chart
+    from hillchart.extension.band import weighed_median
     from hillchart.extension.extend import extend_samples
     from hillchart.extension.hypotheses import sub_chart
     from hillchart.extension.turbine_model import fit_turbine_model
@@ -74,11 +75,11 @@ def diagnose(chart, k: int) -> str:
     ev, hyp = x.evidence, x.hypotheses
     weights, names = ev.weights["q11"], ev.names
     out = [f"#### k = {k}: lowest kept line {hyp.lowest.opening:g}", "",
-           "| held out | line | d | points | " + " | ".join(names) + " | weighed blend |",
+           "| held out | line | d | points | " + " | ".join(names) + " | weighed median |",
            "|---|---|---|---|" + "---|" * (len(names) + 1),
            "| weights Q11 | | | | " + " | ".join(f"{weights[h]:.2f}" for h in names) + " | |"]
     for fold in ev.folds + ev.band_folds:
-        blend = sum(weights[h] * fold.predictions[h][0] for h in names)
+        blend = weighed_median([fold.predictions[h][0] for h in names], [weights[h] for h in names])
         tag = f"inner, {fold.lines} line{'s' if fold.lines > 1 else ''}" + (
             "" if fold in ev.folds else " (band only)")
         out += _line_rows(tag, fold.opening, fold.distance, fold.q11, fold.predictions, names, blend)
@@ -104,6 +105,7 @@ def diagnose(chart, k: int) -> str:
 def diagnose_bulb(samples, k: int) -> str:
     """The table of one k of the bulb table (module docstring)."""
     from benchmarks.bench_bulb_extrapolation import SEED, _subset
+    from hillchart.extension.band import weighed_median
     from hillchart.fccm.double_regulated import extend_unit_samples
     from hillchart.fccm.evidence import HYPOTHESES, held_out_mask, hold_out_angles, table_evidence
 
@@ -116,12 +118,12 @@ def diagnose_bulb(samples, k: int) -> str:
         evidence = table_evidence(kept, extend_unit_samples(kept, opening_closed=closed, seed=SEED)[2], seed=SEED)
     weights = evidence.weights["q11"]
     out = [f"#### bulb, k = {k}", "",
-           "| held out | angle | mean d | points | " + " | ".join(HYPOTHESES) + " | weighed blend |",
+           "| held out | angle | mean d | points | " + " | ".join(HYPOTHESES) + " | weighed median |",
            "|---|---|---|---|" + "---|" * (len(HYPOTHESES) + 1),
            "| weights Q11 | | | | " + " | ".join(f"{weights[h]:.2f}" for h in HYPOTHESES) + " | |"]
     for label, folds in (("inner", evidence.folds), ("**outer** (asked)", [outer])):
         for fold in folds:
-            blend = sum(weights[h] * fold.predictions[h][0] for h in HYPOTHESES)
+            blend = weighed_median([fold.predictions[h][0] for h in HYPOTHESES], [weights[h] for h in HYPOTHESES])
             for angle in np.unique(fold.opening):
                 on = fold.opening == angle
                 errors = [np.mean(np.log(fold.predictions[h][0][on] / fold.q11[on])) for h in HYPOTHESES]

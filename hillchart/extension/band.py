@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba.extending import register_jitable
 
@@ -203,6 +204,46 @@ def member_positions(members: int, seed: int) -> np.ndarray:
     return np.random.default_rng([seed, 7]).permutation(positions)
 
 
+@register_jitable
+def median_pick(values, weights, half):
+    """Index of the hypothesis the weighed median takes among ``values`` (1-D, one per hypothesis) with ``weights``
+    (>= 0) and ``half`` (half their sum): the first, in the order of the values (ties in the hypotheses' order), at
+    which the weights reach ``half``. The one implementation of the rule, in Python and in the compiled kernels
+    (:func:`weighed_median`, :func:`hillchart.fccm.bulb_silent_model.weighed_point`).
+
+    Examples
+    --------
+    >>> int(median_pick(np.array([3.0, 1.0, 2.0]), np.array([0.2, 0.3, 0.5]), 0.5))
+    2
+    """
+    n = values.size
+    order = np.arange(n)
+    for i in range(1, n):  # insertion sort of a handful of hypotheses, stable
+        k = order[i]
+        j = i - 1
+        while j >= 0 and values[order[j]] > values[k]:
+            order[j + 1] = order[j]
+            j -= 1
+        order[j + 1] = k
+    reached = 0.0
+    for i in range(n):
+        reached += weights[order[i]]
+        if reached >= half:
+            return order[i]
+    return order[n - 1]
+
+
+@numba.njit(cache=True)
+def _median_picks(flat, weights, half):
+    picks = np.empty(flat.shape[1], np.int64)
+    column = np.empty(flat.shape[0])
+    for p in range(flat.shape[1]):
+        for h in range(flat.shape[0]):
+            column[h] = flat[h, p]
+        picks[p] = median_pick(column, weights, half)
+    return picks
+
+
 def weighed_median(values, weights, *, index: bool = False):
     """The weighed median of the hypotheses' ``values`` (a sequence of arrays of one shape, or numbers) with
     ``weights`` (one per hypothesis, >= 0, not all 0): at each point the value of the hypothesis at which the weights,
@@ -217,8 +258,8 @@ def weighed_median(values, weights, *, index: bool = False):
     quadratic (0.24) 18 % above: the mean was 6.7 % above, and the max head rise of a load rejection 3.7 points under
     the exact turbine's; the median follows the model (docs/guarantee-benchmark.md, step 12). Continuous where the
     hypotheses cross (they are equal there). A Francis chart's hypotheses answer by it
-    (:meth:`hillchart.extension.hypotheses.Evidence.blend`); a double-regulated table's four are still weighed by their
-    mean, in the compiled kernel (:func:`hillchart.fccm.bulb_silent_model.weighed_point`).
+    (:meth:`hillchart.extension.hypotheses.Evidence.blend`), and a double-regulated table's four, in the compiled
+    kernel (:func:`hillchart.fccm.bulb_silent_model.weighed_point`); both take :func:`median_pick`.
 
     Examples
     --------
@@ -231,10 +272,8 @@ def weighed_median(values, weights, *, index: bool = False):
     """
     stacked = np.array(np.broadcast_arrays(*[np.asarray(v, float) for v in values]))
     w = np.asarray(weights, float)
-    flat = stacked.reshape(len(w), -1)
-    order = np.argsort(flat, axis=0, kind="stable")
-    reached = np.cumsum(w[order], axis=0) >= 0.5 * w.sum()
-    pick = np.take_along_axis(order, np.argmax(reached, axis=0)[None, :], axis=0)
+    flat = np.ascontiguousarray(stacked.reshape(len(w), -1))
+    pick = _median_picks(flat, w, 0.5 * float(w.sum()))
     if index:
-        return pick[0].reshape(stacked.shape[1:])
-    return np.take_along_axis(flat, pick, axis=0)[0].reshape(stacked.shape[1:])
+        return pick.reshape(stacked.shape[1:])
+    return flat[pick, np.arange(flat.shape[1])].reshape(stacked.shape[1:])

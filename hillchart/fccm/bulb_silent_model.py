@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.extension.band import median_pick
 from hillchart.fccm.evidence import (HANDOVER_FRACTION, HANDOVER_STEPS, BulbExtrapolation, band_envelope_compiled,
                                      hypothesis_value)
 from hillchart.fccm.net import FCCMWeights
@@ -76,7 +77,7 @@ NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf, 0.0]])
 
 
 #: Indices in the packed blend (:meth:`BulbSilentModel.packed`) of the closed vane and the disc friction K, and the
-#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 13 more numbers,
+#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 19 more numbers,
 #: :meth:`hillchart.fccm.evidence.BulbExtrapolation.packed`).
 _CLOSED = POINT_PARAMETERS.index("guide_vane_closed_deg")
 _K_DISC = POINT_PARAMETERS.index("k_disc_friction")
@@ -85,13 +86,16 @@ WEIGHED = 2.0
 
 @numba.njit(cache=True)
 def weighed_point(net, blend, n11, opening, blade, which):
-    """``(y, dy/dN11)`` of the weighed hypotheses (:mod:`hillchart.fccm.evidence`) below the table's smallest
-    guide-vane angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the
-    member's place in the band: ``y_low`` is the model plus the nets' residual at ``a_low``; the band multiplies
-    Q11 by ``exp(offset h(d) + low)`` and adds ``(offset h(d) + low) t m11_scale`` to M11 (``blend[32]``, N*m; with
-    0, a file written before, it multiplies the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d) + low)``),
-    each target by its own offsets (``h`` of :func:`hillchart.extension.band.band_envelope` at ``d = 1 - t``; ``low``
-    the member's share of the nets' own miss at the smallest angles, :func:`hillchart.fccm.evidence.low_band`)."""
+    """``(y, dy/dN11)`` of the weighed hypotheses (:mod:`hillchart.fccm.evidence`) below the table's smallest guide-vane
+    angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the member's
+    place in the band: their weighed median (:func:`hillchart.extension.band.median_pick`, as a Francis chart's
+    hypotheses answer) with the derivative of the hypothesis it takes (``blend[33]`` 1; 0 in files written before the
+    median, which read the weighed mean). ``y_low`` is the model plus the nets' residual at
+    ``a_low``; the band multiplies Q11 by ``exp(offset h(d) + low)`` and adds ``(offset h(d) + low) t m11_scale`` to M11
+    (``blend[32]``, N*m; with 0, a file written before, it multiplies the hydraulic torque ``M11 + K N11^2`` by
+    ``exp(offset h(d) + low)``), each target by its own offsets (``h`` of :func:`hillchart.extension.band.band_envelope`
+    at ``d = 1 - t``; ``low`` the member's share of the nets' own miss at the smallest angles,
+    :func:`hillchart.fccm.evidence.low_band`)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]
     t = min(max((opening - closed) / (a_low - closed), 0.0), 1.0)
@@ -105,12 +109,18 @@ def weighed_point(net, blend, n11, opening, blade, which):
         y_0, dy_0 = -params[_K_DISC] * n11 * n11, -2.0 * params[_K_DISC] * n11  # eq. (8), BP hill-chart paper
     base = 15 + 4 * which
     c = blend[23 + which]
-    y = dy = 0.0
+    values = np.empty(4)
     for h in range(4):
-        w = blend[base + h]
-        if w > 0.0:
-            y += w * hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
-            dy += w * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
+        values[h] = hypothesis_value(h, t, y_m, y_ml, y_ml + r, y_0, c)
+    weights = blend[base:base + 4]
+    if blend[33] > 0.0:  # the weighed median
+        pick = median_pick(values, weights, 0.5 * (weights[0] + weights[1] + weights[2] + weights[3]))
+        y, dy = values[pick], hypothesis_value(pick, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
+    else:  # a file written before the median: the weighed mean
+        y = dy = 0.0
+        for h in range(4):
+            y += weights[h] * values[h]
+            dy += weights[h] * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
     shift = blend[25 + which] * band_envelope_compiled(1.0 - t, blend[27], blend[28 + which])[0] + blend[30 + which]
     if which == 1 and blend[32] > 0.0:  # a share of the M11 range, closing as t toward the closed vanes
         return y + shift * t * blend[32], dy

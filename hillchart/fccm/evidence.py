@@ -31,8 +31,10 @@ at that angle. In the simulator it is the nets' value at the table's smallest an
 
 The weights are pseudo-BMA on the held-out errors (:func:`pseudo_bma`, as
 :func:`hillchart.extension.hypotheses.weigh` does for the Francis chart: one piece of evidence per held-out angle,
-the errors divided by the squared distance ``d = 1 - t``), never the fit; the band is split-conformal on the weighed
-blend's held-out residuals of each fold (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's,
+the errors divided by the squared distance ``d = 1 - t``), never the fit. The hypotheses answer by their weighed
+median (:func:`hillchart.extension.band.weighed_median`, as a Francis chart's: with a table's few held-out angles the
+weights stay spread, and the mean stood where no hypothesis does); the band is split-conformal on the median's
+held-out residuals of each fold (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's,
 :func:`fold_band`), growing as ``d^2`` (:func:`hillchart.extension.hypotheses.band_square`) after a straight start
 near the smallest angle, where ``d^2`` would shrink a band calibrated further down to nothing
 (:func:`hillchart.extension.band.band_envelope`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles (a
@@ -52,11 +54,14 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import band_envelope, continuation
+from hillchart.extension.band import band_envelope, continuation, weighed_median
 from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
 HYPOTHESES = ("model", "anchored-model", "line", "quadratic")
+#: How the weighed hypotheses answer (:class:`BulbExtrapolation`): their weighed median, or (files written before it)
+#: their weighed mean.
+COMBINATIONS = ("median", "mean")
 #: Held-out folds of ``hillsim fccm --simulator-nets``: the lowest angle of every sweep, then the two lowest.
 HOLD_OUT = (1, 2)
 #: Angles a sweep keeps after a hold-out (a sweep with fewer takes no part in that fold).
@@ -446,19 +451,20 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, 
     for target in ("q11", "m11"):
         errors = {h: np.concatenate([e[target][h] for e in per_fold]) for h in HYPOTHESES}
         weights[target] = pseudo_bma(errors, distance, pieces)
-        blended = sum(weights[target][h] * errors[h] for h in HYPOTHESES)
+        blended = weighed_median([errors[h] for h in HYPOTHESES], [weights[target][h] for h in HYPOTHESES])
         stats[target] = {h: _stats(e) for h, e in errors.items()}
         stats[target]["blend"] = _stats(blended)
     # the band of a member moves Q11 by a factor (so it vanishes at the closed vanes) and M11 by a share of the
     # table's M11 range that closes as 1 - d toward them (the weights' measure of the torque's error, and the Francis
-    # chart's band): calibrated on the log-ratios of the weighed blend's Q11 and its M11 misses over (1 - d) at each
+    # chart's band): calibrated on the log-ratios of the weighed median's Q11 and its M11 misses over (1 - d) at each
     # fold's points
     cap = min(1.0, float(distance.max()))
     crossover = {}
     for target, index in (("q11", 0), ("m11", 1)):
         residuals = []
         for f in folds:
-            blended = sum(weights[target][h] * f.predictions[h][index] for h in HYPOTHESES)
+            blended = weighed_median([f.predictions[h][index] for h in HYPOTHESES],
+                                     [weights[target][h] for h in HYPOTHESES])
             if index == 0:
                 residuals.append(log_ratio(blended, f.q11, 1e-3 * float(np.max(np.abs(f.q11)))))
             else:
@@ -612,6 +618,10 @@ class BulbExtrapolation:
     m11_scale : float
         N*m: the table's measured M11 range, the unit of the M11 band; 0 in files written before (the band a
         log-ratio of the hydraulic torque).
+    combination : str
+        How the hypotheses answer: ``"median"``, their weighed median
+        (:func:`hillchart.extension.band.weighed_median`, on whose held-out residuals the band is calibrated), or
+        ``"mean"``, their weighed mean (files written before the median, whose band was calibrated on the mean's).
     position : float
         The member's place in the band (0: the point nets; +-1 the 5-95 % edges).
     """
@@ -629,8 +639,12 @@ class BulbExtrapolation:
     low_q11: float = 0.0
     low_m11: float = 0.0
     m11_scale: float = 0.0
+    combination: str = "median"
 
     def __post_init__(self):
+        if self.combination not in COMBINATIONS:
+            raise InputError(f"silent_model.extrapolation.combination must be one of {', '.join(COMBINATIONS)}, got "
+                             f"{self.combination!r}")
         for name in ("weights_q11", "weights_m11"):
             w = np.asarray(getattr(self, name), float)
             if w.shape != (len(HYPOTHESES),) or not np.all(np.isfinite(w)) or np.any(w < 0) \
@@ -659,13 +673,13 @@ class BulbExtrapolation:
                    low_q11=float(low[0]), low_m11=float(low[1]), m11_scale=float(evidence.m11_scale))
 
     def packed(self) -> np.ndarray:
-        """18 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        """19 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
         ``position band_m11``, the distance cap, the Q11 and M11 crossovers, the member's offsets ``position
-        low_q11`` and ``position low_m11``, ``m11_scale``."""
+        low_q11`` and ``position low_m11``, ``m11_scale``, and 1 for the weighed median (0: the mean)."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
                          self.position * self.band_q11, self.position * self.band_m11, self.distance_cap,
                          self.crossover_q11, self.crossover_m11, self.position * self.low_q11,
-                         self.position * self.low_m11, self.m11_scale])
+                         self.position * self.low_m11, self.m11_scale, float(self.combination == "median")])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
@@ -673,21 +687,22 @@ class BulbExtrapolation:
                 "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
                 "distance_cap": self.distance_cap, "position": self.position,
                 "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11, "low_q11": self.low_q11,
-                "low_m11": self.low_m11, "m11_scale": self.m11_scale}
+                "low_m11": self.low_m11, "m11_scale": self.m11_scale, "combination": self.combination}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
                  "band_m11", "distance_cap", "position"}
-        # absent from files written before the band's straight start, its term at the smallest angles and the M11
-        # band in shares of the table's range
-        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11", "m11_scale"}
+        # absent from files written before the band's straight start, its term at the smallest angles, the M11
+        # band in shares of the table's range and the weighed median (those files read as the weighed mean)
+        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11", "m11_scale", "combination"}
         if not isinstance(doc, dict) or not names <= set(doc) <= names | optional:
             raise InputError(f"{key} must be an object with the keys {', '.join(sorted(names))} (and optionally "
                              f"{', '.join(sorted(optional))}), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
         if doc["hypotheses"] != list(HYPOTHESES):
             raise InputError(f"{key}.hypotheses must be {list(HYPOTHESES)}, got {doc['hypotheses']!r}")
         try:
-            return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in doc.items() if k != "hypotheses"})
+            return cls(**{"combination": "mean", **{k: (tuple(v) if isinstance(v, list) else v) for k, v in doc.items()
+                                                    if k != "hypotheses"}})
         except InputError as exc:
             raise InputError(str(exc).replace("silent_model.extrapolation", key)) from None
