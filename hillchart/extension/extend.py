@@ -13,9 +13,10 @@ BP hill-chart paper (004), section 2.1 steps (d)-(f) and section 2.6 boundaries 
 Beyond the paper, with the physical-model boundaries (:mod:`hillchart.extension.turbine_model`), the model also fills
 the regions where the chart is silent but a load rejection decides its guarantee figures: the small openings between
 a = 0 and the lowest digitized line (the end of the closure, where the maximum head comes) and the overspeed band
-between each line's last point and its runaway speed (origin ``silent-region``,
-:func:`silent_region_points`). On the synthetic family this cut the worst max-head-rise error of a load rejection
-from 4.6 to 3.4 points and the worst max-speed-rise error from 3.3 to 1.3 points
+between each line's last point and its runaway speed (origin ``silent-region``, :func:`silent_region_points`),
+and midway between each two adjacent lines, where a closure crosses the gaps, as the model plus the residual the
+lines measure (:func:`between_line_points`). On the synthetic family the first two cut the worst max-head-rise error
+of a load rejection from 4.6 to 3.4 points and the worst max-speed-rise error from 3.3 to 1.3 points
 (``benchmarks/bench_guarantee.py``, docs/guarantee-benchmark.md).
 
 Every extended point carries its origin (``measured``, ``runaway``, ``zero-opening``, ``zero-speed``,
@@ -58,6 +59,8 @@ SMALL_OPENING_FRACTIONS = (0.7,)
 #: N11 values per small opening (0 to the largest sampled N11) and per line between its end and runaway.
 SMALL_OPENING_SPEEDS = 12
 OVERSPEED_POINTS = 3
+#: N11 values of the samples midway between two adjacent lines over their measured speeds (:func:`between_line_points`).
+BETWEEN_LINE_SPEEDS = 6
 TARGETS = ("q11", "m11")
 CSV_COLUMNS = ("target", "origin", "n11", "opening", "value")
 BOUNDARY_METHODS = ("model", "polynomial")
@@ -91,8 +94,9 @@ class ExtensionOptions:
     silent_regions : bool
         With ``boundaries="model"``: samples of the fitted physical model where the chart is silent and a load
         rejection runs (origin ``silent-region``): the small openings between a = 0 and the lowest digitized line
-        (where the closure ends and the maximum head comes) and the overspeed band between each line's last point
-        and its runaway speed (where the maximum speed comes). Weight 1 in training, like the zero-opening samples.
+        (where the closure ends and the maximum head comes), the overspeed band between each line's last point
+        and its runaway speed (where the maximum speed comes), and midway between adjacent lines
+        (:func:`between_line_points`). Weight 1 in training, like the zero-opening samples.
     """
 
     runaway: bool = True
@@ -344,6 +348,41 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     return points
 
 
+def between_line_points(chart: ChartSamples, model) -> list[tuple[float, float]]:
+    """(N11 r/min, opening) points midway between each two adjacent digitized opening lines, where the chart is
+    silent too: :data:`BETWEEN_LINE_SPEEDS` N11 values from the later of the two lines' first points to the later of
+    their last points, then :data:`OVERSPEED_POINTS` evenly inside the gap up to the model's runaway speed at the
+    midway opening.
+
+    Why: a load rejection's speed rise builds while the closure crosses the gaps between the lines, beyond their last
+    points toward runaway. Without samples there the nets are free between the lines: on a sparse chart of a turbine
+    outside the model's class (4 lines; docs/guarantee-benchmark.md, step 13) they lay 1.0-1.2 % of the M11 range
+    under its torque along a 14 s closure where the fitted model was within 0.5 %, and the speed rise came out 1.3
+    points low. The samples carry the model's shape between the lines and the residual the lines measure
+    (:func:`hillchart.extension.residual.continued_residual`), so they agree with the measured points beside them.
+
+    Examples
+    --------
+    >>> from data_synthetic import FRANCIS_DIR
+    >>> from hillchart.io.samples import load_chart
+    >>> chart = load_chart(FRANCIS_DIR)
+    >>> points = between_line_points(chart, extend_samples(chart).boundary_model)
+    >>> len(points) == (np.unique(chart.flow_opening).size - 1) * (BETWEEN_LINE_SPEEDS + OVERSPEED_POINTS)
+    True
+    """
+    lines = np.unique(chart.flow_opening)
+    points = []
+    for low, high in zip(lines[:-1], lines[1:]):
+        a = 0.5 * float(low + high)
+        n_low, n_high = chart.flow_n11[chart.flow_opening == low], chart.flow_n11[chart.flow_opening == high]
+        first, last = max(n_low.min(), n_high.min()), max(n_low.max(), n_high.max())
+        points += [(float(n), a) for n in np.linspace(first, last, BETWEEN_LINE_SPEEDS)]
+        n_run = model.runaway_n11(a)
+        if np.isfinite(n_run) and n_run > last:
+            points += [(float(n), a) for n in np.linspace(last, n_run, OVERSPEED_POINTS + 2)[1:-1]]
+    return points
+
+
 def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None) -> ExtendedSamples:
     """Torque samples from efficiency plus the four boundary families of the BP hill-chart paper.
 
@@ -453,6 +492,19 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
                 q, m = float(model.q11(n, a)), float(model.m11(n, a))
             add("q11", "silent-region", n, a, q, False)
             add("m11", "silent-region", n, a, m, False)
+        between = between_line_points(chart, model)
+        if between:  # the model's shape between the lines, with the residual the lines measure carried there
+            from hillchart.extension.residual import continued_residual
+
+            x = np.array(between)
+            measured = np.column_stack([chart.flow_n11, chart.flow_opening])
+            model_q, model_m = model.q11(x[:, 0], x[:, 1]), model.m11(x[:, 0], x[:, 1])
+            q = model_q + continued_residual(measured, chart.flow_q11 - model.q11(chart.flow_n11, chart.flow_opening),
+                                             x)
+            m = model_m + continued_residual(measured, torque - model.m11(chart.flow_n11, chart.flow_opening), x)
+            for (n, a), q_i, m_i in zip(between, q, m):
+                add("q11", "silent-region", n, a, float(q_i), False)
+                add("m11", "silent-region", n, a, float(m_i), False)
 
     # (e)-(f), 2.6 (2)-(3): zero opening, Q11 = 0 (eq. 6) and M11 = -K N11^2 (eqs. 8-9)
     k_used = k_fitted = None

@@ -29,20 +29,19 @@ implementation the simulator's kernel runs as well):
 ``y_low(N11, phi)`` is the value at the lowest kept angle: the model there plus the sweep's own residual against it
 at that angle. In the simulator it is the nets' value at the table's smallest angle, which fit it.
 
-The weights are pseudo-BMA on the held-out errors (:func:`pseudo_bma`, as
-:func:`hillchart.extension.hypotheses.weigh` does for the Francis chart: one piece of evidence per held-out angle,
-the errors divided by the squared distance ``d = 1 - t``), never the fit. The hypotheses answer by their weighed
-median (:func:`hillchart.extension.band.weighed_median`, as a Francis chart's: with a table's few held-out angles the
-weights stay spread, and the mean stood where no hypothesis does); the band is split-conformal on the median's
-held-out residuals of each fold (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's,
-:func:`fold_band`), growing as ``d^2`` (:func:`hillchart.extension.hypotheses.band_square`) after a straight start
-near the smallest angle, where ``d^2`` would shrink a band calibrated further down to nothing
-(:func:`hillchart.extension.band.band_envelope`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles (a
-scattered campaign) gives no evidence: the fitted model answers alone (no other hypothesis has earned a weight;
-weighed equally, the straight line and the quadratic, 15-35 % off on every table measured, took a synthetic bulb's
-rejection 1.6 points of speed off the exact one) and the band is the wide
-:data:`hillchart.extension.hypotheses.NO_EVIDENCE_SCALE`, and the summary says so. Toward overspeed the table's
-evidence is stated too (:func:`overspeed_evidence`): the highest-N11 point of every setting held out.
+The weights are pseudo-BMA on the held-out errors (:func:`pseudo_bma`, as :func:`hillchart.extension.hypotheses.weigh`
+does for the Francis chart: one piece of evidence per held-out angle, the errors divided by the squared distance ``d = 1
+- t``), never the fit. The hypotheses answer by their weighed median (:func:`hillchart.extension.band.weighed_median`,
+as a Francis chart's: with few held-out angles the weights stay spread, and the mean stood where no hypothesis does);
+the band is split-conformal on the median's held-out residuals of each fold
+(:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's, :func:`fold_band`), growing as ``d^2``
+(:func:`hillchart.extension.hypotheses.band_square`) after a straight start near the smallest angle, where ``d^2`` would
+shrink a band calibrated further down to nothing (:func:`hillchart.extension.band.band_envelope`). A table without
+sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles (a scattered campaign) gives no evidence: the fitted model answers alone
+(weighed equally, the straight line and the quadratic, 15-35 % off on every table measured, took a synthetic bulb's
+rejection 1.6 points of speed off the exact one), the band is the wide
+:data:`hillchart.extension.hypotheses.NO_EVIDENCE_SCALE`, and the summary says so. Toward overspeed the table's evidence
+is stated too (:func:`overspeed_evidence`): the highest-N11 point of every setting held out.
 """
 
 from __future__ import annotations
@@ -59,8 +58,7 @@ from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
 HYPOTHESES = ("model", "anchored-model", "line", "quadratic")
-#: How the weighed hypotheses answer (:class:`BulbExtrapolation`): their weighed median, or (files written before it)
-#: their weighed mean.
+#: How the weighed hypotheses answer (:class:`BulbExtrapolation`): weighed median, or weighed mean (older files).
 COMBINATIONS = ("median", "mean")
 #: Held-out folds of ``hillsim fccm --simulator-nets``: the lowest angle of every sweep, then the two lowest.
 HOLD_OUT = (1, 2)
@@ -447,24 +445,19 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, 
     per_fold = [fold_errors(f, m11_scale) for f in folds]
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
     pieces = sum(f.angles for f in folds)
-    weights, stats, band = {}, {}, {}
+    weights, stats, band, crossover, cap = {}, {}, {}, {}, min(1.0, float(distance.max()))
     for target in ("q11", "m11"):
         errors = {h: np.concatenate([e[target][h] for e in per_fold]) for h in HYPOTHESES}
         weights[target] = pseudo_bma(errors, distance, pieces)
-        blended = weighed_median([errors[h] for h in HYPOTHESES], [weights[target][h] for h in HYPOTHESES])
         stats[target] = {h: _stats(e) for h, e in errors.items()}
-        stats[target]["blend"] = _stats(blended)
+        stats[target]["blend"] = _stats(weighed_median(list(errors.values()), list(weights[target].values())))
     # the band of a member moves Q11 by a factor (so it vanishes at the closed vanes) and M11 by a share of the
-    # table's M11 range that closes as 1 - d toward them (the weights' measure of the torque's error, and the Francis
-    # chart's band): calibrated on the log-ratios of the weighed median's Q11 and its M11 misses over (1 - d) at each
-    # fold's points
-    cap = min(1.0, float(distance.max()))
-    crossover = {}
+    # table's M11 range closing as 1 - d toward them (the Francis chart's band): calibrated on the weighed median's
+    # Q11 log-ratios and its M11 misses over (1 - d) at each fold's points
     for target, index in (("q11", 0), ("m11", 1)):
         residuals = []
         for f in folds:
-            blended = weighed_median([f.predictions[h][index] for h in HYPOTHESES],
-                                     [weights[target][h] for h in HYPOTHESES])
+            blended = weighed_median([f.predictions[h][index] for h in HYPOTHESES], list(weights[target].values()))
             if index == 0:
                 residuals.append(log_ratio(blended, f.q11, 1e-3 * float(np.max(np.abs(f.q11)))))
             else:
@@ -619,9 +612,8 @@ class BulbExtrapolation:
         N*m: the table's measured M11 range, the unit of the M11 band; 0 in files written before (the band a
         log-ratio of the hydraulic torque).
     combination : str
-        How the hypotheses answer: ``"median"``, their weighed median
-        (:func:`hillchart.extension.band.weighed_median`, on whose held-out residuals the band is calibrated), or
-        ``"mean"``, their weighed mean (files written before the median, whose band was calibrated on the mean's).
+        ``"median"`` (:func:`hillchart.extension.band.weighed_median`, the band calibrated on its residuals), or
+        ``"mean"``: the weighed mean, in files written before the median (the band calibrated on the mean's).
     position : float
         The member's place in the band (0: the point nets; +-1 the 5-95 % edges).
     """

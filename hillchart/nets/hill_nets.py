@@ -343,7 +343,7 @@ def load_nets(path) -> HillNets:
     >>> from importlib.resources import files
     >>> nets = load_nets(files("data_synthetic.francis") / "nets.json")  # the shipped synthetic-Francis nets
     >>> nets.opening_unit, nets.flow.hidden, len(nets.ensemble)  # hidden size chosen by cross-validation
-    ('mm', 6, 10)
+    ('mm', 8, 10)
     >>> abs(float(nets.efficiency(65.0, 18.0)) - 0.935) < 0.005  # best efficiency of the synthetic turbine: 0.935
     True
     """

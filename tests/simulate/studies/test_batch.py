@@ -88,7 +88,7 @@ def test_a_start_beyond_the_chart_is_an_error_record_and_the_digitized_region_is
     # the first 5 s stay on the chart: the record's metadata (checked, intervals_s, training ranges) is no kind of
     # extrapolation, so nothing is flagged
     assert base.extrapolated is False and extrapolation_kinds(base.extrapolation) == {}
-    # the shut vanes take the rejection below the lowest digitized opening from t = 5.47 s: flagged from the
+    # the shut vanes take the rejection below the lowest digitized opening from t = 5.45 s: flagged from the
     # simulator's record, and only that kind
     assert longer.extrapolated is True and set(extrapolation_kinds(longer.extrapolation)) == {"digitized_region"}
 
@@ -269,7 +269,7 @@ def test_studies_of_one_structure_refuse_a_model_choice(plant, nets):
 
 def _uneven_units(tmp_path):
     """The shipped two-unit plant with both units rejecting, U2 at 120 MW closing in 6 s (U1: 225 MW, 12 s): U1
-    gives the speed rise, U2 the head rise and the lowest head, and U2 runs the longer outside the digitized chart."""
+    gives the speed rise, U2 the head rise, and U2 runs the longer outside the digitized chart."""
     from pathlib import Path
 
     from data_synthetic import FRANCIS_DIR, PLANT_TWO_UNITS
@@ -290,12 +290,12 @@ def test_a_case_of_a_plant_with_several_units_reads_every_unit(tmp_path):
     result = run_simulation(plant)
     summary = result.summary()
     case = run_batch(plant, [{}], mechanism="serial").cases[0]
-    assert summary["max_speed_rise_unit"] == "U1" and summary["min_head_m_unit"] == "U2"
-    # the figures are the single run's, worst over the units (the lead unit U1's series held the lowest head
-    # 0.095 m higher, and N11 more than 1 r/min higher at its lowest)
+    assert summary["max_speed_rise_unit"] == "U1" and summary["max_head_m_unit"] == "U2"
+    # the figures are the single run's, worst over the units (the lead unit U1's series held the highest head 22 m
+    # lower, and N11 more than 1 r/min higher at its lowest)
     for name in ("max_speed_rise", "max_head_m", "max_head_rise", "min_head_m", "min_head_drop"):
         assert getattr(case, name) == summary[name], name
-    assert case.min_head_m < result.head_m.min() - 0.05
+    assert case.max_head_m > result.head_m.max() + 10.0
     n11 = {name: series["speed_rpm"] * plant.units[i].turbine.runner_diameter_m / np.sqrt(series["head_m"])
            for i, (name, series) in enumerate(result.units.items())}
     assert case.min_unit_speed_rpm == min(v.min() for v in n11.values()) < n11["U1"].min() - 1.0
