@@ -90,11 +90,11 @@ def weighed_point(net, blend, n11, opening, blade, which):
     angle ``a_low = blend[13]``, Q11 (``which`` 0, ``net`` the flow net) or M11 (1, the torque net), at the member's
     place in the band: their weighed median (:func:`hillchart.extension.band.median_pick`, as a Francis chart's
     hypotheses answer) with the derivative of the hypothesis it takes (``blend[33]`` 1; 0 in files written before the
-    median, which read the weighed mean). ``y_low`` is the model plus the nets' residual at
-    ``a_low``; the band multiplies Q11 by ``exp(offset h(d) + low)`` and adds ``(offset h(d) + low) t m11_scale`` to M11
-    (``blend[32]``, N*m; with 0, a file written before, it multiplies the hydraulic torque ``M11 + K N11^2`` by
-    ``exp(offset h(d) + low)``), each target by its own offsets (``h`` of :func:`hillchart.extension.band.band_envelope`
-    at ``d = 1 - t``; ``low`` the member's share of the nets' own miss at the smallest angles,
+    median, which read the weighed mean). ``y_low`` is the model plus the nets' residual at ``a_low``; the band
+    multiplies Q11 by ``exp(offset h(d) + low)`` and adds ``(offset h(d) + low) t m11_scale`` to M11 (``blend[32]``,
+    N*m; with 0, a file written before, it multiplies the hydraulic torque ``M11 + K N11^2`` by ``exp(offset h(d) +
+    low)``), each target by its own offsets (``h`` of :func:`hillchart.extension.band.band_envelope` at ``d = 1 - t``;
+    ``low`` the member's share of the nets' own miss at the smallest angles,
     :func:`hillchart.fccm.evidence.low_band`)."""
     params = blend[:12]
     a_low, closed = blend[13], params[_CLOSED]

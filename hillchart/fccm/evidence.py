@@ -446,18 +446,18 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, 
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
     pieces = sum(f.angles for f in folds)
     weights, stats, band, crossover, cap = {}, {}, {}, {}, min(1.0, float(distance.max()))
-    for target in ("q11", "m11"):
-        errors = {h: np.concatenate([e[target][h] for e in per_fold]) for h in HYPOTHESES}
-        weights[target] = pseudo_bma(errors, distance, pieces)
-        stats[target] = {h: _stats(e) for h, e in errors.items()}
-        stats[target]["blend"] = _stats(weighed_median(list(errors.values()), list(weights[target].values())))
     # the band of a member moves Q11 by a factor (so it vanishes at the closed vanes) and M11 by a share of the
     # table's M11 range closing as 1 - d toward them (the Francis chart's band): calibrated on the weighed median's
     # Q11 log-ratios and its M11 misses over (1 - d) at each fold's points
-    for target, index in (("q11", 0), ("m11", 1)):
+    for index, target in enumerate(("q11", "m11")):
+        errors = {h: np.concatenate([e[target][h] for e in per_fold]) for h in HYPOTHESES}
+        weights[target] = pseudo_bma(errors, distance, pieces)
+        w = [weights[target][h] for h in HYPOTHESES]
+        stats[target] = {h: _stats(e) for h, e in errors.items()}
+        stats[target]["blend"] = _stats(weighed_median([errors[h] for h in HYPOTHESES], w))
         residuals = []
         for f in folds:
-            blended = weighed_median([f.predictions[h][index] for h in HYPOTHESES], list(weights[target].values()))
+            blended = weighed_median([f.predictions[h][index] for h in HYPOTHESES], w)
             if index == 0:
                 residuals.append(log_ratio(blended, f.q11, 1e-3 * float(np.max(np.abs(f.q11)))))
             else:
