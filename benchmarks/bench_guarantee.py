@@ -16,7 +16,8 @@ verdict per family (in class, out of class), never pooled.
 
 Usage: ``PYTHONPATH=. python benchmarks/bench_guarantee.py [--seeds 3] [--family in-class|out-of-class|both]
 [--turbines slow,medium,fast] [--density dense,sparse] [--noise 0.15,0.3] [--runaway both] [--quick]
-[--markdown FILE]``.
+[--stops GOAL,MAX_FAIL] [--markdown FILE]``; ``--stops`` trains with other Levenberg-Marquardt stops than the
+paper's (``goal`` and ``max_fail`` of :class:`hillchart.nets.estimator.HillNet`).
 About 20 s per chart on 2 busy cores (72 charts for the full grid); ``--quick`` runs one seed, noise 0.3 %, with
 the runaway curve, closing times 8 and 14 s (6 charts, about 2 min).
 """
@@ -146,6 +147,8 @@ def main(argv=None) -> int:
                         help="initial loads, fractions of rated power (default 1.0,0.6)")
     parser.add_argument("--quick", action="store_true",
                         help="one seed, noise 0.3 %%, with runaway curve, closing 8 and 14 s")
+    parser.add_argument("--stops", help="GOAL,MAX_FAIL: train with these Levenberg-Marquardt stops (default: the "
+                                        "paper's, 1e-5,6)")
     parser.add_argument("--markdown", help="also write the table to this file")
     parser.add_argument("--json", help="also write every case (exact, nets, each member's value) to this file")
     parser.add_argument("--from-json", help="no runs: the tables of the cases stored by --json, with today's band")
@@ -156,6 +159,10 @@ def main(argv=None) -> int:
     if args.quick:
         args.seeds, args.noise, args.runaway, args.closing = 1, "0.3", "with", "8,14"
     runaways = {"both": (True, False), "with": (True,), "without": (False,)}[args.runaway]
+    train_kwargs = None
+    if args.stops:
+        goal, max_fail = args.stops.split(",")
+        train_kwargs = {"goal": float(goal), "max_fail": int(max_fail)}
     closing = tuple(float(v) for v in args.closing.split(","))
     loads = tuple(float(v) for v in args.loads.split(","))
     turbines = (args.turbines.split(",") if args.turbines else
@@ -178,7 +185,8 @@ def main(argv=None) -> int:
                     for seed in range(args.seeds):
                         try:
                             g = evaluate_chart(turbine, density=density, noise_pct=noise, runaway=runaway,
-                                               seed=seed, closing_times_s=closing, load_fractions=loads)
+                                               seed=seed, closing_times_s=closing, load_fractions=loads,
+                                               train_kwargs=train_kwargs)
                         except Exception as exc:  # reported as a failure of the pipeline, never swallowed
                             failures.append(f"{turbine} {density} noise {noise} runaway {runaway} seed {seed}: "
                                             f"{type(exc).__name__}: {str(exc)[:160]}")

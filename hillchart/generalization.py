@@ -116,13 +116,20 @@ def evaluate(turbine_name: str, *, seed: int = 0, options: DigitizationOptions |
         base = truth_errors(train_nets(measured_only, **kwargs), truth, inside)
     k_ratio = None if extended.k_zero_opening is None else extended.k_zero_opening / exact.params.k_disc_friction
     scale = float(chart.info.opening_max) / exact.opening_max  # chart units per mm
-    coefficient_errors = {}
+    return GeneralizationResult(errors=truth_errors(nets, truth, inside), baseline=base, k_ratio=k_ratio,
+                                coefficient_errors=coefficient_errors(nets, exact, scale), nets=nets, truth=truth,
+                                inside=inside)
+
+
+def coefficient_errors(nets, exact, scale: float = 1.0) -> dict[str, float]:
+    """Point name of :data:`COEFFICIENT_POINTS` -> max |nets - exact| over the six coefficients there (``scale``:
+    the chart's opening units per mm of the exact turbine's)."""
+    out = {}
     for name, (n11, a_mm) in coefficient_points(exact).items():
         want = six_coefficients(exact, n11=n11, opening=a_mm)
         got = six_coefficients(nets, n11=n11, opening=a_mm * scale)
-        coefficient_errors[name] = max(abs(getattr(got, c) - getattr(want, c)) for c in COEFFICIENT_NAMES)
-    return GeneralizationResult(errors=truth_errors(nets, truth, inside), baseline=base, k_ratio=k_ratio,
-                                coefficient_errors=coefficient_errors, nets=nets, truth=truth, inside=inside)
+        out[name] = max(abs(getattr(got, c) - getattr(want, c)) for c in COEFFICIENT_NAMES)
+    return out
 
 
 #: Acceptance bounds of the chart -> nets pipeline (percent of the measured-region range; coefficient differences

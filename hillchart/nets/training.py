@@ -52,6 +52,8 @@ DISTILL_RESTARTS = 3
 #: larger hidden size is tried.
 DISTILL_FRACTION = 0.5
 DISTILL_FLOOR = 1e-3
+#: Training MSE goal (normalized outputs) of the point net's fit to the members' median.
+DISTILL_GOAL = 1e-8
 #: Derived (not digitized) origins; the runaway samples are derived when the extension made them from the model.
 DERIVED_ORIGINS = ("zero-opening", "zero-speed")
 
@@ -152,7 +154,9 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
     progress : callable(str), optional
         Called with a short message after each stage (long trainings report progress).
     **net_params
-        Further :class:`HillNet` hyperparameters.
+        Further :class:`HillNet` hyperparameters (its Levenberg-Marquardt stops ``goal`` and ``max_fail`` among
+        them; the point net of an ensemble fits the members' median to the tighter of ``goal`` and
+        :data:`DISTILL_GOAL`).
 
     Returns
     -------
@@ -304,7 +308,10 @@ def _distill(X_d, y_d, X, y, measured, h, seed, net_params, grow: bool = True):
     bound = max(DISTILL_FRACTION * miss, DISTILL_FLOOR * float(np.ptp(y[measured])) if measured.any() else 0.0)
     tried, best = [], None
     for size in [h, *(c for c in HIDDEN_SIZES if c > h and grow)]:
-        est = HillNet(hidden=size, restarts=DISTILL_RESTARTS, seed=seed, goal=1e-8, **net_params).fit(X_d, y_d)
+        # the median is smooth and noise-free: fitted to a tighter goal than the members (and never a looser one
+        # than the caller's own ``goal``)
+        params = {**net_params, "goal": min(DISTILL_GOAL, net_params.get("goal", DISTILL_GOAL))}
+        est = HillNet(hidden=size, restarts=DISTILL_RESTARTS, seed=seed, **params).fit(X_d, y_d)
         off = float(np.sqrt(np.mean((est.predict(X_d[inside]) - y_d[inside]) ** 2))) if inside.any() else 0.0
         tried.append({"hidden": size, "rms_from_median": off})
         if best is None or off < best[1]:

@@ -87,3 +87,48 @@ def test_train_nets_records_the_point_nets_size():
         assert weights.hidden == record["hidden"]
     plain = train_nets(table, opening_unit="mm", restarts=1, boundary_weight=1.0, regularization=0.0, hidden=3)
     assert "distillation" not in plain.training["flow"]  # no ensemble: no point net to distil
+
+
+def test_a_callers_goal_reaches_every_fit_and_the_point_net_takes_the_tighter():
+    """``train_nets(..., goal=...)``: the point net's fit took ``goal`` twice (a TypeError) before. The point net
+    fits the members' median to the tighter of the caller's goal and DISTILL_GOAL: a looser caller goal (1e-3) stays
+    1e-8 there and a tighter one (1e-12) is kept."""
+    from hillchart.nets.estimator import HillNet
+    from hillchart.nets.training import DISTILL_GOAL
+
+    X_d, _, X, _ = distill_case()
+
+    def plane(x):
+        return 0.5 * x[:, 1] / 32.0 + 1e-3 * x[:, 0]
+
+    fitted = []
+    original = HillNet.fit
+
+    def spy(self, *args, **kwargs):
+        fitted.append(self.goal)
+        return original(self, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(HillNet, "fit", spy)
+        for goal in (1e-3, 1e-12):
+            _distill(X_d, plane(X_d), X, plane(X), np.ones(60, bool), 2, 0, {"goal": goal}, grow=False)
+    assert fitted == [DISTILL_GOAL, 1e-12]
+
+
+def test_train_nets_passes_a_callers_stops_to_its_fits():
+    """``train_nets(..., goal=..., max_fail=...)`` reaches the fits (it raised a TypeError in the point net's fit
+    before); the defaults are HillNet's, the paper's ``trainlm`` stops (1e-5, 6)."""
+    from data_synthetic import FRANCIS_DIR
+    from hillchart.extension.extend import extend_samples
+    from hillchart.io.samples import load_chart
+    from hillchart.nets.training import train_nets
+
+    extended = extend_samples(load_chart(FRANCIS_DIR))
+    fixed = {"hidden": 3, "boundary_weight": 1.0, "regularization": 0.0, "restarts": 1, "seed": 0}
+    loose, default = train_nets(extended, goal=1e-2, max_fail=2, **fixed), train_nets(extended, **fixed)
+    assert (loose.estimators["flow"].goal, loose.estimators["flow"].max_fail) == (1e-2, 2)
+    assert (default.estimators["flow"].goal, default.estimators["flow"].max_fail) == (1e-5, 6)
+    # the loose goal stops the fit within a few epochs (the failing case beside it: the paper's stops run on;
+    # measured 3 epochs against 40)
+    assert loose.training["flow"]["epochs"] < 10 < default.training["flow"]["epochs"]
+    assert len(train_nets(extended, goal=1e-2, ensemble=2, **fixed).ensemble) == 2  # with a point net distilled
