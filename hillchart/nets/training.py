@@ -146,8 +146,10 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
     regularization : float in [0, 1] or None
         Weight decay lambda; None selects among :data:`REGULARIZATIONS`.
     ensemble : int >= 0
-        Extra members trained on bootstrap resamples of the training samples with other seeds (the uncertainty
-        band); 0: none.
+        Ensemble members (the uncertainty band), each trained on every derived sample and its own random 80/20
+        split of the measured ones (early stopping on its held-out part), with its own initialisations, and toward
+        runaway its torque samples at its place in the band of the chart's overspeed evidence; the point net is
+        then fitted to their median. 0: none (one net, the paper's).
     record_time : bool
         Put training times (``time_s``) into the training record; off by default so that ``nets.json`` is
         byte-reproducible.
