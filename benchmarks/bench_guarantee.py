@@ -16,8 +16,8 @@ verdict per family (in class, out of class), never pooled.
 
 Usage: ``PYTHONPATH=. python benchmarks/bench_guarantee.py [--seeds 3] [--family in-class|out-of-class|both]
 [--turbines slow,medium,fast] [--density dense,sparse] [--noise 0.15,0.3] [--runaway both] [--quick]
-[--stops GOAL,MAX_FAIL] [--markdown FILE]``; ``--stops`` trains with other Levenberg-Marquardt stops than the
-paper's (``goal`` and ``max_fail`` of :class:`hillchart.nets.estimator.HillNet`).
+[--stops GOAL,MAX_FAIL] [--markdown FILE]``; ``--stops`` trains with these Levenberg-Marquardt stops (``goal`` and
+``max_fail`` of :class:`hillchart.nets.estimator.HillNet`) instead of the ones the selection chooses.
 About 20 s per chart on 2 busy cores (72 charts for the full grid); ``--quick`` runs one seed, noise 0.3 %, with
 the runaway curve, closing times 8 and 14 s (6 charts, about 2 min).
 """
@@ -147,8 +147,8 @@ def main(argv=None) -> int:
                         help="initial loads, fractions of rated power (default 1.0,0.6)")
     parser.add_argument("--quick", action="store_true",
                         help="one seed, noise 0.3 %%, with runaway curve, closing 8 and 14 s")
-    parser.add_argument("--stops", help="GOAL,MAX_FAIL: train with these Levenberg-Marquardt stops (default: the "
-                                        "paper's, 1e-5,6)")
+    parser.add_argument("--stops", help="GOAL,MAX_FAIL: train with these Levenberg-Marquardt stops (default: "
+                                        "chosen by the selection's cross-validation)")
     parser.add_argument("--markdown", help="also write the table to this file")
     parser.add_argument("--json", help="also write every case (exact, nets, each member's value) to this file")
     parser.add_argument("--from-json", help="no runs: the tables of the cases stored by --json, with today's band")

@@ -66,17 +66,18 @@ def test_the_out_of_class_family_is_measured_too_and_an_unknown_turbine_is_named
 @pytest.mark.slow
 def test_the_papers_stops_end_the_fit_before_the_slopes_inside_the_chart_are_found():
     """benchmarks/bench_coefficient_sources.py, medium-x without reading noise (docs/guarantee-benchmark.md, step
-    14). With the paper's Levenberg-Marquardt stops (goal 1e-5, 6 validation fails: the defaults) the nets of the
-    extended samples read ex at the rated point 0.052 low (the failing case), where the nets of the measured samples
-    alone are within 0.007 of every coefficient, and the same extended samples fitted longer (goal 1e-7, 100 fails)
-    within 0.014. The bounds sit in the gaps (0.03 against 0.052; 0.025 against 0.014 and 0.007): the ensemble
-    members' ex at rated differ by a standard deviation of about 0.01 on these charts, so a change of the nets that
-    a CPU family makes keeps each verdict."""
+    14). With the paper's Levenberg-Marquardt stops (goal 1e-5, 6 validation fails) the nets of the extended samples
+    read ex at the rated point 0.052 low (the failing case), where the nets of the measured samples alone are within
+    0.005 of every coefficient, and the same extended samples fitted longer (goal 1e-7, 100 fails) within 0.014. The
+    bounds sit in the gaps (0.03 against 0.052; 0.025 against 0.014 and 0.005): the ensemble members' ex at rated
+    differ by a standard deviation of about 0.01 on these charts, so a change of the nets that a CPU family makes
+    keeps each verdict."""
     from hillchart.synthetic.francis_variants import OUT_OF_CLASS_FAMILY
     from tests.scripts import load_script
 
     bench = load_script("bench_coefficient_sources")
-    row = bench.coefficient_row(OUT_OF_CLASS_FAMILY["medium-x"], 0.0)
-    assert row["defaults"][1] < -0.03, row  # measured -0.052
+    row = bench.coefficient_row(OUT_OF_CLASS_FAMILY["medium-x"], 0.0,
+                                ways=("the paper's stops", "longer fits", "measured samples alone"))
+    assert row["the paper's stops"][1] < -0.03, row  # measured -0.052
     assert row["longer fits"][0] < 0.025, row  # measured 0.014
-    assert row["measured samples alone"][0] < 0.025, row  # measured 0.007
+    assert row["measured samples alone"][0] < 0.025, row  # measured 0.005

@@ -32,7 +32,7 @@ def bench():
 
 @pytest.fixture(scope="module")
 def runs(bench):
-    """The shipped plant's rejections (60 s, closure over at 10.60 s) by (units, friction, k3, reaches)."""
+    """The shipped plant's rejections (60 s, closure over at 10.60-10.62 s) by (units, friction, k3, reaches)."""
     cache = {}
 
     def get(units, friction, k3=None, reaches=8):
@@ -109,7 +109,7 @@ def test_brunone_with_k3_zero_is_the_steady_run_to_the_last_bit(runs, units):
         assert np.array_equal(values, zero[name]), name
     brunone = runs(units, "brunone")
     rise = brunone.head_m.max() - runs(units, "steady").head_m.max()
-    assert rise == pytest.approx({ONE: 0.0315, ALL: 0.0461}[units], abs=0.002)
+    assert rise == pytest.approx({ONE: 0.0313, ALL: 0.0458}[units], abs=0.002)
 
 
 def test_in_steady_flow_brunone_is_the_steady_run_to_the_last_bit():
@@ -142,8 +142,8 @@ def test_the_manifold_balances_the_flows_with_brunone_at_every_step(runs, units)
 
 
 @pytest.mark.parametrize("units, closure_end_s, ratio_steady, ratio_brunone, late", [
-    (ONE, 10.60, 0.7502, 0.7022, 0.9301),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
-    (ALL, 10.60, 1.0035, 0.9714, 0.9635),  # the conduit and both branches ring, flow about zero
+    (ONE, 10.62, 0.7495, 0.7014, 0.9297),  # U1's branch rings at 4 L / a against the manifold, U2 runs on
+    (ALL, 10.60, 1.0037, 0.9716, 0.9635),  # the conduit and both branches ring, flow about zero
 ])
 def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, units, closure_end_s, ratio_steady,
                                                                   ratio_brunone, late):
@@ -163,7 +163,7 @@ def test_brunone_damps_the_late_ringing_more_than_the_steady_loss(bench, runs, u
     assert a_b[-1] / a_b[0] < a_s[-1] / a_s[0] - 0.03
 
 
-@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0014, -0.0095), (ALL, 0.0029, -0.0255)])
+@pytest.mark.parametrize("units, max_pct, min_pct", [(ONE, 0.0021, -0.0074), (ALL, 0.0022, -0.0054)])
 def test_halving_the_step_moves_the_extreme_heads_by_less_than_0_1_percent(bench, runs, units, max_pct, min_pct):
     """8 reaches (dt = 0.0191 s) against 16: the largest and the smallest head of any unit and of the manifold move
     by ``max_pct`` and ``min_pct`` per cent with Brunone (pinned to 0.002 percentage points; the acceptance is
@@ -182,4 +182,4 @@ def test_halving_the_step_moves_the_extreme_heads_by_less_than_0_1_percent(bench
     if units == ONE:
         late8 = bench.window_amplitudes(runs(units, "brunone"))[1][-1]
         late16 = bench.window_amplitudes(runs(units, "brunone", reaches=16))[1][-1]
-        assert 100.0 * (late16 / late8 - 1.0) == pytest.approx(1.06, abs=0.05)
+        assert 100.0 * (late16 / late8 - 1.0) == pytest.approx(1.12, abs=0.05)
