@@ -55,7 +55,10 @@ def test_paper_net_with_fixed_hyperparameters_reports_them(tmp_path, capsys):
     doc = json.loads(out.read_text())
     assert doc["flow"]["W1"] and len(doc["flow"]["W1"]) == 5 and "ensemble" not in doc  # the paper's 2-5-1 net
     sel = doc["training"]["flow"]["selection"]
-    assert (sel["hidden"], sel["boundary_weight"], sel["regularization"], sel["candidates"]) == (5, 1.0, 0.0, [])
+    assert (sel["hidden"], sel["boundary_weight"], sel["regularization"]) == (5, 1.0, 0.0)
+    # the stops are still chosen (no option fixes them): the paper's and the longer fit, scored by the CV
+    assert [(c["goal"], c["max_fail"]) for c in sel["candidates"]] == [(1e-5, 6), (1e-7, 100)]
+    assert (sel["goal"], sel["max_fail"]) in ((1e-5, 6), (1e-7, 100))
     assert "flow     5    1.0     0.0" in captured.out
     assert "final fit 2-5-1" in captured.err  # progress goes to stderr
 
@@ -67,8 +70,8 @@ def test_default_selection_is_recorded_in_nets_json():
         sel = doc["training"][key]["selection"]
         assert 5 <= sel["hidden"] <= 10 and sel["boundary_weight"] in (0.03, 0.1, 0.3, 1.0)
         assert sel["regularization"] in (0.0, 1e-5, 1e-4) and "CV" in sel["rule"]
-        # 4 boundary weights + 4 hidden sizes + 3 regularizations, each scored by 5-fold CV
-        assert len(sel["candidates"]) == 11
+        # 4 boundary weights + 2 stops + 4 hidden sizes + 3 regularizations, each scored by 5-fold CV
+        assert len(sel["candidates"]) == 13 and (sel["goal"], sel["max_fail"]) in ((1e-5, 6), (1e-7, 100))
         assert sel["cv_mse_best"] == min(c["cv_mse"] for c in sel["candidates"])
         # the point net starts at the members' size and grows only while it cannot follow their median
         distilled = doc["training"][key]["distillation"]
