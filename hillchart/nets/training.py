@@ -46,7 +46,7 @@ SELECTION_TOLERANCE = 1.3
 #: 1e-5 on the normalized MSE and 6 validation fails): a fit run on to a goal of 1e-7, with 100 epochs of patience.
 #: The extension's samples widen each net's output range about twice over the measured samples' and outnumber them,
 #: and on a clean chart the paper's stops end the fit before it has found the slopes inside the chart (a noise-free
-#: out-of-class chart's ``ex`` 0.052 off at the rated point where the measured samples alone hold it within 0.007);
+#: out-of-class chart's ``ex`` 0.052 off at the rated point where the measured samples alone hold it within 0.005);
 #: on a sparse or noisy chart the longer fit follows the readings' noise (a 4 x 4 chart validating on 3 points:
 #: its max speed rise 0.9 point off against 0.4). So the stops are a candidate of the selection like the others, the
 #: paper's kept unless the longer fit's CV MSE is below theirs by more than SELECTION_TOLERANCE
