@@ -341,11 +341,17 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     points = [(float(n), f * a_low) for f in SMALL_OPENING_FRACTIONS
               for n in np.linspace(0.0, n11_top, SMALL_OPENING_SPEEDS)]
     for a in chart.openings:
-        n_end = float(chart.flow_n11[chart.flow_opening == a].max())
-        n_run = model.runaway_n11(float(a))
-        if np.isfinite(n_run) and n_run > n_end:
-            points += [(float(n), float(a)) for n in np.linspace(n_end, n_run, OVERSPEED_POINTS + 2)[1:-1]]
+        points += _toward_runaway(model, float(a), float(chart.flow_n11[chart.flow_opening == a].max()))
     return points
+
+
+def _toward_runaway(model, a: float, n_end: float) -> list[tuple[float, float]]:
+    """:data:`OVERSPEED_POINTS` (N11, ``a``) points evenly inside the gap between ``n_end`` and the model's runaway
+    speed at opening ``a``; none where the model gives no runaway speed beyond ``n_end``."""
+    n_run = model.runaway_n11(a)
+    if not (np.isfinite(n_run) and n_run > n_end):
+        return []
+    return [(float(n), a) for n in np.linspace(n_end, n_run, OVERSPEED_POINTS + 2)[1:-1]]
 
 
 def between_line_points(chart: ChartSamples, model) -> list[tuple[float, float]]:
@@ -377,9 +383,7 @@ def between_line_points(chart: ChartSamples, model) -> list[tuple[float, float]]
         n_low, n_high = chart.flow_n11[chart.flow_opening == low], chart.flow_n11[chart.flow_opening == high]
         first, last = max(n_low.min(), n_high.min()), max(n_low.max(), n_high.max())
         points += [(float(n), a) for n in np.linspace(first, last, BETWEEN_LINE_SPEEDS)]
-        n_run = model.runaway_n11(a)
-        if np.isfinite(n_run) and n_run > last:
-            points += [(float(n), a) for n in np.linspace(last, n_run, OVERSPEED_POINTS + 2)[1:-1]]
+        points += _toward_runaway(model, a, float(last))
     return points
 
 
