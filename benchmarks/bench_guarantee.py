@@ -161,8 +161,14 @@ def main(argv=None) -> int:
     runaways = {"both": (True, False), "with": (True,), "without": (False,)}[args.runaway]
     train_kwargs = None
     if args.stops:
-        goal, max_fail = args.stops.split(",")
-        train_kwargs = {"goal": float(goal), "max_fail": int(max_fail)}
+        try:
+            goal, max_fail = args.stops.split(",")
+            train_kwargs = {"goal": float(goal), "max_fail": int(max_fail)}
+        except ValueError:
+            parser.error(f"--stops must be GOAL,MAX_FAIL (a number > 0 and an integer >= 1, e.g. 1e-7,100), got "
+                         f"{args.stops!r}")
+        if not (train_kwargs["goal"] > 0 and train_kwargs["max_fail"] >= 1):
+            parser.error(f"--stops must be GOAL,MAX_FAIL with GOAL > 0 and MAX_FAIL >= 1, got {args.stops!r}")
     closing = tuple(float(v) for v in args.closing.split(","))
     loads = tuple(float(v) for v in args.loads.split(","))
     turbines = (args.turbines.split(",") if args.turbines else
