@@ -58,29 +58,46 @@ def continuation(n11, values, at_n11) -> float:
     return float(y[1] + slope * (at_n11 - x[1]))
 
 
+#: How the band grows beyond the furthest distance the hold-outs tested (``cap`` of :func:`band_square`): ``"grows"``,
+#: on at the slope it has there (the square's curvature is not extrapolated, its slope is); ``"levels"``, to a plateau
+#: at twice that distance, as files written before read. A band that levels off claims that the error stops growing
+#: where nothing was tested: on the real Kaplan chart of ``benchmarks/bench_kaplan_extrapolation.py`` with two lines
+#: held out the chart tested 13 % of the way to the closed cam, the held-out line 30 % down lay 14 % of Q11 below the
+#: answer, and the levelled band reached 13 % there (18 of 25 points covered, 24 growing on); on the out-of-class
+#: bulb of ``benchmarks/bench_bulb_extrapolation.py`` with two angles held out 13 of 18, growing on 15.
+BEYOND_CAP = ("grows", "levels")
+
+
+def runout(beyond_cap: str, cap: float) -> float:
+    """``runout`` of :func:`band_square` for ``beyond_cap`` (:data:`BEYOND_CAP`): infinite (growing on), or ``cap``."""
+    return math.inf if beyond_cap == "grows" else float(cap)
+
+
 @register_jitable
-def band_square(distance, cap):
+def band_square(distance, cap, runout):
     """``(h, dh/dd)``: how the band grows with the distance ``d = 1 - a / a_low`` below the lowest line: ``d^p``
-    (``p`` = :data:`GROWTH`) up to ``cap``, continued C1 to a plateau at ``2 cap`` (the slope falls linearly to 0
-    there); 0 above the lowest line. Scalars; the simulator's kernel compiles this function
-    (:mod:`hillchart.nets.silent_model`).
+    (``p`` = :data:`GROWTH`) up to ``cap``, continued C1 beyond, its slope falling linearly to 0 over ``runout``
+    (a plateau at ``cap + runout``; ``runout`` infinite: the slope at ``cap`` held, :data:`BEYOND_CAP`); 0 above the
+    lowest line. Scalars; the simulator's kernels compile this function (:mod:`hillchart.nets.silent_model`).
 
     Examples
     --------
-    >>> band_square(0.2, 0.5)[0] == 0.2 ** GROWTH, band_square(1.0, 0.5)[1]
+    >>> band_square(0.2, 0.5, math.inf)[0] == 0.2 ** GROWTH, band_square(1.0, 0.5, 0.5)[1]
     (True, 0.0)
+    >>> band_square(1.0, 0.5, math.inf)  # on at the slope 2 cap from cap^2
+    (0.75, 1.0)
     """
     if distance <= 0.0:
         return 0.0, 0.0
     if distance <= cap:
         return distance ** GROWTH, GROWTH * distance ** (GROWTH - 1.0)
     slope = GROWTH * cap ** (GROWTH - 1.0)
-    e = min(distance, 2.0 * cap) - cap
-    return cap ** GROWTH + slope * (e - e * e / (2.0 * cap)), slope * (1.0 - e / cap)
+    e = min(distance, cap + runout) - cap
+    return cap ** GROWTH + slope * (e - e * e / (2.0 * runout)), slope * (1.0 - e / runout)
 
 
 @register_jitable
-def band_envelope(distance, cap, crossover):
+def band_envelope(distance, cap, crossover, runout):
     """``(h, dh/dd)``: :func:`band_square` with a straight start, ``crossover d`` up to ``d = crossover`` (above ``d^2``
     there, and equal to it at the crossover), then :func:`band_square`. With ``kappa`` the quadratic scale and
     ``crossover = kappa_1 / kappa`` (``kappa_1`` the scale of the same held-out residuals over ``d``,
@@ -93,12 +110,14 @@ def band_envelope(distance, cap, crossover):
 
     Examples
     --------
-    >>> band_envelope(0.05, 0.5, 0.1)[0] == 0.1 * 0.05, band_envelope(0.2, 0.5, 0.1)[0] == band_square(0.2, 0.5)[0]
-    (True, True)
+    >>> band_envelope(0.05, 0.5, 0.1, math.inf)[0] == 0.1 * 0.05
+    True
+    >>> band_envelope(0.2, 0.5, 0.1, math.inf)[0] == band_square(0.2, 0.5, math.inf)[0]
+    True
     """
     if 0.0 < distance < crossover:
         return crossover * distance, crossover
-    return band_square(distance, cap)
+    return band_square(distance, cap, runout)
 
 
 def log_ratio(predicted, actual, floor):

@@ -378,7 +378,8 @@ class Evidence:
         N*m.
     distance_cap : float
         The band grows as ``d^2`` up to :data:`DISTANCE_CAP_FACTOR` times the largest distance the hold-outs
-        tested, and levels off beyond (the error model is not extrapolated further; :func:`band_square`).
+        tested, and on at the slope it has there beyond (the error model's curvature is not extrapolated further;
+        :func:`band_square`, :data:`hillchart.extension.band.BEYOND_CAP`).
     points : int
         Held-out points behind the weights and the band (0: no evidence; the band is :data:`NO_EVIDENCE_SCALE`).
     notes : list of str
@@ -411,14 +412,14 @@ class Evidence:
     def summary(self) -> str:
         """What ``hillsim train`` prints: how well this chart predicts its own held-out lines, and the weights."""
         if not self.points:
+            half = NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap, math.inf)[0]
             return ("below the lowest line: no held-out evidence (fewer than "
                     f"{MIN_LINES_WEIGHED + 1} opening lines): hypotheses weighed equally, the band is wide "
-                    f"(+-{100 * NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap)[0]:.0f} % of Q11 at half "
-                    f"the lowest opening); digitize more opening lines")
+                    f"(+-{100 * half:.0f} % of Q11 at half the lowest opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(self.names, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)
-        h = band_square(0.5, self.distance_cap)[0]
+        h = band_square(0.5, self.distance_cap, math.inf)[0]
         low, high = (100.0 * (math.exp(sign * k * h) - 1.0) for sign, k in zip((-1.0, 1.0), self.band["q11"]))
         return (f"below the lowest line this chart predicts its own held-out lines within {100 * q:.1f} % (Q11) and "
                 f"{100 * m:.1f} % of the M11 range (RMS, {self.points} points); hypothesis weights Q11/M11: "

@@ -77,7 +77,7 @@ NO_BLEND = np.concatenate([np.zeros(12), [-np.inf, -np.inf, 0.0]])
 
 
 #: Indices in the packed blend (:meth:`BulbSilentModel.packed`) of the closed vane and the disc friction K, and the
-#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 19 more numbers,
+#: flag value (``blend[14]``) of residual nets with the weighed hypotheses below the table (then 20 more numbers,
 #: :meth:`hillchart.fccm.evidence.BulbExtrapolation.packed`).
 _CLOSED = POINT_PARAMETERS.index("guide_vane_closed_deg")
 _K_DISC = POINT_PARAMETERS.index("k_disc_friction")
@@ -121,7 +121,8 @@ def weighed_point(net, blend, n11, opening, blade, which):
         for h in range(4):
             y += weights[h] * values[h]
             dy += weights[h] * hypothesis_value(h, t, dy_m, dy_ml, dy_ml + dr, dy_0, c)
-    shift = blend[25 + which] * band_envelope_compiled(1.0 - t, blend[27], blend[28 + which])[0] + blend[30 + which]
+    h = band_envelope_compiled(1.0 - t, blend[27], blend[28 + which], blend[34])[0]
+    shift = blend[25 + which] * h + blend[30 + which]
     if which == 1 and blend[32] > 0.0:  # a share of the M11 range, closing as t toward the closed vanes
         return y + shift * t * blend[32], dy
     f = math.exp(shift)

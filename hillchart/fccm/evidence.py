@@ -35,11 +35,11 @@ does for the Francis chart: one piece of evidence per held-out angle, the errors
 as a Francis chart's: with few held-out angles the weights stay spread, and the mean stood where no hypothesis does);
 the band is split-conformal on the median's held-out residuals of each fold
 (:func:`hillchart.extension.hypotheses.band_scale`, the widest fold's, :func:`fold_band`), growing as ``d^2``
-(:func:`hillchart.extension.hypotheses.band_square`) after a straight start near the smallest angle, where ``d^2`` would
-shrink a band calibrated further down to nothing (:func:`hillchart.extension.band.band_envelope`). A table without
-sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles (a scattered campaign) gives no evidence: the fitted model answers alone
-(weighed equally, the straight line and the quadratic, 15-35 % off on every table measured, took a synthetic bulb's
-rejection 1.6 points of speed off the exact one), the band is the wide
+(:func:`hillchart.extension.band.band_square`, on at its slope beyond the distances tested) after a straight start
+near the smallest angle, where ``d^2`` would shrink a band calibrated further down to nothing
+(:func:`hillchart.extension.band.band_envelope`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles gives
+no evidence: the fitted model answers alone (weighed equally, the line and the quadratic, 15-35 % off on every table
+measured, took a synthetic bulb's rejection 1.6 points of speed off), the band is the wide
 :data:`hillchart.extension.hypotheses.NO_EVIDENCE_SCALE`, and the summary says so. Toward overspeed the table's evidence
 is stated too (:func:`overspeed_evidence`): the highest-N11 point of every setting held out.
 """
@@ -53,7 +53,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import band_envelope, continuation, weighed_median
+from hillchart.extension.band import BEYOND_CAP, band_envelope, continuation, runout, weighed_median
 from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
@@ -74,9 +74,8 @@ BLADE_GAP_DEG = 0.1
 #: closed vane and that angle, or from :data:`HANDOVER_STEPS` of the table's angle step below it where that is
 #: nearer (:func:`angle_step`); above it they hand over to the nets (a C1 smoothstep, reaching the nets at the angle).
 #: The step bounds the hand-over where the closed vane lies far below the table: on the 137 kW rig's table without
-#: its two lowest angles (closed vane 60 deg below its smallest angle) a fifth of the gap let the nets answer almost
-#: alone 12 deg below the table, over both angles held out, and the run missed them by 3 times the hypotheses' mean
-#: error there (1.3 against 0.4 % of Q11).
+#: its two lowest angles (closed vane 60 deg below) a fifth of the gap let the nets answer almost alone 12 deg below
+#: the table, and the run missed the angles held out by 3 times the hypotheses' mean error (1.3 against 0.4 %).
 HANDOVER_FRACTION = 0.8
 HANDOVER_STEPS = 0.5
 
@@ -471,10 +470,9 @@ def fold_band(folds, residuals, cap: float = 1.0) -> tuple[float, float]:
     fold's blended residuals at its own distances, the largest, and ``crossover`` (at most ``cap``) the same scale
     over ``d`` (``growth = 1``) divided by ``kappa``: the band's straight start
     (:func:`hillchart.extension.band.band_envelope`). Pooled, the calibration on the far half of all distances left
-    out the nearer fold: on the 137 kW rig's table without its lowest angle, the fold one angle down (d = 0.18, errors
-    -1.3 to -3.8 %) fell below the far half of the two-angle fold's distances (0.27-0.40, errors within 3 %), the band
-    came out 3.5 times narrower than that fold's own, and it covered none of the 8 points at the angle held out (the
-    benchmark). Each fold is a test at its own distance; the band covers what each one saw."""
+    out the nearer fold: on the 137 kW rig's table without its lowest angle (the fold one angle down at d = 0.18, the
+    two-angle fold's far half at 0.27-0.40) the band came out 3.5 times narrower than that fold's own and covered none
+    of the 8 points held out. Each fold is a test at its own distance; the band covers what each one saw."""
     kappa = max(band_scale(r, f.distance) for f, r in zip(folds, residuals))
     slope = max(band_scale(r, f.distance, growth=1.0) for f, r in zip(folds, residuals))
     return kappa, (min(slope / kappa, cap) if kappa > 0.0 else 0.0)
@@ -596,18 +594,16 @@ class BulbExtrapolation:
         share of the table's M11 range (``m11_scale``): a member multiplies Q11 by ``exp(position kappa h)`` and
         adds ``position kappa h (1 - d) m11_scale`` to M11, so at the closed vanes (``d = 1``), where Q11 = 0 and
         M11 = -K N11^2 are known (eqs. (6) and (8) of the BP hill-chart paper), the band vanishes. In files written
-        without ``m11_scale`` (0), ``band_m11`` is a log-ratio of the hydraulic torque ``M11 + K N11^2``, which the
-        member multiplied: near runaway that torque is the disc friction's alone and the band was a few tenths of a
-        percent of the range wide where the held-out angles missed by 2 % (docs/bulb-extrapolation.md).
+        without ``m11_scale`` (0), a log-ratio of the hydraulic torque ``M11 + K N11^2`` (docs/bulb-extrapolation.md).
     distance_cap : float
-        Where the band's growth levels off (:func:`hillchart.extension.hypotheses.band_square`).
+        Where the band's square ends (:func:`hillchart.extension.band.band_square`); beyond it the band grows on at
+        its slope there, or levels off in files written before (``beyond_cap``, :data:`BEYOND_CAP`).
     crossover_q11, crossover_m11 : float
         Where the band's straight start meets its square (:func:`hillchart.extension.band.band_envelope`); 0 (files
         written without them) for the square alone.
     low_q11, low_m11 : float
         The nets' own miss at the table's smallest angles, where every hypothesis takes its ``y_low`` (the half-width
-        of :func:`low_band`, in the band's measures): added to ``kappa h`` below the smallest angle. The held-out
-        folds take ``y_low`` from the measured points, a run from the nets; 0 in files written without them.
+        of :func:`low_band`, in the band's measures), added to ``kappa h``; 0 in files written without them.
     m11_scale : float
         N*m: the table's measured M11 range, the unit of the M11 band; 0 in files written before (the band a
         log-ratio of the hydraulic torque).
@@ -632,11 +628,13 @@ class BulbExtrapolation:
     low_m11: float = 0.0
     m11_scale: float = 0.0
     combination: str = "median"
+    beyond_cap: str = "grows"
 
     def __post_init__(self):
-        if self.combination not in COMBINATIONS:
-            raise InputError(f"silent_model.extrapolation.combination must be one of {', '.join(COMBINATIONS)}, got "
-                             f"{self.combination!r}")
+        for name, allowed in (("combination", COMBINATIONS), ("beyond_cap", BEYOND_CAP)):
+            if getattr(self, name) not in allowed:
+                raise InputError(f"silent_model.extrapolation.{name} must be one of {', '.join(allowed)}, got "
+                                 f"{getattr(self, name)!r}")
         for name in ("weights_q11", "weights_m11"):
             w = np.asarray(getattr(self, name), float)
             if w.shape != (len(HYPOTHESES),) or not np.all(np.isfinite(w)) or np.any(w < 0) \
@@ -665,13 +663,14 @@ class BulbExtrapolation:
                    low_q11=float(low[0]), low_m11=float(low[1]), m11_scale=float(evidence.m11_scale))
 
     def packed(self) -> np.ndarray:
-        """19 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
+        """20 numbers: the Q11 and M11 weights, the curvatures, the member's band offsets ``position band_q11`` and
         ``position band_m11``, the distance cap, the Q11 and M11 crossovers, the member's offsets ``position
-        low_q11`` and ``position low_m11``, ``m11_scale``, and 1 for the weighed median (0: the mean)."""
+        low_q11`` and ``position low_m11``, ``m11_scale``, 1 for the weighed median (0: the mean), the run-out."""
         return np.array([*self.weights_q11, *self.weights_m11, self.curvature_q11, self.curvature_m11,
                          self.position * self.band_q11, self.position * self.band_m11, self.distance_cap,
                          self.crossover_q11, self.crossover_m11, self.position * self.low_q11,
-                         self.position * self.low_m11, self.m11_scale, float(self.combination == "median")])
+                         self.position * self.low_m11, self.m11_scale, float(self.combination == "median"),
+                         runout(self.beyond_cap, self.distance_cap)])
 
     def to_dict(self) -> dict:
         return {"hypotheses": list(HYPOTHESES), "weights_q11": list(self.weights_q11),
@@ -679,22 +678,23 @@ class BulbExtrapolation:
                 "curvature_m11": self.curvature_m11, "band_q11": self.band_q11, "band_m11": self.band_m11,
                 "distance_cap": self.distance_cap, "position": self.position,
                 "crossover_q11": self.crossover_q11, "crossover_m11": self.crossover_m11, "low_q11": self.low_q11,
-                "low_m11": self.low_m11, "m11_scale": self.m11_scale, "combination": self.combination}
+                "low_m11": self.low_m11, "m11_scale": self.m11_scale, "combination": self.combination,
+                "beyond_cap": self.beyond_cap}
 
     @classmethod
     def from_dict(cls, doc, key: str = "silent_model.extrapolation") -> "BulbExtrapolation":
         names = {"hypotheses", "weights_q11", "weights_m11", "curvature_q11", "curvature_m11", "band_q11",
                  "band_m11", "distance_cap", "position"}
         # absent from files written before the band's straight start, its term at the smallest angles, the M11
-        # band in shares of the table's range and the weighed median (those files read as the weighed mean)
-        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11", "m11_scale", "combination"}
+        # band in shares of the table's range, the weighed median (those read as the mean) and the band growing on
+        optional = {"crossover_q11", "crossover_m11", "low_q11", "low_m11", "m11_scale", "combination", "beyond_cap"}
         if not isinstance(doc, dict) or not names <= set(doc) <= names | optional:
             raise InputError(f"{key} must be an object with the keys {', '.join(sorted(names))} (and optionally "
                              f"{', '.join(sorted(optional))}), got {sorted(doc) if isinstance(doc, dict) else doc!r}")
         if doc["hypotheses"] != list(HYPOTHESES):
             raise InputError(f"{key}.hypotheses must be {list(HYPOTHESES)}, got {doc['hypotheses']!r}")
         try:
-            return cls(**{"combination": "mean", **{k: (tuple(v) if isinstance(v, list) else v) for k, v in doc.items()
-                                                    if k != "hypotheses"}})
+            return cls(**{"combination": "mean", "beyond_cap": "levels",
+                          **{k: (tuple(v) if isinstance(v, list) else v) for k, v in doc.items() if k != "hypotheses"}})
         except InputError as exc:
             raise InputError(str(exc).replace("silent_model.extrapolation", key)) from None

@@ -34,7 +34,12 @@ ON_CAM_INPUTS = ("n11", "opening")
 CLOSED_N11_FACTOR = 2.0
 
 #: Cam positions (fractions of the lowest line's) of the assumed samples between the closed cam and the lowest line.
-SILENT_FRACTIONS = (0.25, 0.5, 0.75)
+#: Every tenth: the ensemble members' samples stand at their places in the band (:func:`train_on_cam_nets`), and
+#: their nets follow the band between the samples only where the samples are this close. With a quarter's spacing
+#: the members' 5-95 % spread at 7/8 of the way to the closed cam was 0.62 of the band's high side on a smooth
+#: chart (tests/hillchart/fccm/test_on_cam.py), and on the real Kaplan chart with its two lowest lines held out
+#: 0.2-0.5 of the band's low side at the 16 deg line, 13 % of the way down, where the band's growth bends.
+SILENT_FRACTIONS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 
 #: What an on-cam chart cannot represent and how to fix it (printed by ``hillsim fccm --simulator-nets``, written
 #: into nets.json's training record).
@@ -143,8 +148,8 @@ class OnCamEvidence:
     m11_scale : float
         The chart's M11 range (N*m, unit torque).
     distance_cap : float
-        The band grows as ``d^2`` up to this distance, the furthest the folds tested
-        (:func:`hillchart.extension.band.band_square`).
+        The band grows as ``d^2`` up to this distance, the furthest the folds tested, and on at its slope there
+        (:func:`hillchart.extension.band.band_square`, :data:`hillchart.extension.band.BEYOND_CAP`).
     weights : dict
         The weight of each of :data:`EFFICIENCY_HYPOTHESES` (equal without a fold).
     """
@@ -164,7 +169,7 @@ class OnCamEvidence:
     def _growth(self, distance) -> np.ndarray:
         from hillchart.extension.band import band_square
 
-        return np.array([band_square(float(d), self.distance_cap)[0] for d in np.ravel(distance)])
+        return np.array([band_square(float(d), self.distance_cap, math.inf)[0] for d in np.ravel(distance)])
 
     def q11_widths(self, distance):
         """``(low, high)`` of the band at ``distance`` below the lowest line, as log-ratios of Q11 (>= 0)."""

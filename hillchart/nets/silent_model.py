@@ -33,6 +33,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
+from hillchart.extension.band import BEYOND_CAP, runout
 from hillchart.extension.hypotheses import band_square
 from hillchart.nets.weights import _PYTHON_POINTS, _net_value_grad
 
@@ -48,9 +49,10 @@ BLEND_START_FRACTION = 0.5
 N11_NODES = 41
 OPENING_NODES = 11
 #: Packed layout (:meth:`SilentRegionModel.packed`): blend openings, the member's M11 band offset (N*m), an unused
-#: slot, torque factor, node counts, the grid's top N11 and opening, the member's Q11 band offset and the band's
-#: distance cap, then the Q11 and M11 tables (row-major, N11 first).
-_HEADER = 11
+#: slot, torque factor, node counts, the grid's top N11 and opening, the member's Q11 band offset, the band's
+#: distance cap and run-out (:func:`hillchart.extension.band.band_square`), then the Q11 and M11 tables (row-major,
+#: N11 first).
+_HEADER = 12
 
 
 @numba.njit(cache=True)
@@ -171,7 +173,7 @@ def _band_moves(blend, opening):
     at the closed vanes, where the disc friction's -K N11^2 (eq. 8) holds."""
     a_low = blend[1]
     t = opening / a_low
-    h, dh = _band_square(1.0 - t, blend[10])
+    h, dh = _band_square(1.0 - t, blend[10], blend[11])
     dh_a = dh * (-1.0 / a_low)
     f = math.exp(blend[9] * h)
     shift = blend[2] * blend[4]
@@ -298,11 +300,13 @@ class SilentRegionModel:
     band_q11 : (float, float)
         The band below the lowest line (:mod:`hillchart.extension.hypotheses`), below and above the answer: its
         half-widths are ``band_q11 h`` in log Q11, ``h`` the squared distance ``(1 - a / a_low)^2`` up to
-        ``distance_cap`` (:func:`_band_square`).
+        ``distance_cap``, then as ``beyond_cap`` says (:func:`_band_square`).
     band_m11 : (float, float)
         The same for M11, in N*m of the chart's M11 (times ``torque_factor`` in a run): half-widths
         ``band_m11 h a / a_low``, closing at the closed vanes.
     distance_cap : float
+    beyond_cap : str
+        :data:`hillchart.extension.band.BEYOND_CAP`: ``"grows"``, or ``"levels"`` in files written before.
     position : float
         An ensemble member's place in the band (+-1: the 5-95 % edges); 0 for the point answer. The member's
         characteristics below the lowest line are ``Q11 exp(u_q h)`` and ``M11 + u_m h a / a_low`` with
@@ -318,6 +322,7 @@ class SilentRegionModel:
     band_m11: tuple = (0.0, 0.0)
     distance_cap: float = 1.0
     position: float = 0.0
+    beyond_cap: str = "grows"
 
     def __post_init__(self):
         q, m = np.asarray(self.q11, float), np.asarray(self.m11, float)
@@ -347,6 +352,9 @@ class SilentRegionModel:
         if not (math.isfinite(self.distance_cap) and 0 < self.distance_cap <= 1.0):
             raise InputError(f"silent_model.distance_cap must be a finite number in (0, 1.0], got "
                              f"{self.distance_cap!r}")
+        if self.beyond_cap not in BEYOND_CAP:
+            raise InputError(f"silent_model.band.beyond_cap must be one of {', '.join(BEYOND_CAP)}, got "
+                             f"{self.beyond_cap!r}")
         if not (math.isfinite(self.position) and abs(self.position) <= 5.0):
             raise InputError(f"silent_model.position must be a finite number in [-5, 5], got {self.position!r}")
         object.__setattr__(self, "q11", q)
@@ -378,7 +386,8 @@ class SilentRegionModel:
         nn, na = self.q11.shape
         side = 0 if self.position < 0 else 1
         header = [*self.blend_openings, self.position * self.band_m11[side], 0.0, self.torque_factor, nn, na,
-                  self.n11_top, self.blend_openings[1], self.position * self.band_q11[side], self.distance_cap]
+                  self.n11_top, self.blend_openings[1], self.position * self.band_q11[side], self.distance_cap,
+                  runout(self.beyond_cap, self.distance_cap)]
         return np.concatenate([np.array(header, dtype=float), self.q11.ravel(), self.m11.ravel()])
 
     def nets_weight(self, opening: float) -> float:
@@ -404,7 +413,8 @@ class SilentRegionModel:
         a_low = self.blend_openings[1]
         t = float(opening) / a_low
         distance = 1.0 - t
-        h = _band_square.py_func(distance, self.distance_cap)[0] if float(opening) < a_low else 0.0
+        cap = self.distance_cap
+        h = _band_square.py_func(distance, cap, runout(self.beyond_cap, cap))[0] if float(opening) < a_low else 0.0
         factor = self.torque_factor
         return {"distance": distance, "h": h,
                 "q11": (math.exp(-self.band_q11[0] * h) - 1.0, math.exp(self.band_q11[1] * h) - 1.0),
@@ -439,7 +449,8 @@ class SilentRegionModel:
     # ------------------------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         doc = {"kind": KIND, "n11_top": self.n11_top, "blend_openings": list(self.blend_openings),
-               "band": {"q11": list(self.band_q11), "m11": list(self.band_m11), "distance_cap": self.distance_cap},
+               "band": {"q11": list(self.band_q11), "m11": list(self.band_m11), "distance_cap": self.distance_cap,
+                        "beyond_cap": self.beyond_cap},
                "q11": self.q11.tolist(), "m11": self.m11.tolist()}
         if self.torque_factor != 1.0:
             doc["torque_factor"] = self.torque_factor
@@ -484,15 +495,18 @@ class SilentRegionModel:
             openings = tuple(float(v) for v in doc["blend_openings"])
             factor = float(doc.get("torque_factor", 1.0))
             band = doc["band"]
-            if not isinstance(band, dict) or set(band) not in ({"q11", "m11", "distance_cap"},
-                                                                {"q11", "distance_cap"}):
+            if not isinstance(band, dict) or set(band) - {"beyond_cap"} not in ({"q11", "m11", "distance_cap"},
+                                                                                 {"q11", "distance_cap"}):
                 raise ValueError
             # files of the release before the two-sided band: one Q11 width, both sides (no M11 band of its own)
             widths = {"band_q11": band["q11"] if isinstance(band["q11"], list) else [band["q11"]] * 2,
-                      "band_m11": band.get("m11", [0.0, 0.0]), "distance_cap": float(band["distance_cap"])}
+                      "band_m11": band.get("m11", [0.0, 0.0]), "distance_cap": float(band["distance_cap"]),
+                      # files written before the band grew on beyond the distances tested: it levelled off
+                      "beyond_cap": band.get("beyond_cap", "levels")}
         except (TypeError, ValueError):
             raise InputError(f"nets.json: {key} must hold numbers (n11_top, blend_openings, band with "
-                             f"q11, m11 ([low, high] pairs) and distance_cap, and the q11 and m11 tables)") from None
+                             f"q11, m11 ([low, high] pairs), distance_cap and optionally beyond_cap, and the q11 and "
+                             f"m11 tables)") from None
         if len(openings) != 2:
             raise InputError(f"nets.json: {key}.blend_openings must be a [low, high] pair")
         try:

@@ -1,6 +1,8 @@
 """Below a double-regulated table's smallest guide-vane angle: the hypotheses judged by the table's own held-out
 angles (hillchart.fccm.evidence), and the weighed answer the simulator's kernel reads."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -113,10 +115,10 @@ def test_the_band_starts_straight_where_a_farther_fold_saw_a_larger_slope():
     assert kappa == pytest.approx(1.0, rel=1e-12) and crossover == pytest.approx(0.2, rel=1e-12)
     # one fold down the band is the far fold's slope times d, twice the near fold's own square (the failing case):
     # 0.02 against 0.01
-    assert kappa * band_envelope(0.1, 0.4, crossover)[0] == pytest.approx(0.02, rel=1e-12)
-    assert kappa * band_square(0.1, 0.4)[0] == pytest.approx(0.01, rel=1e-12)
+    assert kappa * band_envelope(0.1, 0.4, crossover, math.inf)[0] == pytest.approx(0.02, rel=1e-12)
+    assert kappa * band_square(0.1, 0.4, math.inf)[0] == pytest.approx(0.01, rel=1e-12)
     # beyond the crossover the square: 0.3^2
-    assert band_envelope(0.3, 0.4, crossover) == band_square(0.3, 0.4)
+    assert band_envelope(0.3, 0.4, crossover, math.inf) == band_square(0.3, 0.4, math.inf)
     # the crossover never lies beyond the distances tested
     assert fold_band([near, far], residuals, cap=0.15)[1] == 0.15
 
@@ -185,14 +187,22 @@ def test_extrapolation_records_are_validated_and_round_trip():
         del doc[key]
     old = BulbExtrapolation.from_dict(doc)
     assert old.crossover_q11 == old.crossover_m11 == old.low_q11 == old.low_m11 == 0.0
-    assert old.packed()[-5:-1].tolist() == [0.0, 0.0, 0.0, 0.0]
+    assert old.packed()[-6:-2].tolist() == [0.0, 0.0, 0.0, 0.0]
     # how the hypotheses answer: the weighed median now (the packed flag 1); a record written before says nothing and
     # reads as the weighed mean it was calibrated on (0)
-    assert record.combination == "median" and record.packed()[-1] == 1.0
+    assert record.combination == "median" and record.packed()[-2] == 1.0
     del doc["combination"]
-    assert BulbExtrapolation.from_dict(doc).combination == "mean" and BulbExtrapolation.from_dict(doc).packed()[-1] == 0
+    assert BulbExtrapolation.from_dict(doc).combination == "mean" and BulbExtrapolation.from_dict(doc).packed()[-2] == 0
     with pytest.raises(InputError, match="extrapolation.combination must be one of median, mean, got 'average'"):
         BulbExtrapolation(**{**good, "combination": "average"})
+    # beyond the distances tested the band grows on (the packed run-out infinite); a record written before says
+    # nothing and levels off as it did (the run-out the distance cap: a plateau at twice it)
+    assert record.beyond_cap == "grows" and record.packed()[-1] == math.inf
+    del doc["beyond_cap"]
+    older = BulbExtrapolation.from_dict(doc)
+    assert older.beyond_cap == "levels" and older.packed()[-1] == 0.4
+    with pytest.raises(InputError, match="extrapolation.beyond_cap must be one of grows, levels, got 'flat'"):
+        BulbExtrapolation(**{**good, "beyond_cap": "flat"})
     with pytest.raises(InputError, match="needs residual nets"):
         BulbSilentModel(SyntheticBulb().point_parameters(), (38.0, 40.0), residual=False, extrapolation=record)
 
@@ -253,7 +263,7 @@ def test_the_kernel_reads_the_weighed_hypotheses_below_the_table(weighed):
         np.testing.assert_allclose(point.q11(n11, gv, blade), q, rtol=1e-12, atol=1e-14)
         np.testing.assert_allclose(point.m11(n11, gv, blade), m, rtol=1e-12, atol=1e-12)
         # each target's own straight start (at 39 deg, d = 0.2: Q11's straight, M11's square)
-        h_q, h_m = (np.array([band_envelope(float(1.0 - v), 0.5, x)[0] for v in t]) for x in (0.3, 0.1))
+        h_q, h_m = (np.array([band_envelope(float(1.0 - v), 0.5, x, math.inf)[0] for v in t]) for x in (0.3, 0.1))
         # the member at +1 in the band: Q11 and the hydraulic torque M11 + K N11^2 times exp(kappa h + low), each its
         # own (low: the nets' own miss at the smallest angle)
         np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h_q + 0.02), rtol=1e-12, atol=1e-14)
@@ -293,13 +303,13 @@ def test_the_torque_band_is_a_share_of_the_tables_m11_range_closing_at_the_close
     n11, blade = np.array([120.0, 160.0, 240.0]), np.array([-12.0, 0.0, 9.0])
     for gv in (34.0, 35.5, 37.0, 39.0):
         q, m, m_0, t = _by_hand(plain, record, n11, np.full(3, gv), blade)
-        h_m = np.array([band_envelope(float(1.0 - v), 0.5, 0.1)[0] for v in t])
+        h_m = np.array([band_envelope(float(1.0 - v), 0.5, 0.1, math.inf)[0] for v in t])
         np.testing.assert_allclose(point.m11(n11, gv, blade), m, rtol=1e-12, atol=1e-12)  # the band's middle
         # by hand, 1e-12 relative: the same arithmetic in another order
         np.testing.assert_allclose(member.m11(n11, gv, blade), m + (1.5 * h_m + 0.03) * t * 500.0, rtol=1e-12,
                                    atol=1e-12)
         # Q11's band is unchanged (a factor)
-        h_q = np.array([band_envelope(float(1.0 - v), 0.5, 0.3)[0] for v in t])
+        h_q = np.array([band_envelope(float(1.0 - v), 0.5, 0.3, math.inf)[0] for v in t])
         np.testing.assert_allclose(member.q11(n11, gv, blade), q * np.exp(0.8 * h_q + 0.02), rtol=1e-12, atol=1e-14)
     # at the closed vanes (34 deg: t = 0) the member is the disc friction's -K N11^2, as the point
     np.testing.assert_allclose(member.m11(n11, 34.0, blade), point.m11(n11, 34.0, blade), rtol=0, atol=1e-12)
@@ -334,7 +344,7 @@ def test_nets_with_the_weighed_hypotheses_round_trip_and_old_files_read_as_befor
     assert again.silent_model.extrapolation == record
     x = (np.array([130.0, 200.0]), np.array([36.0, 37.0]), np.array([-3.0, 5.0]))
     np.testing.assert_array_equal(again.q11(*x), point.q11(*x))
-    assert point.blend_packed().size == 34 and point.blend_packed()[14] == 2.0
+    assert point.blend_packed().size == 35 and point.blend_packed()[14] == 2.0
     # a file written before the weighed median reads the weighed mean, as the kernel did when it was written (its
     # band was calibrated on the mean's residuals); the failing case beside it: the median is 2.7-6.3 % off there
     import dataclasses
@@ -390,7 +400,7 @@ def test_the_real_bulb_tables_evidence(tmp_path):
     # one angle down (2.5 deg of a 57.5 deg gap) the band's half-width covers the worst held-out miss (1.24 %):
     # measured 1.40 %
     d = 2.5 / 57.5
-    half = evidence.band["q11"] * band_envelope(d, evidence.distance_cap, evidence.crossover["q11"])[0]
+    half = evidence.band["q11"] * band_envelope(d, evidence.distance_cap, evidence.crossover["q11"], math.inf)[0]
     assert half > e["blend"]["worst"]
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from data_synthetic import FRANCIS_DIR
 from hillchart.errors import InputError
+from hillchart.extension.band import runout
 from hillchart.extension.hypotheses import band_square
 from hillchart.nets.hill_nets import HillNets, load_nets
 from hillchart.nets.silent_model import SilentRegionModel
@@ -108,7 +109,7 @@ def test_members_spread_across_the_band_of_the_held_out_evidence(nets):
     a, n11 = 0.3 * a1, 75.0
     spread = np.log([float(m.q11(n11, a)) / float(nets.q11(n11, a)) for m in members])
     shift = np.array([float(m.m11(n11, a)) - float(nets.m11(n11, a)) for m in members])
-    h = band_square(1.0 - a / a1, silent.distance_cap)[0]
+    h = band_square(1.0 - a / a1, silent.distance_cap, runout(silent.beyond_cap, silent.distance_cap))[0]
     sides = np.where(positions < 0, 0, 1)
     np.testing.assert_allclose(spread, positions * np.array(silent.band_q11)[sides] * h, rtol=1e-12, atol=1e-15)
     t = a / a1  # the torque's band closes at the closed vanes
@@ -198,6 +199,39 @@ def test_a_file_with_the_one_number_band_reads_it_as_both_sides(nets):
     doc["silent_model"]["band"] = {"q11": [0.3], "distance_cap": 0.5}
     with pytest.raises(InputError, match=r"silent_model.band_q11 must be a pair \[low, high\]"):
         HillNets.from_dict(doc)
+
+
+def test_the_band_grows_on_beyond_the_distances_tested_and_older_files_level_off(nets):
+    """Beyond the furthest distance the chart's hold-outs tested (``distance_cap``, c) the band of a file written now
+    grows on at the slope of its square there, ``c^2 + 2 c (d - c)``; the shipped nets were written before, without
+    ``beyond_cap``, and read as they were written: levelling off at ``2 c^2`` from ``d = 2 c`` (by hand, 1e-12: the
+    same formula). The key round-trips; a value outside the two is refused, naming it."""
+    from dataclasses import replace
+
+    levels = nets.silent_model
+    c, a1 = levels.distance_cap, levels.blend_openings[1]
+    assert levels.beyond_cap == "levels" and c < 0.45  # 0.286: 2 c lies inside the gap below the lowest line
+    grows = replace(levels, beyond_cap="grows")
+    for d in (0.5 * c, 2.0 * c, 0.9):
+        want_grows = d * d if d <= c else c * c + 2.0 * c * (d - c)
+        want_levels = d * d if d <= c else 2.0 * c * c
+        assert grows.band_sides((1.0 - d) * a1)["h"] == pytest.approx(want_grows, rel=1e-12)
+        assert levels.band_sides((1.0 - d) * a1)["h"] == pytest.approx(want_levels, rel=1e-12)
+    # the compiled kernel reads the same: a member at +1, 0.9 of the way down, moves Q11 by exp(kappa_high h)
+    n11, a = 75.0, 0.1 * a1
+    for table, h in ((grows, c * c + 2.0 * c * (0.9 - c)), (levels, 2.0 * c * c)):
+        member = HillNets(flow=nets.flow, torque=nets.torque, opening_unit=nets.opening_unit,
+                          silent_model=table.at(1.0))
+        point = HillNets(flow=nets.flow, torque=nets.torque, opening_unit=nets.opening_unit, silent_model=table)
+        ratio = float(member.q11(n11, a)) / float(point.q11(n11, a))
+        assert ratio == pytest.approx(np.exp(table.band_q11[1] * h), rel=1e-12)
+    doc = grows.to_dict()
+    assert doc["band"]["beyond_cap"] == "grows" and SilentRegionModel.from_dict(doc).beyond_cap == "grows"
+    del doc["band"]["beyond_cap"]
+    assert SilentRegionModel.from_dict(doc).beyond_cap == "levels"
+    doc["band"]["beyond_cap"] = "sideways"
+    with pytest.raises(InputError, match="beyond_cap must be one of grows, levels, got 'sideways'"):
+        SilentRegionModel.from_dict(doc)
 
 
 def test_a_table_with_bad_numbers_is_refused():
