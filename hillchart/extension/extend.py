@@ -208,6 +208,9 @@ class ExtendedSamples:
     extrapolation : Extrapolation or None
         Below the lowest digitized line: the hypotheses and the chart's held-out evidence that weighs them
         (:mod:`hillchart.extension.hypotheses`), with the silent regions.
+    warnings : tuple of str
+        What the extension could not do and how to fix it (also issued as ``UserWarning``; ``hillsim train``
+        prints them and ``nets.json`` records them): :func:`runaway_warning`.
     """
 
     target: np.ndarray
@@ -223,6 +226,7 @@ class ExtendedSamples:
     derived: np.ndarray | None = field(default=None, repr=False)
     boundary_model: object | None = field(default=None, repr=False)
     extrapolation: object | None = field(default=None, repr=False)
+    warnings: tuple = ()
 
     def select(self, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(X, y, origin)`` of one target: X (S, 2) columns N11 and opening."""
@@ -345,6 +349,35 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     return points
 
 
+def runaway_warning(chart: ChartSamples, model) -> str | None:
+    """The warning for a chart without runaway curve whose fitted model gives no runaway speed beyond the last point
+    of some of its lines (None when it gives one beyond every line, or the chart has its runaway curve).
+
+    Between such a line's end and runaway the extension adds no sample: no runaway point, no overspeed samples
+    (:func:`_toward_runaway`), and the nets extrapolate alone where a load rejection's maximum speed is decided. The
+    model's valid range (its pumping limit) can end at the chart's edge: a pump-turbine's opening lines at high N11
+    turn toward the S-shaped zone, which the 1-D Francis model does not represent; on the real FR300T pump-turbine
+    (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
+    chart's largest, and the nets read the full-opening torque 860 N*m at the measured runaway, N11 = 133 r/min.
+    """
+    if chart.has_runaway or model is None:
+        return None
+    short = []
+    for a in chart.openings:
+        n_run, last = model.runaway_n11(float(a)), float(chart.flow_n11[chart.flow_opening == a].max())
+        if not (np.isfinite(n_run) and n_run > last):
+            short.append(float(a))
+    if not short:
+        return None
+    lines = ", ".join(f"{a:g}" for a in short[:8]) + (", ..." if len(short) > 8 else "")
+    return (f"toward runaway the fitted turbine model gives no runaway speed beyond the last point of {len(short)} "
+            f"of the {len(chart.openings)} opening lines (a = {lines} {chart.info.opening_unit}): its valid range "
+            f"ends at N11 = {model.n11_limit:.4g} r/min, and the chart reaches {float(chart.flow_n11.max()):.4g}. "
+            "Between those lines' ends and runaway, where a load rejection's maximum speed comes, only the nets' own "
+            "extrapolation answers; give the runaway curve (runaway.csv: opening, n11, q11 of the model test's "
+            "runaway points), or check the chart with hillsim extend --plot")
+
+
 def _toward_runaway(model, a: float, n_end: float) -> list[tuple[float, float]]:
     """:data:`OVERSPEED_POINTS` (N11, ``a``) points evenly inside the gap between ``n_end`` and the model's runaway
     speed at opening ``a``; none where the model gives no runaway speed beyond ``n_end``."""
@@ -437,6 +470,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
 
     derived_rows = [False] * len(rows)
     model = None
+    notes = []  # what the extension cannot do, and how to fix it
     needs_model = (options.zero_speed or (options.zero_opening and options.zero_opening_k is None)
                    or (options.runaway and not chart.has_runaway))
     if options.boundaries == "model" and needs_model:
@@ -448,6 +482,9 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         rows.append((target, origin, n, a, v))
         derived_rows.append(derived)
 
+    if options.runaway and (note := runaway_warning(chart, model)) is not None:
+        notes.append(note)
+        warnings.warn(note, UserWarning, stacklevel=2)
     # (e)-(f), 2.6 (1): runaway points are flow samples and zero-torque samples
     if options.runaway and chart.has_runaway:
         for a, n, q in zip(chart.runaway_opening, chart.runaway_n11, chart.runaway_q11):
@@ -559,6 +596,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         derived=np.array(derived_rows, bool),
         boundary_model=model,
         extrapolation=extrapolation,
+        warnings=tuple(notes),
     )
 
 

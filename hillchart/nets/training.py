@@ -305,6 +305,8 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
         from hillchart.nets.silent_model import median_of
 
         record["extrapolation"] = {**extrapolation.to_dict(), "median_of": median_of(extrapolation)}
+    if getattr(extended, "warnings", ()):  # what the extension could not do (hillchart.extension.extend)
+        record["warnings"] = list(extended.warnings)
     nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
                     ensemble=ensemble_pairs, silent_model=silent, member_silent_models=member_silent or None)
     nets.estimators = estimators

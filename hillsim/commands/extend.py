@@ -81,7 +81,9 @@ def run(args: argparse.Namespace) -> int:
     out, plot = args.outputs.file("--out", args.out), args.outputs.file("--plot", args.plot)  # checked first
     options = extension_options(args)
     chart = load_chart_reporting_warnings(args.chart, options.boundaries)
-    extended = extend_samples(chart, options)
+    with warnings.catch_warnings(record=True) as caught:  # printed below as warning: lines
+        warnings.simplefilter("always")
+        extended = extend_samples(chart, options)
     extended.to_csv(out)
     print(f"wrote {args.out}: {len(extended.value)} samples")
     for target, per_origin in extended.counts().items():
@@ -93,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  boundaries from the physical turbine model fitted to the chart: {model.describe()}")
     print(f"  efficiency surface: polynomial of degree {extended.efficiency_surface.degree}, "
           f"cross-validated RMSE {extended.efficiency_surface.cv_rmse:.4f}")
+    for w in caught:
+        print(f"warning: {w.message}")
     if args.plot:
         extended.plot(plot)
         print(f"wrote {args.plot}")

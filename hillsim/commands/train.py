@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 
 from hillsim.commands.extend import (add_extension_arguments, extension_options,
                                      load_chart_reporting_warnings)
@@ -108,7 +109,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
     chart = load_chart_reporting_warnings(args.chart, extension.boundaries)
     args.outputs.check_reads()  # --out one of the chart's files: refused before training, not after
-    extended = extend_samples(chart, extension)
+    with warnings.catch_warnings(record=True) as caught:  # printed below as warning: lines, after the table
+        warnings.simplefilter("always")
+        extended = extend_samples(chart, extension)
 
     def progress(message: str) -> None:
         if not args.quiet:
@@ -146,6 +149,8 @@ def run(args: argparse.Namespace) -> int:
     nets.save(out)
     for note in thin:
         print(f"warning: thin chart: {note}")
+    for w in caught:
+        print(f"warning: {w.message}")
     if problem:
         print(f"warning: {problem}" + ("; on this thin chart digitize what the warnings above name" if thin else ""))
     hidden = "selected" if options["hidden"] is None else options["hidden"]

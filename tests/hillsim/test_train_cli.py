@@ -106,3 +106,23 @@ def test_train_states_the_physical_models_throat_foot(tmp_path, capsys):
         other = extension["other_form"]
         assert (other["throat_foot"] > 0, other["probability"] > 0.5) == ((True, True) if folder == FRANCIS_DIR
                                                                           else (False, False))
+
+
+@pytest.mark.external
+def test_train_warns_where_the_model_gives_no_runaway_beyond_the_lines(tmp_path, capsys):
+    """The real Sayano chart has no runaway curve, and the model fitted to it ends (N11 = 104.9) before the runaway
+    speed of its 8 largest openings: ``hillsim train`` prints what is missing there and how to fix it, after its
+    table, and nets.json records it; the shipped chart (with its runaway curve) trains without that warning."""
+    from tests.external_charts import write_sayano_chart
+
+    chart = write_sayano_chart(tmp_path / "sayano")
+    for folder, warned in ((chart, True), (FRANCIS_DIR, False)):
+        out = tmp_path / f"{folder.name}.json"
+        assert main(["train", str(folder), "--out", str(out), "--ensemble", "0"]) == 0
+        printed = [line for line in capsys.readouterr().out.splitlines()
+                   if line.startswith("warning: toward runaway")]
+        recorded = json.loads(out.read_text())["training"].get("warnings", [])
+        assert len(printed) == len(recorded) == int(warned), printed
+        if warned:
+            assert "8 of the 12 opening lines" in printed[0] and "give the runaway curve (runaway.csv" in printed[0]
+            assert printed[0] == f"warning: {recorded[0]}"

@@ -110,6 +110,12 @@ def test_non_positive_k_is_reported(tmp_path):
     # the default physical-model boundaries refuse this chart (no turbine has it), saying what to provide
     with pytest.raises(InputError, match=r"no physically valid boundary .*runaway.csv.*--zero-opening-k"):
         extend_samples(chart, ExtensionOptions(zero_speed=False, check_chart=False))
+    # with its runaway curve the refusal does not ask for one
+    (tmp_path / "runaway.csv").write_text("opening,n11,q11\n10,120,0.45\n20,125,0.35\n30,130,0.25\n")
+    with pytest.raises(InputError, match="no physically valid boundary") as refused:
+        extend_samples(load_chart(tmp_path), ExtensionOptions(zero_speed=False, check_chart=False))
+    assert "runaway.csv" not in str(refused.value) and "--boundaries polynomial" in str(refused.value)
+    (tmp_path / "runaway.csv").unlink()
     # and the plausibility check (on by default) names what is wrong with it first: its lines cross
     with pytest.raises(InputError, match="cross"):
         extend_samples(chart)
@@ -194,3 +200,33 @@ def test_sayano_shushenskaya_chart_extends(tmp_path):
     run = ext.origin == "runaway"
     assert run.sum() >= 2 and np.all(ext.derived[run])
     assert extend_samples(chart, ExtensionOptions(boundaries="polynomial")).counts()["m11"]["runaway"] == 0
+    # the model fitted to this chart ends (its pumping limit, N11 = 104.9) before the runaway speed of its 8 largest
+    # openings: no runaway sample there, and the extension says so and what to give (measured: 8 of the 12 lines)
+    assert run.sum() == 2 * 4
+    assert len(ext.warnings) == 1 and "8 of the 12 opening lines (a = 26, 30, 34, 38, 42, 46, 54, 58 mm)" in (
+        ext.warnings[0]) and "runaway.csv" in ext.warnings[0]
+
+
+def test_a_model_without_runaway_beyond_a_line_s_end_is_warned_of():
+    """:func:`runaway_warning` names the lines the fitted model gives no runaway speed beyond; none when it gives one
+    beyond every line, or the chart has its runaway curve (the shipped chart: the model's runaway lies beyond every
+    line's end)."""
+    from dataclasses import replace
+
+    from hillchart.extension.extend import runaway_warning
+
+    without = replace(CHART, runaway_opening=CHART.runaway_opening[:0], runaway_n11=CHART.runaway_n11[:0],
+                      runaway_q11=CHART.runaway_q11[:0])
+    model = EXTENDED.boundary_model
+    assert runaway_warning(CHART, model) is None and runaway_warning(without, model) is None
+
+    class Ending:  # the model, its valid range ending at the chart's largest N11: no runaway above 20 mm
+        n11_limit = float(CHART.flow_n11.max())
+
+        def runaway_n11(self, opening):
+            return model.runaway_n11(opening) if opening <= 20.0 else float("nan")
+
+    lines = [a for a in np.unique(CHART.flow_opening) if a > 20.0]
+    note = runaway_warning(without, Ending())
+    assert f"{len(lines)} of the {np.unique(CHART.flow_opening).size} opening lines" in note
+    assert f"a = {', '.join(f'{a:g}' for a in lines)} mm" in note and "runaway.csv" in note
