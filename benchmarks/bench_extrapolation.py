@@ -66,14 +66,16 @@ def chart_torque(chart):
     return unit_torque_from_efficiency(chart.flow_q11, chart.flow_n11, surface(chart.flow_n11, chart.flow_q11))
 
 
-def hold_out_lines(chart, k: int, *, seed: int = 0, ensemble: int = 10) -> dict:
-    """The held-out comparison of one ``k`` (module docstring) as a dict of per-point arrays and summary numbers."""
+def hold_out_lines(chart, k: int, *, seed: int = 0, ensemble: int = 10, truth_torque=None) -> dict:
+    """The held-out comparison of one ``k`` (module docstring) as a dict of per-point arrays and summary numbers;
+    ``truth_torque``: M11 (N*m) at the chart's flow points where the chart's source measured it (default: from the
+    chart's efficiency surface, :func:`chart_torque`)."""
     from hillchart.extension.extend import extend_samples
     from hillchart.nets.hill_nets import load_nets
     from hillchart.nets.training import train_nets
     from simulate.studies.uncertainty import figure_band
 
-    truth_torque = chart_torque(chart)
+    truth_torque = chart_torque(chart) if truth_torque is None else np.asarray(truth_torque, float)
     rest, held = reduced_chart(chart, k)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
