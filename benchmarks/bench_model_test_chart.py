@@ -25,14 +25,17 @@ Measured (``hold_out_lines`` of ``benchmarks/bench_extrapolation.py``, M11 again
    runaway, what a run reads against the measured Q11 and T11, by the relative N11 gap beyond the frame's end, and
    whether the members' 5-95 % band covers them; the extension's warnings, or its refusal.
 
-Run (about 1 minute on 2 cores)::
+Run (about 20 s on 2 cores)::
 
-    PYTHONPATH=. python benchmarks/bench_model_test_chart.py [--characteristic PATH]
+    PYTHONPATH=. python benchmarks/bench_model_test_chart.py [--characteristic PATH] [--write-docs]
+
+``--write-docs`` puts the tables into ``docs/guarantee-benchmark.md`` between its markers.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import tempfile
 import warnings
@@ -55,6 +58,7 @@ POINTS_PER_LINE = 7
 LOWEST_CONTOUR = 0.5
 #: Gaps beyond the frame's end (relative N11) that the toward-runaway table bins by.
 GAP_BINS = (0.0, 0.1, 0.25, 0.6)
+MARKERS = ("<!-- bench_model_test_chart -->", "<!-- end bench_model_test_chart -->")
 RHO_G = 1000.0 * 9.81  # the torque's efficiency, eq. (5) of the BP hill-chart paper, as the characteristic states T11
 
 
@@ -199,6 +203,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--characteristic", type=Path, help=f"the SIMSEN file ({FILE_NAME}; default: "
                                                             "../shared/external/ when it is there)")
+    parser.add_argument("--write-docs", action="store_true", help="write the tables into docs/guarantee-benchmark.md")
     args = parser.parse_args(argv)
     from tests.external_charts import EXTERNAL_DIR
 
@@ -206,9 +211,10 @@ def main(argv=None) -> int:
     if not source.is_file():
         print(f"the characteristic is absent ({source}); give its path with --characteristic")
         return 0
-    import bench_extrapolation
-
     from hillchart.io.samples import load_chart
+    from tests.scripts import load_script
+
+    bench_extrapolation = load_script("bench_extrapolation")  # its held-out comparison and table, shared
 
     data = read_simsen(source)
     with tempfile.TemporaryDirectory() as tmp:
@@ -218,14 +224,23 @@ def main(argv=None) -> int:
             chart = load_chart(folder)
             below = [bench_extrapolation.hold_out_lines(chart, k, truth_torque=torque) for k in (1, 2, 3)]
         over = {runaway: toward_runaway(data, Path(tmp) / f"runaway-{runaway}", runaway) for runaway in (False, True)}
-    print(f"FR300T pump-turbine model: {len(np.unique(chart.flow_opening))} opening lines, {chart.flow_n11.size} "
-          f"points over N11 {frame[0]:.1f}-{frame[1]:.1f} r/min; the k lowest lines held out\n")
-    print(bench_extrapolation.table(below))
-    for r in below:
-        print(f"\nk = {r['k']}: {r['evidence']}")
+    parts = [f"FR300T pump-turbine model: {len(np.unique(chart.flow_opening))} opening lines, "
+             f"{chart.flow_n11.size} points over N11 {frame[0]:.1f}-{frame[1]:.1f} r/min; the k lowest lines held out.",
+             bench_extrapolation.table(below)]
+    parts += [f"k = {r['k']}: {r['evidence']}" for r in below]
     for runaway, result in over.items():
-        print(f"\nToward runaway, the whole chart {'with' if runaway else 'without'} its runaway curve:\n")
-        print(runaway_table(result))
+        parts += [f"Toward runaway, the whole chart {'with' if runaway else 'without'} its runaway curve:",
+                  runaway_table(result)]
+    text = "\n\n".join(parts)
+    print(text)
+    if args.write_docs:
+        page = REPO / "docs" / "guarantee-benchmark.md"
+        doc = page.read_text(encoding="utf-8")
+        pattern = re.compile(re.escape(MARKERS[0]) + r"\n.*?" + re.escape(MARKERS[1]), re.S)
+        if not pattern.search(doc):
+            raise SystemExit(f"{page}: the markers {MARKERS} are missing")
+        page.write_text(pattern.sub(lambda _: f"{MARKERS[0]}\n{text}\n{MARKERS[1]}", doc), encoding="utf-8")
+        print(f"wrote {page}")
     return 0
 
 
