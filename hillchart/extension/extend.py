@@ -211,6 +211,9 @@ class ExtendedSamples:
     warnings : tuple of str
         What the extension could not do and how to fix it (also issued as ``UserWarning``; ``hillsim train``
         prints them and ``nets.json`` records them): :func:`runaway_warning`.
+    lines_without_runaway : tuple of float
+        :func:`lines_without_runaway`: where nothing constrains the nets toward runaway (``nets.json`` records them,
+        and a guarantee report decided there says so).
     """
 
     target: np.ndarray
@@ -227,6 +230,7 @@ class ExtendedSamples:
     boundary_model: object | None = field(default=None, repr=False)
     extrapolation: object | None = field(default=None, repr=False)
     warnings: tuple = ()
+    lines_without_runaway: tuple = ()
 
     def select(self, target: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(X, y, origin)`` of one target: X (S, 2) columns N11 and opening."""
@@ -349,6 +353,19 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     return points
 
 
+def lines_without_runaway(chart: ChartSamples, model) -> list[float]:
+    """Openings (chart units) of the lines beyond whose last point the fitted model gives no runaway speed, for a
+    chart without runaway curve (:func:`runaway_warning`); none with the curve or without a model."""
+    if chart.has_runaway or model is None:
+        return []
+    short = []
+    for a in chart.openings:
+        n_run, last = model.runaway_n11(float(a)), float(chart.flow_n11[chart.flow_opening == a].max())
+        if not (np.isfinite(n_run) and n_run > last):
+            short.append(float(a))
+    return short
+
+
 def runaway_warning(chart: ChartSamples, model) -> str | None:
     """The warning for a chart without runaway curve whose fitted model gives no runaway speed beyond the last point
     of some of its lines (None when it gives one beyond every line, or the chart has its runaway curve).
@@ -360,13 +377,7 @@ def runaway_warning(chart: ChartSamples, model) -> str | None:
     (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
     chart's largest, and the nets read the full-opening torque 860 N*m at the measured runaway, N11 = 133 r/min.
     """
-    if chart.has_runaway or model is None:
-        return None
-    short = []
-    for a in chart.openings:
-        n_run, last = model.runaway_n11(float(a)), float(chart.flow_n11[chart.flow_opening == a].max())
-        if not (np.isfinite(n_run) and n_run > last):
-            short.append(float(a))
+    short = lines_without_runaway(chart, model)
     if not short:
         return None
     lines = ", ".join(f"{a:g}" for a in short[:8]) + (", ..." if len(short) > 8 else "")
@@ -597,6 +608,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         boundary_model=model,
         extrapolation=extrapolation,
         warnings=tuple(notes),
+        lines_without_runaway=tuple(lines_without_runaway(chart, model)) if options.runaway else (),
     )
 
 

@@ -307,6 +307,8 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
         record["extrapolation"] = {**extrapolation.to_dict(), "median_of": median_of(extrapolation)}
     if getattr(extended, "warnings", ()):  # what the extension could not do (hillchart.extension.extend)
         record["warnings"] = list(extended.warnings)
+    if getattr(extended, "lines_without_runaway", ()):
+        record["lines_without_runaway"] = list(extended.lines_without_runaway)
     nets = HillNets(flow=weights["flow"], torque=weights["torque"], opening_unit=opening_unit, training=record,
                     ensemble=ensemble_pairs, silent_model=silent, member_silent_models=member_silent or None)
     nets.estimators = estimators

@@ -299,7 +299,24 @@ def _below_lowest_line(characteristics, member, details, opening, n11) -> tuple[
     return decided, evidence
 
 
-def _toward_runaway(characteristics, details) -> tuple[str, dict]:
+def _bare_lines(characteristics, opening: float) -> list[float]:
+    """The lines (chart units) beyond whose last point the chart's fitted model gave no runaway speed
+    (``training.lines_without_runaway``, :func:`hillchart.extension.extend.lines_without_runaway`), when the point's
+    ``opening`` lies at or above the smallest of them: there no sample constrained the nets toward runaway."""
+    lines = (getattr(characteristics, "training", None) or {}).get("lines_without_runaway") or []
+    return [float(a) for a in lines] if lines and opening >= min(lines) * (1.0 - 1e-9) else []
+
+
+def _toward_runaway(characteristics, details, opening: float) -> tuple[str, dict]:
+    bare = _bare_lines(characteristics, opening)
+    if bare:
+        shown = ", ".join(f"{a:g}" for a in bare[:8]) + (", ..." if len(bare) > 8 else "")
+        return (f"{NETS_ALONE}: no sample constrains them toward runaway here",
+                {"kind": "none", "text": f"N11 {100 * details['gap']:.1f} % beyond the digitized region's edge "
+                                         f"({details['edge_n11_rpm']:.4g} r/min) at this opening; the chart has no "
+                                         f"runaway curve and its fitted model gives no runaway speed beyond the lines "
+                                         f"a = {shown}: the figure is the nets' extrapolation alone; give the runaway "
+                                         "curve (runaway.csv) and train again"})
     record = held_out_record(characteristics)
     if record is None:
         return NETS_ALONE, {"kind": "none", "text": f"no held-out evidence: {NO_RECORD}"}
@@ -361,7 +378,7 @@ def region_evidence(characteristics, member, region: str, details: dict, point: 
     if region == "below_lowest_line":
         return _below_lowest_line(characteristics, member, details, point["opening"], point["n11_rpm"])
     if region == "toward_runaway":
-        return _toward_runaway(characteristics, details)
+        return _toward_runaway(characteristics, details, point["opening"])
     if region == "digitized":
         return _digitized(characteristics, point)
     return "the nets' extrapolation", {"kind": "none", "text": "no held-out evidence for this region of the chart"}

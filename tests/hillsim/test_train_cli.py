@@ -121,8 +121,12 @@ def test_train_warns_where_the_model_gives_no_runaway_beyond_the_lines(tmp_path,
         assert main(["train", str(folder), "--out", str(out), "--ensemble", "0"]) == 0
         printed = [line for line in capsys.readouterr().out.splitlines()
                    if line.startswith("warning: toward runaway")]
-        recorded = json.loads(out.read_text())["training"].get("warnings", [])
+        training = json.loads(out.read_text())["training"]
+        recorded = training.get("warnings", [])
         assert len(printed) == len(recorded) == int(warned), printed
         if warned:
             assert "8 of the 12 opening lines" in printed[0] and "give the runaway curve (runaway.csv" in printed[0]
             assert printed[0] == f"warning: {recorded[0]}"
+            assert training["lines_without_runaway"] == [26.0, 30.0, 34.0, 38.0, 42.0, 46.0, 54.0, 58.0]
+        else:
+            assert "lines_without_runaway" not in training

@@ -196,6 +196,32 @@ def test_a_slow_closure_decides_the_max_speed_toward_runaway():
                                                         band["high"] * overspeed["gap_cap"]], rel=1e-12)
 
 
+def test_a_figure_decided_where_the_model_gave_no_runaway_says_the_nets_alone_answered(tmp_path):
+    """The slow closure above, its maximum speed beyond the region's edge at 10-12 mm, with nets.json recording
+    lines without a runaway speed from the fitted model (``training.lines_without_runaway``, what the extension warns
+    of): from the 10 mm line up nothing constrained the nets there, and the report says so and what to give; lines
+    from 20 mm up leave the point's evidence as it was (the held-out line ends)."""
+    from simulate.loop.engine import run_simulation
+    from simulate.studies.figure_origin import NETS_ALONE
+
+    origins = {}
+    for lines in ([10.0, 12.0, 14.0], [20.0, 22.0]):
+        doc = json.loads(json.dumps(NETS))
+        doc["training"]["lines_without_runaway"] = lines
+        path = tmp_path / f"nets{lines[0]:g}.json"
+        path.write_text(json.dumps(doc))
+        plant = _plant(**{"turbine.characteristics": str(path), "governor.closing_time_s": 70.0,
+                          "scenario.t_end_s": 30.0})
+        chars = _chars(plant)
+        origins[lines[0]] = figure_origins(plant, chars, run_simulation(plant, characteristics=chars))[0][
+            "max_speed_rise"]
+    bare, covered = origins[10.0], origins[20.0]
+    assert bare["region"] == covered["region"] == "toward_runaway" and 10.0 < bare["opening"] < 12.0
+    assert bare["decided_by"].startswith(NETS_ALONE) and bare["evidence"]["kind"] == "none"
+    assert "a = 10, 12, 14" in bare["evidence"]["text"] and "give the runaway curve" in bare["evidence"]["text"]
+    assert covered["evidence"]["kind"] == "held_out_line_ends"
+
+
 def test_nets_without_a_silent_model_say_there_is_no_held_out_evidence(tmp_path):
     """A nets.json without the silent_model block and its record (a legacy or --no-silent-regions file): the point
     below the lowest line (the digitized region's smallest opening) has no held-out evidence, and the report says
