@@ -39,7 +39,6 @@ Run (about 3 minutes on 2 cores)::
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import tempfile
 from pathlib import Path
@@ -282,12 +281,10 @@ def main(argv=None) -> int:
     text = "\n".join(blocks)
     print(text)
     if args.write_docs:
+        from tests.scripts import write_between_markers
+
         page = REPO / "docs" / "bulb-extrapolation.md"
-        doc = page.read_text(encoding="utf-8")
-        pattern = re.compile(re.escape(MARKERS[0]) + r"\n.*?" + re.escape(MARKERS[1]), re.S)
-        if not pattern.search(doc):
-            raise SystemExit(f"{page}: the markers {MARKERS} are missing")
-        page.write_text(pattern.sub(lambda _: f"{MARKERS[0]}\n{text}\n{MARKERS[1]}", doc), encoding="utf-8")
+        write_between_markers(page, MARKERS, text)
         print(f"wrote {page}")
     return 0
 

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import re
 import sys
 import tempfile
 from pathlib import Path
@@ -223,12 +222,10 @@ def main(argv=None) -> int:
         text = tables(measure(write_kaplan_table(folder / "kaplan"), folder))
     print(text)
     if args.write_docs:
+        from tests.scripts import write_between_markers
+
         page = REPO / "docs" / "bulb-extrapolation.md"
-        doc = page.read_text(encoding="utf-8")
-        pattern = re.compile(re.escape(MARKERS[0]) + r"\n.*?" + re.escape(MARKERS[1]), re.S)
-        if not pattern.search(doc):
-            raise SystemExit(f"{page}: the markers {MARKERS} are missing")
-        page.write_text(pattern.sub(lambda _: f"{MARKERS[0]}\n{text}{MARKERS[1]}", doc), encoding="utf-8")
+        write_between_markers(page, MARKERS, text.removesuffix(chr(10)))
         print(f"wrote {page}")
     return 0
 

@@ -26,3 +26,14 @@ def load_script(name: str, folder: str = "benchmarks"):
         del sys.modules[name]
         raise
     return module
+
+
+def write_between_markers(page: Path, markers: tuple[str, str], text: str) -> None:
+    """Put ``text`` between the two ``markers`` lines of the docs page ``page`` (a benchmark's ``--write-docs``);
+    an error, and the page untouched, when the markers are missing."""
+    doc = page.read_text(encoding="utf-8")
+    start, end = markers
+    at, until = doc.find(start + "\n"), doc.find(end)
+    if at < 0 or until < at:
+        raise SystemExit(f"{page}: the markers {markers} are missing")
+    page.write_text(f"{doc[:at]}{start}\n{text}\n{doc[until:]}", encoding="utf-8")

@@ -366,7 +366,7 @@ def lines_without_runaway(chart: ChartSamples, model) -> list[float]:
     return short
 
 
-def runaway_warning(chart: ChartSamples, model) -> str | None:
+def runaway_warning(chart: ChartSamples, model, short: list | None = None) -> str | None:
     """The warning for a chart without runaway curve whose fitted model gives no runaway speed beyond the last point
     of some of its lines (None when it gives one beyond every line, or the chart has its runaway curve).
 
@@ -376,8 +376,9 @@ def runaway_warning(chart: ChartSamples, model) -> str | None:
     turn toward the S-shaped zone, which the 1-D Francis model does not represent; on the real FR300T pump-turbine
     (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
     chart's largest, and the nets read the full-opening torque 860 N*m at the measured runaway, N11 = 133 r/min.
+    ``short``: :func:`lines_without_runaway`, when known.
     """
-    short = lines_without_runaway(chart, model)
+    short = lines_without_runaway(chart, model) if short is None else short
     if not short:
         return None
     lines = ", ".join(f"{a:g}" for a in short[:8]) + (", ..." if len(short) > 8 else "")
@@ -493,7 +494,8 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         rows.append((target, origin, n, a, v))
         derived_rows.append(derived)
 
-    if options.runaway and (note := runaway_warning(chart, model)) is not None:
+    bare = lines_without_runaway(chart, model) if options.runaway else []
+    if (note := runaway_warning(chart, model, bare)) is not None:
         notes.append(note)
         warnings.warn(note, UserWarning, stacklevel=2)
     # (e)-(f), 2.6 (1): runaway points are flow samples and zero-torque samples
@@ -608,7 +610,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         boundary_model=model,
         extrapolation=extrapolation,
         warnings=tuple(notes),
-        lines_without_runaway=tuple(lines_without_runaway(chart, model)) if options.runaway else (),
+        lines_without_runaway=tuple(bare),
     )
 
 

@@ -42,11 +42,15 @@ def run(args: argparse.Namespace) -> int:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             chart = load_chart(args.samples)
-            if chart.info.opening_unit != nets.opening_unit:
-                from hillchart.errors import InputError
+        for w in caught:
+            print(f"warning: {w.message}")
+        if chart.info.opening_unit != nets.opening_unit:
+            from hillchart.errors import InputError
 
-                raise InputError(f"--samples: the chart's opening_unit is {chart.info.opening_unit!r} but the nets "
-                                 f"were trained with {nets.opening_unit!r}")
+            raise InputError(f"--samples: the chart's opening_unit is {chart.info.opening_unit!r} but the nets "
+                             f"were trained with {nets.opening_unit!r}")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
             extended = extend_samples(chart, _recorded_options(nets))
         for w in caught:
             print(f"warning: {w.message}")
