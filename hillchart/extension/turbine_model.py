@@ -241,10 +241,14 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
     best_flow = int(np.argmax(torque * chart.flow_n11))  # the most powerful measured point, for the prior
     n_best, m_best = float(chart.flow_n11[best_flow]), float(torque[best_flow])
     n_res = 2 * n.size + 1
+    n_top = float(n.max())
 
     def residuals(x, names, held):
         try:
             turbine = _model(x, opening_max, names, held)
+            reach = n_top / turbine.n11_limit()
+            if reach >= 1.0:  # the chart beyond the model's range: a barrier that falls as the range grows
+                return np.full(n_res, 1e3 * reach)
             qq, mm = (np.real(v) for v in turbine._solve(n.astype(float), a.astype(float)))
         except (InputError, FloatingPointError, ValueError, ZeroDivisionError):
             return np.full(n_res, 1e3)
