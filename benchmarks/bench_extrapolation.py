@@ -17,7 +17,9 @@ digitized by someone else; never shipped). For k = 1, 2, 3:
 
 Run (about 1 minute on 2 cores)::
 
-    PYTHONPATH=. python benchmarks/bench_extrapolation.py [--json out.json]
+    PYTHONPATH=. python benchmarks/bench_extrapolation.py [--json out.json] [--chart FOLDER]
+
+``--chart`` measures another chart folder the same way (a chart of 4 opening lines or more).
 
 The tables of the docs page "Guarantee figures" (section "Below the lowest line, on a real chart") are this script's
 output.
@@ -144,16 +146,26 @@ def table(results: list) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", type=Path, help="also write the results as JSON")
+    parser.add_argument("--chart", type=Path, help="measure this chart folder (chart.toml, flow.csv, efficiency.csv) "
+                                                   "instead of the Sayano chart")
     args = parser.parse_args(argv)
     from tests.external_charts import EXTERNAL_DIR, SAYANO_CONTOURS, SAYANO_LINES
 
-    if not all((EXTERNAL_DIR / name).is_file() for name in (SAYANO_LINES, SAYANO_CONTOURS)):
+    if args.chart is None and not all((EXTERNAL_DIR / name).is_file() for name in (SAYANO_LINES, SAYANO_CONTOURS)):
         print(f"the real chart is absent ({EXTERNAL_DIR}); nothing to measure")
         return 0
     with tempfile.TemporaryDirectory() as folder:
-        chart = sayano_chart(folder)
+        if args.chart is None:
+            chart = sayano_chart(folder)
+        else:
+            from hillchart.io.samples import load_chart
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                chart = load_chart(args.chart)
         results = [hold_out_lines(chart, k) for k in HOLD_OUTS]
-    print("Sayano-Shushenskaya Francis, the k lowest opening lines held out\n")
+    name = "Sayano-Shushenskaya Francis" if args.chart is None else chart.info.name
+    print(f"{name}, the k lowest opening lines held out\n")
     print(table(results))
     for r in results:
         print(f"\nk = {r['k']}: {r['evidence']}")

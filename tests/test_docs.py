@@ -417,3 +417,21 @@ def test_the_model_test_chart_tables_are_what_the_benchmark_prints(capsys):
     rows, now = _page_and_script_rows("bench_model_test_chart", "guarantee-benchmark.md", ("| ",), capsys)
     assert len(rows) == len(now) > 35, "rerun PYTHONPATH=. python benchmarks/bench_model_test_chart.py --write-docs"
     assert_within(rows, now, lambda row, figure: 1.0 if " of " in row else max(0.5, 0.05 * abs(float(figure))))
+
+
+@pytest.mark.external
+def test_the_kaplan_chart_table_is_what_the_benchmark_prints(capsys):
+    """docs/guarantee-benchmark.md's table of the ZZ680 Kaplan chart (not shipped: no licence) is the output of
+    benchmarks/bench_extrapolation.py --chart now, when ../shared/external/zz680_kaplan_chart/ holds the chart
+    folder; within the tolerances of the Sayano table's test above."""
+    from tests.external_charts import EXTERNAL_DIR, require_external
+
+    require_external("zz680_kaplan_chart/flow.csv", "zz680_kaplan_chart/efficiency.csv")
+    assert load_script("bench_extrapolation").main(["--chart", str(EXTERNAL_DIR / "zz680_kaplan_chart")]) == 0
+    now = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
+    page = (DOCS / "guarantee-benchmark.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- bench_extrapolation_zz680 -->\n(.*?)\n<!-- end bench_extrapolation_zz680 -->", page,
+                      re.S).group(1)
+    rows = [line for line in block.splitlines() if line.startswith("| ")]
+    assert len(rows) == len(now) > 20, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py --chart FOLDER"
+    assert_within(rows, now, lambda row, figure: 1.0 if " of " in row else 0.5)

@@ -375,7 +375,7 @@ def runaway_warning(chart: ChartSamples, model, short: list | None = None) -> st
     model's valid range (its pumping limit) can end at the chart's edge: a pump-turbine's opening lines at high N11
     turn toward the S-shaped zone, which the 1-D Francis model does not represent; on the real FR300T pump-turbine
     (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
-    chart's largest, and the nets read the full-opening torque 860 N*m at the measured runaway, N11 = 133 r/min.
+    chart's largest, and the nets read the full-opening torque 870 N*m at the measured runaway, N11 = 133 r/min.
     ``short``: :func:`lines_without_runaway`, when known.
     """
     short = lines_without_runaway(chart, model) if short is None else short

@@ -316,7 +316,7 @@ def _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, *, refuse):
             return None
         # with its runaway curve, a pump-turbine's chart (lines turning toward the S-shaped zone before runaway) lies
         # outside the model's class: fitted to the lines alone the model cannot say how the torque falls to the
-        # curve, and nets interpolating to it read the FR300T model's torque up to 44 % of the range low
+        # curve, and nets interpolating to it read the FR300T model's torque up to 38 % of the range low
         # (benchmarks/bench_model_test_chart.py), worse than a refusal
         runaway = ("a pump-turbine's complete characteristics (its S-shaped zone) are read by "
                    "hillchart.four_quadrant, " if chart.has_runaway else "add the runaway curve (runaway.csv), ")
