@@ -375,7 +375,7 @@ class TableEvidence:
     m11_scale : float
         The table's measured M11 range, N*m.
     distance_cap : float
-        The band grows as ``d^2`` up to the largest distance the hold-outs tested, then levels off.
+        The band grows as ``d^2`` up to the largest distance the hold-outs tested, then on at its slope there.
     curvature : (float, float)
         ``c`` of the quadratic hypothesis for Q11 and M11, fitted to the whole table.
     crossover : dict
