@@ -52,6 +52,8 @@ SELECTION_TOLERANCE = 1.3
 #: paper's kept unless the longer fit's CV MSE is below theirs by more than SELECTION_TOLERANCE
 #: (docs/guarantee-benchmark.md, step 14).
 LONGER_STOPS = {"goal": 1e-7, "max_fail": 100}
+#: The paper's stops (MATLAB ``trainlm``'s, :class:`hillchart.nets.estimator.HillNet`'s defaults), to fix them.
+PAPER_STOPS = {"goal": 1e-5, "max_fail": 6}
 #: The selection scores each candidate with one initialisation per fold (three, each fold scored by its best, made
 #: the out-of-class family's measured region no better: docs/guarantee-benchmark.md); restarts per ensemble member.
 SELECTION_FOLDS = 5

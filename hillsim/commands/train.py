@@ -38,6 +38,10 @@ def register(subparsers) -> None:
                              "cross-validation on the measured samples)")
     parser.add_argument("--regularization", default="auto",
                         help="weight decay lambda in [0, 1], or 'auto' (default: chosen by cross-validation)")
+    parser.add_argument("--stops", default="auto",
+                        help="the Levenberg-Marquardt stops: 'paper' (trainlm's goal 1e-5 on the normalized MSE, 6 "
+                             "validation fails), 'longer' (goal 1e-7, 100 fails) or 'auto' (default: chosen between "
+                             "them by cross-validation)")
     parser.add_argument("--ensemble", type=int, default=DEFAULT_ENSEMBLE,
                         help=f"ensemble members for the uncertainty band, {ENSEMBLE_RANGE[0]}-{ENSEMBLE_RANGE[1]} "
                              f"(default {DEFAULT_ENSEMBLE}; 0: a single net, no band)")
@@ -85,10 +89,21 @@ def _auto_float(option: str, value: str, low: float, high: float, *, open_low: b
     return number
 
 
+def _stops(value: str) -> dict:
+    from hillchart.errors import InputError
+    from hillchart.nets.training import LONGER_STOPS, PAPER_STOPS
+
+    stops = {"auto": {}, "paper": dict(PAPER_STOPS), "longer": dict(LONGER_STOPS)}
+    if value not in stops:
+        raise InputError(f"--stops must be one of {', '.join(stops)}, got {value!r}")
+    return stops[value]
+
+
 def parse_options(args: argparse.Namespace) -> dict:
     """Validated training options (raises InputError naming the option)."""
     hidden = None if args.hidden == "auto" else _int_in("--hidden", args.hidden, *HIDDEN_RANGE)
     return {
+        "stops": _stops(args.stops),
         "hidden": hidden,
         "boundary_weight": _auto_float("--boundary-weight", args.boundary_weight, 0.0, 1.0, open_low=True),
         "regularization": _auto_float("--regularization", args.regularization, 0.0, 1.0, open_low=False),
@@ -121,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     nets = train_nets(extended, hidden=options["hidden"], boundary_weight=options["boundary_weight"],
                       regularization=options["regularization"], ensemble=options["ensemble"],
                       restarts=options["restarts"], seed=options["seed"], record_time=args.record_time,
-                      progress=progress)
+                      progress=progress, **options["stops"])
     elapsed = time.perf_counter() - start
     nets.training["chart"] = chart.info.name
     nets.training["extension"] = {

@@ -19,6 +19,7 @@ from hillsim.cli import main
     (["--ensemble", "1000"], "--ensemble must be an integer in [0, 100], got 1000"),
     (["--restarts", "0"], "--restarts must be an integer in [1, 1000], got 0"),
     (["--seed", "-1"], "--seed must be an integer in [0, 2147483647], got -1"),
+    (["--stops", "matlab"], "--stops must be one of auto, paper, longer, got 'matlab'"),
     (["--boundaries", "spline"], None),
 ])
 def test_bad_options_exit_2_and_write_nothing(tmp_path, capsys, argv, message):
@@ -130,3 +131,21 @@ def test_train_warns_where_the_model_gives_no_runaway_beyond_the_lines(tmp_path,
             assert training["lines_without_runaway"] == [26.0, 30.0, 34.0, 38.0, 42.0, 46.0, 54.0, 58.0]
         else:
             assert "lines_without_runaway" not in training
+
+
+def test_stops_given_are_the_fit_s_and_recorded(tmp_path):
+    """``--stops paper`` fixes the Levenberg-Marquardt stops at the paper's (HillNet's defaults: the same numbers)
+    and ``--stops longer`` at the selection's other candidate; nets.json records them per net, as it records the
+    cross-validation's choice without the option."""
+    from hillchart.nets.estimator import HillNet
+    from hillchart.nets.training import LONGER_STOPS, PAPER_STOPS
+
+    assert PAPER_STOPS == {"goal": HillNet().goal, "max_fail": HillNet().max_fail}
+    for stops, want in (("paper", PAPER_STOPS), ("longer", LONGER_STOPS)):
+        out = tmp_path / f"{stops}.json"
+        assert main(["train", str(FRANCIS_DIR), "--out", str(out), "--ensemble", "0", "--hidden", "5", "--stops",
+                     stops, "--quiet"]) == 0
+        training = json.loads(out.read_text())["training"]
+        for key in ("flow", "torque"):
+            selection = training[key]["selection"]
+            assert {"goal": selection["goal"], "max_fail": selection["max_fail"]} == want, (stops, key)
