@@ -70,11 +70,11 @@ def coefficient_row(member, noise_pct: float, seed: int = 0, ways=WAYS) -> dict[
         exact = member.turbine()
         scale = float(chart.info.opening_max) / exact.opening_max
         n11, a_mm = coefficient_points(exact)["rated"]
+        exact_ex = six_coefficients(exact, n11=n11, opening=a_mm).ex
         row = {}
         for name in ways:
             nets = trained(chart, name, seed)
-            ex = six_coefficients(nets, n11=n11, opening=a_mm * scale).ex - six_coefficients(
-                exact, n11=n11, opening=a_mm).ex
+            ex = six_coefficients(nets, n11=n11, opening=a_mm * scale).ex - exact_ex
             spread = np.std([six_coefficients(m, n11=n11, opening=a_mm * scale).ex for m in nets.members()])
             row[name] = (max(coefficient_errors(nets, exact, scale).values()), float(ex), float(spread))
     return row
