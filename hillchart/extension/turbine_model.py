@@ -318,15 +318,15 @@ def _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, *, refuse):
         # outside the model's class: fitted to the lines alone the model cannot say how the torque falls to the
         # curve, and nets interpolating to it read the FR300T model's torque up to 38 % of the range low
         # (benchmarks/bench_model_test_chart.py), worse than a refusal
-        runaway = ("a pump-turbine's complete characteristics (its S-shaped zone) are read by "
-                   "hillchart.four_quadrant, " if chart.has_runaway else "add the runaway curve (runaway.csv), ")
+        runaway = ("; a pump-turbine's lines turn toward its S-shaped zone before runaway, which its complete "
+                   "characteristics represent (hillchart.four_quadrant)" if chart.has_runaway
+                   else ", add the runaway curve (runaway.csv)")
         raise InputError(
             f"{chart.folder}: the physical turbine model fits this chart with Q11 RMS {q_rms:.2g} % and M11 RMS "
             f"{m_rms:.2g} % of the measured range (allowed <= {MAX_MISFIT_PCT} %), K = {k:.3g}: no physically "
-            f"valid boundary can be derived from it. Check the digitized points (hillsim extend --plot), {runaway}"
+            f"valid boundary can be derived from it. Check the digitized points (hillsim extend --plot){runaway}; "
             "or extend with the paper's polynomial boundaries (--boundaries polynomial, a lower --degree "
-            "where a line's zero-speed flow comes out negative) and set K by hand "
-            "(--zero-opening-k)"
+            "where a line's zero-speed flow comes out negative) and set K by hand (--zero-opening-k)"
         )
     return FittedTurbineModel(turbine=turbine, k_zero_opening=k, q11_rms_pct=q_rms, m11_rms_pct=m_rms,
                               n11_limit=_n11_limit(turbine.params), foot_p_value=foot_p)
