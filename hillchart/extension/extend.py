@@ -353,6 +353,41 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     return points
 
 
+#: Gaps (fractions of the gap cap of the chart's held-out line ends) at which :func:`continued_line_points` continues
+#: a line the model gives no runaway speed beyond.
+CONTINUED_FRACTIONS = (0.5, 1.0)
+
+
+def continued_line_points(chart: ChartSamples, torque, extrapolation) -> list[tuple[float, float, float, float]]:
+    """``(N11, opening, Q11, M11)`` samples continuing each line the fitted model gives no runaway speed beyond
+    (``extrapolation.bare``, :func:`lines_without_runaway`) straight through its two last points
+    (:func:`hillchart.extension.band.continuation`), at :data:`CONTINUED_FRACTIONS` of the gap the chart's held-out
+    line ends tested twice over (``gap_cap`` of :func:`hillchart.extension.hypotheses.overspeed_evidence`).
+
+    Without them nothing constrained the nets beyond those lines' ends: on the real FR300T pump-turbine's chart
+    (``benchmarks/bench_model_test_chart.py``) a straight continuation predicts each line's held-out last point within
+    0.8 % of the M11 range where the model, its range ending at the chart's edge, misses by more than half of it; the
+    ensemble members' torque there stands in the band of the continuations' misses
+    (:meth:`hillchart.extension.hypotheses.Extrapolation.overspeed_widths`). Beyond the gap cap the nets extrapolate
+    alone, and :func:`runaway_warning` says so."""
+    from hillchart.extension.band import continuation
+
+    over = extrapolation.overspeed if extrapolation is not None else None
+    if not over or not extrapolation.bare:
+        return []
+    points = []
+    for a in extrapolation.bare:
+        on = chart.flow_opening == a
+        if on.sum() < 2:
+            continue
+        n_line, last = chart.flow_n11[on], float(chart.flow_n11[on].max())
+        for f in CONTINUED_FRACTIONS:
+            n = last * (1.0 + f * over["gap_cap"])
+            points.append((n, float(a), continuation(n_line, chart.flow_q11[on], n),
+                           continuation(n_line, np.asarray(torque, float)[on], n)))
+    return points
+
+
 def lines_without_runaway(chart: ChartSamples, model) -> list[float]:
     """Openings (chart units) of the lines beyond whose last point the fitted model gives no runaway speed, for a
     chart without runaway curve (:func:`runaway_warning`); none with the curve or without a model."""
@@ -370,8 +405,9 @@ def runaway_warning(chart: ChartSamples, model, short: list | None = None) -> st
     """The warning for a chart without runaway curve whose fitted model gives no runaway speed beyond the last point
     of some of its lines (None when it gives one beyond every line, or the chart has its runaway curve).
 
-    Between such a line's end and runaway the extension adds no sample: no runaway point, no overspeed samples
-    (:func:`_toward_runaway`), and the nets extrapolate alone where a load rejection's maximum speed is decided. The
+    Between such a line's end and runaway the model gives no sample: no runaway point, no overspeed samples
+    (:func:`_toward_runaway`); the line's straight continuation answers a short way (:func:`continued_line_points`),
+    and beyond it the nets extrapolate alone where a load rejection's maximum speed is decided. The
     model's valid range (its pumping limit) can end at the chart's edge: a pump-turbine's opening lines at high N11
     turn toward the S-shaped zone, which the 1-D Francis model does not represent; on the real FR300T pump-turbine
     (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
@@ -382,12 +418,16 @@ def runaway_warning(chart: ChartSamples, model, short: list | None = None) -> st
     if not short:
         return None
     lines = ", ".join(f"{a:g}" for a in short[:8]) + (", ..." if len(short) > 8 else "")
+    from hillchart.extension.turbine_model import RUNAWAY_SEARCH_N11
+
+    why = (f"its valid range ends at N11 = {model.n11_limit:.4g} r/min, and the chart reaches "
+           f"{float(chart.flow_n11.max()):.4g}" if model.n11_limit < RUNAWAY_SEARCH_N11
+           else f"its torque does not fall to zero up to N11 = {RUNAWAY_SEARCH_N11:g} r/min")
     return (f"toward runaway the fitted turbine model gives no runaway speed beyond the last point of {len(short)} "
-            f"of the {len(chart.openings)} opening lines (a = {lines} {chart.info.opening_unit}): its valid range "
-            f"ends at N11 = {model.n11_limit:.4g} r/min, and the chart reaches {float(chart.flow_n11.max()):.4g}. "
-            "Between those lines' ends and runaway, where a load rejection's maximum speed comes, only the nets' own "
-            "extrapolation answers; give the runaway curve (runaway.csv: opening, n11, q11 of the model test's "
-            "runaway points), or check the chart with hillsim extend --plot")
+            f"of the {len(chart.openings)} opening lines (a = {lines} {chart.info.opening_unit}): {why}. "
+            "Beyond a short straight continuation of those lines, up to runaway, where a load rejection's maximum "
+            "speed comes, only the nets' own extrapolation answers; give the runaway curve (runaway.csv: opening, "
+            "n11, q11 of the model test's runaway points), or check the chart with hillsim extend --plot")
 
 
 def _toward_runaway(model, a: float, n_end: float) -> list[tuple[float, float]]:
@@ -545,6 +585,9 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
             else:
                 q, m = float(model.q11(n, a)), float(model.m11(n, a))
             add("q11", "silent-region", n, a, q, False)
+            add("m11", "silent-region", n, a, m, False)
+        for n, a, q, m in continued_line_points(chart, torque, extrapolation):
+            add("q11", "silent-region", n, a, max(q, 0.0), False)
             add("m11", "silent-region", n, a, m, False)
         between = between_line_points(chart, model)
         if between:  # the model's shape between the lines, with the residual the lines measure carried there

@@ -537,6 +537,7 @@ class Extrapolation:
     n11_top: float
     overspeed: dict | None = None
     line_ends: tuple = ()
+    bare: tuple = ()
 
     @classmethod
     def of_chart(cls, chart, torque, model) -> "Extrapolation":
@@ -561,8 +562,11 @@ class Extrapolation:
         top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
         ends = tuple((float(a), float(chart.flow_n11[chart.flow_opening == a].max()))
                      for a in np.unique(chart.flow_opening))
+        # lines the model gives no runaway speed beyond (their straight continuations answer there, within the band
+        # of the continuations' held-out misses: hillchart.extension.extend.continued_line_points)
+        bare = () if chart.has_runaway else tuple(a for a, n in ends if not model.runaway_n11(a) > n)
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top,
-                   overspeed=overspeed_evidence(chart, torque, refit), line_ends=ends)
+                   overspeed=overspeed_evidence(chart, torque, refit), line_ends=ends, bare=bare)
 
     @property
     def lowest_opening(self) -> float:
@@ -574,10 +578,9 @@ class Extrapolation:
 
     def overspeed_widths(self, n11, opening):
         """``(low, high)``: the M11 band's half-widths (N*m) toward runaway at (``n11``, ``opening``) (arrays): the
-        per-gap widths of :func:`overspeed_evidence` times the relative N11 gap beyond the last point of the
-        digitized line at that opening (up to the cap of :data:`OVERSPEED_GAP_CAP`); 0 on or before it, between lines
-        and below the lowest line (the band there
-        is :class:`Evidence`'s), and when the chart gave no overspeed evidence."""
+        per-gap widths of :func:`overspeed_evidence` (the model's misses; on the ``bare`` lines the continuations')
+        times the relative N11 gap beyond the last point of the digitized line at that opening (up to the cap of
+        :data:`OVERSPEED_GAP_CAP`); 0 on or before it, between lines, below the lowest line, without evidence."""
         n11, opening = np.broadcast_arrays(np.asarray(n11, float), np.asarray(opening, float))
         low, high = np.zeros(n11.shape), np.zeros(n11.shape)
         band = (self.overspeed or {}).get("m11_band_per_gap")
@@ -587,7 +590,8 @@ class Extrapolation:
         for a, n_end in self.line_ends:
             on = np.isclose(opening, a, rtol=0.0, atol=1e-9 * max(abs(a), 1.0)) & (n11 > n_end)
             gap = np.minimum((n11[on] - n_end) / n_end, cap)
-            low[on], high[on] = band["low"] * scale * gap, band["high"] * scale * gap
+            side = self.overspeed.get("line_m11_band_per_gap", band) if a in self.bare else band
+            low[on], high[on] = side["low"] * scale * gap, side["high"] * scale * gap
         return low, high
 
     def summary(self) -> str:
@@ -661,9 +665,11 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     # than OVERSPEED_GAP_CAP times the largest gap tested
     gaps = np.array(gaps)
     m_low, m_high = band_sides((m_model - m) / scale, gaps, lines=len(ends), growth=1.0)
+    l_low, l_high = band_sides((np.array(m_line) - m) / scale, gaps, lines=len(ends), growth=1.0)
     result = {"held_out_points": int(held.sum()), "beyond_model_range": int((~inside).sum()),
               "model_n11_limit": float(model.n11_limit) if math.isfinite(model.n11_limit) else None,
               "m11_band_per_gap": {"low": m_low, "high": m_high}, "m11_scale": scale,
+              "line_m11_band_per_gap": {"low": l_low, "high": l_high},
               "gap_cap": OVERSPEED_GAP_CAP * float(gaps.max()),
               "model_q11_rms": float(np.sqrt(np.mean(((q_model - q) / q) ** 2))),
               "model_m11_rms": float(np.sqrt(np.mean(((m_model - m) / scale) ** 2))),

@@ -46,6 +46,8 @@ START = {"d2": 0.8, "b1": 0.18, "pitch": 1.2, "beta1_deg": 50.0, "beta2_deg": 18
          "k_disc_friction": 2e-3}
 #: Largest RMS misfit (percent of the measured range) at which the model's boundaries are still used.
 MAX_MISFIT_PCT = 5.0
+#: The highest N11 (r/min) at which :meth:`FittedTurbineModel.runaway_n11` looks for the model's torque to reach zero.
+RUNAWAY_SEARCH_N11 = 400.0
 #: Prior on the disc-friction share of the shaft power at the best measured point (median, log-sd).
 DISC_FRICTION_SHARE = 0.01
 DISC_FRICTION_LOG_SD = math.log(5.0)
@@ -152,7 +154,7 @@ class FittedTurbineModel:
         """Runaway N11 (M11 = 0) at ``opening``, r/min; NaN when the model has none below its valid range."""
         from scipy.optimize import brentq
 
-        top = min(self.n11_limit * 0.98, 400.0)
+        top = min(self.n11_limit * 0.98, RUNAWAY_SEARCH_N11)
         grid = np.linspace(1.0, top, 200)
         m = self.turbine.m11(grid, opening)
         sign_change = np.flatnonzero((m[:-1] > 0) & (m[1:] <= 0))

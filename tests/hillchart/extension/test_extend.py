@@ -207,6 +207,38 @@ def test_sayano_shushenskaya_chart_extends(tmp_path):
         ext.warnings[0]) and "runaway.csv" in ext.warnings[0]
 
 
+@pytest.mark.external
+def test_lines_without_a_model_runaway_are_continued_straight(tmp_path):
+    """Sayano's 8 lines the model gives no runaway speed beyond are continued straight through their two last points
+    (:func:`continued_line_points`), at half and all of the gap cap of the held-out line ends; the members' torque
+    there moves in the band of the continuations' own misses, not the model's (by hand, 1e-12: the same formula)."""
+    from hillchart.extension.band import continuation
+    from hillchart.extension.extend import CONTINUED_FRACTIONS
+
+    with pytest.warns(UserWarning):
+        chart = load_chart(write_sayano_chart(tmp_path / "sayano"))
+        ext = extend_samples(chart)
+    x = ext.extrapolation
+    over = x.overspeed
+    assert x.bare == ext.lines_without_runaway and len(x.bare) == 8
+    torque = {(n, o): m for (n, o), m in zip(zip(*ext.select("m11")[0].T), ext.select("m11")[1])}
+    for a in x.bare:
+        on = chart.flow_opening == a
+        last = chart.flow_n11[on].max()
+        xq, q, origin = ext.select("q11")
+        beyond = (xq[:, 1] == a) & (xq[:, 0] > last * (1 + 1e-9)) & (origin == "silent-region")
+        want = last * (1.0 + np.array(CONTINUED_FRACTIONS) * over["gap_cap"])
+        np.testing.assert_allclose(np.sort(xq[beyond, 0]), want, rtol=1e-12)
+        measured = np.array([torque[(n, a)] for n in chart.flow_n11[on]])
+        for n in want:
+            assert torque[(n, a)] == pytest.approx(continuation(chart.flow_n11[on], measured, n), rel=1e-12)
+        low, high = x.overspeed_widths(want, np.full(2, a))
+        band = over["line_m11_band_per_gap"]
+        gaps = np.minimum(want / last - 1.0, over["gap_cap"])
+        np.testing.assert_allclose(high, band["high"] * over["m11_scale"] * gaps, rtol=1e-12)
+        assert band != over["m11_band_per_gap"]
+
+
 def test_a_model_without_runaway_beyond_a_line_s_end_is_warned_of():
     """:func:`runaway_warning` names the lines the fitted model gives no runaway speed beyond; none when it gives one
     beyond every line, or the chart has its runaway curve (the shipped chart: the model's runaway lies beyond every

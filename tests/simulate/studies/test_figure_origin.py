@@ -217,9 +217,19 @@ def test_a_figure_decided_where_the_model_gave_no_runaway_says_the_nets_alone_an
             "max_speed_rise"]
     bare, covered = origins[10.0], origins[20.0]
     assert bare["region"] == covered["region"] == "toward_runaway" and 10.0 < bare["opening"] < 12.0
+    assert bare["details"]["gap"] > RECORD["overspeed"]["gap_cap"]  # beyond the lines' straight continuations
     assert bare["decided_by"].startswith(NETS_ALONE) and bare["evidence"]["kind"] == "none"
     assert "a = 10, 12, 14" in bare["evidence"]["text"] and "give the runaway curve" in bare["evidence"]["text"]
     assert covered["evidence"]["kind"] == "held_out_line_ends"
+    # within the gap the held-out line ends tested twice over, the lines' straight continuations answer (the
+    # extension samples them there: hillchart.extension.extend.continued_line_points)
+    from simulate.studies.figure_origin import region_evidence
+
+    chars = _chars(_plant(**{"turbine.characteristics": str(tmp_path / "nets10.json")}))
+    near = {"gap": 0.5 * RECORD["overspeed"]["gap_cap"], "edge_n11_rpm": 80.0}
+    decided, evidence = region_evidence(chars, None, "toward_runaway", near, {"opening": 11.0, "n11_rpm": 81.0})
+    assert decided == "the straight continuation of the lines toward runaway"
+    assert evidence["line_m11_rms"] == RECORD["overspeed"]["line_m11_rms"] and "a = 10, 12, 14" in evidence["text"]
 
 
 def test_nets_without_a_silent_model_say_there_is_no_held_out_evidence(tmp_path):
