@@ -285,7 +285,6 @@ def main(argv=None) -> int:
 
         page = REPO / "docs" / "bulb-extrapolation.md"
         write_between_markers(page, MARKERS, text)
-        print(f"wrote {page}")
     return 0
 
 

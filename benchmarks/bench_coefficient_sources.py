@@ -38,13 +38,13 @@ from hillchart.extension.extend import ExtensionOptions, extend_samples  # noqa:
 from hillchart.generalization import coefficient_errors, coefficient_points  # noqa: E402
 from hillchart.io.samples import load_chart  # noqa: E402
 from hillchart.linearize import six_coefficients  # noqa: E402
-from hillchart.nets.training import LONGER_STOPS, train_nets  # noqa: E402
+from hillchart.nets.training import LONGER_STOPS, PAPER_STOPS, train_nets  # noqa: E402
 from hillchart.synthetic.francis import DigitizationOptions, synthetic_chart_texts  # noqa: E402
 from hillchart.synthetic.francis_variants import OUT_OF_CLASS_FAMILY  # noqa: E402
 
 WAYS = ("defaults", "the paper's stops", "longer fits", "measured samples alone")
 #: The stops given (``goal`` and ``max_fail`` of :class:`hillchart.nets.estimator.HillNet`) per way; none: chosen.
-STOPS = {"the paper's stops": {"goal": 1e-5, "max_fail": 6}, "longer fits": LONGER_STOPS}
+STOPS = {"the paper's stops": PAPER_STOPS, "longer fits": LONGER_STOPS}
 
 
 def trained(chart, way: str, seed: int = 0):

@@ -226,7 +226,6 @@ def main(argv=None) -> int:
 
         page = REPO / "docs" / "bulb-extrapolation.md"
         write_between_markers(page, MARKERS, text.removesuffix(chr(10)))
-        print(f"wrote {page}")
     return 0
 
 

@@ -164,7 +164,8 @@ def toward_runaway(data, folder: Path, runaway: bool) -> dict:
         t += tt[keep].tolist()
         a += [op] * int(keep.sum())
     n, a, q, t = (np.array(v, float) for v in (n, a, q, t))
-    scale = float(np.ptp(extended.select("m11")[1][extended.select("m11")[2] == "measured"]))
+    _, m11, origin = extended.select("m11")
+    scale = float(np.ptp(m11[origin == "measured"]))
     q_run, m_run = np.asarray(nets.q11(n, a)), np.asarray(nets.m11(n, a))
     members = nets.members()
     q_lo, q_hi = figure_band(np.array([np.asarray(m.q11(n, a)) for m in members]), axis=0)
@@ -237,7 +238,6 @@ def main(argv=None) -> int:
 
         page = REPO / "docs" / "guarantee-benchmark.md"
         write_between_markers(page, MARKERS, text)
-        print(f"wrote {page}")
     return 0
 
 

@@ -30,10 +30,13 @@ def load_script(name: str, folder: str = "benchmarks"):
 
 def write_between_markers(page: Path, markers: tuple[str, str], text: str) -> None:
     """Put ``text`` between the two ``markers`` lines of the docs page ``page`` (a benchmark's ``--write-docs``);
-    an error, and the page untouched, when the markers are missing."""
+    an error, and the page untouched, when the markers are missing; says what it wrote."""
     doc = page.read_text(encoding="utf-8")
     start, end = markers
     at, until = doc.find(start + "\n"), doc.find(end)
     if at < 0 or until < at:
         raise SystemExit(f"{page}: the markers {markers} are missing")
-    page.write_text(f"{doc[:at]}{start}\n{text}\n{doc[until:]}", encoding="utf-8")
+    partial = page.with_name(page.name + ".partial")  # the page replaced whole, never left half written
+    partial.write_text(f"{doc[:at]}{start}\n{text}\n{doc[until:]}", encoding="utf-8")
+    partial.replace(page)
+    print(f"wrote {page}")

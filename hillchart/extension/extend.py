@@ -209,11 +209,9 @@ class ExtendedSamples:
         Below the lowest digitized line: the hypotheses and the chart's held-out evidence that weighs them
         (:mod:`hillchart.extension.hypotheses`), with the silent regions.
     warnings : tuple of str
-        What the extension could not do and how to fix it (also issued as ``UserWarning``; ``hillsim train``
-        prints them and ``nets.json`` records them): :func:`runaway_warning`.
+        What the extension could not do and how to fix it (:func:`runaway_warning`; also a ``UserWarning``).
     lines_without_runaway : tuple of float
-        :func:`lines_without_runaway`: where nothing constrains the nets toward runaway (``nets.json`` records them,
-        and a guarantee report decided there says so).
+        :func:`lines_without_runaway` (``nets.json`` records both, and a guarantee report decided there says so).
     """
 
     target: np.ndarray
@@ -353,8 +351,7 @@ def silent_region_points(chart: ChartSamples, model) -> list[tuple[float, float]
     return points
 
 
-#: Gaps (fractions of the gap cap of the chart's held-out line ends) at which :func:`continued_line_points` continues
-#: a line the model gives no runaway speed beyond.
+#: Gaps (fractions of the held-out line ends' gap cap) at which :func:`continued_line_points` continues a line.
 CONTINUED_FRACTIONS = (0.5, 1.0)
 
 
@@ -362,29 +359,24 @@ def continued_line_points(chart: ChartSamples, torque, extrapolation) -> list[tu
     """``(N11, opening, Q11, M11)`` samples continuing each line the fitted model gives no runaway speed beyond
     (``extrapolation.bare``, :func:`lines_without_runaway`) straight through its two last points
     (:func:`hillchart.extension.band.continuation`), at :data:`CONTINUED_FRACTIONS` of the gap the chart's held-out
-    line ends tested twice over (``gap_cap`` of :func:`hillchart.extension.hypotheses.overspeed_evidence`).
-
-    Without them nothing constrained the nets beyond those lines' ends: on the real FR300T pump-turbine's chart
-    (``benchmarks/bench_model_test_chart.py``) a straight continuation predicts each line's held-out last point within
-    0.8 % of the M11 range where the model, its range ending at the chart's edge, misses by more than half of it; the
-    ensemble members' torque there stands in the band of the continuations' misses
-    (:meth:`hillchart.extension.hypotheses.Extrapolation.overspeed_widths`). Beyond the gap cap the nets extrapolate
-    alone, and :func:`runaway_warning` says so."""
+    line ends tested twice over (``gap_cap`` of :func:`hillchart.extension.hypotheses.overspeed_evidence`). On the
+    real FR300T pump-turbine's chart (``benchmarks/bench_model_test_chart.py``) a continuation predicts each line's
+    held-out last point within 0.8 % of the M11 range where the model misses by more than half of it; the members'
+    torque there stands in the continuations' band (``Extrapolation.overspeed_widths``). Beyond the gap cap the nets
+    extrapolate alone, and :func:`runaway_warning` says so."""
     from hillchart.extension.band import continuation
 
     over = extrapolation.overspeed if extrapolation is not None else None
     if not over or not extrapolation.bare:
         return []
-    points = []
-    for a in extrapolation.bare:
+    points, torque = [], np.asarray(torque, float)
+    for a in extrapolation.bare:  # every line has MIN_POINTS_PER_LINE points or more (hillchart.io.samples)
         on = chart.flow_opening == a
-        if on.sum() < 2:
-            continue
         n_line, last = chart.flow_n11[on], float(chart.flow_n11[on].max())
         for f in CONTINUED_FRACTIONS:
             n = last * (1.0 + f * over["gap_cap"])
             points.append((n, float(a), continuation(n_line, chart.flow_q11[on], n),
-                           continuation(n_line, np.asarray(torque, float)[on], n)))
+                           continuation(n_line, torque[on], n)))
     return points
 
 
@@ -401,30 +393,40 @@ def lines_without_runaway(chart: ChartSamples, model) -> list[float]:
     return short
 
 
+def openings_text(openings, most: int = 8) -> str:
+    """The first ``most`` of ``openings`` as a warning or a report lists them.
+
+    Examples
+    --------
+    >>> openings_text([4.0, 6.0, 8.5], most=2)
+    '4, 6, ...'
+    """
+    return ", ".join(f"{a:g}" for a in openings[:most]) + (", ..." if len(openings) > most else "")
+
+
 def runaway_warning(chart: ChartSamples, model, short: list | None = None) -> str | None:
     """The warning for a chart without runaway curve whose fitted model gives no runaway speed beyond the last point
     of some of its lines (None when it gives one beyond every line, or the chart has its runaway curve).
 
-    Between such a line's end and runaway the model gives no sample: no runaway point, no overspeed samples
-    (:func:`_toward_runaway`); the line's straight continuation answers a short way (:func:`continued_line_points`),
-    and beyond it the nets extrapolate alone where a load rejection's maximum speed is decided. The
-    model's valid range (its pumping limit) can end at the chart's edge: a pump-turbine's opening lines at high N11
-    turn toward the S-shaped zone, which the 1-D Francis model does not represent; on the real FR300T pump-turbine
-    (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at N11 = 84 r/min, the
-    chart's largest, and the nets read the full-opening torque 870 N*m at the measured runaway, N11 = 133 r/min.
-    ``short``: :func:`lines_without_runaway`, when known.
+    Between such a line's end and runaway the model gives no sample (:func:`_toward_runaway`); the line's straight
+    continuation answers a short way (:func:`continued_line_points`), beyond it the nets alone, where a load
+    rejection's maximum speed is decided. The model's valid range can end at the chart's edge: a pump-turbine's lines
+    turn toward the S-shaped zone, outside the 1-D Francis model's class; on the real FR300T pump-turbine
+    (``benchmarks/bench_model_test_chart.py``) it fits the chart within 1 % and ends at its largest N11, 84 r/min,
+    and the nets read the full-opening torque 870 N*m at the measured runaway, 133 r/min. ``short``:
+    :func:`lines_without_runaway`, when known.
     """
     short = lines_without_runaway(chart, model) if short is None else short
     if not short:
         return None
-    lines = ", ".join(f"{a:g}" for a in short[:8]) + (", ..." if len(short) > 8 else "")
     from hillchart.extension.turbine_model import RUNAWAY_SEARCH_N11
 
     why = (f"its valid range ends at N11 = {model.n11_limit:.4g} r/min, and the chart reaches "
            f"{float(chart.flow_n11.max()):.4g}" if model.n11_limit < RUNAWAY_SEARCH_N11
            else f"its torque does not fall to zero up to N11 = {RUNAWAY_SEARCH_N11:g} r/min")
     return (f"toward runaway the fitted turbine model gives no runaway speed beyond the last point of {len(short)} "
-            f"of the {len(chart.openings)} opening lines (a = {lines} {chart.info.opening_unit}): {why}. "
+            f"of the {len(chart.openings)} opening lines (a = {openings_text(short)} {chart.info.opening_unit}): "
+            f"{why}. "
             "Beyond a short straight continuation of those lines, up to runaway, where a load rejection's maximum "
             "speed comes, only the nets' own extrapolation answers; give the runaway curve (runaway.csv: opening, "
             "n11, q11 of the model test's runaway points), or check the chart with hillsim extend --plot")
@@ -534,8 +536,8 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         rows.append((target, origin, n, a, v))
         derived_rows.append(derived)
 
-    bare = lines_without_runaway(chart, model) if options.runaway else []
-    if (note := runaway_warning(chart, model, bare)) is not None:
+    bare = lines_without_runaway(chart, model)  # searched once: the warning, the record, the continued lines
+    if options.runaway and (note := runaway_warning(chart, model, bare)) is not None:
         notes.append(note)
         warnings.warn(note, UserWarning, stacklevel=2)
     # (e)-(f), 2.6 (1): runaway points are flow samples and zero-torque samples
@@ -575,7 +577,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         from hillchart.extension.hypotheses import Extrapolation
 
         # below the lowest line: the hypotheses weighed by the chart's own held-out lines; in overspeed: the model
-        extrapolation = Extrapolation.of_chart(chart, torque, model)
+        extrapolation = Extrapolation.of_chart(chart, torque, model, bare)
         a_low = float(np.min(chart.openings))
         for n, a in silent_region_points(chart, model):
             # weight 1 like the zero-opening samples: the net's selection scores measured samples only, so a soft
@@ -653,7 +655,7 @@ def extend_samples(chart: ChartSamples, options: ExtensionOptions | None = None)
         boundary_model=model,
         extrapolation=extrapolation,
         warnings=tuple(notes),
-        lines_without_runaway=tuple(bare),
+        lines_without_runaway=tuple(bare) if options.runaway else (),
     )
 
 

@@ -540,9 +540,10 @@ class Extrapolation:
     bare: tuple = ()
 
     @classmethod
-    def of_chart(cls, chart, torque, model) -> "Extrapolation":
+    def of_chart(cls, chart, torque, model, bare=()) -> "Extrapolation":
         """Weigh the hypotheses of ``chart`` (``torque``: M11 at its flow points, N*m; ``model``: the physical
-        model fitted to the whole chart)."""
+        model fitted to the whole chart; ``bare``: :func:`hillchart.extension.extend.lines_without_runaway`, the lines
+        whose straight continuations answer toward runaway, within the band of the continuations' held-out misses)."""
         from functools import partial
 
         from hillchart.extension.turbine_model import fit_turbine_model
@@ -562,11 +563,8 @@ class Extrapolation:
         top = 1.5 * max(float(chart.flow_n11.max()), float(chart.runaway_n11.max()) if chart.has_runaway else 0.0)
         ends = tuple((float(a), float(chart.flow_n11[chart.flow_opening == a].max()))
                      for a in np.unique(chart.flow_opening))
-        # lines the model gives no runaway speed beyond (their straight continuations answer there, within the band
-        # of the continuations' held-out misses: hillchart.extension.extend.continued_line_points)
-        bare = () if chart.has_runaway else tuple(a for a, n in ends if not model.runaway_n11(a) > n)
         return cls(hypotheses=hypotheses, evidence=evidence, n11_top=top,
-                   overspeed=overspeed_evidence(chart, torque, refit), line_ends=ends, bare=bare)
+                   overspeed=overspeed_evidence(chart, torque, refit), line_ends=ends, bare=tuple(bare))
 
     @property
     def lowest_opening(self) -> float:

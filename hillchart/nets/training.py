@@ -85,9 +85,10 @@ def _derived_mask(extended, origin: np.ndarray) -> np.ndarray:
 
 
 def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, boundary_weight, regularization, seed,
-            n_threads, lm_params, progress, label, stops: bool = True):
-    """Choose boundary weight, the Levenberg-Marquardt stops (``stops``: the paper's or :data:`LONGER_STOPS`), hidden
-    size and regularization by validation MSE on the measured samples; returns them and the LM parameters chosen."""
+            n_threads, lm_params, progress, label, choose_stops: bool = True):
+    """Choose boundary weight, the Levenberg-Marquardt stops (with ``choose_stops``: the paper's or
+    :data:`LONGER_STOPS`), hidden size and regularization by validation MSE on the measured samples; returns them and
+    the LM parameters chosen."""
     table = []
     # K-fold cross-validation over the validated (measured) samples; every other sample always trains. A single
     # 20 % split holds about 17 measured samples: too few to rank candidates whose errors differ by < 10 %.
@@ -121,7 +122,7 @@ def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, bound
         weight = pick(BOUNDARY_WEIGHTS, True, lambda w, i: score(w, h, lam, i)) if derived.any() else 1.0
         if progress:
             progress(f"{label}: boundary weight {weight}")
-    if stops:
+    if choose_stops:
         lm_params = pick((lm_params, {**lm_params, **LONGER_STOPS}), False,
                          lambda c, i: score(weight, h, lam, 300 + i, c))
         if progress:
@@ -244,7 +245,7 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
         weight, h, lam, table, lm_params = _select(
             xn, yn, train_index, val_index, derived, validated, hidden=hidden, boundary_weight=boundary_weight,
             regularization=regularization, seed=net_seed, n_threads=probe.n_threads, lm_params=probe._lm_params(),
-            progress=progress, label=key, stops="goal" not in net_params and "max_fail" not in net_params)
+            progress=progress, label=key, choose_stops="goal" not in net_params and "max_fail" not in net_params)
         stops = {"goal": lm_params["goal"], "max_fail": lm_params["max_fail"]}
         moves = _overspeed_moves(extended, key, X, groups, derived, ensemble, seed)
         for i in range(ensemble):

@@ -308,31 +308,33 @@ def _bare_lines(characteristics, opening: float) -> list[float]:
 
 
 def _toward_runaway(characteristics, details, opening: float) -> tuple[str, dict]:
+    from hillchart.extension.extend import openings_text
+
     bare = _bare_lines(characteristics, opening)
     record = held_out_record(characteristics)
-    over = (record or {}).get("overspeed")
+    overspeed = (record or {}).get("overspeed")
     if bare:
-        shown = ", ".join(f"{a:g}" for a in bare[:8]) + (", ..." if len(bare) > 8 else "")
         where = (f"N11 {100 * details['gap']:.1f} % beyond the digitized region's edge ({details['edge_n11_rpm']:.4g} "
                  f"r/min) at this opening; the chart has no runaway curve and its fitted model gives no runaway speed "
-                 f"beyond the lines a = {shown}")
-        if isinstance(over, dict) and details["gap"] <= over["gap_cap"]:
+                 f"beyond the lines a = {openings_text(bare)}")
+        if isinstance(overspeed, dict) and details["gap"] <= overspeed["gap_cap"]:
             # within the gap the held-out line ends tested twice over, the lines' straight continuations answer
             # (hillchart.extension.extend.continued_line_points)
             return ("the straight continuation of the lines toward runaway",
-                    {"kind": "held_out_line_ends", "held_out_points": over["held_out_points"],
-                     "line_m11_rms": over["line_m11_rms"], "gap": details["gap"],
-                     "text": f"{where}: each line's last point held out ({over['held_out_points']} points), a "
-                             f"straight continuation of each line predicts them within {_pct(over['line_q11_rms'])} "
-                             f"(Q11) and {_pct(over['line_m11_rms'])} of the M11 range"})
-        if isinstance(over, dict):
-            where += f", their straight continuations sampled {100 * over['gap_cap']:.0f} % beyond their ends only"
+                    {"kind": "held_out_line_ends", "held_out_points": overspeed["held_out_points"],
+                     "line_m11_rms": overspeed["line_m11_rms"], "gap": details["gap"],
+                     "text": f"{where}: each line's last point held out ({overspeed['held_out_points']} points), a "
+                             f"straight continuation of each line predicts them within "
+                             f"{_pct(overspeed['line_q11_rms'])} (Q11) and {_pct(overspeed['line_m11_rms'])} of the "
+                             "M11 range"})
+        if isinstance(overspeed, dict):
+            where += (f", their straight continuations sampled {100 * overspeed['gap_cap']:.0f} % beyond their ends "
+                      "only")
         return (f"{NETS_ALONE}: no sample constrains them toward runaway here",
                 {"kind": "none", "text": f"{where}: the figure is the nets' extrapolation alone; give the runaway "
                                          "curve (runaway.csv) and train again"})
     if record is None:
         return NETS_ALONE, {"kind": "none", "text": f"no held-out evidence: {NO_RECORD}"}
-    overspeed = over
     decided = "the extension toward runaway (the fitted model's overspeed samples)"
     if not isinstance(overspeed, dict):
         return decided, {"kind": "none", "text": "no held-out evidence toward runaway in this nets.json (its "
