@@ -17,9 +17,11 @@ digitized by someone else; never shipped). For k = 1, 2, 3:
 
 Run (about 1 minute on 2 cores)::
 
-    PYTHONPATH=. python benchmarks/bench_extrapolation.py [--json out.json] [--chart FOLDER]
+    PYTHONPATH=. python benchmarks/bench_extrapolation.py [--json out.json] [--chart FOLDER or WORKBOOK.xlsx]
 
-``--chart`` measures another chart folder the same way (a chart of 4 opening lines or more).
+``--chart`` measures another chart folder the same way (a chart of 4 opening lines or more), or a Kaplan combined
+hill chart's workbook digitized as the ZZ680 runner's is (a ``.xlsx`` file;
+:func:`tests.external_charts.write_kaplan_workbook_chart` makes the folder, with openpyxl).
 
 The tables of the docs page "Guarantee figures" (section "Below the lowest line, on a real chart") are this script's
 output.
@@ -146,8 +148,8 @@ def table(results: list) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", type=Path, help="also write the results as JSON")
-    parser.add_argument("--chart", type=Path, help="measure this chart folder (chart.toml, flow.csv, efficiency.csv) "
-                                                   "instead of the Sayano chart")
+    parser.add_argument("--chart", type=Path, help="measure this chart folder (chart.toml, flow.csv, efficiency.csv), "
+                                                   "or a Kaplan chart's .xlsx workbook, instead of the Sayano chart")
     args = parser.parse_args(argv)
     from tests.external_charts import EXTERNAL_DIR, SAYANO_CONTOURS, SAYANO_LINES
 
@@ -159,10 +161,14 @@ def main(argv=None) -> int:
             chart = sayano_chart(folder)
         else:
             from hillchart.io.samples import load_chart
+            from tests.external_charts import write_kaplan_workbook_chart
 
+            path = args.chart
+            if path.suffix.lower() == ".xlsx":
+                path = write_kaplan_workbook_chart(path, Path(folder) / path.stem)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                chart = load_chart(args.chart)
+                chart = load_chart(path)
         results = [hold_out_lines(chart, k) for k in HOLD_OUTS]
     name = "Sayano-Shushenskaya Francis" if args.chart is None else chart.info.name
     print(f"{name}, the k lowest opening lines held out\n")

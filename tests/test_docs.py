@@ -422,16 +422,17 @@ def test_the_model_test_chart_tables_are_what_the_benchmark_prints(capsys):
 @pytest.mark.external
 def test_the_kaplan_chart_table_is_what_the_benchmark_prints(capsys):
     """docs/guarantee-benchmark.md's table of the ZZ680 Kaplan chart (not shipped: no licence) is the output of
-    benchmarks/bench_extrapolation.py --chart now, when ../shared/external/zz680_kaplan_chart/ holds the chart
-    folder; within the tolerances of the Sayano table's test above."""
-    from tests.external_charts import EXTERNAL_DIR, require_external
+    benchmarks/bench_extrapolation.py --chart now, when ../shared/external/ holds the chart's workbook (read with
+    openpyxl); within the tolerances of the Sayano table's test above."""
+    from tests.external_charts import EXTERNAL_DIR, ZZ680_WORKBOOK, require_external
 
-    require_external("zz680_kaplan_chart/flow.csv", "zz680_kaplan_chart/efficiency.csv")
-    assert load_script("bench_extrapolation").main(["--chart", str(EXTERNAL_DIR / "zz680_kaplan_chart")]) == 0
+    require_external(ZZ680_WORKBOOK)
+    pytest.importorskip("openpyxl", reason="the Kaplan chart's workbook is read with openpyxl")
+    assert load_script("bench_extrapolation").main(["--chart", str(EXTERNAL_DIR / ZZ680_WORKBOOK)]) == 0
     now = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
     page = (DOCS / "guarantee-benchmark.md").read_text(encoding="utf-8")
     block = re.search(r"<!-- bench_extrapolation_zz680 -->\n(.*?)\n<!-- end bench_extrapolation_zz680 -->", page,
                       re.S).group(1)
     rows = [line for line in block.splitlines() if line.startswith("| ")]
-    assert len(rows) == len(now) > 20, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py --chart FOLDER"
+    assert len(rows) == len(now) > 20, "rerun PYTHONPATH=. python benchmarks/bench_extrapolation.py --chart zz680.xlsx"
     assert_within(rows, now, lambda row, figure: 1.0 if " of " in row else 0.5)
