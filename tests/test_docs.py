@@ -420,6 +420,22 @@ def test_the_model_test_chart_tables_are_what_the_benchmark_prints(capsys):
 
 
 @pytest.mark.external
+def test_the_pump_turbine_table_is_what_the_benchmark_prints(capsys):
+    """docs/pump-turbines.md's tables of the FR300T pump-turbine's measured characteristic are the output of
+    benchmarks/bench_pump_turbine_table.py now (seeded training; about 40 s), when the characteristic (not shipped:
+    no licence) is in ../shared/external/. The same rows and labels; each error within 10 % of its value or 0.2
+    percentage points (averages over tens to hundreds of points of nets whose Levenberg-Marquardt path differs in
+    the last digits between CPU families), each count within 5 % or one point."""
+    from tests.external_charts import require_external
+
+    require_external(load_script("bench_model_test_chart").FILE_NAME)
+    rows, now = _page_and_script_rows("bench_pump_turbine_table", "pump-turbines.md", ("| ",), capsys)
+    assert len(rows) == len(now) > 12, "rerun PYTHONPATH=. python benchmarks/bench_pump_turbine_table.py --write-docs"
+    assert_within(rows, now, lambda row, figure: max(0.2, 0.1 * abs(float(figure))) if "." in figure
+                  else max(1.0, 0.05 * abs(float(figure))))
+
+
+@pytest.mark.external
 def test_the_kaplan_chart_table_is_what_the_benchmark_prints(capsys):
     """docs/guarantee-benchmark.md's table of the ZZ680 Kaplan chart (not shipped: no licence) is the output of
     benchmarks/bench_extrapolation.py --chart now, when ../shared/external/ holds the chart's workbook (read with

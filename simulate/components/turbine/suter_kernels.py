@@ -148,23 +148,50 @@ def suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y):
 @numba.njit(cache=True)
 def zero_flow_torque(cs, wh_t, wm_t, w1h, w1m, vh, vm, v, y):
     """``(m_0, status)``: the torque at zero flow (q = 0) at speed v and opening y; 0 at v = 0 (standstill). The
-    plain transform has q = w (m_0 at w = 0); the improved one q = w - k2 sqrt(h(w)), whose sign at w = 0 gives
-    the side where it crosses 0: found by doubling a step from 1e-3 (1 + |v|), then bisected to 1e-13 (1 + |v|)."""
+    plain transform has q = w (m_0 at w = 0); the improved one q = w - k2 sqrt(h(w)), whose sign at the walk's
+    start gives the side where it crosses 0: found by doubling a step from 1e-3 (1 + |v|), then bisected to
+    1e-13 (1 + |v|).
+
+    The walk starts at w = 0, or where the curves give no point there at the first w > 0 that gives one, the step
+    doubled from 1e-3 (1 + |v|): with WH at x = pi above (y + C_y)^2 / (C_h + k2^2) both roots of the quadratic in
+    sqrt(h) have the sign of k2 w and none is positive at w = 0, and q <= w (k2 >= 0) puts the zero flow at w > 0.
+    Where q is already above 0 there, the walk starts at the last of 63 points between that w and the one before
+    it where q is below 0 (the points begin below the zero flow; a bisection to where they begin lands on a sliver
+    of nearly no head, where q nears w > 0). A real pump-turbine's nets at their smallest opening are so
+    (``benchmarks/bench_pump_turbine_table.py``: WH(pi) at 4 mm of 38 above 0.124): without the search the closed
+    vanes had no torque, and a run at an opening below the smallest none at all."""
     if v == 0.0:
         return 0.0, 0
-    q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, 0.0, v, y)
+    step = 1e-3 * (1.0 + abs(v))
+    lo = 0.0
+    q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, lo, v, y)
+    if st != 0 and cs[6] > 0.0:  # no point at w = 0: the first w > 0 with one, the step doubled
+        bad, lo = 0.0, step
+        for _ in range(80):
+            q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, lo, v, y)
+            if st == 0:
+                break
+            bad, lo = lo, 2.0 * lo
+        if st == 0 and q > 0.0:  # past the zero flow: the last of 63 points between bad and lo below it
+            for i in range(63, 0, -1):
+                w = bad + (lo - bad) * i / 64.0
+                q2, h2, m2, st2 = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, w, v, y)
+                if st2 == 0 and q2 < 0.0:
+                    lo, q, h, m = w, q2, h2, m2
+                    break
     if st != 0 or q == 0.0:
         return m, st
     side = 1.0 if q < 0.0 else -1.0  # toward q = 0
     q_lo = q
-    lo, hi = 0.0, side * 1e-3 * (1.0 + abs(v))
+    hi = lo + side * step
     for _ in range(80):
         q, h, m, st = suter_point(cs, wh_t, wm_t, w1h, w1m, vh, vm, hi, v, y)
         if st != 0:
             return 0.0, st
         if q * q_lo <= 0.0:
             break
-        lo, hi = hi, 2.0 * hi
+        step *= 2.0
+        lo, hi = hi, hi + side * step
     if q * q_lo > 0.0:
         return 0.0, NOT_BRACKETED
     while abs(hi - lo) > 1e-13 * (1.0 + abs(v)):

@@ -89,6 +89,26 @@ def test_zero_flow_torque_is_the_torque_where_the_flow_is_zero(nets_chars):
     assert zero_flow_torque(*curves, 0.0, y_f) == (0.0, 0)  # standstill: no torque
 
 
+def test_zero_flow_torque_where_the_curves_give_no_point_at_zero_shifted_flow():
+    """WH at x = pi above (y + C_y)^2 / (C_h + k2^2), as a real pump-turbine's nets at their smallest opening are
+    (benchmarks/bench_pump_turbine_table.py): no point at w = 0 (both roots of the quadratic in sqrt(h) have the
+    sign of k2 w), the first from w = 1.17 v on, where q < 0, and q = 0 further up. The walk starts at the first w
+    with a point; it returned INVALID_POINT at w = 0 before, and a run below the smallest opening had no torque.
+    Against SciPy's brentq on the same point function, to 1e-9 of M_r as above."""
+    from scipy.optimize import brentq
+
+    c = SuterConstants(k1=0.0, k2=0.5, c_h=0.5, c_y=0.2)
+    y, wh = 4.0 / 28.0, 0.194
+    wh_t, wm_t = np.full((1, 8), wh), np.full((1, 8), 0.3)
+    curves = SuterCharacteristics.from_table(wh_t, wm_t, constants=c, rated=pump_turbine_rated(), opening_max=1.0,
+                                             name="one value").curves
+    for v in (0.3, 1.0, -0.7):
+        assert suter_point(*curves, 0.0, v, y)[3] == INVALID_POINT  # the case
+        w = brentq(lambda w: suter_point(*curves, w, v, y)[0], 1.2 * abs(v), 10.0 * abs(v), xtol=1e-15)
+        m0, status = zero_flow_torque(*curves, v, y)
+        assert status == 0 and m0 == pytest.approx(suter_point(*curves, w, v, y)[2], abs=1e-9)
+
+
 def test_the_standstill_steady_state():
     """Speed 0, stroke 0: no flow, no torque, the static head at the unit."""
     s = initial_state(load_plant(START_UP))
