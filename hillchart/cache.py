@@ -10,7 +10,11 @@ temporary folder when none is writable), in a subfolder keyed by this installati
 numba is imported. A ``NUMBA_CACHE_DIR`` the user set is kept.
 
 What numba finds there is checked by numba itself: an entry of another CPU, numba or Python version, or of an edited
-source file, is a cache miss and is compiled anew.
+source file, is a cache miss and is compiled anew. Numba checks a cached function against its own file only, though,
+not against the files of the functions it calls and compiles into it: after an edit of
+``simulate/components/turbine/suter_kernels.py`` the cached kernels of ``four_quadrant.py`` ran the old code. The
+subfolder is therefore keyed by the content of every module that uses numba as well (:func:`kernel_stamp`), and
+the folders of earlier contents at the same location are removed once a day has passed since they were last written.
 """
 
 from __future__ import annotations
@@ -29,11 +33,52 @@ def cache_root() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "hillsim"
 
 
+#: The packages whose modules compile with numba.
+COMPILED_PACKAGES = ("hillchart", "simulate")
+#: A cache folder of an earlier content at the same location is removed when it was last written this long ago (s).
+STALE_AFTER_S = 86400.0
+
+
+def kernel_stamp(root: Path | None = None) -> str:
+    """8 hex digits of the names and contents of the modules of :data:`COMPILED_PACKAGES` under ``root`` (default:
+    the installed location) that mention numba: any edit of compiled code changes it."""
+    root = Path(__file__).resolve().parent.parent if root is None else Path(root)
+    digest = hashlib.sha256()
+    for package in COMPILED_PACKAGES:
+        for path in sorted((root / package).rglob("*.py")):
+            text = path.read_bytes()
+            if b"numba" in text:
+                digest.update(path.relative_to(root).as_posix().encode() + b"\0" + text + b"\0")
+    return digest.hexdigest()[:8]
+
+
 def installation_key(version: str) -> str:
-    """``<version>-<8 hex digits of the installed package's location>``: two installations (a wheel in a venv and an
-    editable checkout) never share a cache folder."""
+    """``<version>-<8 hex digits of the installed package's location>-<kernel_stamp>``: two installations (a wheel
+    in a venv and an editable checkout) never share a cache folder, nor two contents of one checkout."""
     location = str(Path(__file__).resolve().parent.parent)
-    return f"{version}-{hashlib.sha256(location.encode()).hexdigest()[:8]}"
+    return f"{version}-{hashlib.sha256(location.encode()).hexdigest()[:8]}-{kernel_stamp()}"
+
+
+def remove_stale(folder: Path, now: float | None = None) -> list[Path]:
+    """Remove the cache folders beside ``folder`` of the same version and location and another content
+    (:func:`installation_key`) last written more than :data:`STALE_AFTER_S` ago; return them. A folder being
+    written by a running process of an older content is younger than that and kept."""
+    import shutil
+    import time
+
+    now = time.time() if now is None else now
+    prefix = folder.name.rsplit("-", 1)[0] + "-"
+    removed = []
+    for other in folder.parent.glob(prefix + "*"):
+        if other == folder or not other.is_dir():
+            continue
+        try:
+            if now - other.stat().st_mtime > STALE_AFTER_S:
+                shutil.rmtree(other)
+                removed.append(other)
+        except OSError:  # another process removed it, or it is not ours to remove: it stays
+            continue
+    return removed
 
 
 def first_writable(candidates) -> Path | None:
@@ -63,6 +108,7 @@ def numba_cache_dir(version: str) -> Path:
     path = first_writable([cache_root() / "numba" / key, temporary_cache("hillsim-numba") / key])
     if path is None:
         raise OSError("no writable folder for hillsim's compiled-code cache; set HILLSIM_CACHE_DIR to one")
+    remove_stale(path)
     return path
 
 

@@ -110,3 +110,40 @@ def test_without_the_guard_the_leftover_folder_hides_the_package(tmp_path):
         from simulate.components.registry import PENSTOCKS
     """, tmp_path)
     assert run.returncode != 0 and "No module named 'simulate.components.registry'" in run.stderr
+
+
+def _tree(root: Path, kernel: str, plain: str) -> Path:
+    for package in ("hillchart", "simulate"):
+        (root / package).mkdir(parents=True, exist_ok=True)
+    (root / "simulate" / "kernels.py").write_text(kernel, encoding="utf-8")
+    (root / "hillchart" / "plain.py").write_text(plain, encoding="utf-8")
+    return root
+
+
+def test_the_cache_folder_follows_the_compiled_modules_contents(tmp_path):
+    """numba checks a cached function against its own file only, not against the functions of other files it
+    compiles in: the folder's key changes with the content of any module that uses numba, and with nothing else."""
+    from hillchart.cache import kernel_stamp
+
+    root = _tree(tmp_path, "import numba\nA = 1\n", "B = 1\n")
+    before = kernel_stamp(root)
+    _tree(root, "import numba\nA = 1\n", "B = 2\n")  # a module without compiled code: the same folder
+    assert kernel_stamp(root) == before
+    _tree(root, "import numba\nA = 2\n", "B = 2\n")  # a compiled module edited: another folder
+    assert kernel_stamp(root) != before and len(kernel_stamp(root)) == 8
+
+
+def test_folders_of_earlier_contents_are_removed_a_day_after_their_last_write(tmp_path):
+    from hillchart.cache import STALE_AFTER_S, remove_stale
+
+    numba_dir = tmp_path / "numba"
+    names = ("0.1.0-aaaa1111-cafe0001", "0.1.0-aaaa1111-cafe0002", "0.1.0-aaaa1111-cafe0003", "0.1.0-bbbb2222-cafe0002")
+    current, old, young, elsewhere = (numba_dir / name for name in names)
+    for folder in (current, old, young, elsewhere):
+        folder.mkdir(parents=True)
+    now = 1e9
+    for folder, age in ((current, 2.0), (old, 1.5), (young, 0.5), (elsewhere, 2.0)):
+        os.utime(folder, (now - age * STALE_AFTER_S, now - age * STALE_AFTER_S))
+    assert remove_stale(current, now=now) == [old]
+    # the current folder however old, one written within the day (a running process's), another location's: kept
+    assert sorted(p.name for p in numba_dir.iterdir()) == sorted(p.name for p in (current, young, elsewhere))
