@@ -18,7 +18,8 @@ trained (:data:`hillchart.four_quadrant.nets.SHIPPED`, the improved transform
 
 At the held-out lines, every other line held out, by zone (:func:`hillchart.four_quadrant.suter.zone`): the curves
 WH and WM against the measured (RMS and worst, % of each curve's range over the table), and how many of the measured
-curves' values the ensemble's 5-95 % band covers.
+curves' values the ensemble's 5-95 % band covers, as trained and calibrated on the kept lines' own halves
+(``train_suter_nets(..., calibrate=True)``, :func:`hillchart.four_quadrant.nets.band_factor`).
 
 In the turbine zone, every way, what a run reads: Q11 and M11 at unit head at each held-out point's measured N11 and
 opening (:class:`simulate.components.turbine.four_quadrant.SuterCharacteristics` from the nets, on the normal
@@ -84,18 +85,20 @@ def _lines_all_quadrants(data) -> dict:
     return {float(op): (n[a == op], q[a == op], t[a == op]) for op in np.unique(a) if op not in CONSTRUCTED_MM}
 
 
-def train(table, train_mm):
-    """Suter nets of the lines ``train_mm`` of ``table``, trained as the shipped ones are."""
+def train(table, train_mm, calibrate: bool = False):
+    """Suter nets of the lines ``train_mm`` of ``table``, trained as the shipped ones are (``calibrate``: the band
+    calibrated on those lines' own halves, :func:`hillchart.four_quadrant.nets.band_factor`)."""
     from hillchart.four_quadrant.nets import PUMP_TURBINE_CONSTANTS, SHIPPED, train_suter_nets
 
     samples = table.suter(PUMP_TURBINE_CONSTANTS)
     on = np.isin(table.opening, train_mm)
     return train_suter_nets({key: value[on] for key, value in samples.items()}, constants=PUMP_TURBINE_CONSTANTS,
-                            **SHIPPED)
+                            calibrate=calibrate, **SHIPPED)
 
 
-def curves_held_out(table, nets, test) -> list[dict]:
-    """The curves and the band at the points ``test`` (a mask), by zone and in all."""
+def curves_held_out(table, nets, test, calibrated=None) -> list[dict]:
+    """The curves and the band at the points ``test`` (a mask), by zone and in all; with ``calibrated`` (the same
+    nets with the band calibrated) its band's coverage too."""
     from hillchart.four_quadrant.nets import PUMP_TURBINE_CONSTANTS
     from hillchart.four_quadrant.suter import zone
 
@@ -108,6 +111,10 @@ def curves_held_out(table, nets, test) -> list[dict]:
     spans = {key: float(np.ptp(samples[key])) for key in ("wh", "wm")}
     errors = {"wh": (wh - samples["wh"][test]) / spans["wh"], "wm": (wm - samples["wm"][test]) / spans["wm"]}
     covered = {key: (band[key][0] <= samples[key][test]) & (samples[key][test] <= band[key][1]) for key in band}
+    if calibrated is not None:
+        wide = calibrated.band(x, y)
+        covered.update({f"{key}_calibrated": (wide[key][0] <= samples[key][test]) & (samples[key][test] <= wide[key][1])
+                        for key in wide})
     rows = []
     for name in [*dict.fromkeys(zones.tolist()), "all"]:
         on = np.ones(zones.size, bool) if name == "all" else zones == name
@@ -182,17 +189,19 @@ def hill_chart_nets(data, folder: Path):
     return load_nets(nets.save(path / "nets.json")), frame
 
 
-def tables(curve_rows: list, run_rows: list, rated: dict) -> str:
+def tables(curve_rows: list, run_rows: list, rated: dict, factor: dict) -> str:
     out = [f"Rated point (turbine mode, best efficiency): N11 = {rated['n11_rpm']:.2f} r/min, Q11 = "
            f"{rated['q11_m3_s']:.4f} m^3/s, M11 = {rated['m11_nm']:.1f} N*m.", "",
-           "Every other line held out, all four quadrants:", "",
-           "| zone | points | WH RMS / worst (% of range) | WM RMS / worst (% of range) | 5-95 % band covers WH / WM |",
-           "|---|---|---|---|---|"]
+           "Every other line held out, all four quadrants (the band calibrated on the kept lines' own halves: the "
+           f"members moved {factor['wh']:.1f} (WH) and {factor['wm']:.1f} (WM) times as far from the point nets):", "",
+           "| zone | points | WH RMS / worst (% of range) | WM RMS / worst (% of range) | 5-95 % band covers WH / WM | "
+           "calibrated band covers WH / WM |", "|---|---|---|---|---|---|"]
     for row in curve_rows:
         cells = [f"{row[k][0]:.2f} / {row[k][1]:+.2f}" for k in ("wh", "wm")]
         zone = "**all**" if row["zone"] == "all" else row["zone"]
         out.append(f"| {zone} | {row['points']} | " + " | ".join(cells)
-                   + f" | {row['covered']['wh']} / {row['covered']['wm']} of {row['points']} |")
+                   + f" | {row['covered']['wh']} / {row['covered']['wm']} of {row['points']} | "
+                   f"{row['covered']['wh_calibrated']} / {row['covered']['wm_calibrated']} of {row['points']} |")
     out += ["", "What a run reads in the turbine zone at the held-out lines' measured N11, up to each line's runaway "
             "on its normal operating curve (unit head; Q11 error % of Q11, M11 error % of the rated torque; the "
             "hill-chart nets trained on every line):", "",
@@ -237,12 +246,14 @@ def main(argv=None) -> int:
             nets = train(table, kept)
             test = ~np.isin(table.opening, kept)
             if label == "every other line":
-                curve_rows = curves_held_out(table, nets, test)
+                calibrated = train(table, kept, calibrate=True)
+                factor = calibrated.training["band"]
+                curve_rows = curves_held_out(table, nets, test, calibrated)
             run_rows += what_a_run_reads(table, nets, test, frame, label,
                                          hill if label == "every other line" else None)
     text = (f"FR300T pump-turbine model: {len(openings)} measured opening lines ({openings[0]:g}-{openings[-1]:g} mm), "
             f"{table.opening.size} points over the four quadrants; the hill chart's frame N11 {frame[0]:.1f}-"
-            f"{frame[1]:.1f} r/min.\n\n" + tables(curve_rows, run_rows, rated))
+            f"{frame[1]:.1f} r/min.\n\n" + tables(curve_rows, run_rows, rated, factor))
     print(text)
     if args.write_docs:
         from tests.scripts import write_between_markers
