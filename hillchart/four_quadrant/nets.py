@@ -220,10 +220,9 @@ def train_suter_nets(samples: dict, *, constants: SuterConstants, convention: st
     ``calibrate``: the members are moved away from the point nets by :func:`band_factor` (each member ``m`` of a
     curve becomes ``p + f (m - p)``, :func:`blended_net`, with that curve's factor ``f``), so that their band covers
     the curves between the table's lines as the table's own held-out lines say; the factors and what they were
-    calibrated on are in ``training["band"]``. Without
-    it the members differ by their training splits and starts only: on a real pump-turbine's table their band
-    covered half the curve values between lines (``benchmarks/bench_pump_turbine_table.py``). Three trainings
-    instead of one.
+    calibrated on are in ``training["band"]``. Without it the members differ by their training splits and starts
+    only: on a real pump-turbine's table their band covered half the curve values between lines
+    (``benchmarks/bench_pump_turbine_table.py``). Three trainings instead of one.
 
     ``max_fail`` 30 instead of trainlm's 6: the samples of a synthetic or a smoothed table carry no noise, and at 6 a
     3-20-1 net of the synthetic pump-turbine stopped after 22 epochs at 1.4 % RMS of WM's range against 0.13 % at 30.
@@ -308,8 +307,6 @@ def band_factor(samples: dict, *, constants: SuterConstants, coverage: float = B
     factor is the split-conformal ``ceil((n + 1) coverage)``-th smallest of its ratios over both halves, at least 1.
     Returns ``{"wh": factor, "wm": factor, "points", "coverage_before": {"wh", "wm"}}`` (the share of the held-out
     values the members' own band covered). Needs a table of four opening lines or more."""
-    import math
-
     openings = np.unique(np.asarray(samples["opening"], float))
     if openings.size < 4:
         raise InputError(f"band_factor: the table has {openings.size} opening lines; calibrating the band between "
