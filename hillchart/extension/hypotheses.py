@@ -542,8 +542,9 @@ class Extrapolation:
     @classmethod
     def of_chart(cls, chart, torque, model, bare=()) -> "Extrapolation":
         """Weigh the hypotheses of ``chart`` (``torque``: M11 at its flow points, N*m; ``model``: the physical
-        model fitted to the whole chart; ``bare``: :func:`hillchart.extension.extend.lines_without_runaway`, the lines
-        whose straight continuations answer toward runaway, within the band of the continuations' held-out misses)."""
+        model fitted to the whole chart; ``bare``: the lines of
+        :func:`hillchart.extension.silent_samples.lines_without_runaway`, whose straight continuations answer toward
+        runaway, within the band of the continuations' held-out misses)."""
         from functools import partial
 
         from hillchart.extension.turbine_model import fit_turbine_model

@@ -301,14 +301,15 @@ def _below_lowest_line(characteristics, member, details, opening, n11) -> tuple[
 
 def _bare_lines(characteristics, opening: float) -> list[float]:
     """The lines (chart units) beyond whose last point the chart's fitted model gave no runaway speed
-    (``training.lines_without_runaway``, :func:`hillchart.extension.extend.lines_without_runaway`), when the point's
-    ``opening`` lies at or above the smallest of them: there no sample constrained the nets toward runaway."""
+    (``training.lines_without_runaway``, :func:`hillchart.extension.silent_samples.lines_without_runaway`), when
+    the point's ``opening`` lies at or above the smallest of them: there no sample constrained the nets toward
+    runaway."""
     lines = (getattr(characteristics, "training", None) or {}).get("lines_without_runaway") or []
     return [float(a) for a in lines] if lines and opening >= min(lines) * (1.0 - 1e-9) else []
 
 
 def _toward_runaway(characteristics, details, opening: float) -> tuple[str, dict]:
-    from hillchart.extension.extend import openings_text
+    from hillchart.extension.silent_samples import openings_text
 
     bare = _bare_lines(characteristics, opening)
     record = held_out_record(characteristics)
@@ -319,7 +320,7 @@ def _toward_runaway(characteristics, details, opening: float) -> tuple[str, dict
                  f"beyond the lines a = {openings_text(bare)}")
         if isinstance(overspeed, dict) and details["gap"] <= overspeed["gap_cap"]:
             # within the gap the held-out line ends tested twice over, the lines' straight continuations answer
-            # (hillchart.extension.extend.continued_line_points)
+            # (hillchart.extension.silent_samples.continued_line_points)
             return ("the straight continuation of the lines toward runaway",
                     {"kind": "held_out_line_ends", "held_out_points": overspeed["held_out_points"],
                      "line_m11_rms": overspeed["line_m11_rms"], "gap": details["gap"],

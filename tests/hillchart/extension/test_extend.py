@@ -213,7 +213,7 @@ def test_lines_without_a_model_runaway_are_continued_straight(tmp_path):
     (:func:`continued_line_points`), at half and all of the gap cap of the held-out line ends; the members' torque
     there moves in the band of the continuations' own misses, not the model's (by hand, 1e-12: the same formula)."""
     from hillchart.extension.band import continuation
-    from hillchart.extension.extend import CONTINUED_FRACTIONS
+    from hillchart.extension.silent_samples import CONTINUED_FRACTIONS
 
     with pytest.warns(UserWarning):
         chart = load_chart(write_sayano_chart(tmp_path / "sayano"))
@@ -245,7 +245,7 @@ def test_a_model_without_runaway_beyond_a_line_s_end_is_warned_of():
     line's end)."""
     from dataclasses import replace
 
-    from hillchart.extension.extend import runaway_warning
+    from hillchart.extension.silent_samples import runaway_warning
 
     without = replace(CHART, runaway_opening=CHART.runaway_opening[:0], runaway_n11=CHART.runaway_n11[:0],
                       runaway_q11=CHART.runaway_q11[:0])

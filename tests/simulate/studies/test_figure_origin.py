@@ -222,7 +222,7 @@ def test_a_figure_decided_where_the_model_gave_no_runaway_says_the_nets_alone_an
     assert "a = 10, 12, 14" in bare["evidence"]["text"] and "give the runaway curve" in bare["evidence"]["text"]
     assert covered["evidence"]["kind"] == "held_out_line_ends"
     # within the gap the held-out line ends tested twice over, the lines' straight continuations answer (the
-    # extension samples them there: hillchart.extension.extend.continued_line_points)
+    # extension samples them there: hillchart.extension.silent_samples.continued_line_points)
     from simulate.studies.figure_origin import region_evidence
 
     chars = _chars(_plant(**{"turbine.characteristics": str(tmp_path / "nets10.json")}))

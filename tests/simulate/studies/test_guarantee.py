@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from data_synthetic import FRANCIS_DIR
-from hillchart.extension.extend import (BETWEEN_LINE_SPEEDS, OVERSPEED_POINTS, ExtensionOptions, between_line_points,
-                                        extend_samples, silent_region_points)
+from hillchart.extension.extend import ExtensionOptions, extend_samples
+from hillchart.extension.silent_samples import (BETWEEN_LINE_SPEEDS, OVERSPEED_POINTS, between_line_points,
+                                                silent_region_points)
 from hillchart.io.samples import load_chart
 from hillchart.nets.silent_model import BLEND_START_FRACTION
 from simulate.studies.guarantee import ACCEPTANCE, evaluate_chart, family_plant_dict
