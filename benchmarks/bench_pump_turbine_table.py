@@ -18,8 +18,8 @@ trained (:data:`hillchart.four_quadrant.nets.SHIPPED`, the improved transform
 
 At the held-out lines, every other line held out, by zone (:func:`hillchart.four_quadrant.suter.zone`): the curves
 WH and WM against the measured (RMS and worst, % of each curve's range over the table), and how many of the measured
-curves' values the ensemble's 5-95 % band covers, as trained and calibrated on the kept lines' own halves
-(``train_suter_nets(..., calibrate=True)``, :func:`hillchart.four_quadrant.nets.band_factor`).
+curves' values the ensemble's 5-95 % band covers: the members' training spread (``calibrate=False``) and the band
+calibrated on the kept lines' own halves (the default, :func:`hillchart.four_quadrant.nets.band_factor`).
 
 In the turbine zone, every way, what a run reads: Q11 and M11 at unit head at each held-out point's measured N11 and
 opening (:class:`simulate.components.turbine.four_quadrant.SuterCharacteristics` from the nets, on the normal
@@ -86,8 +86,8 @@ def _lines_all_quadrants(data) -> dict:
 
 
 def train(table, train_mm, calibrate: bool = False):
-    """Suter nets of the lines ``train_mm`` of ``table``, trained as the shipped ones are (``calibrate``: the band
-    calibrated on those lines' own halves, :func:`hillchart.four_quadrant.nets.band_factor`)."""
+    """Suter nets of the lines ``train_mm`` of ``table``, trained as the shipped ones are, the band calibrated on
+    those lines' own halves or not (``calibrate``; the point nets are the same)."""
     from hillchart.four_quadrant.nets import PUMP_TURBINE_CONSTANTS, SHIPPED, train_suter_nets
 
     samples = table.suter(PUMP_TURBINE_CONSTANTS)

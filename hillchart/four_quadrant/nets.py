@@ -48,6 +48,10 @@ INPUTS_X_ONLY = ("cos_x", "sin_x")
 PUMP_TURBINE_CONSTANTS = SuterConstants(k1=0.0, k2=0.5, c_h=0.5, c_y=0.2)
 #: How the shipped nets are trained (:func:`write_pump_turbine_nets`).
 SHIPPED = {"hidden": 20, "restarts": 2, "seed": 0, "members": 4, "max_fail": 30, "split": (0.70, 0.15, 0.15)}
+#: Coverage the calibrated band aims at (the 5-95 % band of the members, :meth:`SuterNets.band`).
+BAND_COVERAGE = 0.90
+#: Fewest opening lines a calibration of the band splits in two halves (:func:`band_factor`).
+MIN_LINES_CALIBRATED = 4
 
 
 def net_inputs(x, opening=None) -> np.ndarray:
@@ -213,7 +217,7 @@ def load_suter_nets(path) -> SuterNets:
 
 def train_suter_nets(samples: dict, *, constants: SuterConstants, convention: str = "turbine", hidden: int = 20,
                      restarts: int = 2, seed: int = 0, members: int = 4, max_fail: int = 30,
-                     split=(0.70, 0.15, 0.15), calibrate: bool = False) -> SuterNets:
+                     split=(0.70, 0.15, 0.15), calibrate: bool | None = None) -> SuterNets:
     """Nets of WH and WM from curve samples ``{"x", "wh", "wm"[, "opening"]}`` (x in radians, opening relative;
     without "opening": curves of x alone), an ensemble of ``members`` (the first the point nets).
 
@@ -222,7 +226,9 @@ def train_suter_nets(samples: dict, *, constants: SuterConstants, convention: st
     the curves between the table's lines as the table's own held-out lines say; the factors and what they were
     calibrated on are in ``training["band"]``. Without it the members differ by their training splits and starts
     only: on a real pump-turbine's table their band covered half the curve values between lines
-    (``benchmarks/bench_pump_turbine_table.py``). Three trainings instead of one.
+    (``benchmarks/bench_pump_turbine_table.py``). Three trainings instead of one. None (the default): calibrated
+    where it can be (an ensemble, curves of the opening, :data:`MIN_LINES_CALIBRATED` opening lines or more), and
+    ``training["band"]`` says why not elsewhere.
 
     ``max_fail`` 30 instead of trainlm's 6: the samples of a synthetic or a smoothed table carry no noise, and at 6 a
     3-20-1 net of the synthetic pump-turbine stopped after 22 epochs at 1.4 % RMS of WM's range against 0.13 % at 30.
@@ -250,21 +256,25 @@ def train_suter_nets(samples: dict, *, constants: SuterConstants, convention: st
     training = {"hidden": hidden, "restarts": restarts, "seed": seed, "members": members, "max_fail": max_fail,
                 "split": list(split), "n_samples": int(X.shape[0]), "member_records": records,
                 "inputs": "cos x, sin x" + (", opening" if opening is not None else "") + ": periodic in x"}
-    if calibrate:
-        if members < 2 or opening is None:
-            raise InputError("train_suter_nets: calibrate needs an ensemble (members >= 2) and curves of the opening")
+    lines = 0 if opening is None else np.unique(np.asarray(opening, float)).size
+    why_not = ("no ensemble (members < 2)" if members < 2 else "curves of x alone (no opening lines)"
+               if opening is None else f"{lines} opening lines (calibrating needs {MIN_LINES_CALIBRATED})"
+               if lines < MIN_LINES_CALIBRATED else None)
+    if calibrate and why_not is not None:
+        raise InputError(f"train_suter_nets: calibrate needs an ensemble of curves of {MIN_LINES_CALIBRATED} opening "
+                         f"lines or more; these have {why_not}")
+    if calibrate is None and why_not is not None:
+        training["band"] = {"calibrated": False, "why": why_not}
+    elif calibrate is not False:
         band = band_factor(samples, constants=constants, hidden=hidden, restarts=restarts, seed=seed,
                            members=members, max_fail=max_fail, split=split)
         point = pairs[0]
         pairs = [point] + [tuple(blended_net(p, m, band[key]) for p, m, key in zip(point, pair, ("wh", "wm")))
                            for pair in pairs[1:]]
-        training["band"] = {**band, "calibrated_on": "every other opening line held out, both halves"}
+        training["band"] = {"calibrated": True, **band,
+                            "calibrated_on": "every other opening line held out, both halves"}
     return SuterNets(pairs[0][0], pairs[0][1], constants=constants, convention=convention,
                      members=pairs if members > 1 else (), training=training)
-
-
-#: Coverage the calibrated band aims at (the 5-95 % band of the members, :meth:`SuterNets.band`).
-BAND_COVERAGE = 0.90
 
 
 def blended_net(a: FCCMWeights, b: FCCMWeights, share: float) -> FCCMWeights:
@@ -306,16 +316,17 @@ def band_factor(samples: dict, *, constants: SuterConstants, coverage: float = B
     point nets divided by the members' half-spread (half the 5-95 % band, :meth:`SuterNets.band`); each curve's
     factor is the split-conformal ``ceil((n + 1) coverage)``-th smallest of its ratios over both halves, at least 1.
     Returns ``{"wh": factor, "wm": factor, "points", "coverage_before": {"wh", "wm"}}`` (the share of the held-out
-    values the members' own band covered). Needs a table of four opening lines or more."""
+    values the members' own band covered). Needs a table of :data:`MIN_LINES_CALIBRATED` opening lines or more.
+    The halves are trained uncalibrated."""
     openings = np.unique(np.asarray(samples["opening"], float))
-    if openings.size < 4:
+    if openings.size < MIN_LINES_CALIBRATED:
         raise InputError(f"band_factor: the table has {openings.size} opening lines; calibrating the band between "
-                         "lines needs 4 or more (two halves of two lines)")
+                         f"lines needs {MIN_LINES_CALIBRATED} or more (two halves of two lines)")
     ratios, covered = {"wh": [], "wm": []}, {"wh": 0, "wm": 0}
     for half in (openings[0::2], openings[1::2]):
         train_on = np.isin(samples["opening"], half)
         nets = train_suter_nets({k: np.asarray(v)[train_on] for k, v in samples.items()}, constants=constants,
-                                **train)
+                                calibrate=False, **train)
         x, y = np.asarray(samples["x"])[~train_on], np.asarray(samples["opening"])[~train_on]
         points, band = nets.curves(x, y), nets.band(x, y)
         for k, key in enumerate(("wh", "wm")):

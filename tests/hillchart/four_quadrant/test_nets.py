@@ -53,15 +53,17 @@ def test_the_nets_give_head_and_torque_at_the_tables_turbine_and_pump_points():
         NETS.head_torque(0.01, -1.0, 0.5)
 
 
-def test_the_ensemble_band_is_narrow_and_holds_the_point_nets():
+def test_the_ensemble_band_is_narrow_and_covers_the_curves_between_the_lines():
+    """The shipped nets' band (calibrated on the table's own lines) at the exact machine's 817 unseen points: its
+    median width is under 1 % of the curve's range (measured 0.35 and 0.23 %), and it covers at least 85 % of the
+    exact curves (measured 89 and 94 %; the aim is 90 %)."""
     exact = pump_turbine_test_samples(RATED)
     band = NETS.band(exact["x"], exact["opening"])
-    wh, wm = NETS.curves(exact["x"], exact["opening"])
-    for key, value in (("wh", wh), ("wm", wm)):
+    for key in ("wh", "wm"):
         low, high = band[key]
         assert np.all(low <= high)
-        # 4 members: the median width is a fraction of a percent of the range (measured 0.2 % and 0.1 %)
         assert np.median(high - low) < 0.01 * np.ptp(exact[key])
+        assert np.mean((low <= exact[key]) & (exact[key] <= high)) >= 0.85, key
     assert len(NETS.members) == SHIPPED["members"]
 
 
@@ -126,16 +128,25 @@ def test_bad_nets_files_are_refused_naming_the_key(tmp_path, edit, message):
 
 
 def test_calibrating_the_band_needs_lines_to_hold_out():
+    """Three lines: asked for, a calibration is refused and says why; by default the record says why not (the
+    shipped nets, 13 lines, are calibrated)."""
     table = load_complete_characteristics(PUMP_TURBINE_DIR)
     samples = table.suter(PUMP_TURBINE_CONSTANTS)
     three = np.isin(samples["opening"], np.unique(samples["opening"])[:3])
+    few = {k: v[three] for k, v in samples.items()}
     with pytest.raises(InputError, match="3 opening lines; calibrating the band between lines needs 4 or more"):
-        band_factor({k: v[three] for k, v in samples.items()}, constants=PUMP_TURBINE_CONSTANTS)
+        band_factor(few, constants=PUMP_TURBINE_CONSTANTS)
+    with pytest.raises(InputError, match="calibrate needs an ensemble of curves of 4 opening lines or more; these "
+                                         "have 3 opening lines"):
+        train_suter_nets(few, constants=PUMP_TURBINE_CONSTANTS, hidden=4, restarts=1, members=2, calibrate=True)
+    quick = train_suter_nets(few, constants=PUMP_TURBINE_CONSTANTS, hidden=4, restarts=1, members=2)
+    assert quick.training["band"] == {"calibrated": False, "why": "3 opening lines (calibrating needs 4)"}
+    assert NETS.training["band"]["calibrated"] and NETS.training["band"]["wh"] > 1.0
 
 
 @pytest.mark.slow
 def test_a_calibrated_band_covers_the_curves_between_lines():
-    """The shipped table's every other line (4, 8, ..., 28 mm) trained with and without ``calibrate`` (hidden 12, 4
+    """The shipped table's every other line (4, 8, ..., 28 mm) trained as by default (calibrated) and not (hidden 12, 4
     members, one start; about 5 s): each calibrated member stands its curve's factor times as far from the point
     nets (to 1e-9 of the curve's range: one net of both), and at the exact machine's curves between the table's
     lines (the 817 unseen points of the test above) the calibrated band covers at least 80 % of each curve's values,
@@ -146,7 +157,7 @@ def test_a_calibrated_band_covers_the_curves_between_lines():
     kept = np.isin(samples["opening"], np.unique(samples["opening"])[::2])
     half = {k: v[kept] for k, v in samples.items()}
     options = dict(constants=PUMP_TURBINE_CONSTANTS, hidden=12, restarts=1, members=4, seed=0)
-    plain, wide = train_suter_nets(half, **options), train_suter_nets(half, calibrate=True, **options)
+    plain, wide = train_suter_nets(half, calibrate=False, **options), train_suter_nets(half, **options)
     exact = pump_turbine_test_samples(RATED)
     x, y = exact["x"], exact["opening"]
     record = wide.training["band"]
