@@ -24,8 +24,8 @@ calibrated on the kept lines' own halves (the default, :func:`hillchart.four_qua
 In the turbine zone, every way, what a run reads: Q11 and M11 at unit head at each held-out point's measured N11 and
 opening (:class:`simulate.components.turbine.four_quadrant.SuterCharacteristics` from the nets, on the normal
 operating curve; below the nets' smallest opening on the closed-vane model), up to each line's runaway, within the
-speeds a hill chart of this machine shows (:data:`FRAME` times the N11 of best efficiency, as
-``bench_model_test_chart`` draws it) and beyond them by the N11 gap; beyond them also the torque of hill-chart nets
+speeds a hill chart of this machine shows (``bench_model_test_chart.FRAME`` times the N11 of best efficiency, as
+that script draws it) and beyond them by the N11 gap; beyond them also the torque of hill-chart nets
 trained on that chart with every line (``hillsim train``'s defaults).
 
 Run (about a minute on 2 cores)::
@@ -49,8 +49,6 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 MARKERS = ("<!-- bench_pump_turbine_table -->", "<!-- end bench_pump_turbine_table -->")
-#: The hill chart's frame: these multiples of the N11 of best efficiency (as ``bench_model_test_chart`` draws it).
-FRAME = (0.8, 1.2)
 #: N11 gaps beyond the frame's end, as ``bench_model_test_chart`` bins them.
 GAP_BINS = (0.0, 0.1, 0.25, 0.6)
 
