@@ -422,7 +422,7 @@ def test_the_model_test_chart_tables_are_what_the_benchmark_prints(capsys):
 @pytest.mark.external
 def test_the_pump_turbine_table_is_what_the_benchmark_prints(capsys):
     """docs/pump-turbines.md's tables of the FR300T pump-turbine's measured characteristic are the output of
-    benchmarks/bench_pump_turbine_table.py now (seeded training; about 40 s), when the characteristic (not shipped:
+    benchmarks/bench_pump_turbine_table.py now (seeded training; about a minute), when the characteristic (not shipped:
     no licence) is in ../shared/external/. The same rows and labels; each error within 10 % of its value or 0.2
     percentage points (averages over tens to hundreds of points of nets whose Levenberg-Marquardt path differs in
     the last digits between CPU families), each count within 5 % or one point."""
