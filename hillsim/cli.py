@@ -42,6 +42,7 @@ COMMAND_MODULES = (
     "hillsim.commands.report",
     "hillsim.commands.demo",
     "hillsim.commands.fccm",
+    "hillsim.commands.four_quadrant",
 )
 
 #: One metavar per kind of argument, whichever command takes it (``dest`` -> metavar; a command's own metavar is

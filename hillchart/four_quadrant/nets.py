@@ -383,19 +383,30 @@ def pump_turbine_test_samples(rated: dict, turbine=None, *, openings_mm=tuple(np
     return {key: np.concatenate([p[i] for p in parts]) for i, key in enumerate(("x", "opening", "wh", "wm"))}
 
 
-def write_pump_turbine_nets(folder) -> Path:
-    """Train the nets of the complete-characteristics table in ``folder`` (table.toml, table.csv) with
-    :data:`PUMP_TURBINE_CONSTANTS` and :data:`SHIPPED`, and write ``folder/nets.json``; seeded: the same table gives
-    the same file on one machine."""
-    from hillchart.four_quadrant.table import load_complete_characteristics
-
-    table = load_complete_characteristics(folder)
-    samples = table.suter(PUMP_TURBINE_CONSTANTS)
-    nets = train_suter_nets(samples, constants=PUMP_TURBINE_CONSTANTS, **SHIPPED)
+def table_nets(table, *, calibrate: bool | None = None, **options) -> SuterNets:
+    """The nets of a complete-characteristics table of unit quantities
+    (:class:`hillchart.four_quadrant.table.CompleteCharacteristics`) with :data:`PUMP_TURBINE_CONSTANTS`, trained as
+    :data:`SHIPPED` says unless ``options`` (``hidden``, ``members``, ``seed``, ...) say otherwise; the table's rated
+    point and full stroke recorded for the simulator (``training.rated``, ``training.opening_max``). What
+    ``hillsim four-quadrant`` and :func:`write_pump_turbine_nets` write."""
+    if table.is_curves:
+        raise InputError(f"{table.source}: a table of Suter curves has no rated point for the simulator; give the "
+                         "unit quantities (columns opening,n11,q11,m11 and the rated point in table.toml)")
+    nets = train_suter_nets(table.suter(PUMP_TURBINE_CONSTANTS), constants=PUMP_TURBINE_CONSTANTS,
+                            calibrate=calibrate, **{**SHIPPED, **options})
     nets.training["source"] = f"the complete-characteristics table {table.name!r} ({table.opening.size} points)"
     nets.training["rated"] = dict(table.rated)
     nets.training["opening_max"] = table.opening_max
-    return nets.save(Path(folder) / "nets.json")
+    return nets
+
+
+def write_pump_turbine_nets(folder) -> Path:
+    """Train the nets of the complete-characteristics table in ``folder`` (table.toml, table.csv) as shipped
+    (:func:`table_nets`), and write ``folder/nets.json``; seeded: the same table gives the same file on one
+    machine."""
+    from hillchart.four_quadrant.table import load_complete_characteristics
+
+    return table_nets(load_complete_characteristics(folder)).save(Path(folder) / "nets.json")
 
 
 if __name__ == "__main__":  # python -m hillchart.four_quadrant.nets FOLDER
