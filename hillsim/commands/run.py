@@ -286,6 +286,8 @@ def _add_uncertainty(band: dict, summary_path: Path) -> None:
 
     summary["uncertainty"] = tidy_floats(band)
     summary_path.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    for line in band.get("warnings", []):
+        print(f"hillsim run: warning: {line}", file=sys.stderr)
     print(f"ensemble of {band['members']} ({len(band['failed'])} failed): max speed rise "
           f"{100 * band['max_speed_rise']['low']:.2f}-{100 * band['max_speed_rise']['high']:.2f} %, max head rise "
           f"{100 * band['max_head_rise']['low']:.2f}-{100 * band['max_head_rise']['high']:.2f} %, min head drop "

@@ -94,6 +94,26 @@ def run_members(plant, nets=None, *, percentiles=(5.0, 95.0)) -> dict:
     return run_ensemble(plant, nets, percentiles=percentiles)[0]
 
 
+def uncalibrated_band_note(characteristics) -> str | None:
+    """What to say of an ensemble band that is the members' training spread alone: four-quadrant nets whose band
+    was not calibrated on their table's lines (``training.band``, :func:`hillchart.four_quadrant.nets.band_factor`;
+    nets.json written before the calibration has no record). On a real pump-turbine's table such a band covered
+    half the curve values between its lines. None for every other characteristics (the hill chart's band is
+    calibrated on the chart's own held-out lines)."""
+    from hillchart.four_quadrant.nets import SuterNets
+
+    suter = getattr(characteristics, "nets", None)
+    if not isinstance(suter, SuterNets) or not suter.members:
+        return None
+    band = (getattr(suter, "training", None) or {}).get("band") or {}
+    if band.get("calibrated"):
+        return None
+    why = f" ({band['why']})" if band.get("why") else ""
+    return ("the band of these four-quadrant nets is their members' training spread, not calibrated on the table's "
+            f"lines{why}, and understates the nets' error between measured lines; retrain them with hillsim "
+            "four-quadrant TABLE_DIR --out nets.json")
+
+
 def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0), workers: int | None = None) -> tuple[dict, TraceBand]:
     """Simulate ``plant``'s scenario with every ensemble member: the band of the summary figures and of the traces.
 
@@ -157,6 +177,8 @@ def run_ensemble(plant, nets=None, *, percentiles=(5.0, 95.0), workers: int | No
     if len(failed) == len(members):
         raise first_error
     out = {"members": len(members), "failed": failed, "percentiles": [low_p, high_p]}
+    if (note := uncalibrated_band_note(nets)) is not None:
+        out["warnings"] = [note]
     ran = len(members) - len(failed)
     for name, series in values.items():
         if name in OPTIONAL_BAND_FIGURES and len(series) != ran:

@@ -101,3 +101,30 @@ def test_an_unknown_or_bad_limit_is_refused():
         Limits.from_dict({"max_reverse_speed": 5.0})
     with pytest.raises(InputError, match="limits.max_reverse_flow_m3_s"):
         Limits.from_dict({"max_reverse_flow_m3_s": -1.0})
+
+
+def test_a_band_not_calibrated_on_the_table_is_said(runs, tmp_path, capsys):
+    """Four-quadrant nets whose band is the members' training spread (a nets.json written before its calibration,
+    or trained with calibrate=False) are run with a warning naming the command that calibrates them; the shipped
+    nets, calibrated, without one (the summary of the module's run holds no warning)."""
+    from hillchart.four_quadrant.nets import load_suter_nets
+    from simulate.components.turbine.four_quadrant import SuterCharacteristics
+    from simulate.studies.uncertainty import uncalibrated_band_note
+
+    assert "warnings" not in runs["summary"]["uncertainty"]
+    doc = json.loads((PUMP_TURBINE_DIR / "nets.json").read_text(encoding="utf-8"))
+    del doc["training"]["band"]
+    folder = tmp_path / "pump_turbine"
+    folder.mkdir()
+    (folder / "nets.json").write_text(json.dumps(doc), encoding="utf-8")
+    nets = load_suter_nets(folder / "nets.json")
+    chars = SuterCharacteristics.from_nets(nets, rated=nets.training["rated"], opening_max=28.0, name="old")
+    assert "not calibrated on the table's lines" in uncalibrated_band_note(chars)
+    plant = tmp_path / "plant.toml"
+    plant.write_text(PLANT.read_text(encoding="utf-8"), encoding="utf-8")  # its nets: pump_turbine/nets.json beside
+    assert main(["run", str(plant), "--out", str(tmp_path / "run"), "--no-plot", "--uncertainty", *SHORT]) == 0
+    err = capsys.readouterr().err
+    assert "warning: the band of these four-quadrant nets is their members' training spread" in err
+    assert "hillsim four-quadrant TABLE_DIR" in err
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text(encoding="utf-8"))
+    assert len(summary["uncertainty"]["warnings"]) == 1
