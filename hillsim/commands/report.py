@@ -264,7 +264,7 @@ def build_report(args) -> tuple[dict, Path]:
     from simulate.config import parse_override
     from simulate.loop.engine import plant_characteristics, run_simulation
     from simulate.studies.cases import load_study
-    from simulate.studies.uncertainty import BAND_INFLATION, run_ensemble
+    from simulate.studies.uncertainty import BAND_INFLATION, run_ensemble, uncalibrated_band_note
 
     out = args.outputs.folder("--out", args.out)  # checked and locked now, moved into place when complete
     study = load_study(args.plant, dict(parse_override(t) for t in args.overrides))
@@ -303,6 +303,8 @@ def build_report(args) -> tuple[dict, Path]:
         inputs.append({"role": "sweep", "path": str(Path(args.sweep) / "sweep.json"),
                        "sha256": _hash(Path(args.sweep) / "sweep.json")})
     cases, runs, envelopes, warnings = [], [], [], []
+    if with_band and (note := uncalibrated_band_note(chars)) is not None:
+        warnings.append(note)  # the limits are judged on a band that understates the error between lines
     for i, lc in enumerate(study.load_cases):
         folder = f"cases/{i}"
         (out / folder).mkdir(parents=True, exist_ok=True)

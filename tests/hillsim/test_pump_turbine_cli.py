@@ -128,3 +128,11 @@ def test_a_band_not_calibrated_on_the_table_is_said(runs, tmp_path, capsys):
     assert "hillsim four-quadrant TABLE_DIR" in err
     summary = json.loads((tmp_path / "run" / "summary.json").read_text(encoding="utf-8"))
     assert len(summary["uncertainty"]["warnings"]) == 1
+    # the report judges its limits on that band, and says so once; the shipped nets' report does not
+    study = tmp_path / "study.toml"
+    study.write_text(plant.read_text(encoding="utf-8").replace("t_end_s = 40.0", "t_end_s = 12.0")
+                     + "\n[limits]\nmax_reverse_flow_m3_s = 12.0\n", encoding="utf-8")
+    assert main(["report", str(study), "--out", str(tmp_path / "rep")]) == 0
+    said = json.loads((tmp_path / "rep" / "report.json").read_text(encoding="utf-8"))["warnings"]
+    assert sum("training spread" in w for w in said) == 1
+    assert not any("training spread" in w for w in runs["passing"]["warnings"])
