@@ -61,15 +61,17 @@ def installation_key(version: str) -> str:
 
 def remove_stale(folder: Path, now: float | None = None) -> list[Path]:
     """Remove the cache folders beside ``folder`` of the same version and location and another content
-    (:func:`installation_key`) last written more than :data:`STALE_AFTER_S` ago; return them. A folder being
-    written by a running process of an older content is younger than that and kept."""
+    (:func:`installation_key`), or of the key without the content (written before it had one), last written more
+    than :data:`STALE_AFTER_S` ago; return them. A folder being written by a running process of an older content is
+    younger than that and kept."""
     import shutil
     import time
 
     now = time.time() if now is None else now
     prefix = folder.name.rsplit("-", 1)[0] + "-"
     removed = []
-    for other in folder.parent.glob(prefix + "*"):
+    legacy = folder.parent / prefix[:-1]  # the folder of this location before the key had the kernel stamp
+    for other in [*folder.parent.glob(prefix + "*"), *([legacy] if legacy.is_dir() else [])]:
         if other == folder or not other.is_dir():
             continue
         try:

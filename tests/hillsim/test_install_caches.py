@@ -137,13 +137,14 @@ def test_folders_of_earlier_contents_are_removed_a_day_after_their_last_write(tm
     from hillchart.cache import STALE_AFTER_S, remove_stale
 
     numba_dir = tmp_path / "numba"
-    names = ("0.1.0-aaaa1111-cafe0001", "0.1.0-aaaa1111-cafe0002", "0.1.0-aaaa1111-cafe0003", "0.1.0-bbbb2222-cafe0002")
-    current, old, young, elsewhere = (numba_dir / name for name in names)
-    for folder in (current, old, young, elsewhere):
+    names = ("0.1.0-aaaa1111-cafe0001", "0.1.0-aaaa1111-cafe0002", "0.1.0-aaaa1111-cafe0003", "0.1.0-bbbb2222-cafe0002",
+             "0.1.0-aaaa1111")
+    current, old, young, elsewhere, legacy = (numba_dir / name for name in names)
+    for folder in (current, old, young, elsewhere, legacy):
         folder.mkdir(parents=True)
     now = 1e9
-    for folder, age in ((current, 2.0), (old, 1.5), (young, 0.5), (elsewhere, 2.0)):
+    for folder, age in ((current, 2.0), (old, 1.5), (young, 0.5), (elsewhere, 2.0), (legacy, 3.0)):
         os.utime(folder, (now - age * STALE_AFTER_S, now - age * STALE_AFTER_S))
-    assert remove_stale(current, now=now) == [old]
+    assert sorted(remove_stale(current, now=now)) == [legacy, old]  # an earlier content, and the key without one
     # the current folder however old, one written within the day (a running process's), another location's: kept
     assert sorted(p.name for p in numba_dir.iterdir()) == sorted(p.name for p in (current, young, elsewhere))
