@@ -84,18 +84,28 @@ def read_simsen(path) -> np.ndarray:
     return data
 
 
-def _lines(data):
-    """Per measured opening (mm): the turbine quadrant's points (N11 > 0, Q11 > 0) ordered by N11."""
+def _lines(data, turbine: bool = True):
+    """Per measured opening (mm): the turbine quadrant's points (N11 > 0, Q11 > 0) ordered by N11, or with
+    ``turbine=False`` every point of the line over the four quadrants in the file's order."""
     y, n, q, t = data.T
     a = np.round(y * OPENING_MAX_MM, 6)
     out = {}
     for op in np.unique(a):
         if op in CONSTRUCTED_MM:
             continue
+        if not turbine:
+            out[float(op)] = tuple(v[a == op] for v in (n, q, t))
+            continue
         on = (a == op) & (n > 0) & (q > 0)
         order = np.argsort(n[on])
         out[float(op)] = tuple(v[on][order] for v in (n, q, t))
     return out
+
+
+def best_point(data) -> tuple[float, float, float]:
+    """``(N11, Q11, T11)`` of the turbine quadrant's measured point of best efficiency (positive torque)."""
+    return max(((n[i], q[i], t[i]) for n, q, t in _lines(data).values() for i in range(n.size) if t[i] > 0),
+               key=lambda p: efficiency(*p))
 
 
 def efficiency(n11, q11, t11):
@@ -106,9 +116,8 @@ def efficiency(n11, q11, t11):
 def digitized_chart(data, folder: Path, runaway: bool):
     """Write the chart folder (module docstring); return it, the measured T11 at its flow points and the frame."""
     lines = _lines(data)
-    best = max(((n[i], efficiency(n[i], q[i], t[i])) for n, q, t in lines.values() for i in range(n.size)
-                if t[i] > 0), key=lambda v: v[1])
-    frame = (FRAME[0] * best[0], FRAME[1] * best[0])
+    n_best = best_point(data)[0]
+    frame = (FRAME[0] * n_best, FRAME[1] * n_best)
     folder.mkdir(parents=True)
     (folder / "chart.toml").write_text(f'name = "FR300T pump-turbine model, digitized from its characteristic"\n'
                                        f'opening_unit = "mm"\nopening_max = {OPENING_MAX_MM}\nq11_unit = "m3/s"\n'

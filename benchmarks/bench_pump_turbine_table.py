@@ -55,14 +55,10 @@ GAP_BINS = (0.0, 0.1, 0.25, 0.6)
 
 def write_table(data, folder: Path, openings_mm) -> tuple[Path, dict]:
     """The complete-characteristics folder of the characteristic's measured lines; its rated point."""
-    from bench_model_test_chart import OPENING_MAX_MM, _lines, efficiency
+    from bench_model_test_chart import OPENING_MAX_MM, _lines, best_point
 
-    lines = _lines_all_quadrants(data)
-    turbine = _lines(data)  # turbine-quadrant points: the best efficiency there is the rated point
-    n, q, t = (np.concatenate([v[i] for v in turbine.values()]) for i in range(3))
-    eta = np.where(t > 0, efficiency(n, q, t), -np.inf)
-    best = int(np.argmax(eta))
-    rated = {"n11_rpm": float(n[best]), "q11_m3_s": float(q[best]), "m11_nm": float(t[best])}
+    lines = _lines(data, turbine=False)
+    rated = dict(zip(("n11_rpm", "q11_m3_s", "m11_nm"), (float(v) for v in best_point(data))))
     folder.mkdir(parents=True)
     (folder / "table.toml").write_text(
         f'name = "FR300T pump-turbine model (measured)"\nopening_unit = "mm"\nopening_max = {OPENING_MAX_MM}\n'
@@ -72,15 +68,6 @@ def write_table(data, folder: Path, openings_mm) -> tuple[Path, dict]:
                                       for nn, qq, tt in zip(*lines[a])]
     (folder / "table.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
     return folder, rated
-
-
-def _lines_all_quadrants(data) -> dict:
-    """Per measured opening (mm): every point of the line (N11, Q11, T11), in the file's order."""
-    from bench_model_test_chart import CONSTRUCTED_MM, OPENING_MAX_MM
-
-    y, n, q, t = data.T
-    a = np.round(y * OPENING_MAX_MM, 6)
-    return {float(op): (n[a == op], q[a == op], t[a == op]) for op in np.unique(a) if op not in CONSTRUCTED_MM}
 
 
 def train(table, train_mm, calibrate: bool = False):
@@ -222,7 +209,7 @@ def main(argv=None) -> int:
     parser.add_argument("--write-docs", action="store_true", help="write the tables into docs/pump-turbines.md")
     args = parser.parse_args(argv)
     sys.path.insert(0, str(REPO / "benchmarks"))
-    from bench_model_test_chart import FILE_NAME, read_simsen
+    from bench_model_test_chart import FILE_NAME, _lines, read_simsen
 
     from hillchart.four_quadrant.table import load_complete_characteristics
     from tests.external_charts import EXTERNAL_DIR
@@ -232,7 +219,7 @@ def main(argv=None) -> int:
         print(f"the characteristic is absent ({source}); give its path with --characteristic")
         return 0
     data = read_simsen(source)
-    openings = sorted(_lines_all_quadrants(data))
+    openings = sorted(_lines(data, turbine=False))
     with tempfile.TemporaryDirectory() as tmp:
         folder, rated = write_table(data, Path(tmp) / "table", openings)
         table = load_complete_characteristics(folder)
