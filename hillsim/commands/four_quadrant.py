@@ -6,10 +6,11 @@ from __future__ import annotations
 import argparse
 import time
 
-#: Allowed ``--hidden`` sizes, ``--members`` counts and ``--seed`` values.
+from hillsim.commands import SEED_RANGE, int_in
+
+#: Allowed ``--hidden`` sizes and ``--members`` counts.
 HIDDEN_RANGE = (2, 60)
 MEMBERS_RANGE = (1, 20)
-SEED_RANGE = (0, 2**31 - 1)
 #: The defaults: the shipped nets' (:data:`hillchart.four_quadrant.nets.SHIPPED`, which a test holds them to; not
 #: imported here, where every command's options are declared at start-up).
 SHIPPED = {"hidden": 20, "members": 4, "seed": 0}
@@ -46,14 +47,12 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hillchart.errors import InputError
     from hillchart.four_quadrant.nets import PUMP_TURBINE_CONSTANTS, curve_errors, table_nets
     from hillchart.four_quadrant.table import load_complete_characteristics
 
-    for name, value, (low, high) in (("--hidden", args.hidden, HIDDEN_RANGE),
-                                     ("--members", args.members, MEMBERS_RANGE), ("--seed", args.seed, SEED_RANGE)):
-        if not low <= value <= high:
-            raise InputError(f"{name} must be an integer in [{low}, {high}], got {value}")
+    for name, value, bounds in (("--hidden", args.hidden, HIDDEN_RANGE), ("--members", args.members, MEMBERS_RANGE),
+                                ("--seed", args.seed, SEED_RANGE)):
+        int_in(name, value, *bounds)
     out = args.outputs.file("--out", args.out)  # checked now, renamed into place when everything succeeded
     table = load_complete_characteristics(args.table)
     args.outputs.check_reads()  # --out one of the table's files: refused before training, not after

@@ -7,6 +7,7 @@ import sys
 import time
 import warnings
 
+from hillsim.commands import SEED_RANGE, int_in
 from hillsim.commands.extend import (add_extension_arguments, extension_options,
                                      load_chart_reporting_warnings)
 
@@ -60,18 +61,6 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def _int_in(option: str, value, low: int, high: int) -> int:
-    from hillchart.errors import InputError
-
-    try:
-        number = int(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{option} must be an integer in [{low}, {high}] or 'auto', got {value!r}") from None
-    if str(number) != str(value).strip() or not low <= number <= high:
-        raise InputError(f"{option} must be an integer in [{low}, {high}], got {value!r}")
-    return number
-
-
 def _auto_float(option: str, value: str, low: float, high: float, *, open_low: bool):
     import math
 
@@ -101,15 +90,15 @@ def _stops(value: str) -> dict:
 
 def parse_options(args: argparse.Namespace) -> dict:
     """Validated training options (raises InputError naming the option)."""
-    hidden = None if args.hidden == "auto" else _int_in("--hidden", args.hidden, *HIDDEN_RANGE)
+    hidden = None if args.hidden == "auto" else int_in("--hidden", args.hidden, *HIDDEN_RANGE, auto=True)
     return {
         "stops": _stops(args.stops),
         "hidden": hidden,
         "boundary_weight": _auto_float("--boundary-weight", args.boundary_weight, 0.0, 1.0, open_low=True),
         "regularization": _auto_float("--regularization", args.regularization, 0.0, 1.0, open_low=False),
-        "ensemble": _int_in("--ensemble", args.ensemble, *ENSEMBLE_RANGE),
-        "restarts": _int_in("--restarts", args.restarts, 1, 1000),
-        "seed": _int_in("--seed", args.seed, 0, 2**31 - 1),
+        "ensemble": int_in("--ensemble", args.ensemble, *ENSEMBLE_RANGE),
+        "restarts": int_in("--restarts", args.restarts, 1, 1000),
+        "seed": int_in("--seed", args.seed, *SEED_RANGE),
     }
 
 
