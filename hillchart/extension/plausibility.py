@@ -229,15 +229,17 @@ def _contour_excess(nets, chart) -> np.ndarray:
 
     grid = np.linspace(chart.flow_opening.min(), chart.flow_opening.max(), 81)
     q_grid = np.asarray(nets.q11(chart.eff_n11[:, None], grid[None, :]), float)
-    out = []
+    points, openings = [], []
     for k in range(chart.eff_n11.size):
         q = q_grid[k]
-        if not (np.all(np.diff(q) > 0) and q[0] <= chart.eff_q11[k] <= q[-1]):
-            continue
-        a = float(np.interp(chart.eff_q11[k], q, grid))
-        if not measured_region_mask(chart.flow_n11, chart.flow_opening, np.array([chart.eff_n11[k]]),
-                                    np.array([a]))[0]:
-            continue
+        if np.all(np.diff(q) > 0) and q[0] <= chart.eff_q11[k] <= q[-1]:
+            points.append(k)
+            openings.append(float(np.interp(chart.eff_q11[k], q, grid)))
+    if not points:
+        return np.array([])
+    inside = measured_region_mask(chart.flow_n11, chart.flow_opening, chart.eff_n11[points], np.array(openings))
+    out = []
+    for k, a in zip(np.array(points)[inside], np.array(openings)[inside]):
         eta = float(efficiency_from_characteristics(nets, chart.eff_n11[k], a))
         out.append(eta - float(chart.eff_efficiency[k]))
     return np.array(out)

@@ -31,10 +31,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numba
 import numpy as np
 
 from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
+from hillchart.synthetic.francis import _francis_angles
+from hillchart.synthetic.francis_variants import THROAT_LAWS, _variant_n11_limit, _variant_terms_at
 
 #: Fitted parameters (log-transformed); ``pitch`` is guide_vane_pitch / opening_max - 1, ``throat_foot`` the throat
 #: law's a_0 / opening_max. The disc friction is last (its prior reads it there).
@@ -172,6 +175,73 @@ def _n11_limit(params) -> float:
     return 60.0 / math.pi * math.sqrt(2.0 * G_M_S2 / c)
 
 
+#: The fitted parameters in the order of the compiled model's first 11 (:meth:`OutOfClassFrancis._terms_params`;
+#: ``pitch`` there is the pitch in mm, the opening_max 12th).
+_KERNEL_ORDER = ("d2", "b1", "pitch", "beta1_deg", "beta2_deg", "k_guide_vane", "k_incidence", "k_runner",
+                 "k_draft_tube", "k_swirl", "k_disc_friction")
+
+
+def _kernel_rows(rows, opening_max, names=PARAMETER_NAMES, foot_mm=0.0):
+    """The compiled model's parameters (:meth:`OutOfClassFrancis._terms_params`, k x 16) of the models
+    :func:`_model` builds from the log-parameter rows ``rows`` (k x len(names)), without building them: for the
+    fit's residuals, whose finite-difference Jacobian asks for a dozen models at a time. The same operations as
+    :func:`_model` (the test holds them equal to the bit)."""
+    rows = np.atleast_2d(rows)
+    with np.errstate(over="ignore"):  # an infinite parameter is refused (:func:`_fit_rows`)
+        values = np.exp(rows)
+    p = np.empty((rows.shape[0], 16))
+    p[:, :11] = values[:, [names.index(name) for name in _KERNEL_ORDER]]
+    p[:, 2] = opening_max * (1.0 + p[:, 2])
+    p[:, 11] = opening_max
+    p[:, 12] = opening_max * values[:, names.index("throat_foot")] if "throat_foot" in names else foot_mm
+    p[:, 13] = p[:, 6]  # the negative incidence's coefficient, the positive's
+    p[:, 14] = 0.0  # no leakage
+    p[:, 15] = THROAT_LAWS.index("rational")
+    return p
+
+
+@numba.njit(cache=True)
+def _fit_rows(p, n11, opening):
+    """Q11 and M11 (k x N) of the compiled models of the parameter rows ``p`` (:func:`_kernel_rows`) at the real
+    points ``(n11, opening)``, and each row's barrier (k): NaN where the row has values; 1e3 where :func:`_model`
+    would refuse the row (a parameter not finite and positive, the pitch not above the full stroke, a foot not
+    finite and >= 0) or its model pumps at a point (no positive flow); ``1e3 x reach`` where the points reach beyond
+    the model's range, ``reach`` the highest N11 over the range limit (:meth:`OutOfClassFrancis.n11_limit`, >= 1).
+    The equations are the model's (:func:`hillchart.synthetic.francis_variants._variant_terms_at`)."""
+    k = p.shape[0]
+    q = np.full((k, n11.size), np.nan)
+    m = np.full((k, n11.size), np.nan)
+    barrier = np.full(k, 1e3)
+    n_top = np.max(n11)
+    for j in range(k):
+        row = p[j]
+        built = row[2] > row[11] and np.isfinite(row[12]) and row[12] >= 0.0
+        for i in range(12):
+            built = built and np.isfinite(row[i]) and row[i] > 0.0
+        if not built:
+            continue
+        limit = _variant_n11_limit(row)
+        if not limit > 0.0:
+            continue
+        if n_top / limit >= 1.0:  # a barrier that falls as the model's range grows
+            barrier[j] = 1e3 * (n_top / limit)
+            continue
+        angles = _francis_angles(row)
+        pumping = False
+        for i in range(n11.size):
+            q[j, i], m[j, i], g = _variant_terms_at(row, angles, n11[i], opening[i])
+            pumping = pumping or g >= 0.0
+        barrier[j] = 1e3 if pumping else np.nan
+    return q, m, barrier
+
+
+def _model_rows(rows, opening_max, n11, opening, names=PARAMETER_NAMES, foot_mm=0.0):
+    """Q11 and M11 (k x N) of the models of the log-parameter rows at the real points ``(n11, opening)``, and each
+    row's barrier (:func:`_fit_rows`)."""
+    return _fit_rows(_kernel_rows(rows, opening_max, names, foot_mm), np.asarray(n11, float),
+                     np.asarray(opening, float))
+
+
 def _model(x, opening_max, names=PARAMETER_NAMES, foot_mm=0.0):
     """The model of the log-parameters ``x`` named ``names`` (without ``throat_foot``: the foot held at ``foot_mm``,
     0 for none, a_t = a)."""
@@ -183,6 +253,51 @@ def _model(x, opening_max, names=PARAMETER_NAMES, foot_mm=0.0):
     foot = opening_max * p.pop("throat_foot") if "throat_foot" in p else foot_mm
     return OutOfClassFrancis(FrancisParameters(guide_vane_pitch_mm=pitch, opening_max=opening_max, **p),
                              physics=VariantPhysics(throat_foot_mm=foot, throat_law="rational"))
+
+
+@dataclass(frozen=True)
+class _Residuals:
+    """The residuals :func:`fit_turbine_model` minimizes, of log-parameters named ``names`` (the foot held at
+    ``held`` mm without ``throat_foot``): flow and torque at the points ``(n, a)`` scaled by the measured ranges, and
+    the disc-friction prior; 1e3 where a value is not finite, the row's barrier where it has one
+    (:func:`_fit_rows`). Its Jacobian is ``least_squares``' forward differences (``'2-point'``, the same steps),
+    with all columns in one compiled call."""
+
+    n: np.ndarray
+    a: np.ndarray
+    q: np.ndarray
+    m: np.ndarray
+    q_scale: float
+    m_scale: float
+    n_best: float
+    m_best: float
+    opening_max: float
+
+    def rows(self, rows, names, held):
+        """The residuals of each log-parameter row (k x (2 N + 1))."""
+        qq, mm, barrier = _model_rows(rows, self.opening_max, self.n, self.a, names, held)
+        prior = np.empty(rows.shape[0])
+        for j, log_k in enumerate(rows[:, -1]):
+            try:  # disc friction / shaft torque at the best point
+                share = math.exp(log_k) * self.n_best ** 2 / max(self.m_best, 1e-12)
+            except OverflowError:
+                share = math.inf
+            prior[j] = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
+        r = np.column_stack([(qq - self.q) / self.q_scale, (mm - self.m) / self.m_scale,
+                             prior / math.sqrt(self.n.size)])
+        r = np.where(np.isfinite(r), r, 1e3)
+        failed = ~np.isnan(barrier)
+        r[failed] = barrier[failed, None]
+        return r
+
+    def __call__(self, x, names, held):
+        return self.rows(x[None, :], names, held)[0]
+
+    def jacobian(self, x, names, held):
+        step = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        rows = x + np.diag(step)
+        r = self.rows(np.vstack([x, rows]), names, held)
+        return ((r[1:] - r[0]) / (np.diag(rows) - x)[:, None]).T
 
 
 def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
@@ -242,27 +357,13 @@ def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,
         raise InputError(f"{chart.folder}: the measured Q11 or M11 has no range; the chart cannot be extended")
     best_flow = int(np.argmax(torque * chart.flow_n11))  # the most powerful measured point, for the prior
     n_best, m_best = float(chart.flow_n11[best_flow]), float(torque[best_flow])
-    n_res = 2 * n.size + 1
-    n_top = float(n.max())
 
-    def residuals(x, names, held):
-        try:
-            turbine = _model(x, opening_max, names, held)
-            reach = n_top / turbine.n11_limit()
-            if reach >= 1.0:  # the chart beyond the model's range: a barrier that falls as the range grows
-                return np.full(n_res, 1e3 * reach)
-            qq, mm = (np.real(v) for v in turbine._solve(n.astype(float), a.astype(float)))
-        except (InputError, FloatingPointError, ValueError, ZeroDivisionError):
-            return np.full(n_res, 1e3)
-        share = math.exp(x[-1]) * n_best ** 2 / max(m_best, 1e-12)  # disc friction / shaft torque at the best point
-        prior = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
-        r = np.concatenate([(qq - q) / q_scale, (mm - m) / m_scale, [prior / math.sqrt(n.size)]])
-        return np.where(np.isfinite(r), r, 1e3)
+    fit = _Residuals(n, a, q, m, q_scale, m_scale, n_best, m_best, opening_max)
 
     def best_of(names, x_starts, held=0.0):
         best = None
         for xs in x_starts:
-            result = least_squares(residuals, xs, method="trf", max_nfev=400, args=(names, held))
+            result = least_squares(fit, xs, jac=fit.jacobian, method="trf", max_nfev=400, args=(names, held))
             if best is None or result.cost < best.cost:
                 best = result
         return best

@@ -60,7 +60,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from hillchart.constants import RHO_WATER_KG_M3
+from hillchart.constants import G_M_S2, RHO_WATER_KG_M3
 from hillchart.errors import InputError
 from hillchart.synthetic.francis import (_COMPLEX_STEP, FAMILY, FamilyTurbine, SyntheticFrancis, _francis_angles,
                                          _francis_terms_at)
@@ -83,6 +83,16 @@ def _throat_opening(opening, foot, law):
     if law == 1.0:
         return np.sqrt(opening * opening + foot * foot) - foot
     return opening * opening / (opening + foot)
+
+
+@register_jitable
+def _variant_n11_limit(p):
+    """N11 (r/min) where the negative-incidence branch's ``gamma`` reaches 0, for the parameters ``p`` of
+    :func:`_variant_terms_at`: the model's upper range (infinite when it has none)."""
+    c = p[13] + (p[9] - 2.0) * p[0] ** 2
+    if c <= 0:
+        return math.inf
+    return 60.0 / math.pi * math.sqrt(2.0 * G_M_S2 / c)
 
 
 @register_jitable
@@ -238,11 +248,7 @@ class OutOfClassFrancis(SyntheticFrancis):
 
     def n11_limit(self) -> float:
         """N11 (r/min) where the negative-incidence branch's ``gamma`` reaches 0: the model's upper range."""
-        from hillchart.constants import G_M_S2
-
-        p = self._terms_params()
-        c = p[13] + (p[9] - 2.0) * p[0] ** 2
-        return math.inf if c <= 0 else 60.0 / math.pi * math.sqrt(2.0 * G_M_S2 / c)
+        return _variant_n11_limit(self._terms_params())
 
     def numba_kernel(self):
         """``(kernel, params)`` for the simulator's compiled time loop (:func:`_variant_kernel`): values and

@@ -158,3 +158,83 @@ def test_a_chart_beyond_the_generic_runner_s_speeds_is_fitted():
     model = fit_turbine_model(fast, torque)
     assert model.n11_limit > max(fast.flow_n11.max(), fast.runaway_n11.max())
     assert model.q11_rms_pct < 5.0 and model.m11_rms_pct < 5.0
+
+
+def test_the_fit_s_rows_are_the_models_it_builds():
+    """The fit evaluates its residuals and the columns of its finite-difference Jacobian as rows of log-parameters
+    (``_model_rows``, a dozen models per call) without building the model objects; each row gives what
+    :func:`_model`'s object gives: its values where it has them (rtol 1e-13: the same compiled equations, equal to
+    the bit on this machine), else the barrier: 1e3 for a parameter set the object refuses or a model without
+    positive flow, ``1e3 x reach`` where the points lie beyond its range."""
+    from hillchart.errors import InputError
+    from hillchart.extension.turbine_model import PARAMETER_NAMES, START, _model, _model_rows
+
+    rng = np.random.default_rng(3)
+    x0 = np.log([START[k] for k in PARAMETER_NAMES])
+    rows = x0 + rng.normal(0.0, 0.25, (60, x0.size))
+    rows[0, 0] = 800.0  # d2 overflows to infinity: refused
+    rows[1, 2] = -800.0  # the pitch one full stroke: refused
+    rows[2, 6] = np.log(5.0)  # a large incidence loss: N11 limit about 90 r/min, below the points'
+    n11, opening = np.linspace(40.0, 125.0, 23), np.linspace(1.0, 31.0, 23)
+    q, m, barrier = _model_rows(rows, 32.0, n11, opening)
+    seen = {"values": 0, "refused": 0, "beyond": 0, "no flow": 0}
+    for j, x in enumerate(rows):
+        try:
+            with np.errstate(over="ignore"):
+                model = _model(x, 32.0)
+        except InputError:
+            seen["refused"] += 1
+            assert barrier[j] == 1e3
+            continue
+        reach = n11.max() / model.n11_limit()
+        if reach >= 1.0:
+            seen["beyond"] += 1
+            assert barrier[j] == pytest.approx(1e3 * reach, rel=1e-13)
+            continue
+        try:
+            qq, mm = model._solve(n11, opening)
+        except InputError:
+            seen["no flow"] += 1
+            assert barrier[j] == 1e3
+            continue
+        seen["values"] += 1
+        assert np.isnan(barrier[j])
+        np.testing.assert_allclose(q[j], qq, rtol=1e-13)
+        np.testing.assert_allclose(m[j], mm, rtol=1e-13)
+    assert seen["values"] >= 30 and seen["refused"] == 2 and seen["beyond"] >= 1, seen
+    # the held foot (the names without it) and the fitted one
+    without = tuple(k for k in PARAMETER_NAMES if k != "throat_foot")
+    x = np.delete(x0, PARAMETER_NAMES.index("throat_foot"))
+    q, _, _ = _model_rows(x[None, :], 32.0, n11, opening, without, 2.0)
+    np.testing.assert_allclose(q[0], _model(x, 32.0, without, 2.0).q11(n11, opening), rtol=1e-13)
+    assert not np.allclose(q[0], _model(x, 32.0, without, 0.0).q11(n11, opening), rtol=1e-3)
+
+
+def test_the_fit_s_jacobian_is_least_squares_own(footed):
+    """The fit's Jacobian (all columns in one compiled call) is the forward difference ``least_squares`` computes
+    itself with ``jac='2-point'``, with its steps, ``sqrt(eps) sign(x) max(1, |x|)``: scipy's ``approx_fprime`` with
+    those steps gives the same matrix, with the foot fitted, without it and with it held. On this machine
+    the two are equal to the bit (measured: 0.0), so the fits land where scipy's own differences took them. The
+    bound, 1e-9 of the largest entry, leaves room for a last bit of a residual evaluated in a batch of rows on another
+    CPU; the same Jacobian with half the steps differs by 4e-8 of the largest entry, 40 times the bound."""
+    from scipy.optimize import approx_fprime
+
+    from hillchart.extension.turbine_model import PARAMETER_NAMES, START, _Residuals
+
+    chart, _ = footed
+    torque = _torque(chart)
+    best = int(np.argmax(torque * chart.flow_n11))
+    fit = _Residuals(chart.flow_n11, chart.flow_opening, chart.flow_q11, torque, float(np.ptp(chart.flow_q11)),
+                     float(np.ptp(torque)), float(chart.flow_n11[best]), float(torque[best]),
+                     float(chart.info.opening_max))
+    without = tuple(k for k in PARAMETER_NAMES if k != "throat_foot")
+    for names, held, x in ((PARAMETER_NAMES, 0.0, np.log([START[k] for k in PARAMETER_NAMES])),
+                           (without, 0.0, np.log([START[k] for k in without])),
+                           (without, 1.0, np.log([START[k] for k in without]))):
+        steps = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        reference = approx_fprime(x, fit, steps, names, held)
+        jacobian = fit.jacobian(x, names, held)
+        assert jacobian.shape == reference.shape == (2 * chart.flow_n11.size + 1, x.size)
+        np.testing.assert_allclose(jacobian, reference, rtol=0, atol=1e-9 * np.abs(reference).max())
+        half = approx_fprime(x, fit, steps / 2, names, held)
+        assert np.abs(half - reference).max() > 1e-10 * np.abs(reference).max()  # the steps matter
