@@ -6,7 +6,8 @@ range of N runs.
 ``hillsim train`` (defaults: the ensemble of 10, the extension's model, its hypotheses weighed on held-out lines)
 runs on the shipped chart and on the real charts found in the external data folder (``HILLSIM_EXTERNAL_DIR``, else
 ``../shared/external``): the Sayano-Shushenskaya Francis chart and the ZZ680 Kaplan chart's workbook (read with
-openpyxl, when installed); a chart absent is named and skipped.
+openpyxl, when installed); ``hillsim fccm --simulator-nets`` (defaults: 5 members) on the real bulb rig's table. A
+chart absent is named and skipped.
 
 Prints one row per measurement with the median, min and max wall time, the CPU time (user + sys of the child
 processes: less sensitive to other load than the wall time) and the 1-minute load average before each run, with the
@@ -46,11 +47,13 @@ def _timed(cmd: list[str], env: dict) -> tuple[float, float, float, int]:
 
 
 def train_charts(folder: Path) -> list[tuple[str, Path]]:
-    """(label, chart folder) of the charts ``hillsim train`` is timed on: the shipped chart and the real charts
-    present (written into ``folder``); the absent ones are named on stderr."""
+    """(label, folder) of what ``hillsim train`` is timed on, the shipped chart and the real charts present, and of
+    the table ``hillsim fccm --simulator-nets`` is (a folder with table.csv); written into ``folder``, the absent
+    ones named on stderr."""
     from data_synthetic import FRANCIS_DIR
     from tests.external_charts import (EXTERNAL_DIR, SAYANO_CONTOURS, SAYANO_LINES, ZZ680_WORKBOOK,
                                        write_kaplan_workbook_chart, write_sayano_chart)
+    from tests.fccm_external import BULB_137KW, write_bulb_137kw_table
 
     charts = [("shipped chart", Path(FRANCIS_DIR))]
     if all((EXTERNAL_DIR / name).is_file() for name in (SAYANO_LINES, SAYANO_CONTOURS)):
@@ -66,6 +69,10 @@ def train_charts(folder: Path) -> list[tuple[str, Path]]:
     else:
         print(f"the ZZ680 workbook is absent from {EXTERNAL_DIR}, or openpyxl is not installed: not timed",
               file=sys.stderr)
+    if (EXTERNAL_DIR / BULB_137KW).is_file():
+        charts.append(("EGAT bulb table", write_bulb_137kw_table(folder / "bulb")))
+    else:
+        print(f"the bulb rig's table is absent from {EXTERNAL_DIR}: not timed", file=sys.stderr)
     return charts
 
 
@@ -84,6 +91,11 @@ def main(argv=None) -> int:
                                                           "--quiet", "--out", str(Path(tmp) / "demo")]))
     if not args.skip_train:
         for label, folder in train_charts(Path(charts.name)):
+            if (folder / "table.csv").is_file():
+                cases.append((f"hillsim fccm ({label})", lambda tmp, folder=folder: [
+                    sys.executable, "-m", "hillsim.cli", "fccm", str(folder), "--simulator-nets", "--no-plots",
+                    "--out", str(Path(tmp) / "fccm")]))
+                continue
             cases.append((f"hillsim train ({label})", lambda tmp, folder=folder: [
                 sys.executable, "-m", "hillsim.cli", "train", str(folder), "--out", str(Path(tmp) / "nets.json")]))
     if not args.skip_suite:

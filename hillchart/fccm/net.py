@@ -326,8 +326,9 @@ class FCCMNet:
         Seeds the split and every initialisation.
     goal, max_epochs, max_fail, mu, mu_dec, mu_inc, mu_max
         ``trainlm`` parameters (goal on the mean squared normalized error of all outputs).
-    n_threads : int, default 1
-        Threads running the restarts side by side during ``fit`` (the result does not depend on it).
+    n_threads : int or None, default None
+        Threads running the restarts side by side during ``fit`` (the result does not depend on it). None: the
+        processors this process may run on, at most 8 (:func:`hillchart.nets.lm.threads`).
 
     Attributes
     ----------
@@ -358,7 +359,7 @@ class FCCMNet:
     def __init__(self, *, hidden: int | None = None, c_values=tuple(range(1, 11)), split=(0.30, 0.35, 0.35),
                  restarts: int = 5, seed: int = 0, goal: float = 1e-7, max_epochs: int = 1000, max_fail: int = 6,
                  mu: float = 1e-3, mu_dec: float = 0.1, mu_inc: float = 10.0, mu_max: float = 1e10,
-                 n_threads: int = 1):
+                 n_threads: int | None = None):
         self.hidden = hidden
         self.c_values = c_values
         self.split = split
@@ -392,7 +393,10 @@ class FCCMNet:
 
         if self.hidden is not None and not is_int(self.hidden, 1):
             raise InputError(f"FCCMNet.hidden must be None or an integer >= 1, got {self.hidden!r}")
-        for name, low in (("restarts", 1), ("max_epochs", 0), ("max_fail", 1), ("n_threads", 1), ("seed", 0)):
+        if self.n_threads is not None and not is_int(self.n_threads, 1):
+            raise InputError(f"FCCMNet.n_threads must be None (the processors available) or an integer >= 1, got "
+                             f"{self.n_threads!r}")
+        for name, low in (("restarts", 1), ("max_epochs", 0), ("max_fail", 1), ("seed", 0)):
             if not is_int(getattr(self, name), low):
                 raise InputError(f"FCCMNet.{name} must be an integer >= {low}, got {getattr(self, name)!r}")
         c_values = self.c_values

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 
 import numpy as np
 
@@ -74,14 +75,22 @@ def _split(groups, validation_fraction, validation_groups, rng):
     return train, np.sort(members[va])
 
 
+def _lm_jobs(xn, yn, train_index, val_index, weight, hidden, regularization, thetas0, lm_params):
+    """One Levenberg-Marquardt run from each start in ``thetas0``, as callables (:func:`hillchart.nets.lm.run_threads`
+    runs them); each returns its :class:`hillchart.nets.lm.LMResult`."""
+    sample_weight = None if np.all(weight[train_index] == 1.0) else weight[train_index]
+    return [partial(lm.levenberg_marquardt, xn[train_index], yn[train_index], xn[val_index], yn[val_index], theta0,
+                    hidden=hidden, sample_weight=sample_weight, regularization=regularization, **lm_params)
+            for theta0 in thetas0]
+
+
 def _lm_runs(xn, yn, train_index, val_index, weight, hidden, regularization, rng, restarts, n_threads, lm_params):
     """``restarts`` Levenberg-Marquardt runs from Nguyen-Widrow initialisations ("loop control", section 2.3 of
-    paper 004); returns the list of :class:`hillchart.nets.lm.LMResult`."""
-    sample_weight = None if np.all(weight[train_index] == 1.0) else weight[train_index]
+    paper 004), side by side on ``n_threads`` threads (None: :func:`hillchart.nets.lm.threads`); returns the list of
+    :class:`hillchart.nets.lm.LMResult`."""
     thetas0 = [lm.nguyen_widrow_init(hidden, rng) for _ in range(restarts)]
-    return lm.levenberg_marquardt_many(xn[train_index], yn[train_index], xn[val_index], yn[val_index], thetas0,
-                                       n_threads=n_threads, hidden=hidden, sample_weight=sample_weight,
-                                       regularization=regularization, **lm_params)
+    return lm.run_threads(_lm_jobs(xn, yn, train_index, val_index, weight, hidden, regularization, thetas0,
+                                   lm_params), n_threads)
 
 
 class HillNet:
@@ -107,9 +116,10 @@ class HillNet:
     mu, mu_dec, mu_inc, mu_max : float
         Levenberg-Marquardt damping: initial value, factor on success, factor on failure, upper limit.
     validation_fraction : float, default 0.2
-    n_threads : int, default 1
+    n_threads : int or None, default None
         Threads running the restarts side by side during ``fit`` (the compiled LM loop releases the GIL; the
-        result does not depend on it: the restarts are independent and drawn before they run).
+        result does not depend on it: the restarts are independent and drawn before they run). None: the
+        processors this process may run on, at most 8 (:func:`hillchart.nets.lm.threads`).
 
     Attributes
     ----------
@@ -137,7 +147,7 @@ class HillNet:
     def __init__(self, *, hidden: int = 5, restarts: int = 10, seed: int = 0, goal: float = 1e-5,
                  max_epochs: int = 1000, max_fail: int = 6, mu: float = 1e-3, mu_dec: float = 0.1,
                  mu_inc: float = 10.0, mu_max: float = 1e10, validation_fraction: float = 0.2,
-                 n_threads: int = 1, boundary_weight: float = 1.0, regularization: float = 0.0,
+                 n_threads: int | None = None, boundary_weight: float = 1.0, regularization: float = 0.0,
                  validation_groups: tuple | None = None):
         self.hidden = hidden
         self.restarts = restarts
@@ -182,7 +192,11 @@ class HillNet:
         check_int("restarts", 1)
         check_int("max_epochs", 0)
         check_int("max_fail", 1)
-        check_int("n_threads", 1)
+        threads = self.n_threads
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                    or threads < 1):
+            raise InputError(f"HillNet.n_threads must be None (the processors available) or an integer >= 1, got "
+                             f"{threads!r}")
         check_int("seed", 0)
         for name in ("goal", "mu", "mu_max"):
             value = getattr(self, name)

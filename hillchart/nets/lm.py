@@ -39,6 +39,7 @@ performance is its mean square (``trainlm``'s ``mse`` over all outputs).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from concurrent.futures import ThreadPoolExecutor
 
@@ -404,15 +405,38 @@ def levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, *, hidden: i
                     best_epoch=int(best_epoch), epochs=int(epochs), stop_reason=_STOP_REASONS[code])
 
 
-def levenberg_marquardt_many(xn_train, yn_train, xn_val, yn_val, thetas0, *, n_threads: int = 1,
+#: Most threads a training uses by default (:func:`threads`): beyond a few the runs are too short to share out.
+MAX_DEFAULT_THREADS = 8
+
+
+def threads(n_threads: int | None) -> int:
+    """The threads a training runs its independent starts on: ``n_threads``, or with None the processors this
+    process may run on (at most :data:`MAX_DEFAULT_THREADS`). The results do not depend on it."""
+    if n_threads is not None:
+        return int(n_threads)
+    try:
+        available = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        available = os.cpu_count() or 1
+    return max(1, min(available, MAX_DEFAULT_THREADS))
+
+
+def run_threads(jobs, n_threads: int | None = None) -> list:
+    """The results of the callables ``jobs``, in order, run on :func:`threads` threads (the compiled loop releases
+    the GIL); the same as running them one after the other when they are independent."""
+    n = threads(n_threads)
+    if n <= 1 or len(jobs) <= 1:
+        return [job() for job in jobs]
+    with ThreadPoolExecutor(max_workers=min(n, len(jobs))) as pool:
+        return list(pool.map(lambda job: job(), jobs))
+
+
+def levenberg_marquardt_many(xn_train, yn_train, xn_val, yn_val, thetas0, *, n_threads: int | None = 1,
                              **options) -> list[LMResult]:
     """:func:`levenberg_marquardt` from each start in ``thetas0`` (same data and options), in order. The compiled
-    loop releases the GIL, so ``n_threads`` > 1 runs the starts side by side; each result is the same as the
-    sequential one (the starts are independent)."""
+    loop releases the GIL, so ``n_threads`` > 1 (None: :func:`threads`) runs the starts side by side; each result is
+    the same as the sequential one (the starts are independent)."""
     def one(theta0):
-        return levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, **options)
+        return lambda: levenberg_marquardt(xn_train, yn_train, xn_val, yn_val, theta0, **options)
 
-    if n_threads <= 1 or len(thetas0) <= 1:
-        return [one(t) for t in thetas0]
-    with ThreadPoolExecutor(max_workers=int(n_threads)) as pool:
-        return list(pool.map(one, thetas0))
+    return run_threads([one(t) for t in thetas0], n_threads)

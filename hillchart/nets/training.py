@@ -9,7 +9,7 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.nets import lm
-from hillchart.nets.estimator import HillNet, _lm_runs, _split
+from hillchart.nets.estimator import HillNet, _lm_jobs, _split
 from hillchart.nets.hill_nets import HillNets
 from hillchart.nets.weights import ORIGINS, NetWeights
 
@@ -99,12 +99,12 @@ def _select(xn, yn, train_index, val_index, derived, validated, *, hidden, bound
     def score(weight, h, lam, index, params=None):
         params = params or lm_params
         rng = np.random.default_rng([seed, 7919, index])
-        errors = []
+        jobs = []  # one start per fold, drawn in the folds' order; the folds run side by side
         for fold in folds:
             train = np.sort(np.concatenate([always, np.setdiff1d(checked, fold)]))
-            results = _lm_runs(xn, yn, train, np.sort(fold), np.where(derived, weight, 1.0), h, lam, rng,
-                               1, n_threads, params)
-            errors.append(results[0].val_mse * fold.size)
+            jobs += _lm_jobs(xn, yn, train, np.sort(fold), np.where(derived, weight, 1.0), h, lam,
+                             [lm.nguyen_widrow_init(h, rng)], params)
+        errors = [result.val_mse * fold.size for result, fold in zip(lm.run_threads(jobs, n_threads), folds)]
         value = float(np.sum(errors) / checked.size)
         table.append({"boundary_weight": weight, "hidden": h, "regularization": lam, "goal": params["goal"],
                       "max_fail": params["max_fail"], "cv_mse": value})
@@ -248,16 +248,19 @@ def train_nets(extended, *, opening_unit: str | None = None, hidden: int | None 
             progress=progress, label=key, choose_stops="goal" not in net_params and "max_fail" not in net_params)
         stops = {"goal": lm_params["goal"], "max_fail": lm_params["max_fail"]}
         moves = _overspeed_moves(extended, key, X, groups, derived, ensemble, seed)
+        jobs = []
         for i in range(ensemble):
             # member i: its own random 80/20 split of the validated samples (early stopping on its held-out part),
             # every derived sample in training, its own initialisations; toward runaway its torque samples stand at
-            # its place in the band of the chart's overspeed evidence
+            # its place in the band of the chart's overspeed evidence. Every member's starts run side by side.
             rng = np.random.default_rng([net_seed, 104729, i])
             tr_i, va_i = _split(groups, probe.validation_fraction, validation_groups, rng)
             yn_i = yn if moves is None else yn + 2.0 * moves[i] / (y_max - y_min)
-            results = _lm_runs(xn, yn_i, tr_i, va_i, np.where(derived, weight, 1.0), h, lam, rng,
-                               ENSEMBLE_RESTARTS, probe.n_threads, lm_params)
-            res = min(results, key=lambda r: r.val_mse)
+            jobs += _lm_jobs(xn, yn_i, tr_i, va_i, np.where(derived, weight, 1.0), h, lam,
+                             [lm.nguyen_widrow_init(h, rng) for _ in range(ENSEMBLE_RESTARTS)], lm_params)
+        results = lm.run_threads(jobs, probe.n_threads)
+        for i in range(ensemble):
+            res = min(results[i * ENSEMBLE_RESTARTS:(i + 1) * ENSEMBLE_RESTARTS], key=lambda r: r.val_mse)
             w1, b1, w2, b2 = lm.unpack(res.theta, h)
             members[key].append(NetWeights(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, W1=w1, b1=b1,
                                            W2=w2, b2=float(b2)))

@@ -6,9 +6,10 @@ import argparse
 from pathlib import Path
 
 
-#: --simulator-nets: ensemble members (each trains both nets with every restart: 5 take about a minute on a bulb
-#: table, so 20 about four) and table rows (a model test has some hundreds to a few thousand points; the
-#: Levenberg-Marquardt training's Jacobian grows with the rows, and 200,000 rows ran for minutes).
+#: --simulator-nets: ensemble members (each trains both nets with every restart: the default 5 take about 9 s on a
+#: real bulb rig's table of 285 rows on 2 cores, its model's fits included, and 20 several times that) and table
+#: rows (a model test has some hundreds to a few thousand points; the Levenberg-Marquardt training's Jacobian grows
+#: with the rows, and 200,000 rows ran for minutes).
 MAX_MEMBERS = 20
 MAX_SIMULATOR_NET_ROWS = 20_000
 

@@ -161,3 +161,32 @@ def test_the_selection_keeps_the_papers_stops_on_noisy_readings_and_fits_a_clean
         chosen[noise] = (params["goal"], params["max_fail"], [c["cv_mse"] for c in table])
     assert chosen[0.0][:2] == (LONGER_STOPS["goal"], LONGER_STOPS["max_fail"]), chosen  # the failing case beside
     assert chosen[0.02][:2] == (1e-5, 6), chosen
+
+
+def test_training_on_threads_gives_the_nets_of_one_thread(monkeypatch):
+    """``train_nets`` runs the selection's folds, the members' starts and the point net's starts side by side on
+    the processors available (:func:`hillchart.nets.lm.threads`); every start is drawn before the runs, so the nets
+    are those of one thread, weight for weight (the same binary on the same machine: equal to the bit)."""
+    from hillchart.nets import lm
+    from hillchart.nets.training import train_nets
+
+    rng = np.random.default_rng(4)
+    X = np.column_stack([rng.uniform(20.0, 130.0, 90), rng.uniform(5.0, 30.0, 90)])
+    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, 0.002, 90)
+    table = {"target": np.array(["q11"] * 90 + ["m11"] * 90), "origin": np.array(["measured"] * 180),
+             "n11": np.concatenate([X[:, 0], X[:, 0]]), "opening": np.concatenate([X[:, 1], X[:, 1]]),
+             "value": np.concatenate([y, 900 * y - 100])}
+    nets = {}
+    for n in (1, 3):
+        monkeypatch.setattr(lm, "threads", lambda requested, n=n: n if requested is None else requested)
+        nets[n] = train_nets(table, opening_unit="mm", ensemble=3, boundary_weight=1.0, regularization=0.0)
+    for key in ("flow", "torque"):
+        one, three = getattr(nets[1], key), getattr(nets[3], key)
+        for name in ("W1", "b1", "W2"):
+            np.testing.assert_array_equal(getattr(one, name), getattr(three, name))
+        assert nets[1].training[key]["selection"] == nets[3].training[key]["selection"]
+    for (flow_1, torque_1), (flow_3, torque_3) in zip(nets[1].ensemble, nets[3].ensemble):
+        np.testing.assert_array_equal(flow_1.W1, flow_3.W1)
+        np.testing.assert_array_equal(torque_1.W2, torque_3.W2)
+    assert len(nets[3].ensemble) == 3
+    assert not np.array_equal(nets[3].ensemble[0][0].W1, nets[3].ensemble[1][0].W1)  # the members differ
