@@ -34,7 +34,6 @@ from dataclasses import dataclass, replace
 import numba
 import numpy as np
 
-from hillchart.constants import G_M_S2
 from hillchart.errors import InputError
 from hillchart.synthetic.francis import _francis_angles
 from hillchart.synthetic.francis_variants import THROAT_LAWS, _variant_n11_limit, _variant_terms_at
@@ -165,14 +164,6 @@ class FittedTurbineModel:
             return float("nan")
         i = sign_change[0]
         return float(brentq(lambda n: float(self.turbine.m11(n, opening)), grid[i], grid[i + 1], xtol=1e-10))
-
-
-def _n11_limit(params) -> float:
-    """N11 where gamma of the model's quadratic reaches 0 (see :mod:`hillchart.synthetic.francis`)."""
-    c = params.k_incidence + (params.k_swirl - 2.0) * params.d2 ** 2
-    if c <= 0:
-        return math.inf
-    return 60.0 / math.pi * math.sqrt(2.0 * G_M_S2 / c)
 
 
 #: The fitted parameters in the order of the compiled model's first 11 (:meth:`OutOfClassFrancis._terms_params`;
@@ -432,4 +423,4 @@ def _fitted(turbine, chart, torque, q_scale, m_scale, foot_p, *, refuse):
             "where a line's zero-speed flow comes out negative) and set K by hand (--zero-opening-k)"
         )
     return FittedTurbineModel(turbine=turbine, k_zero_opening=k, q11_rms_pct=q_rms, m11_rms_pct=m_rms,
-                              n11_limit=_n11_limit(turbine.params), foot_p_value=foot_p)
+                              n11_limit=turbine.n11_limit(), foot_p_value=foot_p)

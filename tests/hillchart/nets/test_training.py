@@ -11,6 +11,17 @@ def bumpy(n11, a):
     return 0.5 * a / 32.0 + 0.03 * np.sin(n11 / 12.0)
 
 
+def bumpy_table(*, seed, n):
+    """An extended-sample table of ``n`` measured points of the bumpy surface (noise 0.002) for Q11 and a torque
+    linear in it, for ``train_nets``."""
+    rng = np.random.default_rng(seed)
+    X = np.column_stack([rng.uniform(20.0, 130.0, n), rng.uniform(5.0, 30.0, n)])
+    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, 0.002, n)
+    return {"target": np.array(["q11"] * n + ["m11"] * n), "origin": np.array(["measured"] * (2 * n)),
+            "n11": np.concatenate([X[:, 0], X[:, 0]]), "opening": np.concatenate([X[:, 1], X[:, 1]]),
+            "value": np.concatenate([y, 900 * y - 100])}
+
+
 def distill_case(noise=0.004):
     rng = np.random.default_rng(5)
     X = np.column_stack([rng.uniform(20.0, 130.0, 60), rng.uniform(5.0, 30.0, 60)])
@@ -74,12 +85,7 @@ def test_train_nets_records_the_point_nets_size():
     """Through train_nets: the record starts at the selected size and ends at the point net's."""
     from hillchart.nets.training import train_nets
 
-    rng = np.random.default_rng(2)
-    X = np.column_stack([rng.uniform(20.0, 130.0, 120), rng.uniform(5.0, 30.0, 120)])
-    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, 0.002, 120)
-    table = {"target": np.array(["q11"] * 120 + ["m11"] * 120), "origin": np.array(["measured"] * 240),
-             "n11": np.concatenate([X[:, 0], X[:, 0]]), "opening": np.concatenate([X[:, 1], X[:, 1]]),
-             "value": np.concatenate([y, 900 * y - 100])}
+    table = bumpy_table(seed=2, n=120)
     nets = train_nets(table, opening_unit="mm", ensemble=3, boundary_weight=1.0, regularization=0.0)
     for key, weights in (("flow", nets.flow), ("torque", nets.torque)):
         record = nets.training[key]["distillation"]
@@ -170,12 +176,7 @@ def test_training_on_threads_gives_the_nets_of_one_thread(monkeypatch):
     from hillchart.nets import lm
     from hillchart.nets.training import train_nets
 
-    rng = np.random.default_rng(4)
-    X = np.column_stack([rng.uniform(20.0, 130.0, 90), rng.uniform(5.0, 30.0, 90)])
-    y = bumpy(X[:, 0], X[:, 1]) + rng.normal(0.0, 0.002, 90)
-    table = {"target": np.array(["q11"] * 90 + ["m11"] * 90), "origin": np.array(["measured"] * 180),
-             "n11": np.concatenate([X[:, 0], X[:, 0]]), "opening": np.concatenate([X[:, 1], X[:, 1]]),
-             "value": np.concatenate([y, 900 * y - 100])}
+    table = bumpy_table(seed=4, n=90)
     nets = {}
     for n in (1, 3):
         monkeypatch.setattr(lm, "threads", lambda requested, n=n: n if requested is None else requested)
