@@ -33,11 +33,18 @@ MIN_SIDE_FRACTION = 0.25
 #: inner folds all fell below the blend, the chart's own lowest line above it), so neither side is narrower than half
 #: the other. Toward runaway every line is a unit of evidence (6 to 12 of them) and :data:`MIN_SIDE_FRACTION` holds.
 MIN_SIDE_FRACTION_BELOW = 0.5
-#: ``kappa`` of the band when the chart gives no held-out evidence (fewer than
-#: :data:`hillchart.extension.hypotheses.MIN_LINES_WEIGHED` + 1 lines): 1.2, so +-30 % at half the lowest opening
-#: (the spread of the hypotheses' errors on a real chart, 10-20 % at a quarter to a half of the lowest opening below
-#: it).
-NO_EVIDENCE_SCALE = 1.2
+#: When the chart gives no held-out evidence (too few lines for a fold) nothing shows how the error grows below the
+#: lowest line, nor that it is small near it: the band grows as ``d^2`` only up to this distance (the ``cap`` of
+#: :func:`band_square`) and on linearly beyond. Growing as ``d^2`` all the way it was 3.5 % of the M11 range 17 % of
+#: the way to the closed cam of the real Kaplan chart of ``benchmarks/bench_kaplan_extrapolation.py`` with three
+#: lines held out (two left, no fold), where the torque missed by up to 17 % (11 of 39 points covered); the real
+#: charts that give folds miss by 0.5-3 times the distance near their lowest line.
+NO_EVIDENCE_CAP = 0.05
+#: ``kappa`` of the band without held-out evidence: 1.2 at the closed vanes (``d = 1``; ``h(1) = c (2 - c)`` with
+#: ``c`` = :data:`NO_EVIDENCE_CAP`), so about 1.2 d below the lowest line: +-58 % of log Q11 at half the lowest
+#: opening (-44 % to +79 %), 18 % at 0.17 (the spread of the hypotheses' errors on real charts, 10-20 % at a quarter
+#: to a half of the lowest opening below it, is inside it).
+NO_EVIDENCE_SCALE = 1.2 / (NO_EVIDENCE_CAP * (2.0 - NO_EVIDENCE_CAP))
 
 
 def continuation(n11, values, at_n11) -> float:

@@ -60,8 +60,8 @@ import numpy as np
 
 from hillchart.errors import InputError
 from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_SIDE_FRACTION, MIN_SIDE_FRACTION_BELOW,
-                                      NO_EVIDENCE_SCALE, band_scale, band_sides, band_square, continuation,
-                                      log_ratio, member_positions, weighed_median)
+                                      NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_scale, band_sides, band_square,
+                                      continuation, log_ratio, member_positions, weighed_median)
 
 #: The hypotheses, in the order of every weight vector.
 HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-form-model", "line", "offset-line",
@@ -415,7 +415,8 @@ class Evidence:
             half = NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap, math.inf)[0]
             return ("below the lowest line: no held-out evidence (fewer than "
                     f"{MIN_LINES_WEIGHED + 1} opening lines): hypotheses weighed equally, the band is wide "
-                    f"(+-{100 * half:.0f} % of Q11 at half the lowest opening); digitize more opening lines")
+                    f"({100 * math.expm1(-half):+.0f} % to {100 * math.expm1(half):+.0f} % of Q11 at half the lowest "
+                    "opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(self.names, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)
@@ -469,8 +470,8 @@ def weigh(folds, m11_scale: float, names=HYPOTHESES, priors=None) -> Evidence:
         equal = {h: priors[h] / sum(priors.values()) if h in names else 0.0 for h in HYPOTHESES}
         wide = (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
         return Evidence(folds=[], weights={"q11": dict(equal), "m11": dict(equal)}, errors={"q11": {}, "m11": {}},
-                        band={"q11": wide, "m11": wide}, points=0, names=names,
-                        m11_scale=m11_scale, notes=["no held-out evidence: too few opening lines"])
+                        band={"q11": wide, "m11": wide}, points=0, names=names, m11_scale=m11_scale,
+                        distance_cap=NO_EVIDENCE_CAP, notes=["no held-out evidence: too few opening lines"])
     errors = _errors(weighed, m11_scale, names)
     distance_w = np.maximum(np.concatenate([f.distance for f in weighed]), 1e-9)
     lines_w = sum(f.lines for f in weighed)
@@ -695,5 +696,5 @@ __all__ = ["HYPOTHESES", "OTHER_FORM", "WITHOUT_OTHER_FORM", "CURVATURE_LINES", 
            "offset_line", "fit_hypotheses", "HeldOut",
            "sub_chart", "hold_out", "Evidence", "weigh", "chart_evidence", "Extrapolation", "overspeed_evidence",
            "GROWTH", "FAR_FRACTION", "BAND_COVERAGE", "MIN_SIDE_FRACTION", "MIN_SIDE_FRACTION_BELOW",
-           "NO_EVIDENCE_SCALE", "band_square", "log_ratio", "band_scale", "band_sides", "member_positions",
-           "continuation"]
+           "NO_EVIDENCE_SCALE", "NO_EVIDENCE_CAP", "band_square", "log_ratio", "band_scale", "band_sides",
+           "member_positions", "continuation"]

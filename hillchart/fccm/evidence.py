@@ -39,10 +39,9 @@ the band is split-conformal on the median's held-out residuals of each fold
 near the smallest angle, where ``d^2`` would shrink a band calibrated further down to nothing
 (:func:`hillchart.extension.band.band_envelope`). A table without sweeps of :data:`MIN_ANGLES_LEFT` + 1 angles gives
 no evidence: the fitted model answers alone (weighed equally, the line and the quadratic, 15-35 % off on every table
-measured, took a synthetic bulb's rejection 1.6 points of speed off), the band is the wide
-:data:`hillchart.extension.hypotheses.NO_EVIDENCE_SCALE`, and the summary says so. Toward overspeed the table's evidence
-is stated too (:func:`overspeed_evidence`): the highest-N11 point of every setting held out.
-"""
+measured, took a synthetic bulb's rejection 1.6 points of speed off), the band is the wide no-evidence band (linear
+in the distance, :data:`hillchart.extension.band.NO_EVIDENCE_SCALE`), and the summary says so. Toward overspeed the
+table's evidence is stated too (:func:`overspeed_evidence`): the highest-N11 point of every setting held out."""
 
 from __future__ import annotations
 
@@ -53,8 +52,8 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import BEYOND_CAP, band_envelope, continuation, runout, weighed_median
-from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_SCALE, band_scale, log_ratio
+from hillchart.extension.band import BEYOND_CAP, band_envelope, band_square, continuation, runout, weighed_median
+from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_scale, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
 HYPOTHESES = ("model", "anchored-model", "line", "quadratic")
@@ -405,10 +404,11 @@ class TableEvidence:
     def summary(self) -> str:
         """What ``hillsim fccm --simulator-nets`` prints."""
         if not self.points:
+            half = NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap, math.inf)[0]
             text = (f"below the lowest guide-vane angle: no held-out evidence (no sweep over {MIN_ANGLES_LEFT + 1} "
                     "or more guide-vane angles at one N11 and blade angle): the fitted model answers alone, the band "
-                    f"is wide (+-{100 * NO_EVIDENCE_SCALE * 0.5 ** GROWTH:.0f} % at half the gap to the closed vane); "
-                    "measure guide-vane sweeps down to small angles")
+                    f"is wide ({100 * math.expm1(-half):+.0f} % to {100 * math.expm1(half):+.0f} % of Q11 at half "
+                    "the gap to the closed vane); measure guide-vane sweeps down to small angles")
         else:
             q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
             ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
@@ -440,7 +440,7 @@ def weigh_folds(folds, m11_scale: float) -> tuple[dict, dict, dict, float, int, 
     if not points:
         alone = {h: float(h == "model") for h in HYPOTHESES}  # the prior: the physical model (module docstring)
         return ({"q11": dict(alone), "m11": dict(alone)}, {"q11": {}, "m11": {}},
-                {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, 1.0, 0, {"q11": 0.0, "m11": 0.0})
+                {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}, NO_EVIDENCE_CAP, 0, {"q11": 0.0, "m11": 0.0})
     per_fold = [fold_errors(f, m11_scale) for f in folds]
     distance = np.maximum(np.concatenate([f.distance for f in folds]), 1e-9)
     pieces = sum(f.angles for f in folds)

@@ -220,7 +220,8 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
     cannot be placed from is left out (``closed``: the closed cam given, deg, held in every fold); with none the
     band is :data:`hillchart.extension.band.NO_EVIDENCE_SCALE` wide and the summary says to give more lines."""
     from hillchart.characteristics import unit_torque_from_efficiency
-    from hillchart.extension.band import MIN_SIDE_FRACTION_BELOW, NO_EVIDENCE_SCALE, band_sides, log_ratio
+    from hillchart.extension.band import (MIN_SIDE_FRACTION_BELOW, NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_sides,
+                                          log_ratio)
 
     blade, n11, q11, efficiency = (np.asarray(v, float) for v in (blade, n11, q11, efficiency))
     m11 = np.asarray(unit_torque_from_efficiency(q11, n11, efficiency), float)  # eq. (5) of paper 004
@@ -252,8 +253,8 @@ def on_cam_evidence(blade, n11, q11, efficiency, closed: float | None = None) ->
     if not folds:
         wide = (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
         equal = {h: 1.0 / len(EFFICIENCY_HYPOTHESES) for h in EFFICIENCY_HYPOTHESES}
-        return OnCamEvidence(folds=(), band_q11=wide, band_m11=wide, m11_scale=scale, distance_cap=1.0,
-                             weights=equal)
+        return OnCamEvidence(folds=(), band_q11=wide, band_m11=wide, m11_scale=scale,
+                             distance_cap=NO_EVIDENCE_CAP, weights=equal)
     distance = np.concatenate(distance)
     # the efficiency's hypotheses weighed by their held-out likelihood, the held-out lines the units of evidence
     # (pseudo-BMA over errors divided by d^2, as a Francis chart's hypotheses: hillchart.extension.hypotheses.weigh)

@@ -111,8 +111,10 @@ def test_a_chart_with_too_few_lines_says_so_and_has_a_wide_band(tmp_path):
     assert {ev.weights["q11"][h] for h in ev.names} == {1.0 / len(ev.names)}
     assert all(ev.weights["q11"][h] == 0.0 for h in H.OTHER_FORM)
     assert "no held-out evidence" in ev.summary() and "digitize more opening lines" in ev.summary()
-    # kappa h at half the lowest opening: 1.2 x 0.5^2 (the message once printed kappa itself, "+-120 %")
-    assert "(+-30 % of Q11 at half the lowest opening)" in ev.summary()
+    # kappa h(0.5) = 0.585 of log Q11 at half the lowest opening, h growing as d^2 to 0.05 and on linearly: 1.2 at
+    # the closed vanes (the message once printed kappa itself, "+-120 %"; growing as d^2 all the way, +-30 %)
+    assert ev.distance_cap == H.NO_EVIDENCE_CAP
+    assert "(-44 % to +79 % of Q11 at half the lowest opening)" in ev.summary()
 
 
 def test_the_priors_multiply_the_held_out_likelihoods():

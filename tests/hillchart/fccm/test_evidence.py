@@ -9,7 +9,7 @@ import pytest
 from data_synthetic import BULB_DIR
 from hillchart.errors import InputError
 from hillchart.extension.band import band_envelope
-from hillchart.extension.hypotheses import NO_EVIDENCE_SCALE, band_scale, band_square
+from hillchart.extension.hypotheses import NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_scale, band_square
 from hillchart.fccm.double_regulated import (BulbSilentModel, DoubleRegulatedNets, load_double_regulated_nets,
                                              table_unit_samples)
 from hillchart.fccm.evidence import (HYPOTHESES, BulbExtrapolation, fold_band, fold_errors, held_out_mask, low_band,
@@ -131,8 +131,9 @@ def test_a_scattered_table_gives_no_evidence_and_says_so(tmp_path):
     assert evidence.points == 0 and evidence.band == {"q11": NO_EVIDENCE_SCALE, "m11": NO_EVIDENCE_SCALE}
     # no hypothesis has earned a weight: the physical model alone, as before the evidence
     assert evidence.weights["q11"] == {"model": 1.0, "anchored-model": 0.0, "line": 0.0, "quadratic": 0.0}
-    # +-30 % at half the gap: kappa 1.2 times 0.5^2
-    assert "no held-out evidence" in evidence.summary() and "+-30 %" in evidence.summary()
+    # kappa h(0.5) = 0.585 of log Q11 at half the gap (h as d^2 to 0.05, on linearly: 1.2 at the closed vane)
+    assert evidence.distance_cap == NO_EVIDENCE_CAP
+    assert "no held-out evidence" in evidence.summary() and "-44 % to +79 % of Q11" in evidence.summary()
 
 
 def test_an_in_class_sweep_table_weighs_the_model_and_bands_it_narrowly(sweep_samples):

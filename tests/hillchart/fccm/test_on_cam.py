@@ -156,6 +156,11 @@ def test_a_chart_of_two_lines_has_no_evidence_and_says_so(tmp_path):
                                                 lambda phi, n: 0.8, lines=(10.0, 20.0))))
     assert evidence.folds == () and evidence.band_q11 == (NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE)
     assert "no held-out evidence" in evidence.summary() and "give more blade-angle lines" in evidence.summary()
+    # wide near the lowest line too: 17 % of the way to the closed cam the torque's band is 17.8 % of the M11 range
+    # (12.3 x (0.05^2 + 2 x 0.05 x 0.12)). Growing as d^2 all the way it was 3.5 % there, where the real Kaplan
+    # chart with two lines left missed by up to 17 % (benchmarks/bench_kaplan_extrapolation.py)
+    low, high = (float(v[0]) for v in evidence.m11_widths([0.17]))
+    assert low == high == pytest.approx(0.1785 * evidence.m11_scale, rel=1e-3)
     # three lines give one fold: evidence, and the summary gives its misses
     three = _evidence(load_test_table(_linear_chart(tmp_path / "three")))
     assert len(three.folds) == 1 and "without 10 deg the rest predicts it within" in three.summary()
