@@ -341,20 +341,23 @@ class SilentRegionModel:
                              f"{list(self.blend_openings)!r}")
         if not (math.isfinite(self.torque_factor) and self.torque_factor > 0):
             raise InputError(f"silent_model.torque_factor must be finite and > 0, got {self.torque_factor!r}")
-        for key in ("band_q11", "band_m11"):
-            value = getattr(self, key)
-            sides = _band_pair(value)
-            limit = 10.0 if key == "band_q11" else math.inf
-            if sides is None or not all(0 <= v <= limit for v in sides):
-                raise InputError(f"silent_model.{key} must be a pair [low, high] of finite numbers in "
-                                 f"[0, {limit}], got {value!r}")
-            object.__setattr__(self, key, sides)
         if not (math.isfinite(self.distance_cap) and 0 < self.distance_cap <= 1.0):
             raise InputError(f"silent_model.distance_cap must be a finite number in (0, 1.0], got "
                              f"{self.distance_cap!r}")
         if self.beyond_cap not in BEYOND_CAP:
             raise InputError(f"silent_model.band.beyond_cap must be one of {', '.join(BEYOND_CAP)}, got "
                              f"{self.beyond_cap!r}")
+        # Q11's band at most a log-ratio of 10 at the shut vanes (h there from the cap and the run-out: a band
+        # that grows as d^2 only near the lowest line, as the no-evidence band does, has a larger kappa)
+        closed = band_square(1.0, self.distance_cap, runout(self.beyond_cap, self.distance_cap))[0]
+        for key in ("band_q11", "band_m11"):
+            value = getattr(self, key)
+            sides = _band_pair(value)
+            limit = round(10.0 / closed, 6) if key == "band_q11" else math.inf
+            if sides is None or not all(0 <= v <= limit for v in sides):
+                raise InputError(f"silent_model.{key} must be a pair [low, high] of finite numbers in "
+                                 f"[0, {limit:g}], got {value!r}")
+            object.__setattr__(self, key, sides)
         if not (math.isfinite(self.position) and abs(self.position) <= 5.0):
             raise InputError(f"silent_model.position must be a finite number in [-5, 5], got {self.position!r}")
         object.__setattr__(self, "q11", q)

@@ -149,3 +149,25 @@ def test_stops_given_are_the_fit_s_and_recorded(tmp_path):
         for key in ("flow", "torque"):
             selection = training[key]["selection"]
             assert {"goal": selection["goal"], "max_fail": selection["max_fail"]} == want, (stops, key)
+
+
+def test_a_chart_of_three_lines_trains_with_the_wide_no_evidence_band(tmp_path, capsys):
+    """Three opening lines leave no held-out fold: ``train`` says so and writes the no-evidence band (growing as d^2
+    only up to :data:`hillchart.extension.band.NO_EVIDENCE_CAP`, kappa 12.3). Its kappa was once refused by the
+    silent model's bound of 10 on kappa itself, so such a chart could not be trained; the bound is now on the band at
+    the shut vanes, which is 1.2."""
+    import shutil
+
+    from hillchart.extension.band import NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE
+
+    chart = tmp_path / "chart"
+    shutil.copytree(FRANCIS_DIR, chart)
+    (chart / "nets.json").unlink()
+    lines = (chart / "flow.csv").read_text(encoding="utf-8").splitlines()
+    kept = [row for row in lines[1:] if float(row.split(",")[0]) in (10.0, 20.0, 30.0)]
+    (chart / "flow.csv").write_text("\n".join([lines[0]] + kept) + "\n", encoding="utf-8")
+    out = tmp_path / "nets.json"
+    assert main(["train", str(chart), "--out", str(out), "--ensemble", "2"]) == 0
+    assert "no held-out evidence (fewer than 4 opening lines)" in capsys.readouterr().out
+    band = json.loads(out.read_text(encoding="utf-8"))["silent_model"]["band"]
+    assert band["distance_cap"] == NO_EVIDENCE_CAP and band["q11"] == [NO_EVIDENCE_SCALE, NO_EVIDENCE_SCALE]

@@ -241,10 +241,18 @@ def test_a_table_with_bad_numbers_is_refused():
     with pytest.raises(InputError, match=r"silent_model.n11_top must be finite and > 0, got -100.0"):
         SilentRegionModel(q11=good, m11=good, n11_top=-100.0, blend_openings=(1.0, 2.0))
     with pytest.raises(InputError, match=r"silent_model.band_q11 must be a pair \[low, high\] of finite numbers in "
-                                         r"\[0, 10.0\], got \(-1.0, 0.2\)"):
+                                         r"\[0, 10\], got \(-1.0, 0.2\)"):
         SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=(-1.0, 0.2))
     with pytest.raises(InputError, match=r"silent_model.band_m11 must be a pair .* got 3.0"):
         SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_m11=3.0)
+    # the bound is on the band at the shut vanes, a log-ratio of 10: kappa h(1) with h growing as d^2 to the cap and
+    # on linearly (h(1) = 0.05 x 1.95 = 0.0975 with the no-evidence cap 0.05). The no-evidence band (kappa 12.3)
+    # was refused when kappa itself was bounded by 10; 103 is refused
+    SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=(12.3, 12.3),
+                      distance_cap=0.05)
+    with pytest.raises(InputError, match=r"silent_model.band_q11 must be a pair .* in \[0, 102.564\], got"):
+        SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0), band_q11=(103.0, 1.0),
+                          distance_cap=0.05)
     SilentRegionModel(q11=good, m11=good, n11_top=100.0, blend_openings=(1.0, 2.0))
 
 
