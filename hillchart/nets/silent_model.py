@@ -353,7 +353,7 @@ class SilentRegionModel:
         for key in ("band_q11", "band_m11"):
             value = getattr(self, key)
             sides = _band_pair(value)
-            limit = round(10.0 / closed, 6) if key == "band_q11" else math.inf
+            limit = 10.0 / closed if key == "band_q11" else math.inf
             if sides is None or not all(0 <= v <= limit for v in sides):
                 raise InputError(f"silent_model.{key} must be a pair [low, high] of finite numbers in "
                                  f"[0, {limit:g}], got {value!r}")
