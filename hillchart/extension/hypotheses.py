@@ -638,6 +638,7 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
             ends.append(int(index[np.argmax(chart.flow_n11[index])]))
     if not ends:
         return None
+    ends = np.array(ends)  # one held-out point per line, in the order of ``q_line``, ``m_line`` and ``gaps`` below
     held = np.zeros(chart.flow_n11.size, bool)
     held[ends] = True
     try:
@@ -645,7 +646,7 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     except InputError:
         return None
     scale = float(np.ptp(torque)) or 1.0
-    n, a, q, m = chart.flow_n11[held], chart.flow_opening[held], chart.flow_q11[held], torque[held]
+    n, a, q, m = chart.flow_n11[ends], chart.flow_opening[ends], chart.flow_q11[ends], torque[ends]
     # a point beyond the refitted model's pumping limit has no model answer: it counts as the model's miss of the
     # whole value (the line still answers there)
     inside = n < 0.95 * model.n11_limit if math.isfinite(model.n11_limit) else np.ones(n.size, bool)

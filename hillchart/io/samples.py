@@ -235,6 +235,8 @@ def load_chart(folder) -> ChartSamples:
     """Read a chart folder into validated, unit-normalized :class:`ChartSamples`.
 
     ``runaway.csv`` is optional: without it a :class:`UserWarning` says that the runaway boundary will be missing.
+    The flow and runaway points come in their natural order, by opening and then N11, whatever the files' order
+    (``rows`` still names each point's line in its file); the contour points keep the file's order.
 
     Examples
     --------
@@ -271,6 +273,14 @@ def load_chart(folder) -> ChartSamples:
             f"{folder / 'flow.csv'}: the equal-opening line(s) at opening {short.tolist()} have fewer than "
             f"{MIN_POINTS_PER_LINE} points (counts {counts[counts < MIN_POINTS_PER_LINE].tolist()})"
         )
+    # the lines' points in their natural order, opening then N11 (a stable sort: the row numbers follow), so that
+    # what is fitted and chosen from them (cross-validation folds, held-out points) depends on the points and not on
+    # the order the digitizer exported them in; the contours keep the file's order (along each contour)
+    for name in ("flow.csv", "runaway.csv"):
+        order = np.lexsort((tables[name]["n11"], tables[name]["opening"]))
+        tables[name] = {column: values[order] for column, values in tables[name].items()}
+        line_numbers[name] = line_numbers[name][order]
+    flow = tables["flow.csv"]
     q_scale = Q11_UNITS[info.q11_unit]
     eff = tables["efficiency.csv"]
     run = tables["runaway.csv"]

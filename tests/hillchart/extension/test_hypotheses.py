@@ -254,6 +254,33 @@ def test_toward_runaway_the_chart_states_how_well_it_predicts_its_held_out_line_
         shipped.extrapolation.summary()
 
 
+def test_toward_runaway_the_evidence_pairs_each_line_with_its_own_held_out_end(shipped):
+    """The held-out line ends are compared with the continuations and gaps of their own lines, whatever the order
+    of the chart's points: the shipped chart with its flow points in reverse order gives the same evidence. The
+    continuations see the same points (1e-12); the refitted model sees them in another order, so its least squares
+    takes other rounding and stops elsewhere within its tolerance (6e-7 apart measured; 1e-5 allowed). Before, the
+    ends were taken in the points' order and the continuations in the openings': reversed, the straight continuation
+    "missed" by tens of % of Q11 (0.8 % in order) and the band per gap paired each line's miss with another's gap."""
+    from hillchart.characteristics import unit_torque_from_efficiency
+    from hillchart.extension.turbine_model import fit_turbine_model
+
+    chart = load_chart(FRANCIS_DIR)
+    torque = unit_torque_from_efficiency(chart.flow_q11, chart.flow_n11, shipped.efficiency_surface(
+        chart.flow_n11, chart.flow_q11))
+    back = slice(None, None, -1)
+    reverse = replace(chart, flow_opening=chart.flow_opening[back], flow_n11=chart.flow_n11[back],
+                      flow_q11=chart.flow_q11[back], rows={**chart.rows, "flow": chart.rows["flow"][back]})
+    ordered = H.overspeed_evidence(chart, torque, fit_turbine_model)
+    reversed_ = H.overspeed_evidence(reverse, torque[back], fit_turbine_model)
+    assert ordered["line_q11_rms"] < 0.01
+    for key, rel in (("line_q11_rms", 1e-12), ("line_m11_rms", 1e-12), ("model_q11_rms", 1e-5),
+                     ("model_m11_rms", 1e-5), ("runaway_n11_rms", 1e-5)):
+        assert reversed_[key] == pytest.approx(ordered[key], rel=rel), key
+    for key, rel in (("line_m11_band_per_gap", 1e-12), ("m11_band_per_gap", 1e-5)):
+        for side in ("low", "high"):
+            assert reversed_[key][side] == pytest.approx(ordered[key][side], rel=rel), (key, side)
+
+
 def test_toward_runaway_a_refit_that_cannot_reach_the_line_ends_says_so(shipped):
     """The shipped chart's refit reaches past every held-out line end (its pumping limit N11 = 200, none beyond, and
     the summary does not speak of it); a refit whose pumping limit falls short of them (as Sayano's without its three

@@ -33,6 +33,25 @@ def test_loads_the_shipped_chart():
     assert chart.openings.size == 12
 
 
+def test_the_lines_points_load_in_their_natural_order_whatever_the_files_order(chart_dir):
+    """Flow and runaway points come by opening and then N11 however the file lists them, so that the nets (whose
+    cross-validation folds follow the points' order) depend on the points alone: the shipped chart's files written
+    backwards load into the same arrays (exactly: only the order changes), and ``rows`` still gives each point's
+    line in its file. The shipped chart is in that order already; written backwards and loaded as the file lists
+    them, its first flow point would be the last line's (the assertion on ``flow_opening[0]`` fails)."""
+    for name in ("flow.csv", "runaway.csv"):
+        header, *points = (chart_dir / name).read_text().splitlines()
+        (chart_dir / name).write_text("\n".join([header, *points[::-1]]) + "\n")
+    chart, ref = load_chart(chart_dir), load_chart(FRANCIS_DIR)
+    assert chart.flow_opening[0] == ref.openings[0]
+    for field in ("flow_opening", "flow_n11", "flow_q11", "runaway_opening", "runaway_n11", "runaway_q11"):
+        np.testing.assert_array_equal(getattr(chart, field), getattr(ref, field), err_msg=field)
+    lines = (chart_dir / "flow.csv").read_text().splitlines()
+    for i in (0, 7, chart.flow_n11.size - 1):
+        opening, n11, q11 = (float(v) for v in lines[chart.rows["flow"][i] - 1].split(","))
+        assert (opening, n11, q11) == (chart.flow_opening[i], chart.flow_n11[i], chart.flow_q11[i])
+
+
 def test_litres_and_percent_are_normalized(chart_dir):
     _replace(chart_dir / "chart.toml", 'q11_unit = "m3/s"', 'q11_unit = "l/s"')
     _replace(chart_dir / "chart.toml", 'efficiency_unit = "fraction"', 'efficiency_unit = "percent"')
