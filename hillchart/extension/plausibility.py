@@ -17,6 +17,8 @@ digitized region means the flow and torque nets disagree.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from hillchart.errors import InputError
@@ -24,12 +26,18 @@ from hillchart.errors import InputError
 #: Q11 of Francis model runners, m^3/s: a chart declared in m^3/s with Q11 above this is in l/s.
 Q11_MAX_PLAUSIBLE_M3_S = 5.0
 #: A point further than this fraction of the chart's Q11 range from the quadratic through its line's other points
-#: is an outlier (digitization noise is about 0.5 % of the range; a misclick several %).
+#: is an outlier (digitization noise is about 0.5 % of the range; a misclick several %). The range is that of the
+#: lines' and the contours' Q11, the printed axis a misclick is a share of: a chart of a few lines near full load
+#: with its contours keeps the whole chart's scale (:func:`q11_range`).
 OUTLIER_FRACTION = 0.04
 #: Opening lines "cross" when the larger opening has less flow by more than this fraction of the Q11 range.
 CROSSING_FRACTION = 0.02
 #: Contour points may lie this far (fraction of each axis span) outside the hull of the flow points.
 HULL_MARGIN_FRACTION = 0.10
+#: More than this share of the contour points outside the lines' region (and of the line points outside the
+#: contours') means contours from another chart or in other units; contours beyond the lines of a chart whose lines
+#: lie among its contours are a warning.
+OUTSIDE_SHARE = 0.25
 #: Nets' efficiency may exceed the best digitized contour by this much inside the digitized region.
 EFFICIENCY_MARGIN = 0.01
 #: A chart with fewer opening lines, flow points or contour levels than these is thin: it trains, with warnings.
@@ -42,6 +50,21 @@ def _row(chart, name: str, index: int) -> str:
     rows = getattr(chart, "rows", None) or {}
     numbers = rows.get(name)
     return f"row {int(numbers[index])}" if numbers is not None and len(numbers) > index else f"point {index + 1}"
+
+
+def q11_range(chart) -> float:
+    """m^3/s: the range of the Q11 of ``chart``'s opening lines and efficiency contours, the scale of a misclick
+    (:data:`OUTLIER_FRACTION`, :data:`CROSSING_FRACTION`). The runaway curve is left out: it runs on to openings
+    below the lowest line, where a chart's axis need not reach.
+
+    Examples
+    --------
+    >>> from data_synthetic import FRANCIS_DIR
+    >>> from hillchart.io.samples import load_chart
+    >>> round(q11_range(load_chart(FRANCIS_DIR)), 4)
+    0.299
+    """
+    return float(np.ptp(np.concatenate([chart.flow_q11, chart.eff_q11])))
 
 
 def check_units(chart) -> None:
@@ -67,9 +90,9 @@ def check_lines(chart) -> None:
     if np.ptp(chart.flow_n11) <= 0:
         raise InputError(f"{path}: every point sits at N11 = {float(chart.flow_n11[0])!r} r/min; the nets need the "
                          "opening lines over a range of N11 (digitize several points along each line)")
-    q_range = float(np.ptp(chart.flow_q11))
-    if q_range <= 0:
+    if np.ptp(chart.flow_q11) <= 0:
         raise InputError(f"{path}: every point has Q11 = {float(chart.flow_q11[0])!r}; the lines need a range of flow")
+    q_range = q11_range(chart)
     lines = {}
     for a in chart.openings:
         idx = np.flatnonzero(chart.flow_opening == a)
@@ -116,29 +139,48 @@ def check_lines(chart) -> None:
                 "openings of these lines")
 
 
-def check_contours(chart) -> None:
-    """Efficiency points far outside the N11-Q11 hull of the flow points."""
+def _outside(points: np.ndarray, region: np.ndarray) -> np.ndarray:
+    """True for each N11-Q11 point of ``points`` outside the hull of ``region``'s, grown by
+    :data:`HULL_MARGIN_FRACTION` of each axis span (its bounding box where the hull is degenerate)."""
     from scipy.spatial import Delaunay, QhullError
 
-    flow = np.column_stack([chart.flow_n11, chart.flow_q11])
-    span = np.ptp(flow, axis=0)
-    lo = flow.min(axis=0) - HULL_MARGIN_FRACTION * span
-    hi = flow.max(axis=0) + HULL_MARGIN_FRACTION * span
-    eff = np.column_stack([chart.eff_n11, chart.eff_q11])
-    outside = np.any((eff < lo) | (eff > hi), axis=1)
+    span = np.ptp(region, axis=0)
+    lo = region.min(axis=0) - HULL_MARGIN_FRACTION * span
+    hi = region.max(axis=0) + HULL_MARGIN_FRACTION * span
+    outside = np.any((points < lo) | (points > hi), axis=1)
     try:  # inside the bounding box but outside the hull, grown by the margin about its centre
-        centre = flow.mean(axis=0)
-        hull = Delaunay(centre + (flow - centre) * (1.0 + 2.0 * HULL_MARGIN_FRACTION))
-        outside |= hull.find_simplex(eff) < 0
+        centre = region.mean(axis=0)
+        hull = Delaunay(centre + (region - centre) * (1.0 + 2.0 * HULL_MARGIN_FRACTION))
+        outside |= hull.find_simplex(points) < 0
     except QhullError:
-        pass  # a degenerate hull was already rejected by check_lines
-    if outside.mean() > 0.25:
-        j = int(np.flatnonzero(outside)[0])
-        raise InputError(
-            f"{chart.folder / 'efficiency.csv'}: {int(outside.sum())} of {outside.size} contour points lie outside "
-            f"the N11-Q11 region of the opening lines (first: {_row(chart, 'eff', j)}, N11 {eff[j, 0]:g}, Q11 "
-            f"{eff[j, 1]:.4g} m^3/s; lines cover N11 {flow[:, 0].min():g}-{flow[:, 0].max():g}, Q11 "
-            f"{flow[:, 1].min():.4g}-{flow[:, 1].max():.4g} m^3/s): contours from another chart or in other units?")
+        pass  # a degenerate hull (points on one line): the bounding box alone
+    return outside
+
+
+def check_contours(chart) -> None:
+    """Efficiency points far outside the N11-Q11 hull of the flow points: an error when the lines do not lie among
+    the contours either (contours from another chart or in other units), a warning when they do (a chart whose
+    lines were digitized over part of it: the contours beyond them shape the efficiency surface, and the nets there
+    are extrapolated)."""
+    flow = np.column_stack([chart.flow_n11, chart.flow_q11])
+    eff = np.column_stack([chart.eff_n11, chart.eff_q11])
+    outside = _outside(eff, flow)
+    if outside.mean() <= OUTSIDE_SHARE:
+        return
+    j = int(np.flatnonzero(outside)[0])
+    where = (f"{int(outside.sum())} of {outside.size} contour points lie outside the N11-Q11 region of the opening "
+             f"lines (first: {_row(chart, 'eff', j)}, N11 {eff[j, 0]:g}, Q11 {eff[j, 1]:.4g} m^3/s; lines cover "
+             f"N11 {flow[:, 0].min():g}-{flow[:, 0].max():g}, Q11 {flow[:, 1].min():.4g}-{flow[:, 1].max():.4g} "
+             "m^3/s)")
+    lines_outside = _outside(flow, eff)
+    if lines_outside.mean() > OUTSIDE_SHARE:
+        raise InputError(f"{chart.folder / 'efficiency.csv'}: {where}, and {int(lines_outside.sum())} of "
+                         f"{lines_outside.size} line points outside the contours': contours from another chart or in "
+                         "other units?")
+    warnings.warn(f"{chart.folder / 'efficiency.csv'}: {where}; the lines lie among the contours, so they cover "
+                  "part of the chart, and the nets beyond them are extrapolated (below the lowest line by the "
+                  "extension's weighed hypotheses, with their band). Digitize the opening lines where the contours "
+                  "are for nets that read the chart there", UserWarning, stacklevel=3)
 
 
 def check_chart(chart) -> None:
