@@ -631,14 +631,11 @@ def overspeed_evidence(chart, torque, fit_model) -> dict | None:
     (``m11_band_per_gap``, fractions of the M11 range per unit gap, below and above: :func:`band_sides` with linear
     growth), in which the ensemble members' torque stands (:meth:`Extrapolation.overspeed_widths`)."""
     torque = np.asarray(torque, float)
-    ends = []
-    for a in np.unique(chart.flow_opening):
-        index = np.flatnonzero(chart.flow_opening == a)
-        if index.size >= 3:
-            ends.append(int(index[np.argmax(chart.flow_n11[index])]))
-    if not ends:
+    lines = [np.flatnonzero(chart.flow_opening == a) for a in np.unique(chart.flow_opening)]
+    # one held-out point per line of 3 or more, in the order of ``q_line``, ``m_line`` and ``gaps`` below
+    ends = np.array([index[np.argmax(chart.flow_n11[index])] for index in lines if index.size >= 3], int)
+    if not ends.size:
         return None
-    ends = np.array(ends)  # one held-out point per line, in the order of ``q_line``, ``m_line`` and ``gaps`` below
     held = np.zeros(chart.flow_n11.size, bool)
     held[ends] = True
     try:
