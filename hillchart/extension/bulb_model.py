@@ -85,51 +85,74 @@ def model_values(params, n11, opening, blade):
     return q.reshape(arrays[0].shape), m.reshape(arrays[0].shape)
 
 
-def _logistic(z: float) -> float:
-    return 1.0 / (1.0 + math.exp(-z)) if z >= 0.0 else math.exp(z) / (1.0 + math.exp(z))
+@numba.njit(cache=True)
+def _logistic(z):
+    if z >= 0.0:
+        return 1.0 / (1.0 + math.exp(-z))
+    return math.exp(z) / (1.0 + math.exp(z))
 
 
 def _logit(p: float) -> float:
     return math.log(p / (1.0 - p))
 
 
-def max_closed_gap(opening_min: float, opening_max: float) -> float:
+@numba.njit(cache=True)
+def max_closed_gap(opening_min, opening_max):
     """The largest gap (deg) between the closed vane and the smallest tested angle ``opening_min`` that keeps the flow
     angle below :data:`MAX_FLOW_ANGLE_DEG` up to the largest, ``opening_max``."""
     return MAX_FLOW_ANGLE_DEG - (opening_max - opening_min)
 
 
-def _point_parameters(x, opening_min: float, opening_max: float, opening_closed: float | None) -> np.ndarray:
-    """The :data:`hillchart.synthetic.bulb.POINT_PARAMETERS` vector of fit coordinates ``x``."""
-    p = dict(zip(PARAMETER_NAMES, x))
-    nu = _logistic(p["hub_ratio"])
-    gap = max_closed_gap(opening_min, opening_max) * _logistic(p["closed_gap_deg"])
-    closed = opening_closed if opening_closed is not None else opening_min - gap
-    values = {"area_ratio": math.pi / 4.0 * (1.0 - nu * nu),
-              "mean_radius_ratio": 0.5 * math.sqrt(0.5 * (1.0 + nu * nu)),
-              "swirl_factor": math.exp(p["swirl_factor"]), "guide_vane_closed_deg": closed,
-              "beta1_deg": p["beta1_deg"], "beta2_deg": p["beta2_deg"]}
-    for name in ("k_guide_vane", "k_runner", "k_draft_tube", "k_disc_friction"):
-        values[name] = math.exp(p[name])
-    total = INCIDENCE_SWIRL_LIMIT * _logistic(p["incidence_swirl_sum"])
-    share = _logistic(p["incidence_share"])
-    values["k_incidence"], values["k_swirl"] = share * total, (1.0 - share) * total
-    return np.array([values[name] for name in POINT_PARAMETERS])
+@numba.njit(cache=True)
+def _point_parameters(x, opening_min, opening_max, opening_closed):
+    """The :data:`hillchart.synthetic.bulb.POINT_PARAMETERS` vector of fit coordinates ``x`` (all of
+    :data:`PARAMETER_NAMES`, in their order); ``opening_closed`` NaN when the closed vane is fitted. A log-parameter
+    far out gives an infinite entry."""
+    nu = _logistic(x[0])
+    gap = max_closed_gap(opening_min, opening_max) * _logistic(x[2])
+    total = INCIDENCE_SWIRL_LIMIT * _logistic(x[6])
+    share = _logistic(x[9])
+    out = np.empty(12)  # POINT_PARAMETERS' order
+    out[0] = math.pi / 4.0 * (1.0 - nu * nu)  # area_ratio
+    out[1] = 0.5 * math.sqrt(0.5 * (1.0 + nu * nu))  # mean_radius_ratio
+    out[2] = math.exp(x[1])  # swirl_factor
+    out[3] = opening_min - gap if math.isnan(opening_closed) else opening_closed  # guide_vane_closed_deg
+    out[4], out[5] = x[3], x[4]  # beta1_deg, beta2_deg
+    out[6], out[8], out[9], out[11] = math.exp(x[5]), math.exp(x[7]), math.exp(x[8]), math.exp(x[10])  # losses
+    out[7], out[10] = share * total, (1.0 - share) * total  # k_incidence, k_swirl
+    return out
 
 
-def _valid(params, blade_range, opening_max: float) -> bool:
-    """The model's own validity: a unique flow root (k_incidence + k_swirl < 2), blade angles inside
-    :data:`BLADE_ANGLE_LIMITS_DEG` over ``blade_range``, and guide vanes that turn the flow toward the runner's
-    rotation up to ``opening_max`` (deg; the flow angle ``alpha = a - a_c`` below :data:`MAX_FLOW_ANGLE_DEG`)."""
-    lo, hi = BLADE_ANGLE_LIMITS_DEG
-    if opening_max - params[POINT_PARAMETERS.index("guide_vane_closed_deg")] >= MAX_FLOW_ANGLE_DEG:
+@numba.njit(cache=True)
+def _valid(params, blade_lo, blade_hi, opening_max):
+    """The model's own validity: finite parameters, a unique flow root (k_incidence + k_swirl < 2), blade angles
+    inside :data:`BLADE_ANGLE_LIMITS_DEG` over the table's blade range ``blade_lo``-``blade_hi``, and guide vanes
+    that turn the flow toward the runner's rotation up to ``opening_max`` (deg; the flow angle ``alpha = a - a_c``
+    below :data:`MAX_FLOW_ANGLE_DEG`)."""
+    if not np.all(np.isfinite(params)):
         return False
-    k_inc, k_sw = params[POINT_PARAMETERS.index("k_incidence")], params[POINT_PARAMETERS.index("k_swirl")]
-    for name in ("beta1_deg", "beta2_deg"):
-        beta = params[POINT_PARAMETERS.index(name)]
-        if not (beta + blade_range[0] > lo and beta + blade_range[1] < hi):
+    if opening_max - params[3] >= MAX_FLOW_ANGLE_DEG:
+        return False
+    lo, hi = BLADE_ANGLE_LIMITS_DEG
+    for beta in (params[4], params[5]):
+        if not (beta + blade_lo > lo and beta + blade_hi < hi):
             return False
-    return bool(k_inc + k_sw < INCIDENCE_SWIRL_LIMIT)
+    return params[7] + params[10] < INCIDENCE_SWIRL_LIMIT
+
+
+@numba.njit(cache=True)
+def _model_rows(rows, opening_min, opening_max, opening_closed, blade_lo, blade_hi, n11, guide_vane_deg, blade_deg):
+    """Q11 and M11 (k x N) of the model at each row of fit coordinates (k x 11) and whether the row is valid
+    (:func:`_valid`; an invalid row's values are not computed)."""
+    q = np.zeros((rows.shape[0], n11.size))
+    m = np.zeros((rows.shape[0], n11.size))
+    ok = np.zeros(rows.shape[0], np.bool_)
+    for r in range(rows.shape[0]):
+        params = _point_parameters(rows[r], opening_min, opening_max, opening_closed)
+        if _valid(params, blade_lo, blade_hi, opening_max):
+            ok[r] = True
+            q[r], m[r] = unit_values(params, n11, guide_vane_deg, blade_deg)
+    return q, m, ok
 
 
 @dataclass(frozen=True)
@@ -214,19 +237,12 @@ class FittedBulbModel:
                 "q11_rms_pct_of_max": self.q11_rms_pct, "m11_rms_pct_of_max": self.m11_rms_pct}
 
 
-def _full(x, opening_closed):
-    """Fit coordinates with ``closed_gap_deg`` put back (as 0: unused) when the closed angle is given."""
-    if opening_closed is None:
-        return np.asarray(x, float)
-    i = PARAMETER_NAMES.index("closed_gap_deg")
-    return np.insert(np.asarray(x, float), i, 0.0)
-
-
 class _Objective:
     """The fit's scaled residuals: ``(Q11 model - Q11) / range``, ``(M11 model - M11) / range`` at the table's
     samples and the disc-friction prior of :mod:`hillchart.extension.turbine_model` (median share
     :data:`~hillchart.extension.turbine_model.DISC_FRICTION_SHARE` of the shaft torque at the most powerful measured
-    point); 1e3 where the parameters leave the model's validity."""
+    point); 1e3 where the parameters leave the model's validity. Its Jacobian is ``least_squares``' forward
+    differences (``'2-point'``, the same steps), with all columns in one compiled call (:func:`_model_rows`)."""
 
     def __init__(self, n, a, b, q, m, opening_closed):
         self.n, self.a, self.b, self.q, self.m = n, a, b, q, m
@@ -239,31 +255,52 @@ class _Objective:
         self.k_df_index = PARAMETER_NAMES.index("k_disc_friction") - (opening_closed is not None)
         self.size = 2 * n.size + 1
 
+    def _values(self, rows):
+        """Q11, M11 and validity of each row of fit coordinates (:func:`_model_rows`)."""
+        rows = np.atleast_2d(np.asarray(rows, float))
+        if self.opening_closed is not None:  # closed_gap_deg put back (as 0: unused)
+            rows = np.insert(rows, PARAMETER_NAMES.index("closed_gap_deg"), 0.0, axis=1)
+        closed = math.nan if self.opening_closed is None else float(self.opening_closed)
+        return _model_rows(np.ascontiguousarray(rows), self.opening_min, self.opening_max, closed,
+                           *self.blade_range, self.n, self.a, self.b)
+
     def params(self, x):
         """The model's :data:`~hillchart.synthetic.bulb.POINT_PARAMETERS` of fit coordinates ``x``; None when they
         leave the model's validity."""
-        try:
-            params = _point_parameters(_full(x, self.opening_closed), self.opening_min, self.opening_max,
-                                       self.opening_closed)
-        except OverflowError:  # a log-parameter far out
-            return None
-        return params if np.all(np.isfinite(params)) and _valid(params, self.blade_range, self.opening_max) else None
+        full = np.asarray(x, float)
+        if self.opening_closed is not None:
+            full = np.insert(full, PARAMETER_NAMES.index("closed_gap_deg"), 0.0)
+        closed = math.nan if self.opening_closed is None else float(self.opening_closed)
+        params = _point_parameters(full, self.opening_min, self.opening_max, closed)
+        return params if _valid(params, *self.blade_range, self.opening_max) else None
+
+    def rows(self, rows):
+        """The residuals of each row of fit coordinates (k x (2 N + 1))."""
+        rows = np.atleast_2d(np.asarray(rows, float))
+        qq, mm, ok = self._values(rows)
+        prior = np.empty(int(ok.sum()))
+        for i, log_k in enumerate(rows[ok, self.k_df_index]):  # disc friction / shaft torque at the best point
+            share = math.exp(log_k) * self.n_best ** 2 / max(self.m_best, 1e-12)
+            prior[i] = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
+        valid = np.column_stack([(qq[ok] - self.q) / self.q_scale, (mm[ok] - self.m) / self.m_scale,
+                                 prior / math.sqrt(self.n.size)])
+        r = np.full((rows.shape[0], self.size), 1e3)
+        r[ok] = np.where(np.isfinite(valid), valid, 1e3)
+        return r
 
     def __call__(self, x):
-        params = self.params(x)
-        if params is None:
-            return np.full(self.size, 1e3)
-        qq, mm = unit_values(params, self.n, self.a, self.b)
-        share = math.exp(x[self.k_df_index]) * self.n_best ** 2 / max(self.m_best, 1e-12)
-        prior = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
-        r = np.concatenate([(qq - self.q) / self.q_scale, (mm - self.m) / self.m_scale,
-                            [prior / math.sqrt(self.n.size)]])
-        return np.where(np.isfinite(r), r, 1e3)
+        return self.rows(x)[0]
+
+    def jacobian(self, x):
+        step = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        rows = x + np.diag(step)
+        r = self.rows(np.vstack([x, rows]))
+        return ((r[1:] - r[0]) / (np.diag(rows) - x)[:, None]).T
 
 
 #: Least-squares starts of :func:`fit_bulb_model`: with 4, one seed of 10 stopped in a worse basin of the
 #: 150-point synthetic bulb table of ``tests/hillchart/extension/test_bulb_model.py`` (closed vane 34.92 deg, misfit
-#: 15 % above the 34.99 deg the others found); with 12 every seed found the same fit (0.4 s a fit on 2 cores).
+#: 15 % above the 34.99 deg the others found); with 12 every seed found the same fit (0.09 s a fit).
 STARTS = 12
 
 
@@ -337,7 +374,7 @@ def fit_bulb_model(n11, opening, blade, q11, m11, *, opening_closed: float | Non
                                                         rng.normal(0.0, 0.3, x0.size))
             if gaps is not None:
                 xs[gap_index] = gaps[i]
-            result = least_squares(residuals, xs, method="trf", max_nfev=600)
+            result = least_squares(residuals, xs, jac=residuals.jacobian, method="trf", max_nfev=600)
             if best is None or result.cost < best.cost:
                 best = result
     params = residuals.params(best.x)
