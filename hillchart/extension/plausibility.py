@@ -35,8 +35,8 @@ OUTLIER_FRACTION = 0.04
 #: leave-one-out quadratics, where that is wider than :data:`OUTLIER_FRACTION`: a chart read from a poor copy (1 %
 #: of the axes' full scale, about 2-3 % of the Q11 range about the quadratics) has honest points 7-9 % off, and its
 #: nets still read the exact turbine within 0.41 % (Q11) and 0.52 % (M11) of the range (measured on the slow and the
-#: fast synthetic turbine, 12 points a line). The largest of such a chart's misses is 2.4-3.2 of them; a careful
-#: chart's are within 4 % whatever its scatter.
+#: fast synthetic turbine, 12 points a line). The largest of such a chart's misses is 2.4-3.2 of them. A chart
+#: that scatters by less than 1 % of the range keeps the bound of 4 %.
 OUTLIER_SCATTER = 4.0
 #: Fewer leave-one-out misses than this give no estimate of the chart's scatter (the bound stays at
 #: :data:`OUTLIER_FRACTION`).
