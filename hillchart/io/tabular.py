@@ -147,7 +147,9 @@ def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: b
 def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example: str | None = None,
                what: str = "CSV file") -> Table:
     """Read the numeric ``columns`` (any order) of a CSV file. Lines starting with ``#`` are comments (before the
-    header or between rows); rows keep their line numbers in the file for messages.
+    header or between rows); rows keep their line numbers in the file for messages. Column names match whatever
+    their case and surrounding spaces (``Q11`` is ``q11``); empty trailing columns, a name-less column with no value
+    that a spreadsheet exports, are dropped.
 
     Parameters
     ----------
@@ -180,23 +182,31 @@ def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example:
         raise InputError(f"{path}: empty file; expected a header {expected}")
     header_line = lines_text[numbered[0][0] - 1]
     header = [name.strip() for name in numbered[0][1]]
-    missing = [c for c in columns if c not in header]
+    body = numbered[1:]
+    # a spreadsheet's export of a column it once used: empty trailing columns (no name, no value) are dropped
+    width = len(header)
+    while (len(header) > 1 and not header[-1]
+           and all(len(row) != width or not row[len(header) - 1].strip() for _, row in body)):
+        header.pop()
+    if len(header) < width:
+        body = [(no, row[:len(header)] if len(row) == width else row) for no, row in body]
+    folded = [name.lower() for name in header]  # names match whatever their case: "Q11" is q11
+    missing = [c for c in columns if c.lower() not in folded]
     if missing:
         hint = ""
         if delimiter == "," and len(header) == 1 and any(d in header_line for d in (";", "\t")):
             hint = " (the header has no comma-separated columns)"
         raise InputError(f"{path}: missing column(s) {missing}{hint}; the header must be {expected}, got "
                          f"{header_line!r}")
-    unknown = [c for c in header if c not in columns]
+    unknown = [name for name, f in zip(header, folded) if f not in {c.lower() for c in columns}]
     if unknown and extra == "error":
         raise InputError(f"{path}: unknown column(s) {unknown}; the header must be {expected}")
-    if len(set(header)) != len(header):
+    if len(set(folded)) != len(folded):
         raise InputError(f"{path}: repeated column in header {header}")
-    body = numbered[1:]
-    decimal_comma, note = decimal_commas(path, delimiter, (row[header.index(c)] for _, row in body for c in columns
-                                                          if header.index(c) < len(row)))
+    index = [(c, folded.index(c.lower())) for c in columns]
+    decimal_comma, note = decimal_commas(path, delimiter, (row[i] for _, row in body for _, i in index
+                                                          if i < len(row)))
     data = {c: [] for c in columns}
-    index = [(c, header.index(c)) for c in columns]
     lines = []
     for line_no, row in body:
         if len(row) != len(header):

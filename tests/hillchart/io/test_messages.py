@@ -98,6 +98,25 @@ def test_semicolon_and_tab_files_are_read_and_the_choice_is_said(chart_copy, del
     np.testing.assert_array_equal(chart.flow_n11, _reference_chart().flow_n11)
 
 
+def test_a_spreadsheets_header_in_capitals_and_its_empty_trailing_column_are_read(chart_copy):
+    """A spreadsheet's export: names capitalized and spaced ("Opening, N11 , Q11"), and a trailing comma on every
+    line (a name-less column with no value). Read as the plain file (exactly the same points); refused before
+    ("missing column(s)", then "unknown column(s) ['']"). A name-less column with a value is still refused, as are
+    two names that differ only in case."""
+    flow = chart_copy / "flow.csv"
+    header, *rows = flow.read_text().splitlines()
+    flow.write_text("\n".join(["Opening, N11 , Q11,"] + [row + "," for row in rows]) + "\n")
+    chart, ref = load_chart(chart_copy), _reference_chart()
+    for name in ("flow_opening", "flow_n11", "flow_q11"):
+        np.testing.assert_array_equal(getattr(chart, name), getattr(ref, name))
+    flow.write_text("\n".join(["opening,n11,q11,"] + [row + ",1" for row in rows]) + "\n")
+    with pytest.raises(InputError, match=r"flow.csv: unknown column\(s\) \[''\]"):
+        load_chart(chart_copy)
+    flow.write_text("\n".join(["opening,n11,q11,Q11"] + [row + ",1" for row in rows]) + "\n")
+    with pytest.raises(InputError, match=r"flow.csv: repeated column in header"):
+        load_chart(chart_copy)
+
+
 def test_plain_csv_gives_no_note(chart_copy):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the shipped chart has runaway.csv: no warning at all
