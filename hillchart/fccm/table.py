@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.io.tabular import decimal_commas, numbered_rows, parse_number, read_text
+from hillchart.io.tabular import decimal_commas, numbered_rows, parse_number, read_text, without_empty_trailing_columns
 
 # ----------------------------------------------------------------------------------------------------------------
 # test-table folder
@@ -289,7 +289,12 @@ def load_test_table(folder) -> TestTable:
         raise InputError(f"{path}: empty file; expected a header line such as "
                          "blade_angle_deg,guide_vane_deg,efficiency,head_m,power_kw,flow_m3_s")
     header_no, header = rows[0]
-    header = [name.strip() for name in header]
+    # names of known columns match whatever their case ("Guide_Vane_Deg"); a spreadsheet's empty trailing column is
+    # dropped (hillchart.io.tabular)
+    known = {name.lower(): name for name in KNOWN_COLUMNS}
+    header, body = without_empty_trailing_columns([name.strip() for name in header], rows[1:])
+    header = [known.get(name.lower(), name) for name in header]
+    rows = [rows[0], *body]
     if any(not name for name in header):
         raise InputError(f"{path}: row {header_no}: empty column name in header {header}")
     repeated = sorted({name for name in header if header.count(name) > 1})

@@ -144,6 +144,27 @@ def parse_number(path, line_no: int, column: str, cell: str, *, decimal_comma: b
     return value
 
 
+def without_empty_trailing_columns(header: list, body: list) -> tuple[list, list]:
+    """``header`` (names, stripped) and ``body`` (``(line, cells)`` rows) without their empty trailing columns: no
+    name and no value in any row of the header's width, as a spreadsheet exports a column it once used (a trailing
+    comma on every line). Rows of another width are left for the caller's field count.
+
+    Examples
+    --------
+    >>> without_empty_trailing_columns(["a", "b", ""], [(2, ["1", "2", ""]), (3, ["3", "4", " "])])
+    (['a', 'b'], [(2, ['1', '2']), (3, ['3', '4'])])
+    >>> without_empty_trailing_columns(["a", ""], [(2, ["1", "5"])])[0]  # a value: the column is the caller's
+    ['a', '']
+    """
+    width, header = len(header), list(header)
+    while (len(header) > 1 and not header[-1]
+           and all(len(row) != width or not row[len(header) - 1].strip() for _, row in body)):
+        header.pop()
+    if len(header) == width:
+        return header, body
+    return header, [(no, row[:len(header)] if len(row) == width else row) for no, row in body]
+
+
 def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example: str | None = None,
                what: str = "CSV file") -> Table:
     """Read the numeric ``columns`` (any order) of a CSV file. Lines starting with ``#`` are comments (before the
@@ -182,14 +203,7 @@ def read_table(path, columns: tuple[str, ...], *, extra: str = "error", example:
         raise InputError(f"{path}: empty file; expected a header {expected}")
     header_line = lines_text[numbered[0][0] - 1]
     header = [name.strip() for name in numbered[0][1]]
-    body = numbered[1:]
-    # a spreadsheet's export of a column it once used: empty trailing columns (no name, no value) are dropped
-    width = len(header)
-    while (len(header) > 1 and not header[-1]
-           and all(len(row) != width or not row[len(header) - 1].strip() for _, row in body)):
-        header.pop()
-    if len(header) < width:
-        body = [(no, row[:len(header)] if len(row) == width else row) for no, row in body]
+    header, body = without_empty_trailing_columns(header, numbered[1:])
     folded = [name.lower() for name in header]  # names match whatever their case: "Q11" is q11
     missing = [c for c in columns if c.lower() not in folded]
     if missing:

@@ -98,6 +98,24 @@ def test_bad_csv(tmp_path, csv_text, message):
     assert "table.csv" in str(info.value)
 
 
+def test_a_spreadsheets_capitalized_header_and_empty_trailing_column_read_as_the_csv(tmp_path):
+    """Known columns named in capitals ("Blade_Angle_Deg") and a trailing comma on every line (a name-less column
+    with no value) read as the plain table, exactly; refused before ("'blade_angle_deg' is not a numeric column",
+    "empty column name in header"). An extra column keeps its own name; a name-less column with a value is still
+    refused."""
+    plain = load_test_table(folder(tmp_path / "plain"))
+    header, *rows = CSV.splitlines()
+    capitals = ",".join(name.title() if name != "comment" else "Comment" for name in header.split(","))
+    text = "\n".join([capitals + ","] + [row + "," if not row.startswith("#") else row for row in rows]) + "\n"
+    table = load_test_table(folder(tmp_path / "export", text))
+    assert table.info.controls == plain.info.controls and table.text_columns == ("Comment",)
+    for name in ("blade_angle_deg", "guide_vane_deg", "efficiency", "n11_rpm", "q11_m3_s"):
+        np.testing.assert_array_equal(table.column(name), plain.column(name))
+    text = "\n".join([header + ","] + [row + ",7" if not row.startswith("#") else row for row in rows]) + "\n"
+    with pytest.raises(InputError, match="empty column name in header"):
+        load_test_table(folder(tmp_path / "valued", text))
+
+
 def test_speed_twice_and_missing_files(tmp_path):
     csv_text = "guide_vane_deg,head_m,speed_rpm\n40,4,500\n50,9,600\n"
     with pytest.raises(InputError, match="speed_rpm = 600.0 is given but .*also has a speed_rpm column"):
