@@ -90,15 +90,20 @@ def test_crossing_opening_lines(chart_dir):
         check_chart(load_chart(chart_dir))
 
 
-def test_outlier_on_a_line_names_its_row(chart_dir):
-    # a misclick: the 4th point of the 20 mm line (file row 41) 0.03 m3/s (5 % of the Q11 range) too high
+def _misclick(folder, row, opening, dq):
+    """The point on file row ``row`` of ``flow.csv`` (on the line ``opening``, as written) moved by ``dq`` m^3/s."""
     def bump(ls):
-        a, n, q = ls[40].split(",")
-        assert a == "20.00"
-        ls[40] = f"{a},{n},{float(q) + 0.03:.4f}"
+        a, n, q = ls[row - 1].split(",")
+        assert a == opening
+        ls[row - 1] = f"{a},{n},{float(q) + dq:.4f}"
         return ls
 
-    _edit(chart_dir, "flow.csv", bump)
+    _edit(folder, "flow.csv", bump)
+
+
+def test_outlier_on_a_line_names_its_row(chart_dir):
+    # a misclick: the 4th point of the 20 mm line (file row 41) 0.03 m3/s (5 % of the Q11 range) too high
+    _misclick(chart_dir, 41, "20.00", 0.03)
     with pytest.raises(InputError, match=r"flow.csv: row 41 \(opening 20, .*off the smooth curve"):
         check_chart(load_chart(chart_dir))
 
@@ -130,11 +135,7 @@ def test_a_chart_read_from_a_poor_copy_is_judged_against_its_own_scatter(tmp_pat
         exact = truth[column][inside]
         assert np.sqrt(np.mean((net(n11, opening) - exact) ** 2)) / np.ptp(exact) <= bound, column
 
-    def misclick(ls):
-        assert ls[111] == "21.00,47.87,0.2938"
-        return ls[:111] + ["21.00,47.87,0.3538"] + ls[112:]
-
-    _edit(folder, "flow.csv", misclick)
+    _misclick(folder, 112, "21.00", 0.06)  # 0.2938 -> 0.3538 m^3/s
     with pytest.raises(InputError, match=r"flow.csv: row 112 \(opening 21, N11 47.87, .*\(allowed 1\d.\d+ %\): an "
                                          "outlier"):
         check_chart(load_chart(folder))
@@ -195,13 +196,7 @@ def test_a_chart_of_its_upper_lines_with_every_contour_is_checked_at_the_whole_c
     with pytest.warns(UserWarning, match=r"contour points lie outside .*the lines lie among the contours.*Digitize"):
         assert check_chart(load_chart(chart_dir)) is None
 
-    def bump(ls):
-        a, n, q = ls[17].split(",")
-        assert a == "28.00"
-        ls[17] = f"{a},{n},{float(q) + 0.03:.4f}"
-        return ls
-
-    _edit(chart_dir, "flow.csv", bump)
+    _misclick(chart_dir, 18, "28.00", 0.03)
     with pytest.raises(InputError, match=r"flow.csv: row 18 \(opening 28, .*off the smooth curve"):
         check_chart(load_chart(chart_dir))
 
