@@ -49,6 +49,10 @@ HULL_MARGIN_FRACTION = 0.10
 #: contours') means contours from another chart or in other units; contours beyond the lines of a chart whose lines
 #: lie among its contours are a warning.
 OUTSIDE_SHARE = 0.25
+#: A chart whose largest opening line lies below this share of ``opening_max`` (the full stroke) is warned about: its
+#: openings look like fractions written for percent, or another unit (the shipped and the real charts' largest lines
+#: are 100 %; a chart of its lower lines alone is rare, and a run near full load would read the nets far above them).
+LOW_TOP_LINE_SHARE = 0.25
 #: Nets' efficiency may exceed the best digitized contour by this much inside the digitized region.
 EFFICIENCY_MARGIN = 0.01
 #: A chart with fewer opening lines, flow points or contour levels than these is thin: it trains, with warnings.
@@ -112,6 +116,15 @@ def check_units(chart) -> None:
         raise InputError(f"{folder / 'efficiency.csv'}: efficiency values up to "
                          f"{np.max(chart.eff_efficiency) * 100:.4g} look like fractions, but chart.toml declares "
                          "efficiency_unit = 'percent'; set efficiency_unit = \"fraction\"")
+    top = float(np.max(chart.flow_opening))
+    if top < LOW_TOP_LINE_SHARE * info.opening_max:
+        unit, share = info.opening_unit, 100 * top / info.opening_max
+        warnings.warn(
+            f"{folder / 'flow.csv'}: the largest opening line is a = {top:g} {unit}, {share:.2g} "
+            f"% of chart.toml's opening_max = {info.opening_max:g} {unit} (the opening at full stroke): a run near "
+            "full load reads the nets far above every digitized line. If the openings are fractions of the full "
+            f"opening or in another unit, write them in {unit}; if opening_max is in another unit than the lines, "
+            "correct it", UserWarning, stacklevel=3)
 
 
 def check_lines(chart) -> None:

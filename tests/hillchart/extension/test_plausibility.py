@@ -2,6 +2,7 @@
 InputError naming the file, the row and what looks wrong; the clean charts of the family pass."""
 
 import shutil
+import warnings
 
 import numpy as np
 import pytest
@@ -72,6 +73,22 @@ def test_litres_declared_cubic_metres(chart_dir):
 def test_cubic_metres_declared_litres(chart_dir):
     _edit(chart_dir, "chart.toml", lambda ls: [r.replace('"m3/s"', '"l/s"') for r in ls])
     with pytest.raises(InputError, match=r"looks like m\^3/s, but chart.toml declares q11_unit = 'l/s'"):
+        check_chart(load_chart(chart_dir))
+
+
+def test_openings_written_as_fractions_in_a_percent_chart_are_warned_about(chart_dir):
+    """The shipped chart's openings written as fractions of the full opening (0.3125-1) in a chart declared in % up
+    to 100: its largest line is 1 % of the full stroke, where the shipped chart's is 100 % (no warning). It trained
+    without a word; a run near full load would read the nets 70 times above every line."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the shipped chart: no warning
+        check_chart(load_chart(chart_dir))
+    for name in ("flow.csv", "runaway.csv"):
+        _edit(chart_dir, name, lambda ls: [ls[0]] + [f"{float(r.split(',')[0]) / 32:.4f},{r.split(',', 1)[1]}"
+                                                     for r in ls[1:]])
+    _edit(chart_dir, "chart.toml", lambda ls: [r.replace('"mm"', '"%"').replace("32.0", "100.0") for r in ls])
+    with pytest.warns(UserWarning, match=r"flow.csv: the largest opening line is a = 1 %, 1 % of chart.toml's "
+                                         r"opening_max = 100 %.*write them in %"):
         check_chart(load_chart(chart_dir))
 
 
