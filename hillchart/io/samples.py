@@ -264,6 +264,10 @@ def load_chart(folder) -> ChartSamples:
                              f"(a chart folder needs {', '.join(n for n in FILES if n != 'runaway.csv')})")
         table, line_numbers[name] = _read_csv(path, columns)
         _validate_points(path, table, info, line_numbers[name])
+        if name == "runaway.csv":  # an open runner passes flow at runaway
+            _check_range(path, "q11", table["q11"], (table["q11"] > 0) | (table["opening"] == 0),
+                         "q11 > 0 where the opening is above 0 (an open runner passes flow at runaway)",
+                         line_numbers[name])
         tables[name] = table
     flow = tables["flow.csv"]
     lines, counts = np.unique(flow["opening"], return_counts=True)

@@ -124,6 +124,9 @@ def _set_cell(path, column, value, line=2):
         ("efficiency.csv", "q11", "", r"efficiency.csv: row 2, column 'q11': not a number: ''"),
         ("runaway.csv", "n11", "-106.2", r"runaway.csv: row 2, column 'n11': -106.2 is out of range; allowed n11 >= 0"),
         ("runaway.csv", "q11", "-0.17", r"runaway.csv: row 2, column 'q11': -0.17 is out of range; allowed q11 >= 0"),
+        # a runaway point without flow at an open runner (accepted before); 0.17 m^3/s passes
+        ("runaway.csv", "q11", "0", r"runaway.csv: row 2, column 'q11': 0.0 is out of range; allowed q11 > 0 where "
+                                    r"the opening is above 0"),
         ("runaway.csv", "opening", "32.5", r"runaway.csv: row 2, column 'opening': 32.5 is out of range"),
     ],
 )
