@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from hillchart.errors import InputError
 from simulate.components.registry import PENSTOCKS
 
@@ -112,6 +114,33 @@ SHORTEST_PLAUSIBLE_STROKE_TIME_S = 1.0
 #: time constant is longer than the guide-vane servo's (0.1-0.3 s), about 0.5 s to a minute (bulb example: 1 s).
 SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S = 0.5
 HIGHEST_PLAUSIBLE_RATED_EFFICIENCY = 0.98
+
+
+#: ``turbine.opening_max`` (the chart opening at full stroke) against the characteristics' largest digitized opening
+#: line: outside these ratios the full stroke ends far above every line or far below the chart's upper lines, which
+#: is what an opening_max in another unit than the chart gives (100 for a chart in mm up to 32, 32 for one in %).
+#: The shipped plants' full stroke is the largest line (1.0); a chart's lines often stop somewhat short of the full
+#: opening.
+STROKE_TO_TOP_LINE = (0.5, 1.5)
+
+
+def stroke_warning(turbine, characteristics) -> str | None:
+    """A warning when ``turbine.opening_max`` lies outside :data:`STROKE_TO_TOP_LINE` times the largest opening line
+    of ``characteristics``' digitized region (None without a recorded region)."""
+    region = getattr(characteristics, "digitized_region", None)
+    unit = getattr(characteristics, "opening_unit", None)
+    if region is None or len(region) < 3 or not isinstance(unit, str):
+        return None
+    top = float(np.max(np.asarray(region, float)[:, 1]))
+    ratio = turbine.opening_max / top if top > 0 else math.inf
+    if STROKE_TO_TOP_LINE[0] <= ratio <= STROKE_TO_TOP_LINE[1]:
+        return None
+    where = ("far above every digitized line" if ratio > STROKE_TO_TOP_LINE[1] else
+             "far below the chart's upper lines")
+    return (f"turbine.opening_max = {turbine.opening_max:g} (the chart opening at full stroke) is {ratio:.3g} times "
+            f"the largest digitized opening line of the characteristics, {top:g} {unit}: the full stroke reads the "
+            f"nets {where}. Give turbine.opening_max in the chart's opening unit ({unit}), as the opening the guide "
+            "vanes reach at full servo stroke")
 
 
 def plausibility_warnings(plant) -> list[str]:

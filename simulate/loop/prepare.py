@@ -85,7 +85,8 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
     """
     from hillchart.characteristics import scalar_kernel
 
-    view = plant_characteristics(plant, characteristics_of(plant, characteristics))
+    chars = characteristics_of(plant, characteristics)
+    view = plant_characteristics(plant, chars)
     friction = plant.penstock.friction_coefficient_s2_m5
     extra = upstream_friction_s2_m5(plant)
     if extra:
@@ -105,7 +106,14 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
                             friction_s2_m5=friction, stroke_min=plant.governor.stroke_min,
                             stroke_max=plant.governor.stroke_max, **target)
 
-    return _memo(view, inputs, compute)
+    try:
+        return _memo(view, inputs, compute)
+    except InputError as exc:  # a full stroke in another unit than the chart is the likelier cause: say so
+        from simulate.loop.guards import stroke_warning
+
+        if (hint := stroke_warning(plant.turbine, chars)) is None:
+            raise
+        raise InputError(f"{exc}. Note: {hint}") from None
 
 
 def plant_schedules(plant: PlantConfig, steady: SteadyState):

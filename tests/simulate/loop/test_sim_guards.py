@@ -41,6 +41,35 @@ def test_a_blade_servo_of_a_millisecond_warns_naming_the_plausible_range():
     assert "check the value and its unit (s, not ms)" in line
 
 
+def test_a_full_stroke_in_another_unit_than_the_chart_is_named():
+    """``turbine.opening_max`` against the nets' largest digitized line (the shipped chart's: 32 mm). The shipped plant
+    (32, ratio 1) and a full stroke a third beyond the lines (43) say nothing. An opening_max of 100, as if in %,
+    ran without a word on the cause: the initial power sat at a fifth of the stroke, the closure took 2.6 s and the
+    head rose by 119 % (a warning of the run now names it). 10 mm, as if the chart were in cm, leaves the rated power
+    out of reach, and the error about the power range now ends with the same note."""
+    from simulate.components.turbine.component import characteristics_of
+    from simulate.loop.guards import stroke_warning
+    from simulate.loop.prepare import initial_state
+
+    def warning(opening_max):
+        plant = load_plant(PLANT_HLA339, {"turbine.opening_max": opening_max})
+        return stroke_warning(plant.turbine, characteristics_of(plant))
+
+    assert warning(32.0) is None and warning(43.0) is None
+    assert warning(100.0) == (
+        "turbine.opening_max = 100 (the chart opening at full stroke) is 3.12 times the largest digitized opening "
+        "line of the characteristics, 32 mm: the full stroke reads the nets far above every digitized line. Give "
+        "turbine.opening_max in the chart's opening unit (mm), as the opening the guide vanes reach at full servo "
+        "stroke")
+    assert "0.312 times the largest digitized opening line" in warning(10.0)
+    assert stroke_warning(load_plant(PLANT_HLA339, IDEAL).turbine, "ideal") is None  # no digitized region
+    meta = run_simulation(load_plant(PLANT_HLA339, {"turbine.opening_max": 100.0, "scenario.t_end_s": 3.0})).meta
+    assert warning(100.0) in meta["warnings"]
+    with pytest.raises(InputError, match=r"is outside the power range the unit gives .*\. Note: "
+                                         r"turbine\.opening_max = 10 .* 0\.312 times"):
+        initial_state(load_plant(PLANT_HLA339, {"turbine.opening_max": 10.0}))
+
+
 def test_coarse_rigid_step_is_refused_and_a_moderate_one_warned():
     """A rigid penstock with dt_s = 10 is refused (it once gave '6 steps of 10 s, max speed rise 111 %')."""
     with pytest.raises(InputError, match=r"dt = 10 s is not small against penstock water time Tw .* = 1\.47\d* s "
