@@ -156,8 +156,7 @@ def run_plant(plant: PlantConfig, characteristics=None, *, jit: bool = True, rai
                 raise
             raise InputError(f"{unit.prefix()}{exc}") from None
         found = guards.plausibility_warnings(unit.view) + list(unit.plan.warnings)
-        if (stroke := guards.stroke_warning(unit.view.turbine, unit.chars)) is not None:
-            found.append(stroke)
+        found += guards.characteristics_warnings(unit.view.turbine, unit.chars)
         training = getattr(unit.chars, "training", None)
         if isinstance(training, dict) and training.get("kind") == "on-cam":  # nets of a chart without vane angles
             from hillchart.fccm.on_cam import ON_CAM_WARNING

@@ -122,25 +122,45 @@ HIGHEST_PLAUSIBLE_RATED_EFFICIENCY = 0.98
 #: The shipped plants' full stroke is the largest line (1.0); a chart's lines often stop somewhat short of the full
 #: opening.
 STROKE_TO_TOP_LINE = (0.5, 1.5)
+#: The rated unit speed ``N11 = n D / sqrt(H)`` against the digitized lines' N11 range: a turbine is chosen so that
+#: it runs on its chart (the shipped plant: 67.8 r/min on lines of 43.8-88.3); below 0.7 x the range's bottom or above
+#: 1.3 x its top, a rated speed, diameter or head is likely in another unit (a speed in rad/s: N11 = 7.1).
+RATED_N11_TO_LINES = (0.7, 1.3)
 
 
-def stroke_warning(turbine, characteristics) -> str | None:
-    """A warning when ``turbine.opening_max`` lies outside :data:`STROKE_TO_TOP_LINE` times the largest opening line
-    of ``characteristics``' digitized region (None without a recorded region)."""
+def characteristics_warnings(turbine, characteristics) -> list[str]:
+    """What the turbine section's values say against the digitized region of ``characteristics`` (none without a
+    recorded region): a full stroke outside :data:`STROKE_TO_TOP_LINE` times the largest opening line, a rated unit
+    speed outside :data:`RATED_N11_TO_LINES` of the lines' N11 range. Each names the values and the chart's unit."""
     region = getattr(characteristics, "digitized_region", None)
     unit = getattr(characteristics, "opening_unit", None)
     if region is None or len(region) < 3 or not isinstance(unit, str):
-        return None
-    top = float(np.max(np.asarray(region, float)[:, 1]))
+        return []
+    region = np.asarray(region, float)
+    out = []
+    top = float(np.max(region[:, 1]))
     ratio = turbine.opening_max / top if top > 0 else math.inf
-    if STROKE_TO_TOP_LINE[0] <= ratio <= STROKE_TO_TOP_LINE[1]:
-        return None
-    where = ("far above every digitized line" if ratio > STROKE_TO_TOP_LINE[1] else
-             "far below the chart's upper lines")
-    return (f"turbine.opening_max = {turbine.opening_max:g} (the chart opening at full stroke) is {ratio:.3g} times "
-            f"the largest digitized opening line of the characteristics, {top:g} {unit}: the full stroke reads the "
-            f"nets {where}. Give turbine.opening_max in the chart's opening unit ({unit}), as the opening the guide "
-            "vanes reach at full servo stroke")
+    if not STROKE_TO_TOP_LINE[0] <= ratio <= STROKE_TO_TOP_LINE[1]:
+        where = ("far above every digitized line" if ratio > STROKE_TO_TOP_LINE[1] else
+                 "far below the chart's upper lines")
+        out.append(f"turbine.opening_max = {turbine.opening_max:g} (the chart opening at full stroke) is {ratio:.3g} "
+                   f"times the largest digitized opening line of the characteristics, {top:g} {unit}: the full "
+                   f"stroke reads the nets {where}. Give turbine.opening_max in the chart's opening unit ({unit}), "
+                   "as the opening the guide vanes reach at full servo stroke")
+    n11 = turbine.rated_speed_rpm * turbine.runner_diameter_m / math.sqrt(turbine.rated_head_m)
+    low, high = float(np.min(region[:, 0])), float(np.max(region[:, 0]))
+    if not RATED_N11_TO_LINES[0] * low <= n11 <= RATED_N11_TO_LINES[1] * high:
+        out.append(f"the rated unit speed N11 = n D / sqrt(H) = {n11:.4g} r/min (turbine.rated_speed_rpm = "
+                   f"{turbine.rated_speed_rpm:g}, runner_diameter_m = {turbine.runner_diameter_m:g}, rated_head_m = "
+                   f"{turbine.rated_head_m:g}) lies far from the digitized lines' N11, {low:.4g}-{high:.4g} r/min: "
+                   "check the three values and their units (r/min, m, m)")
+    return out
+
+
+#: ``penstock.static_head_m`` against ``turbine.rated_head_m``: the gross head exceeds the rated net head by the
+#: losses and moves with the reservoirs (the shipped plants: 0.77-1.08); outside these ratios one of them is likely in
+#: another unit (kPa for m: 9.81 x).
+STATIC_TO_RATED_HEAD = (0.5, 2.0)
 
 
 def plausibility_warnings(plant) -> list[str]:
@@ -159,6 +179,11 @@ def plausibility_warnings(plant) -> list[str]:
                    f"servos, which turn the blades through the hub, have time constants of about "
                    f"{SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S:g}-60 s (slower than the guide-vane servo); check the "
                    "value and its unit (s, not ms)")
+    static, rated = plant.penstock.static_head_m, plant.turbine.rated_head_m
+    if not STATIC_TO_RATED_HEAD[0] <= static / rated <= STATIC_TO_RATED_HEAD[1]:
+        out.append(f"penstock.static_head_m = {static:g} m is {static / rated:.3g} times turbine.rated_head_m = "
+                   f"{rated:g} m: the gross head exceeds the rated net head by the losses, and moves with the "
+                   "reservoirs by tens of %; check both values and their unit (m of water, not kPa)")
     eta = plant.turbine.rated_efficiency
     if eta > HIGHEST_PLAUSIBLE_RATED_EFFICIENCY:
         out.append(f"the rated efficiency P_r/(rho g Q_r H_r) = {eta:.4g} from turbine.rated_power_mw, "

@@ -108,12 +108,13 @@ def initial_state(plant: PlantConfig, characteristics=None) -> SteadyState:
 
     try:
         return _memo(view, inputs, compute)
-    except InputError as exc:  # a full stroke in another unit than the chart is the likelier cause: say so
-        from simulate.loop.guards import stroke_warning
+    except InputError as exc:  # a value in another unit than the chart is the likelier cause: say so
+        from simulate.loop.guards import characteristics_warnings
 
-        if (hint := stroke_warning(plant.turbine, chars)) is None:
+        hints = characteristics_warnings(plant.turbine, chars)
+        if not hints:
             raise
-        raise InputError(f"{exc}. Note: {hint}") from None
+        raise InputError(f"{exc}. Note: {'. Note: '.join(hints)}") from None
 
 
 def plant_schedules(plant: PlantConfig, steady: SteadyState):

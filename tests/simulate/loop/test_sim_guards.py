@@ -41,33 +41,51 @@ def test_a_blade_servo_of_a_millisecond_warns_naming_the_plausible_range():
     assert "check the value and its unit (s, not ms)" in line
 
 
-def test_a_full_stroke_in_another_unit_than_the_chart_is_named():
-    """``turbine.opening_max`` against the nets' largest digitized line (the shipped chart's: 32 mm). The shipped plant
-    (32, ratio 1) and a full stroke a third beyond the lines (43) say nothing. An opening_max of 100, as if in %,
-    ran without a word on the cause: the initial power sat at a fifth of the stroke, the closure took 2.6 s and the
-    head rose by 119 % (a warning of the run now names it). 10 mm, as if the chart were in cm, leaves the rated power
-    out of reach, and the error about the power range now ends with the same note."""
+def test_a_full_stroke_or_a_rated_speed_in_another_unit_than_the_chart_is_named():
+    """The turbine section against the nets' digitized region (the shipped chart: lines up to 32 mm, N11
+    43.8-88.3). The shipped plant (opening_max 32, rated N11 67.8) and a full stroke a third beyond the lines (43)
+    say nothing. An opening_max of 100, as if in %, ran without a word on the cause: the initial power sat at a fifth
+    of the stroke, the closure took 2.6 s and the head rose by 119 % (a warning of the run now names it). 10 mm, as
+    if the chart were in cm, and a rated speed of 20.94 (rad/s for 200 r/min: N11 7.1) leave the rated power out of
+    reach, and the error about the power range now ends with the note that names the cause."""
     from simulate.components.turbine.component import characteristics_of
-    from simulate.loop.guards import stroke_warning
+    from simulate.loop.guards import characteristics_warnings
     from simulate.loop.prepare import initial_state
 
-    def warning(opening_max):
-        plant = load_plant(PLANT_HLA339, {"turbine.opening_max": opening_max})
-        return stroke_warning(plant.turbine, characteristics_of(plant))
+    def warnings_of(**values):
+        plant = load_plant(PLANT_HLA339, {f"turbine.{k}": v for k, v in values.items()})
+        return characteristics_warnings(plant.turbine, characteristics_of(plant))
 
-    assert warning(32.0) is None and warning(43.0) is None
-    assert warning(100.0) == (
+    assert warnings_of() == [] and warnings_of(opening_max=43.0) == []
+    assert warnings_of(opening_max=100.0) == [
         "turbine.opening_max = 100 (the chart opening at full stroke) is 3.12 times the largest digitized opening "
         "line of the characteristics, 32 mm: the full stroke reads the nets far above every digitized line. Give "
         "turbine.opening_max in the chart's opening unit (mm), as the opening the guide vanes reach at full servo "
-        "stroke")
-    assert "0.312 times the largest digitized opening line" in warning(10.0)
-    assert stroke_warning(load_plant(PLANT_HLA339, IDEAL).turbine, "ideal") is None  # no digitized region
+        "stroke"]
+    (low,) = warnings_of(opening_max=10.0)
+    assert "0.312 times the largest digitized opening line" in low and "far below the chart's upper lines" in low
+    (speed,) = warnings_of(rated_speed_rpm=20.94)
+    assert speed.startswith("the rated unit speed N11 = n D / sqrt(H) = 7.103 r/min (turbine.rated_speed_rpm = "
+                            "20.94,") and "digitized lines' N11, 43.8-88.27 r/min" in speed
+    assert characteristics_warnings(load_plant(PLANT_HLA339, IDEAL).turbine, "ideal") == []  # no digitized region
     meta = run_simulation(load_plant(PLANT_HLA339, {"turbine.opening_max": 100.0, "scenario.t_end_s": 3.0})).meta
-    assert warning(100.0) in meta["warnings"]
-    with pytest.raises(InputError, match=r"is outside the power range the unit gives .*\. Note: "
-                                         r"turbine\.opening_max = 10 .* 0\.312 times"):
-        initial_state(load_plant(PLANT_HLA339, {"turbine.opening_max": 10.0}))
+    assert warnings_of(opening_max=100.0)[0] in meta["warnings"]
+    for key, value, note in (("opening_max", 10.0, r"turbine\.opening_max = 10 .* 0\.312 times"),
+                             ("rated_speed_rpm", 20.94, r"the rated unit speed N11 = n D / sqrt\(H\) = 7\.103")):
+        with pytest.raises(InputError, match=r"is outside the power range the unit gives .*\. Note: " + note):
+            initial_state(load_plant(PLANT_HLA339, {f"turbine.{key}": value}))
+
+
+def test_a_static_head_far_from_the_rated_head_warns():
+    """penstock.static_head_m 10 x the rated head (1765 for 176.5, as if in kPa) ran with the rated power at 3 % of
+    the stroke and a max speed rise of 3 %, with no word on the head; it warns now. The shipped plants (0.77-1.08
+    times) and 1.5 x do not."""
+    from simulate.loop.guards import plausibility_warnings
+
+    assert plausibility_warnings(load_plant(PLANT_HLA339, {"penstock.static_head_m": 264.0})) == []
+    (line,) = plausibility_warnings(load_plant(PLANT_HLA339, {"penstock.static_head_m": 1765.0}))
+    assert line.startswith("penstock.static_head_m = 1765 m is 10 times turbine.rated_head_m = 176 m")
+    assert "(m of water, not kPa)" in line
 
 
 def test_coarse_rigid_step_is_refused_and_a_moderate_one_warned():
