@@ -179,6 +179,13 @@ def plausibility_warnings(plant) -> list[str]:
                    f"servos, which turn the blades through the hub, have time constants of about "
                    f"{SHORTEST_PLAUSIBLE_BLADE_SERVO_TIME_S:g}-60 s (slower than the guide-vane servo); check the "
                    "value and its unit (s, not ms)")
+    waterway = sum(seg.length_m for seg in plant.penstock.segments)
+    tank = getattr(plant, "surge_tank", None)
+    waterway += float(getattr(tank, "tunnel_length_m", 0.0) or 0.0) if tank is not None else 0.0
+    if waterway < plant.penstock.static_head_m:
+        out.append(f"the waterway is {waterway:g} m long (the penstock's segments and any headrace tunnel), shorter "
+                   f"than the {plant.penstock.static_head_m:g} m of head it drops: water cannot fall further than it "
+                   "flows; check the lengths and their unit (m, not km)")
     static, rated = plant.penstock.static_head_m, plant.turbine.rated_head_m
     if not STATIC_TO_RATED_HEAD[0] <= static / rated <= STATIC_TO_RATED_HEAD[1]:
         out.append(f"penstock.static_head_m = {static:g} m is {static / rated:.3g} times turbine.rated_head_m = "
