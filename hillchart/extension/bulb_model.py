@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.turbine_model import DISC_FRICTION_LOG_SD, DISC_FRICTION_SHARE, MAX_MISFIT_PCT
+from hillchart.extension.turbine_model import MAX_MISFIT_PCT, disc_friction_prior, forward_jacobian
 from hillchart.synthetic.bulb import POINT_PARAMETERS, unit_point
 
 #: Fitted parameters, in fit coordinates: logit of the hub ratio; logs of the swirl factor, of the loss coefficients
@@ -278,10 +278,7 @@ class _Objective:
         """The residuals of each row of fit coordinates (k x (2 N + 1))."""
         rows = np.atleast_2d(np.asarray(rows, float))
         qq, mm, ok = self._values(rows)
-        prior = np.empty(int(ok.sum()))
-        for i, log_k in enumerate(rows[ok, self.k_df_index]):  # disc friction / shaft torque at the best point
-            share = math.exp(log_k) * self.n_best ** 2 / max(self.m_best, 1e-12)
-            prior[i] = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
+        prior = np.array([disc_friction_prior(log_k, self.n_best, self.m_best) for log_k in rows[ok, self.k_df_index]])
         valid = np.column_stack([(qq[ok] - self.q) / self.q_scale, (mm[ok] - self.m) / self.m_scale,
                                  prior / math.sqrt(self.n.size)])
         r = np.full((rows.shape[0], self.size), 1e3)
@@ -292,10 +289,7 @@ class _Objective:
         return self.rows(x)[0]
 
     def jacobian(self, x):
-        step = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
-        rows = x + np.diag(step)
-        r = self.rows(np.vstack([x, rows]))
-        return ((r[1:] - r[0]) / (np.diag(rows) - x)[:, None]).T
+        return forward_jacobian(self.rows, x)
 
 
 #: Least-squares starts of :func:`fit_bulb_model`: with 4, one seed of 10 stopped in a worse basin of the

@@ -246,6 +246,27 @@ def _model(x, opening_max, names=PARAMETER_NAMES, foot_mm=0.0):
                              physics=VariantPhysics(throat_foot_mm=foot, throat_law="rational"))
 
 
+def disc_friction_prior(log_k: float, n_best: float, m_best: float) -> float:
+    """The weak prior's residual on the disc friction (log-coefficient ``log_k``): the log of its share of the shaft
+    torque ``m_best`` at the most powerful measured point (N11 ``n_best``) against :data:`DISC_FRICTION_SHARE`, in
+    standard deviations :data:`DISC_FRICTION_LOG_SD`. The bulb model's fit takes the same prior."""
+    try:
+        share = math.exp(log_k) * n_best ** 2 / max(m_best, 1e-12)
+    except OverflowError:
+        share = math.inf
+    return (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
+
+
+def forward_jacobian(rows, x):
+    """The Jacobian ``least_squares`` computes with ``jac='2-point'`` (its steps ``sqrt(eps) sign(x) max(1, |x|)``),
+    with every column in one call of ``rows`` (parameter rows k x p -> residual rows k x m), as the physical models'
+    fits evaluate a batch of models in one compiled loop."""
+    step = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+    shifted = x + np.diag(step)
+    r = rows(np.vstack([x, shifted]))
+    return ((r[1:] - r[0]) / (np.diag(shifted) - x)[:, None]).T
+
+
 @dataclass(frozen=True)
 class _Residuals:
     """The residuals :func:`fit_turbine_model` minimizes, of log-parameters named ``names`` (the foot held at
@@ -267,13 +288,7 @@ class _Residuals:
     def rows(self, rows, names, held):
         """The residuals of each log-parameter row (k x (2 N + 1))."""
         qq, mm, barrier = _model_rows(rows, self.opening_max, self.n, self.a, names, held)
-        prior = np.empty(rows.shape[0])
-        for j, log_k in enumerate(rows[:, -1]):
-            try:  # disc friction / shaft torque at the best point
-                share = math.exp(log_k) * self.n_best ** 2 / max(self.m_best, 1e-12)
-            except OverflowError:
-                share = math.inf
-            prior[j] = (math.log(max(share, 1e-300)) - math.log(DISC_FRICTION_SHARE)) / DISC_FRICTION_LOG_SD
+        prior = np.array([disc_friction_prior(log_k, self.n_best, self.m_best) for log_k in rows[:, -1]])
         r = np.column_stack([(qq - self.q) / self.q_scale, (mm - self.m) / self.m_scale,
                              prior / math.sqrt(self.n.size)])
         r = np.where(np.isfinite(r), r, 1e3)
@@ -285,10 +300,7 @@ class _Residuals:
         return self.rows(x[None, :], names, held)[0]
 
     def jacobian(self, x, names, held):
-        step = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
-        rows = x + np.diag(step)
-        r = self.rows(np.vstack([x, rows]), names, held)
-        return ((r[1:] - r[0]) / (np.diag(rows) - x)[:, None]).T
+        return forward_jacobian(lambda rows: self.rows(rows, names, held), x)
 
 
 def fit_turbine_model(chart, torque, *, starts: int = 3, seed: int = 0,

@@ -269,14 +269,6 @@ def load_chart(folder) -> ChartSamples:
                          "q11 > 0 where the opening is above 0 (an open runner passes flow at runaway)",
                          line_numbers[name])
         tables[name] = table
-    flow = tables["flow.csv"]
-    lines, counts = np.unique(flow["opening"], return_counts=True)
-    if np.any(counts < MIN_POINTS_PER_LINE):
-        short = lines[counts < MIN_POINTS_PER_LINE]
-        raise InputError(
-            f"{folder / 'flow.csv'}: the equal-opening line(s) at opening {short.tolist()} have fewer than "
-            f"{MIN_POINTS_PER_LINE} points (counts {counts[counts < MIN_POINTS_PER_LINE].tolist()})"
-        )
     # the lines' points in their natural order, opening then N11 (a stable sort: the row numbers follow), so that
     # what is fitted and chosen from them (cross-validation folds, held-out points) depends on the points and not on
     # the order the digitizer exported them in; the contours keep the file's order (along each contour)
@@ -285,6 +277,13 @@ def load_chart(folder) -> ChartSamples:
         tables[name] = {column: values[order] for column, values in tables[name].items()}
         line_numbers[name] = line_numbers[name][order]
     flow = tables["flow.csv"]
+    lines, counts = np.unique(flow["opening"], return_counts=True)
+    if np.any(counts < MIN_POINTS_PER_LINE):
+        short = lines[counts < MIN_POINTS_PER_LINE]
+        raise InputError(
+            f"{folder / 'flow.csv'}: the equal-opening line(s) at opening {short.tolist()} have fewer than "
+            f"{MIN_POINTS_PER_LINE} points (counts {counts[counts < MIN_POINTS_PER_LINE].tolist()})"
+        )
     q_scale = Q11_UNITS[info.q11_unit]
     eff = tables["efficiency.csv"]
     run = tables["runaway.csv"]
