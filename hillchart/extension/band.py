@@ -104,6 +104,19 @@ def band_square(distance, cap, runout):
 
 
 @register_jitable
+
+def no_evidence_sides(distance_cap: float) -> str:
+    """The no-evidence band's two sides at half the distance to the closed vanes, as the summaries print them
+    (``distance_cap``: the band's, :data:`NO_EVIDENCE_CAP` in files written with it).
+
+    Examples
+    --------
+    >>> no_evidence_sides(NO_EVIDENCE_CAP)
+    '-44 % to +79 % of Q11'
+    """
+    half = NO_EVIDENCE_SCALE * band_square(0.5, distance_cap, math.inf)[0]
+    return f"{100 * math.expm1(-half):+.0f} % to {100 * math.expm1(half):+.0f} % of Q11"
+
 def band_envelope(distance, cap, crossover, runout):
     """``(h, dh/dd)``: :func:`band_square` with a straight start, ``crossover d`` up to ``d = crossover`` (above ``d^2``
     there, and equal to it at the crossover), then :func:`band_square`. With ``kappa`` the quadratic scale and

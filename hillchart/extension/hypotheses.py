@@ -61,7 +61,8 @@ import numpy as np
 from hillchart.errors import InputError
 from hillchart.extension.band import (BAND_COVERAGE, FAR_FRACTION, GROWTH, MIN_SIDE_FRACTION, MIN_SIDE_FRACTION_BELOW,
                                       NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_scale, band_sides, band_square,
-                                      continuation, log_ratio, member_positions, weighed_median)
+                                      continuation, log_ratio, member_positions, no_evidence_sides,
+                                      weighed_median)
 
 #: The hypotheses, in the order of every weight vector.
 HYPOTHESES = ("model", "anchored-model", "other-form-model", "anchored-other-form-model", "line", "offset-line",
@@ -412,11 +413,9 @@ class Evidence:
     def summary(self) -> str:
         """What ``hillsim train`` prints: how well this chart predicts its own held-out lines, and the weights."""
         if not self.points:
-            half = NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap, math.inf)[0]
             return ("below the lowest line: no held-out evidence (fewer than "
                     f"{MIN_LINES_WEIGHED + 1} opening lines): hypotheses weighed equally, the band is wide "
-                    f"({100 * math.expm1(-half):+.0f} % to {100 * math.expm1(half):+.0f} % of Q11 at half the lowest "
-                    "opening); digitize more opening lines")
+                    f"({no_evidence_sides(self.distance_cap)} at half the lowest opening); digitize more opening lines")
         q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
         ranked = sorted(self.names, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
         weights = ", ".join(f"{h} {self.weights['q11'][h]:.2f}/{self.weights['m11'][h]:.2f}" for h in ranked)

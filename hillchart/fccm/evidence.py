@@ -52,7 +52,8 @@ import numba
 import numpy as np
 
 from hillchart.errors import InputError
-from hillchart.extension.band import BEYOND_CAP, band_envelope, band_square, continuation, runout, weighed_median
+from hillchart.extension.band import (BEYOND_CAP, band_envelope, continuation, no_evidence_sides, runout,
+                                      weighed_median)
 from hillchart.extension.hypotheses import GROWTH, NO_EVIDENCE_CAP, NO_EVIDENCE_SCALE, band_scale, log_ratio
 
 #: The hypotheses, in the order of every weight vector (and of :func:`hypothesis_value`'s ``which``).
@@ -404,11 +405,10 @@ class TableEvidence:
     def summary(self) -> str:
         """What ``hillsim fccm --simulator-nets`` prints."""
         if not self.points:
-            half = NO_EVIDENCE_SCALE * band_square(0.5, self.distance_cap, math.inf)[0]
             text = (f"below the lowest guide-vane angle: no held-out evidence (no sweep over {MIN_ANGLES_LEFT + 1} "
                     "or more guide-vane angles at one N11 and blade angle): the fitted model answers alone, the band "
-                    f"is wide ({100 * math.expm1(-half):+.0f} % to {100 * math.expm1(half):+.0f} % of Q11 at half "
-                    "the gap to the closed vane); measure guide-vane sweeps down to small angles")
+                    f"is wide ({no_evidence_sides(self.distance_cap)} at half the gap to the closed vane); measure "
+                    "guide-vane sweeps down to small angles")
         else:
             q, m = self.errors["q11"]["blend"], self.errors["m11"]["blend"]
             ranked = sorted(HYPOTHESES, key=lambda h: -(self.weights["q11"][h] + self.weights["m11"][h]))
